@@ -1,0 +1,22 @@
+//! # tandem
+//!
+//! Cooperative manipulation: several planar arms hold one rigid object and carry it along a
+//! desired path. This crate holds the model, the plant, the controllers and the simulation loop;
+//! it does no I/O and no plotting (the `tandem-cli` crate does).
+//!
+//! See [`notation`] for the symbol table. SI units everywhere.
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod notation;
+
+pub mod integrate;
+pub mod sensors;
+
+pub mod admittance;
+pub mod iblf;
+pub mod rbf;
+pub mod switching;
+pub mod trajectory;
+
+pub use error::ModelError;
