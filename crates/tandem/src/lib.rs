@@ -8,7 +8,13 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod linalg;
 pub mod notation;
+
+pub mod arm;
+pub mod grasp;
+pub mod object;
+pub mod plant;
 
 pub mod integrate;
 pub mod sensors;

@@ -1,0 +1,378 @@
+//! Outputs that are written whole or not at all.
+//!
+//! A run writes a folder of results (time series, summary, figures). A reader must never see a
+//! half-written folder or a truncated file, and an interrupted run must not destroy the results of
+//! an earlier one. Two mechanisms give this:
+//!
+//! - [`OutputDir`]: every file goes into a hidden temporary sibling folder `.<name>.tmp-<pid>-<n>`;
+//!   [`OutputDir::commit`] renames it into place. Dropping an `OutputDir` without committing
+//!   (an error, a panic, Ctrl-C unwinding) deletes the temporary folder.
+//! - [`write_csv`], [`write_json_atomic`], [`write_text_atomic`], [`write_bytes_atomic`]: each file is
+//!   written to a temporary file in the same folder, flushed, then renamed over the final name
+//!   (a rename within one file system is atomic on POSIX).
+//!
+//! The module is self-contained: it knows nothing about the simulator.
+
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use anyhow::{Context, Result, anyhow, bail};
+
+/// Distinguishes temporary names created by one process (several `OutputDir`s or files at once).
+static COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// A unique suffix `<pid>-<n>` for temporary names.
+fn unique_suffix() -> String {
+    format!(
+        "{}-{}",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    )
+}
+
+/// Splits `path` into (parent folder, final component), with `""` parent mapped to `"."`.
+fn parent_and_name(path: &Path) -> Result<(PathBuf, String)> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| anyhow!("'{}' does not name a file or folder", path.display()))?
+        .to_string_lossy()
+        .into_owned();
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    Ok((parent, name))
+}
+
+/// Removes a file or a folder tree, whichever `path` is (symlinks are removed, not followed).
+fn remove_any(path: &Path) -> std::io::Result<()> {
+    let meta = fs::symlink_metadata(path)?;
+    if meta.is_dir() {
+        fs::remove_dir_all(path)
+    } else {
+        fs::remove_file(path)
+    }
+}
+
+/// An output folder that appears in place only when complete.
+///
+/// ```ignore
+/// let out = OutputDir::create(Path::new("runs/nn"), force)?; // fails early if it exists
+/// write_csv(&out.path("timeseries.csv"), &header, &columns)?;
+/// let final_dir = out.commit()?;                            // atomically in place
+/// ```
+#[derive(Debug)]
+pub struct OutputDir {
+    /// Where the folder will live after [`OutputDir::commit`].
+    final_dir: PathBuf,
+    /// The temporary sibling folder all files are written into.
+    tmp_dir: PathBuf,
+    /// Whether an existing `final_dir` may be replaced.
+    force: bool,
+    /// Set by `commit`, so that `Drop` leaves the (renamed) folder alone.
+    committed: bool,
+}
+
+impl OutputDir {
+    /// Checks that `final_dir` may be written and creates the temporary sibling folder.
+    ///
+    /// Fails, before any work is done, when `final_dir` exists and `force` is false. The parent
+    /// folder is created if missing.
+    pub fn create(final_dir: &Path, force: bool) -> Result<Self> {
+        if fs::symlink_metadata(final_dir).is_ok() && !force {
+            bail!(
+                "output folder {} exists; use --force to overwrite",
+                final_dir.display()
+            );
+        }
+        let (parent, name) = parent_and_name(final_dir)?;
+        fs::create_dir_all(&parent)
+            .with_context(|| format!("cannot create folder {}", parent.display()))?;
+        let tmp_dir = parent.join(format!(".{name}.tmp-{}", unique_suffix()));
+        if fs::symlink_metadata(&tmp_dir).is_ok() {
+            // A stale folder of a dead process that had the same pid: it is ours to reuse.
+            remove_any(&tmp_dir)
+                .with_context(|| format!("cannot remove stale folder {}", tmp_dir.display()))?;
+        }
+        fs::create_dir(&tmp_dir)
+            .with_context(|| format!("cannot create temporary folder {}", tmp_dir.display()))?;
+        Ok(Self {
+            final_dir: final_dir.to_path_buf(),
+            tmp_dir,
+            force,
+            committed: false,
+        })
+    }
+
+    /// Where to write the file `name` (may contain sub-folders, which the caller creates).
+    pub fn path(&self, name: impl AsRef<Path>) -> PathBuf {
+        self.tmp_dir.join(name)
+    }
+
+    /// The temporary folder files are currently written into.
+    pub fn tmp_dir(&self) -> &Path {
+        &self.tmp_dir
+    }
+
+    /// The folder the outputs will have after [`OutputDir::commit`].
+    pub fn final_dir(&self) -> &Path {
+        &self.final_dir
+    }
+
+    /// Moves the finished folder into place and returns its path.
+    ///
+    /// If `final_dir` exists (only allowed with `force`), it is first renamed aside, then the new
+    /// folder is renamed in, then the old one is deleted. If renaming the new folder in fails, the
+    /// old folder is put back, so a failure never loses the previous results.
+    pub fn commit(mut self) -> Result<PathBuf> {
+        let exists = fs::symlink_metadata(&self.final_dir).is_ok();
+        if exists && !self.force {
+            // Someone created it while we were running.
+            bail!(
+                "output folder {} exists; use --force to overwrite",
+                self.final_dir.display()
+            );
+        }
+        if !exists {
+            fs::rename(&self.tmp_dir, &self.final_dir).with_context(|| {
+                format!(
+                    "cannot move {} to {}",
+                    self.tmp_dir.display(),
+                    self.final_dir.display()
+                )
+            })?;
+            self.committed = true;
+            return Ok(self.final_dir.clone());
+        }
+
+        let (parent, name) = parent_and_name(&self.final_dir)?;
+        let old = parent.join(format!(".{name}.old-{}", unique_suffix()));
+        fs::rename(&self.final_dir, &old).with_context(|| {
+            format!(
+                "cannot move the existing {} aside",
+                self.final_dir.display()
+            )
+        })?;
+        if let Err(e) = fs::rename(&self.tmp_dir, &self.final_dir) {
+            // Put the old results back; the new ones are deleted by Drop.
+            let restored = fs::rename(&old, &self.final_dir);
+            return Err(anyhow!(e)).with_context(|| {
+                format!(
+                    "cannot move {} to {}{}",
+                    self.tmp_dir.display(),
+                    self.final_dir.display(),
+                    match restored {
+                        Ok(()) => String::from(" (the previous folder is unchanged)"),
+                        Err(r) => format!(
+                            " (and restoring the previous folder from {} failed: {r})",
+                            old.display()
+                        ),
+                    }
+                )
+            });
+        }
+        self.committed = true;
+        if let Err(e) = remove_any(&old) {
+            // The new results are in place; a leftover hidden folder is only clutter.
+            eprintln!(
+                "warning: could not delete the previous output {}: {e}",
+                old.display()
+            );
+        }
+        Ok(self.final_dir.clone())
+    }
+}
+
+impl Drop for OutputDir {
+    fn drop(&mut self) {
+        if !self.committed {
+            // Best effort: nothing useful can be done with an error while dropping.
+            let _ = remove_any(&self.tmp_dir);
+        }
+    }
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
+///
+/// The temporary file is `.<name>.tmp-<pid>-<n>`; it is removed if any step fails.
+pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic_with(path, |f| f.write_all(bytes))
+}
+
+/// Writes the UTF-8 text `text` to `path` atomically (see [`write_bytes_atomic`]).
+pub fn write_text_atomic(path: &Path, text: &str) -> Result<()> {
+    write_bytes_atomic(path, text.as_bytes())
+}
+
+/// Writes `value` as pretty-printed JSON (with a final newline) to `path` atomically.
+pub fn write_json_atomic(path: &Path, value: &serde_json::Value) -> Result<()> {
+    let mut text = serde_json::to_string_pretty(value).context("cannot serialize JSON")?;
+    text.push('\n');
+    write_text_atomic(path, &text)
+}
+
+/// A temporary sibling path for `path` whose name keeps the extension of `path`
+/// (`.<stem>.tmp-<pid>-<n>.<ext>`), for writers that pick the format from the extension.
+pub fn temp_sibling(path: &Path) -> Result<PathBuf> {
+    let (parent, name) = parent_and_name(path)?;
+    let (stem, ext) = match name.rsplit_once('.') {
+        Some((s, e)) if !s.is_empty() => (s.to_string(), format!(".{e}")),
+        _ => (name.clone(), String::new()),
+    };
+    Ok(parent.join(format!(".{stem}.tmp-{}{ext}", unique_suffix())))
+}
+
+/// Moves the finished temporary file `tmp` onto `path`, removing `tmp` if that fails.
+pub fn rename_into_place(tmp: &Path, path: &Path) -> Result<()> {
+    fs::rename(tmp, path).map_err(|e| {
+        let _ = fs::remove_file(tmp);
+        anyhow!(e).context(format!("cannot move {} to {}", tmp.display(), path.display()))
+    })
+}
+
+/// Runs `write` on a fresh temporary file next to `path`, syncs it, and renames it into place.
+fn write_atomic_with(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<fs::File>) -> std::io::Result<()>,
+) -> Result<()> {
+    let tmp = temp_sibling(path)?;
+    let result = (|| -> std::io::Result<()> {
+        let file = fs::File::create(&tmp)?;
+        let mut w = std::io::BufWriter::new(file);
+        write(&mut w)?;
+        let file = w.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()
+    })();
+    if let Err(e) = result {
+        let _ = fs::remove_file(&tmp);
+        return Err(anyhow!(e).context(format!("cannot write {}", path.display())));
+    }
+    rename_into_place(&tmp, path)
+}
+
+/// Formats `v` so that parsing the text gives back exactly `v` (shortest round-trip form).
+///
+/// Plain decimal for 1e-5 ≤ |v| < 1e16 and zero (`0.03`, `-12.5`, `3`), exponent form otherwise
+/// (`1e-9`, `2.5e20`), so tiny values do not become hundreds of zeros. Non-finite values are
+/// written `NaN`, `inf`, `-inf` (read back by Rust, pandas and numpy).
+pub fn fmt_f64(v: f64) -> String {
+    let a = v.abs();
+    if v.is_nan() {
+        String::from("NaN")
+    } else if v.is_infinite() {
+        String::from(if v > 0.0 { "inf" } else { "-inf" })
+    } else if a == 0.0 || (1e-5..1e16).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// Writes a CSV file of equal-length columns, atomically.
+///
+/// `header[j]` names `columns[j]` and should carry its unit, e.g. `t [s]`, `x_o.x [m]`.
+/// Numbers round-trip exactly (see [`fmt_f64`]). Errors if the header and column counts differ,
+/// if the columns have different lengths, or if there are no columns.
+pub fn write_csv(path: &Path, header: &[String], columns: &[&[f64]]) -> Result<()> {
+    if columns.is_empty() {
+        bail!("cannot write {}: no columns", path.display());
+    }
+    if header.len() != columns.len() {
+        bail!(
+            "cannot write {}: {} header names for {} columns",
+            path.display(),
+            header.len(),
+            columns.len()
+        );
+    }
+    let rows = columns[0].len();
+    if let Some((j, c)) = columns.iter().enumerate().find(|(_, c)| c.len() != rows) {
+        bail!(
+            "cannot write {}: column '{}' has {} rows, column '{}' has {}",
+            path.display(),
+            header[j],
+            c.len(),
+            header[0],
+            rows
+        );
+    }
+    write_atomic_with(path, |f| {
+        let mut w = csv::Writer::from_writer(f);
+        let mut rec = csv::StringRecord::with_capacity(16 * columns.len(), columns.len());
+        let mut run = || -> csv::Result<()> {
+            w.write_record(header)?;
+            for i in 0..rows {
+                rec.clear();
+                for c in columns {
+                    rec.push_field(&fmt_f64(c[i]));
+                }
+                w.write_record(&rec)?;
+            }
+            w.flush()?;
+            Ok(())
+        };
+        run().map_err(std::io::Error::other)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("tandem-output-unit-{name}-{}", unique_suffix()));
+        let _ = fs::remove_dir_all(&d);
+        fs::create_dir_all(&d).expect("scratch dir");
+        d
+    }
+
+    #[test]
+    fn fmt_f64_round_trips() {
+        for v in [
+            0.0,
+            -0.0,
+            1.0,
+            0.1,
+            1.0 / 3.0,
+            -2.5e-7,
+            1e-300,
+            6.02e23,
+            f64::MAX,
+            f64::MIN_POSITIVE,
+            5e-324,
+            123456.789,
+        ] {
+            let s = fmt_f64(v);
+            let back: f64 = s.parse().expect("parse");
+            assert_eq!(back.to_bits(), v.to_bits(), "{v} -> {s}");
+        }
+        assert_eq!(fmt_f64(3.0), "3");
+        assert_eq!(fmt_f64(1e-9), "1e-9");
+    }
+
+    #[test]
+    fn temp_sibling_keeps_extension() {
+        let p = temp_sibling(Path::new("out/fig.png")).expect("ok");
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+        assert!(name.starts_with(".fig.tmp-") && name.ends_with(".png"), "{name}");
+        assert_eq!(p.parent(), Some(Path::new("out")));
+    }
+
+    #[test]
+    fn csv_rejects_ragged_columns() {
+        let d = scratch("ragged");
+        let a = [1.0, 2.0];
+        let b = [1.0];
+        let err = write_csv(
+            &d.join("x.csv"),
+            &["a".into(), "b".into()],
+            &[&a[..], &b[..]],
+        );
+        assert!(err.is_err());
+        assert!(!d.join("x.csv").exists());
+        assert_eq!(fs::read_dir(&d).map(|r| r.count()).unwrap_or(99), 0);
+        let _ = fs::remove_dir_all(&d);
+    }
+}

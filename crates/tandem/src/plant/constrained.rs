@@ -1,0 +1,154 @@
+//! Constrained closed-chain dynamics (the default plant), SPEC §2.4.
+//!
+//! Generalised coordinates `s = (q_1, …, q_m, x_o)`. Each grasp is the holonomic constraint
+//! `φ_i = p_E,i(q_i) − p_o − R(θ) r_i = 0` with Jacobian `A_i = [J_e,i | −J_i(x_o)]`. With the
+//! block-diagonal inertia `𝕄 = diag(M_1, …, M_m, M_o)` and bias `h`:
+//!
+//! $$𝕄 \ddot s + h = Q + A^\top λ, \qquad A\ddot s + \dot A \dot s = −2ω_b \dot φ − ω_b^2 φ$$
+//!
+//! (Baumgarte drift control, critically damped). The multipliers `λ_i` are the grasp forces
+//! `F_i` — the force the object exerts on end-effector `i`, as its sensor reads it — so arm `i`
+//! obeys (1) and the object obeys (10)–(11): `M_o ẍ_o + C_o ẋ_o + G_o = −Σ J_iᵀ F_i − F_d`.
+//!
+//! Solved by the Schur complement of the KKT system: with the unconstrained accelerations
+//! `a_0 = 𝕄⁻¹(Q − h)`, `K = A 𝕄⁻¹ Aᵀ = diag(J_e,i M_i⁻¹ J_e,iᵀ) + 𝐉 M_o⁻¹ 𝐉ᵀ` (2m × 2m, `𝐉` the
+//! stacked grasp Jacobians), `K λ = −Ȧṡ − A a_0 − 2ω_b φ̇ − ω_b² φ`, then `s̈ = a_0 + 𝕄⁻¹Aᵀλ`.
+//! Each arm's `M_i` is factored once per evaluation; no allocation.
+
+use nalgebra::Vector3;
+
+use super::{Plant, PlantInput, PlantWorkspace};
+use crate::linalg::{cholesky_in_place, cholesky_solve_in_place};
+
+impl Plant {
+    /// State derivative of the constrained plant: reads `(y, input)`, writes `dy` and the grasp
+    /// forces / diagnostics in `ws`. Returns `false` if an arm's inertia was not positive
+    /// definite (the derivative is then not usable) — never for a validated model.
+    ///
+    /// A singular grasp-space matrix `K` (arms at singularities that lock the chain) is
+    /// regularised (`K + ε tr(K) I`, ε = 1e-10) and counted in `ws.regularised`.
+    pub fn derivative(&self, y: &[f64], input: &PlantInput, ws: &mut PlantWorkspace, dy: &mut [f64]) -> bool {
+        let n = self.n_q;
+        let m = self.arms.len();
+        let (q, x_o, qd, xd_o) = self.split(y);
+        let theta = x_o.z;
+        let w = self.baumgarte;
+        let obj = &self.object;
+
+        // Object: unconstrained acceleration a0_o = M_o⁻¹(−F_d − C_o ẋ_o − G_o).
+        let a0_o = obj.M_o_inv * (-input.f_d - obj.C_o * xd_o - obj.G_o);
+
+        ws.k.fill(0.0);
+        for (i, arm) in self.arms.iter().enumerate() {
+            let off = self.offsets[i];
+            let dof = arm.dof();
+            let (qi, qdi) = (&q[off..off + dof], &qd[off..off + dof]);
+            let t = &mut ws.terms[i];
+            // Arm terms (q, q̇) → M, C, G, J_e, J̇_e q̇.
+            arm.dynamics(qi, qdi, self.g, t);
+            // a0_i = M_i⁻¹(τ_i − C q̇ − G).
+            let a0 = &mut ws.a0[off..off + dof];
+            for r in 0..dof {
+                let mut b = input.tau[off + r] - t.G[r];
+                for c in 0..dof {
+                    b -= t.C[(r, c)] * qdi[c];
+                }
+                a0[r] = b;
+            }
+            t.chol.copy_from(&t.M);
+            if cholesky_in_place(&mut t.chol, dof).is_err() {
+                return false;
+            }
+            cholesky_solve_in_place(&t.chol, dof, a0);
+            // Y_i = M_i⁻¹ J_e,iᵀ (dof × 2), K_ii += J_e,i Y_i.
+            let y_i = &mut ws.minv_jt[i];
+            for c in 0..2 {
+                let mut col = y_i.column_mut(c);
+                for r in 0..dof {
+                    col[r] = t.J[(c, r)];
+                }
+                cholesky_solve_in_place(&t.chol, dof, col.as_mut_slice());
+            }
+            for a in 0..2 {
+                for b in 0..2 {
+                    let mut s = 0.0;
+                    for r in 0..dof {
+                        s += t.J[(a, r)] * y_i[(r, b)];
+                    }
+                    ws.k[(2 * i + a, 2 * i + b)] += s;
+                }
+            }
+            // Constraint terms of grasp i.
+            let g = &self.grasps[i];
+            let jg = g.jacobian(theta);
+            ws.grasp_j[i] = jg;
+            let phi = t.p_ee - g.point(&x_o);
+            let phid = t.v_ee - jg * xd_o;
+            let bias = t.jdot_qdot - g.jdot_xdot(theta, xd_o.z);
+            let mut ja0 = jg * (-a0_o);
+            for r in 0..dof {
+                ja0.x += t.J[(0, r)] * a0[r];
+                ja0.y += t.J[(1, r)] * a0[r];
+            }
+            let rhs = -bias - ja0 - 2.0 * w * phid - w * w * phi;
+            ws.rhs[2 * i] = rhs.x;
+            ws.rhs[2 * i + 1] = rhs.y;
+        }
+        // K += 𝐉 M_o⁻¹ 𝐉ᵀ.
+        for i in 0..m {
+            let ji_minv = ws.grasp_j[i] * obj.M_o_inv;
+            for j in 0..m {
+                let blk = ji_minv * ws.grasp_j[j].transpose();
+                for a in 0..2 {
+                    for b in 0..2 {
+                        ws.k[(2 * i + a, 2 * j + b)] += blk[(a, b)];
+                    }
+                }
+            }
+        }
+        // Solve K λ = rhs (λ into ws.rhs).
+        let nk = 2 * m;
+        let mut trace = 0.0;
+        for d in 0..nk {
+            trace += ws.k[(d, d)];
+        }
+        ws.k_copy.copy_from(&ws.k);
+        match cholesky_in_place(&mut ws.k, nk) {
+            Ok(p) => ws.kkt_pivot = p,
+            Err(_) => {
+                ws.k.copy_from(&ws.k_copy);
+                for d in 0..nk {
+                    ws.k[(d, d)] += 1e-10 * trace.max(f64::MIN_POSITIVE);
+                }
+                ws.regularised += 1;
+                ws.kkt_pivot = 0.0;
+                if cholesky_in_place(&mut ws.k, nk).is_err() {
+                    return false;
+                }
+            }
+        }
+        let k = &ws.k;
+        cholesky_solve_in_place(k, nk, &mut ws.rhs);
+
+        // Accelerations: q̈_i = a0_i + Y_i λ_i; ẍ_o = a0_o − M_o⁻¹ Σ J_iᵀ λ_i.
+        dy[..n].copy_from_slice(qd);
+        dy[n..n + 3].copy_from_slice(xd_o.as_slice());
+        let mut f_sum = Vector3::zeros();
+        for (i, arm) in self.arms.iter().enumerate() {
+            let off = self.offsets[i];
+            let dof = arm.dof();
+            let lam = nalgebra::Vector2::new(ws.rhs[2 * i], ws.rhs[2 * i + 1]);
+            ws.forces[i] = lam;
+            f_sum += ws.grasp_j[i].transpose() * lam;
+            let y_i = &ws.minv_jt[i];
+            for r in 0..dof {
+                dy[n + 3 + off + r] = ws.a0[off + r] + y_i[(r, 0)] * lam.x + y_i[(r, 1)] * lam.y;
+            }
+        }
+        let xdd = a0_o - obj.M_o_inv * f_sum;
+        ws.xdd_o = xdd;
+        dy[2 * n + 3..].copy_from_slice(xdd.as_slice());
+        true
+    }
+}
+

@@ -1,0 +1,390 @@
+//! The closed-chain plant: arms + object + grasps, SPEC §2.4.
+//!
+//! Two formulations that must agree wherever both apply:
+//! * [`constrained`] (the default plant): all joint angles plus the object pose, one holonomic
+//!   constraint per grasp, Lagrange multipliers = grasp forces, Baumgarte drift control. Any
+//!   number of arms, any number of joints.
+//! * [`reduced`]: object coordinates only, paper (14); arms from analytic inverse kinematics
+//!   (2-link arms only).
+//!
+//! State layout (flat, for the integrators): `y = [q (n_q), x_o (3), q̇ (n_q), ẋ_o (3)]`, where
+//! `q` stacks the arms' joint angles in arm order.
+
+pub mod constrained;
+pub mod reduced;
+
+use nalgebra::{DMatrix, Matrix2, Matrix2x3, Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::arm::{Arm, ArmParams, ArmTerms, Cartesian, IkFailure};
+use crate::error::{ModelError, non_negative};
+use crate::grasp::Grasp;
+use crate::object::{Object, ObjectParams};
+
+/// Plant parameters: plain data, validated by [`Plant::new`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlantParams {
+    /// The arms.
+    pub arms: Vec<ArmParams>,
+    /// Grasp point `r_i` of each arm in the object frame, m (one per arm).
+    pub grasps: Vec<[f64; 2]>,
+    /// The object.
+    pub object: ObjectParams,
+    /// Gravity `g` along −y, m/s².
+    pub gravity: f64,
+    /// Baumgarte drift-control natural frequency `ω_b` (critically damped), rad/s; 0 disables.
+    pub baumgarte: f64,
+}
+
+impl PlantParams {
+    /// The paper's two-arm set-up (SPEC §4): Table I arms with `l_c = l/2`, bases `(±0.38, 0)`,
+    /// mirrored elbows (arm 1 `q2 < 0`, arm 2 `q2 > 0`), `l_o = 0.1 m`, grasps `(∓l_o/2, 0)`,
+    /// `M_o = C_o = I`, `G_o = (0, 9.8, 0)`.
+    pub fn paper() -> Self {
+        use crate::arm::Elbow;
+        PlantParams {
+            arms: vec![
+                ArmParams::paper([-0.38, 0.0], Elbow::Negative),
+                ArmParams::paper([0.38, 0.0], Elbow::Positive),
+            ],
+            grasps: vec![[-0.05, 0.0], [0.05, 0.0]],
+            object: ObjectParams::paper(),
+            gravity: crate::arm::GRAVITY,
+            baumgarte: 20.0,
+        }
+    }
+}
+
+/// Joint torques and the object disturbance, held constant over a plant step (ZOH).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlantInput {
+    /// Joint torques of all arms, stacked in arm order, N m (n_q).
+    pub tau: Vec<f64>,
+    /// Environment disturbance `F_d` on the object (subtracted in (10)), (N, N, N m).
+    pub f_d: Vector3<f64>,
+}
+
+/// A validated, immutable plant model.
+#[derive(Clone, Debug)]
+pub struct Plant {
+    arms: Vec<Arm>,
+    grasps: Vec<Grasp>,
+    object: Object,
+    g: f64,
+    baumgarte: f64,
+    offsets: Vec<usize>,
+    n_q: usize,
+}
+
+/// Per-step scratch and the step's secondary results (grasp forces, diagnostics).
+#[derive(Clone, Debug)]
+pub struct PlantWorkspace {
+    /// Per-arm kinematics and dynamics.
+    pub terms: Vec<ArmTerms>,
+    /// Grasp forces `F_i` (the object on end-effector `i`) of the last evaluation, N.
+    pub forces: Vec<Vector2<f64>>,
+    /// Object acceleration of the last evaluation.
+    pub xdd_o: Vector3<f64>,
+    /// Smallest pivot ratio of the last grasp-space Cholesky (conditioning indicator).
+    pub kkt_pivot: f64,
+    /// Number of evaluations whose grasp-space system needed regularisation (singular chain).
+    pub regularised: u64,
+    grasp_j: Vec<Matrix2x3<f64>>,
+    minv_jt: Vec<DMatrix<f64>>,
+    a0: Vec<f64>,
+    k: DMatrix<f64>,
+    k_copy: DMatrix<f64>,
+    rhs: Vec<f64>,
+    /// Joint angles from IK in the reduced formulation (n_q).
+    pub q_red: Vec<f64>,
+    /// Joint velocities in the reduced formulation (n_q).
+    pub qd_red: Vec<f64>,
+    /// Per-arm Cartesian terms (3)–(4) from the last reduced evaluation.
+    pub cartesian: Vec<Cartesian>,
+    tau_x: Vec<Vector2<f64>>,
+}
+
+/// Plant energy split, J.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Energy {
+    /// Kinetic energy of arms and object.
+    pub kinetic: f64,
+    /// Potential energy of arms and object.
+    pub potential: f64,
+}
+
+impl Energy {
+    /// Total mechanical energy.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.potential
+    }
+}
+
+impl Plant {
+    /// Validate the parameters (each arm, the object, one grasp per arm, `g ≥ 0`, `ω_b ≥ 0`).
+    pub fn new(p: &PlantParams) -> Result<Self, ModelError> {
+        if p.arms.is_empty() {
+            return Err(ModelError::geometry("arms", "at least one arm is needed"));
+        }
+        if p.grasps.len() != p.arms.len() {
+            return Err(ModelError::geometry(
+                "grasps",
+                format!("{} grasp points for {} arms: give one per arm", p.grasps.len(), p.arms.len()),
+            ));
+        }
+        let mut arms = Vec::with_capacity(p.arms.len());
+        let mut offsets = Vec::with_capacity(p.arms.len());
+        let mut n_q = 0;
+        for (i, a) in p.arms.iter().enumerate() {
+            let arm = Arm::new(&format!("arms[{i}]"), a)?;
+            offsets.push(n_q);
+            n_q += arm.dof();
+            arms.push(arm);
+        }
+        let mut grasps = Vec::with_capacity(p.grasps.len());
+        for (i, r) in p.grasps.iter().enumerate() {
+            for (k, v) in r.iter().enumerate() {
+                if !v.is_finite() {
+                    return Err(ModelError::invalid(format!("grasps[{i}][{k}]"), *v, "must be finite"));
+                }
+            }
+            grasps.push(Grasp { r: Vector2::new(r[0], r[1]) });
+        }
+        let object = Object::new(&p.object)?;
+        let g = non_negative("gravity", p.gravity)?;
+        let baumgarte = non_negative("baumgarte", p.baumgarte)?;
+        Ok(Plant { arms, grasps, object, g, baumgarte, offsets, n_q })
+    }
+
+    /// The arms.
+    pub fn arms(&self) -> &[Arm] {
+        &self.arms
+    }
+    /// The grasps, one per arm.
+    pub fn grasps(&self) -> &[Grasp] {
+        &self.grasps
+    }
+    /// The object.
+    pub fn object(&self) -> &Object {
+        &self.object
+    }
+    /// Gravity, m/s².
+    pub fn gravity(&self) -> f64 {
+        self.g
+    }
+    /// Total number of joints `n_q`.
+    pub fn n_q(&self) -> usize {
+        self.n_q
+    }
+    /// Offset of arm `i`'s joints in the stacked `q`.
+    pub fn offset(&self, i: usize) -> usize {
+        self.offsets[i]
+    }
+    /// Length of the flat state `y`.
+    pub fn state_dim(&self) -> usize {
+        2 * (self.n_q + 3)
+    }
+    /// `(q, x_o, q̇, ẋ_o)` views of a flat state.
+    pub fn split<'a>(&self, y: &'a [f64]) -> (&'a [f64], Vector3<f64>, &'a [f64], Vector3<f64>) {
+        let n = self.n_q;
+        (
+            &y[..n],
+            Vector3::new(y[n], y[n + 1], y[n + 2]),
+            &y[n + 3..2 * n + 3],
+            Vector3::new(y[2 * n + 3], y[2 * n + 4], y[2 * n + 5]),
+        )
+    }
+    /// An all-zero input of the right size.
+    pub fn zero_input(&self) -> PlantInput {
+        PlantInput { tau: vec![0.0; self.n_q], f_d: Vector3::zeros() }
+    }
+
+    /// Allocate the workspace (once).
+    pub fn workspace(&self) -> PlantWorkspace {
+        let m = self.arms.len();
+        PlantWorkspace {
+            terms: self.arms.iter().map(|a| a.terms()).collect(),
+            forces: vec![Vector2::zeros(); m],
+            xdd_o: Vector3::zeros(),
+            kkt_pivot: 1.0,
+            regularised: 0,
+            grasp_j: vec![Matrix2x3::zeros(); m],
+            minv_jt: self.arms.iter().map(|a| DMatrix::zeros(a.dof(), 2)).collect(),
+            a0: vec![0.0; self.n_q],
+            k: DMatrix::zeros(2 * m, 2 * m),
+            k_copy: DMatrix::zeros(2 * m, 2 * m),
+            rhs: vec![0.0; 2 * m],
+            q_red: vec![0.0; self.n_q],
+            qd_red: vec![0.0; self.n_q],
+            cartesian: vec![Cartesian { M_x: Matrix2::identity(), C_x: Matrix2::zeros(), G_x: Vector2::zeros(), J_inv: Matrix2::identity() }; m],
+            tau_x: vec![Vector2::zeros(); m],
+        }
+    }
+
+    /// A consistent state with the object at `x_o` moving at `ẋ_o`: 2-link arms by analytic IK
+    /// on their elbow branch, other arms by damped Gauss–Newton from `q_guess` (stacked n_q; the
+    /// 2-link entries are ignored). Joint velocities are the minimum-norm solution of
+    /// `J_e q̇ = J_i ẋ_o`. Fails, naming the arm, if a grasp point is out of reach.
+    pub fn initial_state(&self, x_o: Vector3<f64>, xd_o: Vector3<f64>, q_guess: Option<&[f64]>) -> Result<Vec<f64>, ModelError> {
+        let n = self.n_q;
+        let mut y = vec![0.0; self.state_dim()];
+        let mut ws = self.workspace();
+        for (i, arm) in self.arms.iter().enumerate() {
+            let off = self.offsets[i];
+            let target = self.grasps[i].point(&x_o);
+            let dof = arm.dof();
+            if dof == 2 {
+                let q = arm.inverse_kinematics(target).map_err(|e| ik_error(arm, i, target, e))?;
+                y[off..off + 2].copy_from_slice(&q);
+            } else {
+                let q = &mut y[off..off + dof];
+                if let Some(g) = q_guess {
+                    q.copy_from_slice(&g[off..off + dof]);
+                }
+                solve_ik_numeric(arm, target, q, &mut ws.terms[i]).map_err(|d| {
+                    ModelError::geometry(
+                        format!("arms[{i}]"),
+                        format!("cannot reach its grasp point ({:.4}, {:.4}) m from the given initial joint angles (residual {d:.3e} m)", target.x, target.y),
+                    )
+                })?;
+            }
+            // Velocities: minimum-norm q̇ with J_e q̇ = J_i ẋ_o.
+            let zeros = vec![0.0; dof];
+            arm.kinematics(&y[off..off + dof], &zeros, &mut ws.terms[i]);
+            let v = self.grasps[i].jacobian(x_o.z) * xd_o;
+            let j = &ws.terms[i].J;
+            let jjt = j * j.transpose();
+            let w = jjt.try_inverse().ok_or_else(|| {
+                ModelError::geometry(format!("arms[{i}]"), "starts in a singular configuration (J_e Jᵀ_e not invertible)")
+            })? * v;
+            let qd = j.transpose() * w;
+            y[n + 3 + off..n + 3 + off + dof].copy_from_slice(qd.as_slice());
+        }
+        y[n..n + 3].copy_from_slice(x_o.as_slice());
+        y[2 * n + 3..].copy_from_slice(xd_o.as_slice());
+        self.check_state(&y, 1e-9)?;
+        Ok(y)
+    }
+
+    /// Check that a state satisfies every grasp to within `tol` (position, m, and velocity,
+    /// m/s); otherwise an error naming the arm and the violation.
+    pub fn check_state(&self, y: &[f64], tol: f64) -> Result<(), ModelError> {
+        if y.len() != self.state_dim() {
+            return Err(ModelError::geometry("state", format!("has {} entries, the plant needs {}", y.len(), self.state_dim())));
+        }
+        if let Some(k) = y.iter().position(|v| !v.is_finite()) {
+            return Err(ModelError::invalid(format!("state[{k}]"), y[k], "must be finite"));
+        }
+        let mut ws = self.workspace();
+        let (q, x_o, qd, xd_o) = self.split(y);
+        for (i, arm) in self.arms.iter().enumerate() {
+            let off = self.offsets[i];
+            let dof = arm.dof();
+            arm.kinematics(&q[off..off + dof], &qd[off..off + dof], &mut ws.terms[i]);
+            let t = &ws.terms[i];
+            let dp = (t.p_ee - self.grasps[i].point(&x_o)).norm();
+            let dv = (t.v_ee - self.grasps[i].jacobian(x_o.z) * xd_o).norm();
+            if dp > tol || dv > tol {
+                return Err(ModelError::geometry(
+                    format!("arms[{i}]"),
+                    format!("the starting pose violates the grasp: end-effector {dp:.3e} m and {dv:.3e} m/s away from its grasp point"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Largest grasp-constraint violation `(position m, velocity m/s)` of a state.
+    pub fn constraint_residual(&self, y: &[f64], ws: &mut PlantWorkspace) -> (f64, f64) {
+        let (q, x_o, qd, xd_o) = self.split(y);
+        let (mut ep, mut ev) = (0.0f64, 0.0f64);
+        for (i, arm) in self.arms.iter().enumerate() {
+            let off = self.offsets[i];
+            let dof = arm.dof();
+            arm.kinematics(&q[off..off + dof], &qd[off..off + dof], &mut ws.terms[i]);
+            let t = &ws.terms[i];
+            ep = ep.max((t.p_ee - self.grasps[i].point(&x_o)).norm());
+            ev = ev.max((t.v_ee - self.grasps[i].jacobian(x_o.z) * xd_o).norm());
+        }
+        (ep, ev)
+    }
+
+    /// Mechanical energy of a state (arms + object; the object's potential is `G_oᵀ x_o`).
+    pub fn energy(&self, y: &[f64], ws: &mut PlantWorkspace) -> Energy {
+        let (q, x_o, qd, xd_o) = self.split(y);
+        let mut e = Energy::default();
+        for (i, arm) in self.arms.iter().enumerate() {
+            let off = self.offsets[i];
+            let dof = arm.dof();
+            arm.dynamics(&q[off..off + dof], &qd[off..off + dof], self.g, &mut ws.terms[i]);
+            let (k, p) = arm.energy(&qd[off..off + dof], self.g, &ws.terms[i]);
+            e.kinetic += k;
+            e.potential += p;
+        }
+        let (k, p) = self.object.energy(&x_o, &xd_o);
+        e.kinetic += k;
+        e.potential += p;
+        e
+    }
+
+    /// Power flowing in: `τᵀq̇ − F_dᵀẋ_o − ẋ_oᵀ C_o ẋ_o` (the energy balance's right side), W.
+    pub fn power_in(&self, y: &[f64], input: &PlantInput) -> f64 {
+        let (_, _, qd, xd_o) = self.split(y);
+        let tq: f64 = input.tau.iter().zip(qd).map(|(a, b)| a * b).sum();
+        tq - input.f_d.dot(&xd_o) - xd_o.dot(&(self.object.C_o * xd_o))
+    }
+
+    /// Smallest singular value of any arm's end-effector Jacobian in state `y`, m/rad.
+    pub fn min_singular_value(&self, y: &[f64], ws: &mut PlantWorkspace) -> f64 {
+        let (q, _, qd, _) = self.split(y);
+        let mut s = f64::INFINITY;
+        for (i, arm) in self.arms.iter().enumerate() {
+            let off = self.offsets[i];
+            let dof = arm.dof();
+            arm.kinematics(&q[off..off + dof], &qd[off..off + dof], &mut ws.terms[i]);
+            s = s.min(arm.min_singular_value(&ws.terms[i]));
+        }
+        s
+    }
+}
+
+fn ik_error(arm: &Arm, i: usize, target: Vector2<f64>, e: IkFailure) -> ModelError {
+    match e {
+        IkFailure::OutOfReach { distance, min, max } => ModelError::geometry(
+            format!("arms[{i}]"),
+            format!(
+                "grasp point ({:.4}, {:.4}) m is {distance:.4} m from the base ({:.3}, {:.3}); the arm reaches {min:.4}..{max:.4} m",
+                target.x,
+                target.y,
+                arm.base().x,
+                arm.base().y
+            ),
+        ),
+        IkFailure::NotTwoLink => ModelError::geometry(format!("arms[{i}]"), "analytic IK needs a 2-link arm"),
+    }
+}
+
+/// Damped Gauss–Newton position IK for an n-link arm from the angles in `q`; returns the final
+/// residual on failure.
+fn solve_ik_numeric(arm: &Arm, target: Vector2<f64>, q: &mut [f64], t: &mut ArmTerms) -> Result<(), f64> {
+    let zeros = vec![0.0; q.len()];
+    let mut res = f64::INFINITY;
+    for _ in 0..200 {
+        arm.kinematics(q, &zeros, t);
+        let e = target - t.p_ee;
+        res = e.norm();
+        if res < 1e-13 {
+            return Ok(());
+        }
+        let j = &t.J;
+        let lambda2 = 1e-6;
+        let a = j * j.transpose() + nalgebra::Matrix2::identity() * lambda2;
+        let w = a.try_inverse().ok_or(res)? * e;
+        let dq = j.transpose() * w;
+        for (qi, d) in q.iter_mut().zip(dq.iter()) {
+            *qi += d;
+        }
+    }
+    if res < 1e-11 { Ok(()) } else { Err(res) }
+}

@@ -1,0 +1,256 @@
+//! Arm kinematics and dynamics against independent references: the 2-link closed forms against
+//! the general algorithm, finite differences, RNEA against `Mq̈ + Cq̇ + G`, Property 1.
+
+use nalgebra::{DMatrix, Vector2};
+use proptest::prelude::*;
+use tandem::arm::{Arm, ArmParams, Elbow, LinkParams};
+use tandem::error::ModelError;
+
+/// SplitMix64: a tiny seeded generator for reproducible random states.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.next()
+    }
+    fn vec(&mut self, n: usize, a: f64) -> Vec<f64> {
+        (0..n).map(|_| self.range(-a, a)).collect()
+    }
+}
+
+fn paper_arm() -> Arm {
+    Arm::new("arm", &ArmParams::paper([-0.38, 0.0], Elbow::Negative)).unwrap()
+}
+
+fn random_arm(rng: &mut Rng, n: usize) -> Arm {
+    let links = (0..n)
+        .map(|_| {
+            let l = rng.range(0.1, 0.5);
+            LinkParams { mass: rng.range(0.3, 3.0), length: l, com: rng.range(0.0, l), inertia: rng.range(0.0, 0.1) }
+        })
+        .collect();
+    Arm::new("arm", &ArmParams { base: [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)], base_angle: rng.range(-1.0, 1.0), links, elbow: Elbow::Positive }).unwrap()
+}
+
+fn rel_err(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
+    (a - b).norm() / b.norm().max(1e-300)
+}
+
+#[test]
+fn two_link_closed_forms_equal_general_algorithm() {
+    // Same physics by two routes; only round-off separates them (entries are O(0.1..10), sums of
+    // a handful of products): 1e-12 relative leaves ~4 decimal digits of slack over ε·cond.
+    let mut rng = Rng(1);
+    for trial in 0..200 {
+        let arm = if trial % 2 == 0 { paper_arm() } else { random_arm(&mut rng, 2) };
+        let q = rng.vec(2, 3.0);
+        let qd = rng.vec(2, 5.0);
+        let mut fast = arm.terms();
+        let mut general = arm.terms();
+        arm.dynamics(&q, &qd, 9.8, &mut fast);
+        arm.kinematics(&q, &qd, &mut general);
+        arm.general_dynamics(9.8, &mut general);
+        assert!(rel_err(&fast.M, &general.M) < 1e-12, "M: {} vs {}", fast.M, general.M);
+        assert!(rel_err(&fast.C, &general.C) < 1e-12, "C: {} vs {}", fast.C, general.C);
+        let ge = (&fast.G - &general.G).norm() / general.G.norm().max(1e-12);
+        assert!(ge < 1e-12, "G: {} vs {}", fast.G, general.G);
+    }
+}
+
+#[test]
+fn two_link_closed_forms_match_hand_values() {
+    // Table I, lc = l/2: p1 = 2·0.15² + 0.85(0.3² + 0.15²) + 0.045 + 0.019 = 0.2046250,
+    // p2 = 0.85·0.3·0.15 = 0.03825, p3 = 0.85·0.15² + 0.019 = 0.0381250.
+    let arm = paper_arm();
+    let mut t = arm.terms();
+    arm.dynamics(&[0.0, 0.0], &[0.0, 0.0], 9.8, &mut t);
+    assert!((t.M[(0, 0)] - (0.204625 + 2.0 * 0.03825)).abs() < 1e-15);
+    assert!((t.M[(0, 1)] - (0.038125 + 0.03825)).abs() < 1e-15);
+    assert!((t.M[(1, 1)] - 0.038125).abs() < 1e-15);
+    // G at q = 0: G1 = (2·0.15 + 0.85·0.3)·9.8 + 0.85·0.15·9.8, G2 = 0.85·0.15·9.8.
+    assert!((t.G[0] - (0.555 * 9.8 + 0.1275 * 9.8)).abs() < 1e-13);
+    assert!((t.G[1] - 0.1275 * 9.8).abs() < 1e-14);
+}
+
+/// `Ṁ` by a central difference along `q̇`; its truncation error is O(h²·|M'''|) ≈ 1e-10 at
+/// h = 1e-5 with O(1) derivatives, round-off O(ε|M|/h) ≈ 1e-11.
+fn mdot_fd(arm: &Arm, q: &[f64], qd: &[f64]) -> DMatrix<f64> {
+    let h = 1e-5;
+    let mut t = arm.terms();
+    let qp: Vec<f64> = q.iter().zip(qd).map(|(a, b)| a + h * b).collect();
+    let qm: Vec<f64> = q.iter().zip(qd).map(|(a, b)| a - h * b).collect();
+    arm.dynamics(&qp, qd, 9.8, &mut t);
+    let mp = t.M.clone();
+    arm.dynamics(&qm, qd, 9.8, &mut t);
+    (mp - &t.M) / (2.0 * h)
+}
+
+#[test]
+fn mdot_minus_2c_is_skew_for_2_to_5_links() {
+    let mut rng = Rng(7);
+    for n in 2..=5 {
+        for _ in 0..20 {
+            let arm = random_arm(&mut rng, n);
+            let q = rng.vec(n, 3.0);
+            let qd = rng.vec(n, 3.0);
+            let mut t = arm.terms();
+            arm.dynamics(&q, &qd, 9.8, &mut t);
+            let nmat = mdot_fd(&arm, &q, &qd) - 2.0 * &t.C;
+            let sym = &nmat + nmat.transpose();
+            assert!(sym.norm() < 1e-8 * (1.0 + nmat.norm()), "n = {n}: N + Nᵀ = {sym}");
+            // And M is symmetric positive definite.
+            assert!((&t.M - t.M.transpose()).norm() < 1e-14);
+            assert!(t.M.clone().cholesky().is_some());
+        }
+    }
+}
+
+#[test]
+fn jacobian_and_jdot_qdot_equal_finite_differences() {
+    let mut rng = Rng(11);
+    let h = 1e-6;
+    for n in 1..=4 {
+        for _ in 0..20 {
+            let arm = random_arm(&mut rng, n);
+            let q = rng.vec(n, 3.0);
+            let qd = rng.vec(n, 2.0);
+            let mut t = arm.terms();
+            arm.kinematics(&q, &qd, &mut t);
+            for i in 0..n {
+                let mut qp = q.clone();
+                let mut qm = q.clone();
+                qp[i] += h;
+                qm[i] -= h;
+                let col = (arm.forward_kinematics(&qp) - arm.forward_kinematics(&qm)) / (2.0 * h);
+                // Central difference: error O(h²·reach) ≈ 1e-12, round-off ≈ ε/h ≈ 1e-10.
+                assert!((col - t.J.column(i)).norm() < 1e-8, "J col {i}");
+            }
+            // J̇q̇ = d/dt (J(q(t)) q̇) at fixed q̇.
+            let qp: Vec<f64> = q.iter().zip(&qd).map(|(a, b)| a + h * b).collect();
+            let qm: Vec<f64> = q.iter().zip(&qd).map(|(a, b)| a - h * b).collect();
+            let mut tp = arm.terms();
+            let mut tm = arm.terms();
+            arm.kinematics(&qp, &qd, &mut tp);
+            arm.kinematics(&qm, &qd, &mut tm);
+            let qdv = nalgebra::DVector::from_column_slice(&qd);
+            let fd = (&tp.J * &qdv - &tm.J * &qdv) / (2.0 * h);
+            assert!((fd - nalgebra::DVector::from_column_slice(t.jdot_qdot.as_slice())).norm() < 1e-7);
+            let jd_fd = (&tp.J - &tm.J) / (2.0 * h);
+            assert!((jd_fd - &t.Jdot).norm() < 1e-7);
+            assert!((&t.Jdot * &qdv - nalgebra::DVector::from_column_slice(t.jdot_qdot.as_slice())).norm() < 1e-12);
+            // End-effector velocity is J q̇.
+            assert!(((&t.J * &qdv) - nalgebra::DVector::from_column_slice(t.v_ee.as_slice())).norm() < 1e-13);
+        }
+    }
+}
+
+#[test]
+fn rnea_equals_lagrangian_and_inverts_forward_dynamics() {
+    let mut rng = Rng(3);
+    for n in 1..=5 {
+        for _ in 0..20 {
+            let arm = random_arm(&mut rng, n);
+            let q = rng.vec(n, 3.0);
+            let qd = rng.vec(n, 3.0);
+            let qdd = rng.vec(n, 10.0);
+            let f = Vector2::new(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0));
+            let mut t = arm.terms();
+            let mut tau = vec![0.0; n];
+            arm.rnea(&q, &qd, &qdd, f, 9.8, &mut t, &mut tau);
+            arm.dynamics(&q, &qd, 9.8, &mut t);
+            let qdv = nalgebra::DVector::from_column_slice(&qd);
+            let qddv = nalgebra::DVector::from_column_slice(&qdd);
+            let lag = &t.M * &qddv + &t.C * &qdv + &t.G - t.J.transpose() * f;
+            let tv = nalgebra::DVector::from_column_slice(&tau);
+            assert!((&tv - &lag).norm() < 1e-11 * (1.0 + lag.norm()), "n={n}: {tv} vs {lag}");
+            // Forward dynamics with τ from RNEA returns q̈ (conditioning of M: ≤ 1e3 here).
+            let mut back = vec![0.0; n];
+            arm.forward_dynamics(&qd, &tau, f, &mut t, &mut back).unwrap();
+            for k in 0..n {
+                assert!((back[k] - qdd[k]).abs() < 1e-9 * (1.0 + qdd[k].abs()), "n={n} joint {k}: {} vs {}", back[k], qdd[k]);
+            }
+        }
+    }
+}
+
+#[test]
+fn cartesian_dynamics_reproduce_joint_accelerations() {
+    let mut rng = Rng(5);
+    let arm = paper_arm();
+    let mut t = arm.terms();
+    for _ in 0..100 {
+        // Stay away from the singular stretched/folded poses.
+        let q = vec![rng.range(-3.0, 3.0), -rng.range(0.3, 2.8)];
+        let qd = rng.vec(2, 3.0);
+        let tau = rng.vec(2, 5.0);
+        let f = Vector2::new(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0));
+        arm.dynamics(&q, &qd, 9.8, &mut t);
+        let mut qdd = vec![0.0; 2];
+        arm.forward_dynamics(&qd, &tau, f, &mut t, &mut qdd).unwrap();
+        let c = arm.cartesian(&t, 1e-9).unwrap();
+        let xdd = Vector2::new(
+            t.J[(0, 0)] * qdd[0] + t.J[(0, 1)] * qdd[1],
+            t.J[(1, 0)] * qdd[0] + t.J[(1, 1)] * qdd[1],
+        ) + t.jdot_qdot;
+        let tau_x = c.J_inv.transpose() * Vector2::new(tau[0], tau[1]);
+        // (3): M_x ẍ + C_x ẋ + G_x = τ_x + F.
+        let r = c.M_x * xdd + c.C_x * t.v_ee + c.G_x - tau_x - f;
+        assert!(r.norm() < 1e-9 * (1.0 + tau_x.norm() + f.norm()), "residual {r}");
+    }
+}
+
+#[test]
+fn analytic_ik_inverts_forward_kinematics_on_its_branch() {
+    let mut rng = Rng(9);
+    for elbow in [Elbow::Negative, Elbow::Positive] {
+        let arm = Arm::new("arm", &ArmParams::paper([0.1, -0.2], elbow)).unwrap();
+        for _ in 0..100 {
+            let r = rng.range(0.05, 0.59);
+            let a = rng.range(-3.1, 3.1);
+            let p = arm.base() + r * Vector2::new(a.cos(), a.sin());
+            let q = arm.inverse_kinematics(p).unwrap();
+            assert!((arm.forward_kinematics(&q) - p).norm() < 1e-13);
+            assert!(match elbow {
+                Elbow::Negative => q[1] <= 0.0,
+                Elbow::Positive => q[1] >= 0.0,
+            });
+        }
+        assert!(arm.inverse_kinematics(arm.base() + Vector2::new(0.61, 0.0)).is_err());
+    }
+}
+
+#[test]
+fn bad_link_parameters_name_the_arm_link_and_field() {
+    let mut p = ArmParams::paper([0.0, 0.0], Elbow::Positive);
+    p.links[1].mass = -1.0;
+    let e = Arm::new("arms[1]", &p).unwrap_err();
+    assert!(matches!(&e, ModelError::Invalid { param, .. } if param == "arms[1].links[1].mass"), "{e}");
+    let mut p = ArmParams::paper([0.0, 0.0], Elbow::Positive);
+    p.links[0].length = 0.0;
+    let e = Arm::new("arms[0]", &p).unwrap_err();
+    assert!(e.to_string().contains("arms[0].links[0].length"), "{e}");
+    let mut p = ArmParams::paper([0.0, 0.0], Elbow::Positive);
+    p.links[0].inertia = -0.1;
+    assert!(Arm::new("a", &p).unwrap_err().to_string().contains("inertia"));
+    let mut p = ArmParams::paper([0.0, 0.0], Elbow::Positive);
+    p.links[0].com = 0.5;
+    assert!(Arm::new("a", &p).unwrap_err().to_string().contains("com"));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, rng_seed: proptest::test_runner::RngSeed::Fixed(42), ..ProptestConfig::default() })]
+    #[test]
+    fn christoffel_c_gives_skew_mdot_minus_2c(q1 in -3.0..3.0f64, q2 in -3.0..3.0f64, w1 in -4.0..4.0f64, w2 in -4.0..4.0f64) {
+        let arm = paper_arm();
+        let mut t = arm.terms();
+        arm.dynamics(&[q1, q2], &[w1, w2], 9.8, &mut t);
+        let n = mdot_fd(&arm, &[q1, q2], &[w1, w2]) - 2.0 * &t.C;
+        prop_assert!((&n + n.transpose()).norm() < 1e-8);
+    }
+}
