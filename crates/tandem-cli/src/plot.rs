@@ -29,7 +29,7 @@ use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
-use plotters::style::{FontStyle, register_font};
+use plotters::style::{FontStyle, FontTransform, register_font};
 
 use crate::output;
 
@@ -421,8 +421,11 @@ fn draw_figure<DB: DrawingBackend>(
     let body = if title.is_empty() {
         root.margin(6, 0, 0, 0)
     } else {
-        let font = (FONT, FIGURE_TITLE_PX).into_font().color(&TEXT);
-        root.margin(6, 0, 0, 0).titled(title, font).map_err(plot_err)?
+        let (w, _) = root.dim_in_pixel();
+        let (head, body) = root.split_vertically(FIGURE_TITLE_PX + 16);
+        let pos = (w as i32 / 2, (FIGURE_TITLE_PX / 2 + 8) as i32);
+        draw_text(&head, target, title, pos, FIGURE_TITLE_PX, (HPos::Center, VPos::Center), false)?;
+        body
     };
     let cells = body.split_evenly((rows, columns));
     for ((cell, panel), prep) in cells.iter().zip(panels).zip(&prepared) {
@@ -712,16 +715,20 @@ struct Ticks {
 impl Ticks {
     /// At most `max_ticks` ticks at multiples of 1, 2, 2.5 or 5 × 10^k inside `[lo, hi]`.
     fn nice(lo: f64, hi: f64, max_ticks: usize) -> Self {
-        let max_ticks = max_ticks.max(2) as f64;
+        let max_ticks = max_ticks.max(2) as i64;
         let span = hi - lo;
-        let raw = span / max_ticks;
-        let mag = 10f64.powf(raw.log10().floor());
-        let step = [1.0, 2.0, 2.5, 5.0, 10.0]
+        let mag = 10f64.powf((span / max_ticks as f64).log10().floor());
+        // Ticks at integer multiples k·step, k in [k0, k1].
+        let ks = |step: f64| ((lo / step - 1e-9).ceil() as i64, (hi / step + 1e-9).floor() as i64);
+        let step = [1.0, 2.0, 2.5, 5.0, 10.0, 20.0]
             .into_iter()
             .map(|m| m * mag)
-            .find(|step| span / step <= max_ticks)
-            .unwrap_or(10.0 * mag);
-        let (k0, k1) = ((lo / step - 1e-9).ceil() as i64, (hi / step + 1e-9).floor() as i64);
+            .find(|&step| {
+                let (k0, k1) = ks(step);
+                k1 - k0 < max_ticks
+            })
+            .unwrap_or(20.0 * mag);
+        let (k0, k1) = ks(step);
         let values: Vec<f64> = (k0..=k1).map(|k| k as f64 * step).collect();
         let maxabs = lo.abs().max(hi.abs());
         let exp = if maxabs >= 1e4 || (maxabs > 0.0 && maxabs < 1e-2) {
@@ -835,10 +842,8 @@ fn draw_panel<DB: DrawingBackend>(
     target: Target,
 ) -> Result<()> {
     let (w, _h) = area.dim_in_pixel();
-    let title_font = (FONT, PANEL_TITLE_PX).into_font().color(&TEXT);
     let legend_font = (FONT, LEGEND_PX).into_font().color(&TEXT);
     let tick_font = (FONT, TICK_PX).into_font().color(&TEXT);
-    let desc_font = (FONT, AXIS_DESC_PX).into_font().color(&TEXT);
 
     // Legend rows: entries flow left to right and wrap; each row is centred.
     let entries = legend_entries(p);
@@ -864,12 +869,9 @@ fn draw_panel<DB: DrawingBackend>(
     let head_h = title_h + LEGEND_ROW_PX * rows.len() as u32 + 4;
     let (head, body) = area.split_vertically(head_h);
     if !p.title.is_empty() {
-        head.draw(&Text::new(
-            p.title.clone(),
-            (w as i32 / 2, (PANEL_TITLE_PX / 2 + 2) as i32),
-            title_font.pos(Pos::new(HPos::Center, VPos::Center)),
-        ))
-        .map_err(plot_err)?;
+        let pos = (w as i32 / 2, (PANEL_TITLE_PX / 2 + 2) as i32);
+        let anchor = (HPos::Center, VPos::Center);
+        draw_text(&head, target, &p.title, pos, PANEL_TITLE_PX, anchor, false)?;
     }
     for (r, row) in rows.iter().enumerate() {
         let total: i32 = row.iter().map(|(_, ew)| ew).sum::<i32>() + gap * (row.len() as i32 - 1);
@@ -878,12 +880,9 @@ fn draw_panel<DB: DrawingBackend>(
         for &(i, ew) in row {
             let e = &entries[i];
             draw_sample(&head, (x, y), (x + LEGEND_SAMPLE_PX, y), e.style)?;
-            head.draw(&Text::new(
-                e.label.clone(),
-                (x + LEGEND_SAMPLE_PX + 6, y),
-                legend_font.clone().pos(Pos::new(HPos::Left, VPos::Center)),
-            ))
-            .map_err(plot_err)?;
+            let pos = (x + LEGEND_SAMPLE_PX + 6, y);
+            let anchor = (HPos::Left, VPos::Center);
+            draw_text(&head, target, &e.label, pos, LEGEND_PX, anchor, false)?;
             x += ew + gap;
         }
     }
@@ -904,9 +903,9 @@ fn draw_panel<DB: DrawingBackend>(
 
     // The plot area depends on the y tick label width, which depends on the y ticks; the first
     // pass uses the unscaled ranges, which is close enough (a few pixels of slack are added).
-    let (body_w, body_h) = body.dim_in_pixel();
+    let (_, body_h) = body.dim_in_pixel();
     let plot_h_guess = body_h.saturating_sub(X_LABEL_AREA_PX + 10).max(40);
-    let yt_guess = Ticks::nice(y.0, y.1, (plot_h_guess / 50).clamp(3, 8) as usize);
+    let yt_guess = Ticks::nice(y.0, y.1, (plot_h_guess / 42).clamp(4, 9) as usize);
     let y_label_w = y_label_area(&body, &yt_guess, &tick_font)?;
     let make = |xr: (f64, f64), yr: (f64, f64), xt: &Ticks, yt: &Ticks| {
         ChartBuilder::on(&body)
@@ -946,9 +945,8 @@ fn draw_panel<DB: DrawingBackend>(
             y = (mid - half, mid + half);
         }
     }
-    let _ = body_w;
-    let xt = Ticks::nice(x.0, x.1, (pw / 95).clamp(3, 11) as usize);
-    let yt = Ticks::nice(y.0, y.1, (ph / 50).clamp(3, 8) as usize);
+    let xt = Ticks::nice(x.0, x.1, (pw / 80).clamp(4, 12) as usize);
+    let yt = Ticks::nice(y.0, y.1, (ph / 42).clamp(4, 9) as usize);
     let mut chart = make(x, y, &xt, &yt)?;
     let (pw, ph) = chart.plotting_area().dim_in_pixel();
     let pen = Pen {
@@ -957,24 +955,47 @@ fn draw_panel<DB: DrawingBackend>(
         sy: f64::from(ph.max(1)) / (y.1 - y.0),
     };
 
+    // Grid (under the data), then tick marks, tick labels and axis descriptions, drawn here
+    // rather than by plotters' mesh so that all text goes through `draw_text`.
+    let grid = Style {
+        colour: Colour::Rgb(GRID.0, GRID.1, GRID.2),
+        dashed: false,
+        width: 1,
+    };
+    for &v in &xt.values {
+        draw_line(&mut chart, &pen, &[(v, y.0), (v, y.1)], grid)?;
+    }
+    for &v in &yt.values {
+        draw_line(&mut chart, &pen, &[(x.0, v), (x.1, v)], grid)?;
+    }
+    let base = body.get_base_pixel();
+    let px = |c: (f64, f64)| {
+        let b = chart.backend_coord(&c);
+        (b.0 - base.0, b.1 - base.1)
+    };
+    let axis = TEXT.stroke_width(1);
+    let (left, bottom) = px((x.0, y.0));
+    let (right, top) = px((x.1, y.1));
+    for &v in &xt.values {
+        let (tx, ty) = px((v, y.0));
+        body.draw(&PathElement::new(vec![(tx, ty), (tx, ty + 5)], axis))
+            .map_err(plot_err)?;
+        let anchor = (HPos::Center, VPos::Top);
+        draw_text(&body, target, &xt.label(v), (tx, ty + 8), TICK_PX, anchor, false)?;
+    }
+    for &v in &yt.values {
+        let (tx, ty) = px((x.0, v));
+        body.draw(&PathElement::new(vec![(tx - 5, ty), (tx, ty)], axis))
+            .map_err(plot_err)?;
+        let anchor = (HPos::Right, VPos::Center);
+        draw_text(&body, target, &yt.label(v), (tx - 8, ty), TICK_PX, anchor, false)?;
+    }
     let x_desc = xt.describe(&p.x_label);
     let y_desc = yt.describe(&p.y_label);
-    let fx = |v: &f64| xt.label(*v);
-    let fy = |v: &f64| yt.label(*v);
-    chart
-        .configure_mesh()
-        .x_desc(x_desc)
-        .y_desc(y_desc)
-        .axis_desc_style(desc_font)
-        .label_style(tick_font)
-        .x_label_formatter(&fx)
-        .y_label_formatter(&fy)
-        .bold_line_style(GRID.stroke_width(1))
-        .light_line_style(TRANSPARENT)
-        .axis_style(TEXT.stroke_width(1))
-        .set_all_tick_mark_size(5)
-        .draw()
-        .map_err(plot_err)?;
+    let pos = ((left + right) / 2, bottom + 8 + TICK_PX as i32 + 10);
+    draw_text(&body, target, &x_desc, pos, AXIS_DESC_PX, (HPos::Center, VPos::Top), false)?;
+    let pos = (4, (top + bottom) / 2);
+    draw_text(&body, target, &y_desc, pos, AXIS_DESC_PX, (HPos::Center, VPos::Top), true)?;
 
     // Data, in order; dashed lines keep their dash phase across points.
     for (s, runs) in p.series.iter().zip(&prep.lines) {
@@ -1130,6 +1151,218 @@ fn draw_line<DB: DrawingBackend>(
     Ok(())
 }
 
+/// Draws `text` with its anchor point at `pos` (pixels of `area`), in the figure font of `size`
+/// px, optionally rotated to read bottom-to-top (y-axis descriptions).
+///
+/// Bitmap pitfall: plotters 0.3.7 with `ab_glyph` places each glyph at its advance position but
+/// drops the glyph's left bearing, so letters with small bearings (`j`, `_`, `[`) look displaced
+/// ("ob ject"). On bitmaps the text is therefore laid out here, glyph by glyph, from the embedded
+/// font's own metrics ([`FontMetrics`]); vector output keeps whole strings (the SVG viewer lays
+/// them out).
+fn draw_text<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    target: Target,
+    text: &str,
+    pos: (i32, i32),
+    size: u32,
+    (h, v): (HPos, VPos),
+    rotated: bool,
+) -> Result<()> {
+    if text.is_empty() {
+        return Ok(());
+    }
+    let mut font = (FONT, size).into_font();
+    if rotated {
+        font = font.transform(FontTransform::Rotate270);
+    }
+    let style = font.color(&TEXT);
+    let metrics = font_metrics();
+    let (Target::Bitmap, Some(m)) = (target, metrics) else {
+        return area
+            .draw(&Text::new(text.to_string(), pos, style.pos(Pos::new(h, v))))
+            .map_err(plot_err);
+    };
+    let size = f64::from(size);
+    let width: f64 = text.chars().map(|c| m.advance(c, size)).sum();
+    let start = match h {
+        HPos::Left => 0.0,
+        HPos::Center => -0.5 * width,
+        HPos::Right => -width,
+    };
+    let mut pen = start;
+    let mut buf = [0u8; 4];
+    for c in text.chars() {
+        if !c.is_whitespace() {
+            let along = (pen.round() + m.left_bearing(c, size).floor()) as i32;
+            let at = if rotated {
+                (pos.0, pos.1 - along)
+            } else {
+                (pos.0 + along, pos.1)
+            };
+            let glyph: &str = c.encode_utf8(&mut buf);
+            area.draw(&Text::new(
+                glyph.to_string(),
+                at,
+                style.clone().pos(Pos::new(HPos::Left, v)),
+            ))
+            .map_err(plot_err)?;
+        }
+        pen += m.advance(c, size);
+    }
+    Ok(())
+}
+
+/// Horizontal metrics of the embedded font, read from its `cmap`, `hmtx` and `glyf` tables
+/// (only what [`draw_text`] needs; scaled as `ab_glyph` scales: px = units · size / (ascent −
+/// descent)).
+struct FontMetrics {
+    /// Ascent − descent in font units.
+    height: f64,
+    /// Per glyph: advance width and outline x-minimum, font units.
+    advance: Vec<u16>,
+    x_min: Vec<i16>,
+    /// `cmap` format 4 segments: (start, end, id_delta, id_range_offset position or 0).
+    segments: Vec<(u16, u16, u16, usize)>,
+    /// The font bytes (for glyph ids read through `id_range_offset`).
+    data: &'static [u8],
+}
+
+fn font_metrics() -> Option<&'static FontMetrics> {
+    static METRICS: OnceLock<Option<FontMetrics>> = OnceLock::new();
+    METRICS
+        .get_or_init(|| FontMetrics::parse(FONT_BYTES))
+        .as_ref()
+}
+
+impl FontMetrics {
+    fn parse(data: &'static [u8]) -> Option<Self> {
+        let u16_at = |o: usize| -> Option<u16> {
+            Some(u16::from_be_bytes([*data.get(o)?, *data.get(o + 1)?]))
+        };
+        let i16_at = |o: usize| u16_at(o).map(|v| v as i16);
+        let u32_at = |o: usize| -> Option<u32> {
+            Some(u32::from_be_bytes([
+                *data.get(o)?,
+                *data.get(o + 1)?,
+                *data.get(o + 2)?,
+                *data.get(o + 3)?,
+            ]))
+        };
+        let num_tables = usize::from(u16_at(4)?);
+        let table = |tag: &[u8; 4]| -> Option<usize> {
+            (0..num_tables).find_map(|i| {
+                let rec = 12 + 16 * i;
+                (data.get(rec..rec + 4)? == tag).then(|| u32_at(rec + 8).map(|o| o as usize))?
+            })
+        };
+        let (head, hhea, maxp) = (table(b"head")?, table(b"hhea")?, table(b"maxp")?);
+        let (hmtx, loca, glyf, cmap) = (
+            table(b"hmtx")?,
+            table(b"loca")?,
+            table(b"glyf")?,
+            table(b"cmap")?,
+        );
+        // Ascent and descent as ttf-parser reports them (OS/2 typo metrics if flagged).
+        let (mut asc, mut desc) = (i16_at(hhea + 4)?, i16_at(hhea + 6)?);
+        if let Some(os2) = table(b"OS/2") {
+            if u16_at(os2 + 62)? & (1 << 7) != 0 {
+                asc = i16_at(os2 + 68)?;
+                desc = i16_at(os2 + 70)?;
+            }
+        }
+        let height = f64::from(asc) - f64::from(desc);
+        let num_glyphs = usize::from(u16_at(maxp + 4)?);
+        let num_hm = usize::from(u16_at(hhea + 34)?).max(1);
+        let long_loca = i16_at(head + 50)? != 0;
+        let loca_at = |g: usize| -> Option<usize> {
+            if long_loca {
+                u32_at(loca + 4 * g).map(|v| v as usize)
+            } else {
+                u16_at(loca + 2 * g).map(|v| 2 * usize::from(v))
+            }
+        };
+        let mut advance = Vec::with_capacity(num_glyphs);
+        let mut x_min = Vec::with_capacity(num_glyphs);
+        for g in 0..num_glyphs {
+            advance.push(u16_at(hmtx + 4 * g.min(num_hm - 1))?);
+            let (a, b) = (loca_at(g)?, loca_at(g + 1)?);
+            x_min.push(if b > a { i16_at(glyf + a + 2)? } else { 0 });
+        }
+        // The Unicode BMP subtable (platform 3 encoding 1, or platform 0), format 4.
+        let n_sub = usize::from(u16_at(cmap + 2)?);
+        let sub = (0..n_sub).find_map(|i| {
+            let rec = cmap + 4 + 8 * i;
+            let (platform, encoding) = (u16_at(rec)?, u16_at(rec + 2)?);
+            let off = cmap + u32_at(rec + 4)? as usize;
+            ((platform == 3 && encoding == 1 || platform == 0) && u16_at(off)? == 4).then_some(off)
+        })?;
+        let seg_count = usize::from(u16_at(sub + 6)? / 2);
+        let ends = sub + 14;
+        let starts = ends + 2 * seg_count + 2;
+        let deltas = starts + 2 * seg_count;
+        let ranges = deltas + 2 * seg_count;
+        let mut segments = Vec::with_capacity(seg_count);
+        for i in 0..seg_count {
+            let range_pos = ranges + 2 * i;
+            let range = u16_at(range_pos)?;
+            segments.push((
+                u16_at(starts + 2 * i)?,
+                u16_at(ends + 2 * i)?,
+                u16_at(deltas + 2 * i)?,
+                if range == 0 {
+                    0
+                } else {
+                    range_pos + usize::from(range)
+                },
+            ));
+        }
+        (height > 0.0).then_some(Self {
+            height,
+            advance,
+            x_min,
+            segments,
+            data,
+        })
+    }
+
+    /// The glyph id of `c` (0, the missing glyph, if the font lacks it).
+    fn glyph(&self, c: char) -> usize {
+        let Ok(c) = u16::try_from(u32::from(c)) else {
+            return 0;
+        };
+        let Some(&(start, end, delta, range_at)) = self.segments.iter().find(|s| s.1 >= c) else {
+            return 0;
+        };
+        if c < start || c > end {
+            return 0;
+        }
+        let id = if range_at == 0 {
+            c.wrapping_add(delta)
+        } else {
+            let o = range_at + 2 * usize::from(c - start);
+            match (self.data.get(o), self.data.get(o + 1)) {
+                (Some(&a), Some(&b)) if u16::from_be_bytes([a, b]) != 0 => {
+                    u16::from_be_bytes([a, b]).wrapping_add(delta)
+                }
+                _ => 0,
+            }
+        };
+        usize::from(id)
+    }
+
+    /// Advance width of `c` in pixels at font size `size`.
+    fn advance(&self, c: char, size: f64) -> f64 {
+        let g = self.glyph(c);
+        f64::from(self.advance.get(g).copied().unwrap_or(0)) * size / self.height
+    }
+
+    /// Left edge of the outline of `c` relative to the pen, in pixels at font size `size`.
+    fn left_bearing(&self, c: char, size: f64) -> f64 {
+        let g = self.glyph(c);
+        f64::from(self.x_min.get(g).copied().unwrap_or(0)) * size / self.height
+    }
+}
+
 /// Width of the y label area: the widest tick label, the tick marks and the rotated axis text.
 fn y_label_area<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
@@ -1143,9 +1376,9 @@ fn y_label_area<DB: DrawingBackend>(
             .map_err(plot_err)?;
         widest = widest.max(tw);
     }
-    // One more digit of slack (equal scaling may change the ticks), tick marks, the gap, and the
-    // rotated axis description.
-    Ok(widest + 8 + 10 + 5 + AXIS_DESC_PX + 12)
+    // Slack (equal scaling may change the ticks), tick marks and gap, the rotated axis
+    // description.
+    Ok(widest + 6 + 12 + AXIS_DESC_PX + 6)
 }
 
 #[cfg(test)]

@@ -16,6 +16,8 @@ pub mod grasp;
 pub mod object;
 pub mod plant;
 
+pub mod fixtures;
+
 pub mod integrate;
 pub mod sensors;
 

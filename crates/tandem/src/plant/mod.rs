@@ -388,3 +388,49 @@ fn solve_ik_numeric(arm: &Arm, target: Vector2<f64>, q: &mut [f64], t: &mut ArmT
     }
     if res < 1e-11 { Ok(()) } else { Err(res) }
 }
+
+/// The constrained plant as an [`OdeSystem`](crate::integrate::OdeSystem) with a held input
+/// (zero-order hold). If the derivative cannot be evaluated (never for a validated model) it
+/// writes NaN, which the caller's non-finite check catches.
+pub struct ConstrainedOde<'a> {
+    /// The model.
+    pub plant: &'a Plant,
+    /// Scratch; after a step it holds the last stage's grasp forces.
+    pub ws: &'a mut PlantWorkspace,
+    /// The held input.
+    pub input: &'a PlantInput,
+}
+
+impl crate::integrate::OdeSystem for ConstrainedOde<'_> {
+    fn dim(&self) -> usize {
+        self.plant.state_dim()
+    }
+    fn deriv(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        if !self.plant.derivative(y, self.input, self.ws, dy) {
+            dy.fill(f64::NAN);
+        }
+    }
+}
+
+/// The reduced plant (14) on `(x_o, ẋ_o)` as an [`OdeSystem`](crate::integrate::OdeSystem)
+/// with a held input; writes NaN where the reduced form does not exist (IK out of reach,
+/// singular arm).
+pub struct ReducedOde<'a> {
+    /// The model.
+    pub plant: &'a Plant,
+    /// Scratch.
+    pub ws: &'a mut PlantWorkspace,
+    /// The held input.
+    pub input: &'a PlantInput,
+}
+
+impl crate::integrate::OdeSystem for ReducedOde<'_> {
+    fn dim(&self) -> usize {
+        6
+    }
+    fn deriv(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        if self.plant.reduced_derivative(y, self.input, self.ws, dy).is_err() {
+            dy.fill(f64::NAN);
+        }
+    }
+}
