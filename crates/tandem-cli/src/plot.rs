@@ -730,23 +730,25 @@ impl Ticks {
             .unwrap_or(20.0 * mag);
         let (k0, k1) = ks(step);
         let values: Vec<f64> = (k0..=k1).map(|k| k as f64 * step).collect();
-        let maxabs = lo.abs().max(hi.abs());
-        let exp = if maxabs >= 1e4 || (maxabs > 0.0 && maxabs < 1e-2) {
-            maxabs.log10().floor() as i32
-        } else {
-            0
-        };
-        let scaled_step = step / 10f64.powi(exp);
         // The fewest decimals that show the step exactly (0.25 → 2, 20 → 0, 2.5 → 1).
-        let decimals = (0..12)
-            .find(|&d| {
-                let v = scaled_step * 10f64.powi(d);
-                (v - v.round()).abs() < 1e-6 * v.max(1.0)
-            })
-            .unwrap_or(12) as usize;
+        let decimals_for = |exp: i32| {
+            let scaled_step = step / 10f64.powi(exp);
+            (0..12)
+                .find(|&d| {
+                    let v = scaled_step * 10f64.powi(d);
+                    (v - v.round()).abs() < 1e-6 * v.max(1.0)
+                })
+                .unwrap_or(12) as usize
+        };
+        // Labels longer than "0.005" or "10000" get a common engineering factor 10^(3k).
+        let maxabs = lo.abs().max(hi.abs());
+        let mut exp = 0;
+        if maxabs > 0.0 && (maxabs >= 1e4 || decimals_for(0) > 3) {
+            exp = 3 * (maxabs.log10() / 3.0).floor() as i32;
+        }
         Self {
             values,
-            decimals,
+            decimals: decimals_for(exp),
             exp,
         }
     }
@@ -1399,12 +1401,17 @@ mod tests {
         assert_eq!(t.label(30.0), "30");
 
         let t = Ticks::nice(-2e-4, 3e-4, 6);
-        assert_eq!(t.exp, -4);
-        assert_eq!(t.describe("z1 [m]"), "z1 [m]  (×10⁻⁴)");
-        assert_eq!(t.label(1e-4), "1");
+        assert_eq!(t.exp, -6);
+        assert_eq!(t.describe("z1 [m]"), "z1 [m]  (×10⁻⁶)");
+        assert_eq!(t.label(1e-4), "100");
+
+        let t = Ticks::nice(-0.0106, 0.001, 6);
+        assert_eq!(t.exp, -3);
+        assert_eq!(t.label(-0.005), "−5");
 
         let t = Ticks::nice(0.0, 2.5e5, 5);
-        assert_eq!(t.exp, 5);
+        assert_eq!(t.exp, 3);
+        assert_eq!(t.label(1e5), "100");
     }
 
     #[test]

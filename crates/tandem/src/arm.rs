@@ -91,8 +91,18 @@ impl ArmParams {
             base,
             base_angle: 0.0,
             links: vec![
-                LinkParams { mass: 2.0, length: 0.3, com: 0.15, inertia: 0.045 },
-                LinkParams { mass: 0.85, length: 0.3, com: 0.15, inertia: 0.019 },
+                LinkParams {
+                    mass: 2.0,
+                    length: 0.3,
+                    com: 0.15,
+                    inertia: 0.045,
+                },
+                LinkParams {
+                    mass: 0.85,
+                    length: 0.3,
+                    com: 0.15,
+                    inertia: 0.019,
+                },
             ],
             elbow,
         }
@@ -154,6 +164,8 @@ pub struct ArmTerms {
     com_dot: Vec<Vector2<f64>>,
     phi: Vec<f64>,
     phi_dot: Vec<f64>,
+    /// `u(φ_k) = (cos φ_k, sin φ_k)` per link.
+    u: Vec<Vector2<f64>>,
     rnea_f: Vec<Vector2<f64>>,
     rnea_a: Vec<Vector2<f64>>,
     pub(crate) chol: DMatrix<f64>,
@@ -204,32 +216,54 @@ impl Arm {
     /// `arms[0]`) prefixes every error's parameter path.
     pub fn new(name: &str, params: &ArmParams) -> Result<Self, ModelError> {
         if params.links.is_empty() {
-            return Err(ModelError::geometry(format!("{name}.links"), "an arm needs at least one link"));
+            return Err(ModelError::geometry(
+                format!("{name}.links"),
+                "an arm needs at least one link",
+            ));
         }
         for (k, v) in params.base.iter().enumerate() {
             if !v.is_finite() {
-                return Err(ModelError::invalid(format!("{name}.base[{k}]"), *v, "must be finite"));
+                return Err(ModelError::invalid(
+                    format!("{name}.base[{k}]"),
+                    *v,
+                    "must be finite",
+                ));
             }
         }
         if !params.base_angle.is_finite() {
-            return Err(ModelError::invalid(format!("{name}.base_angle"), params.base_angle, "must be finite"));
+            return Err(ModelError::invalid(
+                format!("{name}.base_angle"),
+                params.base_angle,
+                "must be finite",
+            ));
         }
         let n = params.links.len();
-        let (mut m, mut l, mut lc, mut inertia) =
-            (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+        let (mut m, mut l, mut lc, mut inertia) = (
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+        );
         for (k, link) in params.links.iter().enumerate() {
             let p = |f: &str| format!("{name}.links[{k}].{f}");
             m.push(positive(&p("mass"), link.mass)?);
             l.push(positive(&p("length"), link.length)?);
             let c = non_negative(&p("com"), link.com)?;
             if c > link.length {
-                return Err(ModelError::invalid(p("com"), c, format!("must not exceed the link length {}", link.length)));
+                return Err(ModelError::invalid(
+                    p("com"),
+                    c,
+                    format!("must not exceed the link length {}", link.length),
+                ));
             }
             lc.push(c);
             inertia.push(non_negative(&p("inertia"), link.inertia)?);
         }
         let two = (n == 2).then(|| TwoLink {
-            p1: m[0] * lc[0] * lc[0] + m[1] * (l[0] * l[0] + lc[1] * lc[1]) + inertia[0] + inertia[1],
+            p1: m[0] * lc[0] * lc[0]
+                + m[1] * (l[0] * l[0] + lc[1] * lc[1])
+                + inertia[0]
+                + inertia[1],
             p2: m[1] * l[0] * lc[1],
             p3: m[1] * lc[1] * lc[1] + inertia[1],
             g1: m[0] * lc[0] + m[1] * l[0],
@@ -291,6 +325,7 @@ impl Arm {
             com_dot: vec![Vector2::zeros(); n],
             phi: vec![0.0; n],
             phi_dot: vec![0.0; n],
+            u: vec![Vector2::zeros(); n],
             rnea_f: vec![Vector2::zeros(); n + 1],
             rnea_a: vec![Vector2::zeros(); n + 1],
             chol: DMatrix::zeros(n, n),
@@ -324,7 +359,9 @@ impl Arm {
             phid += qd[k];
             t.phi[k] = phi;
             t.phi_dot[k] = phid;
-            let u = Vector2::new(phi.cos(), phi.sin());
+            let (sk, ck) = phi.sin_cos();
+            let u = Vector2::new(ck, sk);
+            t.u[k] = u;
             let up = perp(u);
             t.com[k] = t.points[k] + self.lc[k] * u;
             t.com_dot[k] = t.points_dot[k] + self.lc[k] * phid * up;
@@ -348,7 +385,7 @@ impl Arm {
     pub fn dynamics(&self, q: &[f64], qd: &[f64], g: f64, t: &mut ArmTerms) {
         self.kinematics(q, qd, t);
         if let Some(k) = self.two {
-            self.two_link_dynamics(&k, q, qd, g, t);
+            self.two_link_dynamics(&k, qd, g, t);
         } else {
             self.general_dynamics(g, t);
         }
@@ -379,10 +416,12 @@ impl Arm {
         }
     }
 
-    fn two_link_dynamics(&self, k: &TwoLink, q: &[f64], qd: &[f64], g: f64, t: &mut ArmTerms) {
-        // SPEC §2.1 closed forms; angles relative to the base orientation.
-        let (s2, c2) = q[1].sin_cos();
-        let a1 = self.base_angle + q[0];
+    fn two_link_dynamics(&self, k: &TwoLink, qd: &[f64], g: f64, t: &mut ArmTerms) {
+        // SPEC §2.1 closed forms. The link directions u1 = u(q1), u12 = u(q1 + q2) come from
+        // the kinematics pass: cos q2 = u1·u12, sin q2 = u1 × u12 (no further trigonometry).
+        let (u1, u12) = (t.u[0], t.u[1]);
+        let c2 = u1.dot(&u12);
+        let s2 = cross(u1, u12);
         let m12 = k.p3 + k.p2 * c2;
         t.M[(0, 0)] = k.p1 + 2.0 * k.p2 * c2;
         t.M[(0, 1)] = m12;
@@ -393,15 +432,24 @@ impl Arm {
         t.C[(0, 1)] = -h * (qd[0] + qd[1]);
         t.C[(1, 0)] = h * qd[0];
         t.C[(1, 1)] = 0.0;
-        let c12 = (a1 + q[1]).cos();
-        t.G[0] = k.g1 * g * a1.cos() + k.g2 * g * c12;
+        let c12 = u12.x;
+        t.G[0] = k.g1 * g * u1.x + k.g2 * g * c12;
         t.G[1] = k.g2 * g * c12;
     }
 
     /// Recursive Newton–Euler inverse dynamics: `τ = M q̈ + C q̇ + G − J_eᵀ F_ext`, where
     /// `F_ext` is the force the environment (the object) exerts on the end-effector.
     /// Reads `(q, q̇, q̈, F_ext, g)`; writes `tau` (n) and the kinematic fields of `t`.
-    pub fn rnea(&self, q: &[f64], qd: &[f64], qdd: &[f64], f_ext: Vector2<f64>, g: f64, t: &mut ArmTerms, tau: &mut [f64]) {
+    pub fn rnea(
+        &self,
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        f_ext: Vector2<f64>,
+        g: f64,
+        t: &mut ArmTerms,
+        tau: &mut [f64],
+    ) {
         let n = self.dof();
         self.kinematics(q, qd, t);
         // Forward: joint-point accelerations, gravity as an upward base acceleration.
@@ -409,7 +457,7 @@ impl Arm {
         let mut phidd = 0.0;
         for k in 0..n {
             phidd += qdd[k];
-            let u = Vector2::new(t.phi[k].cos(), t.phi[k].sin());
+            let u = t.u[k];
             let w2 = t.phi_dot[k] * t.phi_dot[k];
             t.rnea_a[k + 1] = t.rnea_a[k] + self.l[k] * (perp(u) * phidd - u * w2);
         }
@@ -418,7 +466,7 @@ impl Arm {
         let mut n_next = 0.0;
         let mut phidd_k = qdd.iter().take(n).sum::<f64>();
         for k in (0..n).rev() {
-            let u = Vector2::new(t.phi[k].cos(), t.phi[k].sin());
+            let u = t.u[k];
             let w2 = t.phi_dot[k] * t.phi_dot[k];
             let a_c = t.rnea_a[k] + self.lc[k] * (perp(u) * phidd_k - u * w2);
             let ma = self.m[k] * a_c;
@@ -436,7 +484,14 @@ impl Arm {
 
     /// Forward dynamics `q̈ = M⁻¹(τ + J_eᵀ F_ext − C q̇ − G)` (after [`Arm::dynamics`]).
     /// Returns `Err(joint)` if `M` is not positive definite (non-physical parameters).
-    pub fn forward_dynamics(&self, qd: &[f64], tau: &[f64], f_ext: Vector2<f64>, t: &mut ArmTerms, qdd: &mut [f64]) -> Result<(), usize> {
+    pub fn forward_dynamics(
+        &self,
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: Vector2<f64>,
+        t: &mut ArmTerms,
+        qdd: &mut [f64],
+    ) -> Result<(), usize> {
         let n = self.dof();
         for i in 0..n {
             let mut b = tau[i] + t.J[(0, i)] * f_ext.x + t.J[(1, i)] * f_ext.y - t.G[i];
@@ -466,7 +521,11 @@ impl Arm {
         let r2 = x * x + y * y;
         let c2 = (r2 - l1 * l1 - l2 * l2) / (2.0 * l1 * l2);
         if !(-1.0..=1.0).contains(&c2) {
-            return Err(IkFailure::OutOfReach { distance: r2.sqrt(), min: (l1 - l2).abs(), max: l1 + l2 });
+            return Err(IkFailure::OutOfReach {
+                distance: r2.sqrt(),
+                min: (l1 - l2).abs(),
+                max: l1 + l2,
+            });
         }
         let q2 = self.elbow.sign() * c2.acos();
         let q1 = y.atan2(x) - (l2 * q2.sin()).atan2(l1 + l2 * q2.cos());
@@ -488,11 +547,21 @@ impl Arm {
         let jit = ji.transpose();
         let m = Matrix2::new(t.M[(0, 0)], t.M[(0, 1)], t.M[(1, 0)], t.M[(1, 1)]);
         let c = Matrix2::new(t.C[(0, 0)], t.C[(0, 1)], t.C[(1, 0)], t.C[(1, 1)]);
-        let jd = Matrix2::new(t.Jdot[(0, 0)], t.Jdot[(0, 1)], t.Jdot[(1, 0)], t.Jdot[(1, 1)]);
+        let jd = Matrix2::new(
+            t.Jdot[(0, 0)],
+            t.Jdot[(0, 1)],
+            t.Jdot[(1, 0)],
+            t.Jdot[(1, 1)],
+        );
         let m_x = jit * m * ji;
         let c_x = jit * (c - m * ji * jd) * ji;
         let g_x = jit * Vector2::new(t.G[0], t.G[1]);
-        Some(Cartesian { M_x: m_x, C_x: c_x, G_x: g_x, J_inv: ji })
+        Some(Cartesian {
+            M_x: m_x,
+            C_x: c_x,
+            G_x: g_x,
+            J_inv: ji,
+        })
     }
 
     /// Smallest singular value of `J_e` after [`Arm::kinematics`] (2 × n), m/rad.

@@ -34,11 +34,18 @@ pub enum ModelError {
 impl ModelError {
     /// Shorthand for [`ModelError::Invalid`].
     pub fn invalid(param: impl Into<String>, value: f64, reason: impl Into<String>) -> Self {
-        ModelError::Invalid { param: param.into(), value, reason: reason.into() }
+        ModelError::Invalid {
+            param: param.into(),
+            value,
+            reason: reason.into(),
+        }
     }
     /// Shorthand for [`ModelError::Geometry`].
     pub fn geometry(what: impl Into<String>, reason: impl Into<String>) -> Self {
-        ModelError::Geometry { what: what.into(), reason: reason.into() }
+        ModelError::Geometry {
+            what: what.into(),
+            reason: reason.into(),
+        }
     }
 }
 

@@ -19,7 +19,12 @@ pub fn paper_start() -> Vector3<f64> {
 /// A redundant case: two 3-link arms (0.2 m links) at the paper's bases, with a joint-angle
 /// guess (stacked) for the numerical inverse kinematics at [`paper_start`].
 pub fn redundant_pair() -> (PlantParams, Vec<f64>) {
-    let link = |m: f64, i: f64| LinkParams { mass: m, length: 0.2, com: 0.1, inertia: i };
+    let link = |m: f64, i: f64| LinkParams {
+        mass: m,
+        length: 0.2,
+        com: 0.1,
+        inertia: i,
+    };
     let arm = |x: f64, elbow| ArmParams {
         base: [x, 0.0],
         base_angle: 0.0,
@@ -44,6 +49,9 @@ pub fn three_arms() -> PlantParams {
 
 /// A plant with no damping on the object (for energy-conservation checks).
 pub fn undamped(mut p: PlantParams) -> PlantParams {
-    p.object = ObjectParams { damping: [0.0; 3], ..p.object };
+    p.object = ObjectParams {
+        damping: [0.0; 3],
+        ..p.object
+    };
     p
 }

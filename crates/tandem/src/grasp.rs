@@ -33,7 +33,11 @@ impl Grasp {
     }
     /// Grasp Jacobian `J_i(θ)` (2 × 3): `ẋ_i = J_i ẋ_o`.
     pub fn jacobian(&self, theta: f64) -> Matrix2x3<f64> {
-        let d = perp(self.arm_w(theta));
+        Self::jacobian_from_arm(self.arm_w(theta))
+    }
+    /// `J_i` from a precomputed `R(θ) r_i` (saves the trigonometry in a hot loop).
+    pub fn jacobian_from_arm(rw: Vector2<f64>) -> Matrix2x3<f64> {
+        let d = perp(rw);
         Matrix2x3::new(1.0, 0.0, d.x, 0.0, 1.0, d.y)
     }
     /// `J̇_i ẋ_o = −R(θ) r_i θ̇²`, m/s².
@@ -94,8 +98,12 @@ mod tests {
     fn paper_grasp_jacobians_match_the_paper() {
         // Paper Section V-A: J_1 = [1 0 (l_o/2) sinθ; 0 1 −(l_o/2) cosθ], J_2 with opposite signs.
         let lo = 0.1;
-        let g1 = Grasp { r: Vector2::new(-lo / 2.0, 0.0) };
-        let g2 = Grasp { r: Vector2::new(lo / 2.0, 0.0) };
+        let g1 = Grasp {
+            r: Vector2::new(-lo / 2.0, 0.0),
+        };
+        let g2 = Grasp {
+            r: Vector2::new(lo / 2.0, 0.0),
+        };
         let th: f64 = 0.3;
         let j1 = g1.jacobian(th);
         let j2 = g2.jacobian(th);
@@ -107,7 +115,9 @@ mod tests {
 
     #[test]
     fn grasp_jacobian_and_bias_match_finite_differences() {
-        let g = Grasp { r: Vector2::new(0.07, -0.02) };
+        let g = Grasp {
+            r: Vector2::new(0.07, -0.02),
+        };
         let x = Vector3::new(0.1, -0.2, 0.4);
         let xd = Vector3::new(0.3, -0.1, 1.7);
         let h = 1e-6;
@@ -121,9 +131,15 @@ mod tests {
     #[test]
     fn pose_and_velocity_fit_invert_the_grasp_map() {
         let gs = [
-            Grasp { r: Vector2::new(-0.05, 0.0) },
-            Grasp { r: Vector2::new(0.05, 0.01) },
-            Grasp { r: Vector2::new(0.0, 0.04) },
+            Grasp {
+                r: Vector2::new(-0.05, 0.0),
+            },
+            Grasp {
+                r: Vector2::new(0.05, 0.01),
+            },
+            Grasp {
+                r: Vector2::new(0.0, 0.04),
+            },
         ];
         let x = Vector3::new(0.12, 0.3, -2.9);
         let xd = Vector3::new(-0.2, 0.5, 0.8);

@@ -39,7 +39,11 @@ pub fn cholesky_in_place<R: Dim, C: Dim, S: RawStorageMut<f64, R, C>>(
             a[(i, j)] = s / ljj;
         }
     }
-    Ok(if max_diag > 0.0 { min_pivot / max_diag } else { 0.0 })
+    Ok(if max_diag > 0.0 {
+        min_pivot / max_diag
+    } else {
+        0.0
+    })
 }
 
 /// Solve `L Lᵀ x = b` in place (`b` becomes `x`) with the factor from [`cholesky_in_place`].

@@ -28,7 +28,12 @@ pub struct ObjectParams {
 impl ObjectParams {
     /// The paper's object (SPEC §4): `M_o = C_o = I`, `G_o = (0, 9.8, 0)`, `l_o = 0.1 m`.
     pub fn paper() -> Self {
-        ObjectParams { inertia: [1.0; 3], damping: [1.0; 3], gravity: [0.0, 9.8, 0.0], size: [0.1, 0.05] }
+        ObjectParams {
+            inertia: [1.0; 3],
+            damping: [1.0; 3],
+            gravity: [0.0, 9.8, 0.0],
+            size: [0.1, 0.05],
+        }
     }
 }
 
@@ -57,7 +62,11 @@ impl Object {
             m[k] = positive(&format!("object.inertia[{k}]"), p.inertia[k])?;
             c[k] = non_negative(&format!("object.damping[{k}]"), p.damping[k])?;
             if !p.gravity[k].is_finite() {
-                return Err(ModelError::invalid(format!("object.gravity[{k}]"), p.gravity[k], "must be finite"));
+                return Err(ModelError::invalid(
+                    format!("object.gravity[{k}]"),
+                    p.gravity[k],
+                    "must be finite",
+                ));
             }
         }
         for k in 0..2 {

@@ -32,10 +32,24 @@ fn random_arm(rng: &mut Rng, n: usize) -> Arm {
     let links = (0..n)
         .map(|_| {
             let l = rng.range(0.1, 0.5);
-            LinkParams { mass: rng.range(0.3, 3.0), length: l, com: rng.range(0.0, l), inertia: rng.range(0.0, 0.1) }
+            LinkParams {
+                mass: rng.range(0.3, 3.0),
+                length: l,
+                com: rng.range(0.0, l),
+                inertia: rng.range(0.0, 0.1),
+            }
         })
         .collect();
-    Arm::new("arm", &ArmParams { base: [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)], base_angle: rng.range(-1.0, 1.0), links, elbow: Elbow::Positive }).unwrap()
+    Arm::new(
+        "arm",
+        &ArmParams {
+            base: [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)],
+            base_angle: rng.range(-1.0, 1.0),
+            links,
+            elbow: Elbow::Positive,
+        },
+    )
+    .unwrap()
 }
 
 fn rel_err(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
@@ -48,7 +62,11 @@ fn two_link_closed_forms_equal_general_algorithm() {
     // a handful of products): 1e-12 relative leaves ~4 decimal digits of slack over ε·cond.
     let mut rng = Rng(1);
     for trial in 0..200 {
-        let arm = if trial % 2 == 0 { paper_arm() } else { random_arm(&mut rng, 2) };
+        let arm = if trial % 2 == 0 {
+            paper_arm()
+        } else {
+            random_arm(&mut rng, 2)
+        };
         let q = rng.vec(2, 3.0);
         let qd = rng.vec(2, 5.0);
         let mut fast = arm.terms();
@@ -56,8 +74,18 @@ fn two_link_closed_forms_equal_general_algorithm() {
         arm.dynamics(&q, &qd, 9.8, &mut fast);
         arm.kinematics(&q, &qd, &mut general);
         arm.general_dynamics(9.8, &mut general);
-        assert!(rel_err(&fast.M, &general.M) < 1e-12, "M: {} vs {}", fast.M, general.M);
-        assert!(rel_err(&fast.C, &general.C) < 1e-12, "C: {} vs {}", fast.C, general.C);
+        assert!(
+            rel_err(&fast.M, &general.M) < 1e-12,
+            "M: {} vs {}",
+            fast.M,
+            general.M
+        );
+        assert!(
+            rel_err(&fast.C, &general.C) < 1e-12,
+            "C: {} vs {}",
+            fast.C,
+            general.C
+        );
         let ge = (&fast.G - &general.G).norm() / general.G.norm().max(1e-12);
         assert!(ge < 1e-12, "G: {} vs {}", fast.G, general.G);
     }
@@ -103,7 +131,10 @@ fn mdot_minus_2c_is_skew_for_2_to_5_links() {
             arm.dynamics(&q, &qd, 9.8, &mut t);
             let nmat = mdot_fd(&arm, &q, &qd) - 2.0 * &t.C;
             let sym = &nmat + nmat.transpose();
-            assert!(sym.norm() < 1e-8 * (1.0 + nmat.norm()), "n = {n}: N + Nᵀ = {sym}");
+            assert!(
+                sym.norm() < 1e-8 * (1.0 + nmat.norm()),
+                "n = {n}: N + Nᵀ = {sym}"
+            );
             // And M is symmetric positive definite.
             assert!((&t.M - t.M.transpose()).norm() < 1e-14);
             assert!(t.M.clone().cholesky().is_some());
@@ -140,12 +171,21 @@ fn jacobian_and_jdot_qdot_equal_finite_differences() {
             arm.kinematics(&qm, &qd, &mut tm);
             let qdv = nalgebra::DVector::from_column_slice(&qd);
             let fd = (&tp.J * &qdv - &tm.J * &qdv) / (2.0 * h);
-            assert!((fd - nalgebra::DVector::from_column_slice(t.jdot_qdot.as_slice())).norm() < 1e-7);
+            assert!(
+                (fd - nalgebra::DVector::from_column_slice(t.jdot_qdot.as_slice())).norm() < 1e-7
+            );
             let jd_fd = (&tp.J - &tm.J) / (2.0 * h);
             assert!((jd_fd - &t.Jdot).norm() < 1e-7);
-            assert!((&t.Jdot * &qdv - nalgebra::DVector::from_column_slice(t.jdot_qdot.as_slice())).norm() < 1e-12);
+            assert!(
+                (&t.Jdot * &qdv - nalgebra::DVector::from_column_slice(t.jdot_qdot.as_slice()))
+                    .norm()
+                    < 1e-12
+            );
             // End-effector velocity is J q̇.
-            assert!(((&t.J * &qdv) - nalgebra::DVector::from_column_slice(t.v_ee.as_slice())).norm() < 1e-13);
+            assert!(
+                ((&t.J * &qdv) - nalgebra::DVector::from_column_slice(t.v_ee.as_slice())).norm()
+                    < 1e-13
+            );
         }
     }
 }
@@ -168,12 +208,21 @@ fn rnea_equals_lagrangian_and_inverts_forward_dynamics() {
             let qddv = nalgebra::DVector::from_column_slice(&qdd);
             let lag = &t.M * &qddv + &t.C * &qdv + &t.G - t.J.transpose() * f;
             let tv = nalgebra::DVector::from_column_slice(&tau);
-            assert!((&tv - &lag).norm() < 1e-11 * (1.0 + lag.norm()), "n={n}: {tv} vs {lag}");
+            assert!(
+                (&tv - &lag).norm() < 1e-11 * (1.0 + lag.norm()),
+                "n={n}: {tv} vs {lag}"
+            );
             // Forward dynamics with τ from RNEA returns q̈ (conditioning of M: ≤ 1e3 here).
             let mut back = vec![0.0; n];
-            arm.forward_dynamics(&qd, &tau, f, &mut t, &mut back).unwrap();
+            arm.forward_dynamics(&qd, &tau, f, &mut t, &mut back)
+                .unwrap();
             for k in 0..n {
-                assert!((back[k] - qdd[k]).abs() < 1e-9 * (1.0 + qdd[k].abs()), "n={n} joint {k}: {} vs {}", back[k], qdd[k]);
+                assert!(
+                    (back[k] - qdd[k]).abs() < 1e-9 * (1.0 + qdd[k].abs()),
+                    "n={n} joint {k}: {} vs {}",
+                    back[k],
+                    qdd[k]
+                );
             }
         }
     }
@@ -192,7 +241,8 @@ fn cartesian_dynamics_reproduce_joint_accelerations() {
         let f = Vector2::new(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0));
         arm.dynamics(&q, &qd, 9.8, &mut t);
         let mut qdd = vec![0.0; 2];
-        arm.forward_dynamics(&qd, &tau, f, &mut t, &mut qdd).unwrap();
+        arm.forward_dynamics(&qd, &tau, f, &mut t, &mut qdd)
+            .unwrap();
         let c = arm.cartesian(&t, 1e-9).unwrap();
         let xdd = Vector2::new(
             t.J[(0, 0)] * qdd[0] + t.J[(0, 1)] * qdd[1],
@@ -201,7 +251,10 @@ fn cartesian_dynamics_reproduce_joint_accelerations() {
         let tau_x = c.J_inv.transpose() * Vector2::new(tau[0], tau[1]);
         // (3): M_x ẍ + C_x ẋ + G_x = τ_x + F.
         let r = c.M_x * xdd + c.C_x * t.v_ee + c.G_x - tau_x - f;
-        assert!(r.norm() < 1e-9 * (1.0 + tau_x.norm() + f.norm()), "residual {r}");
+        assert!(
+            r.norm() < 1e-9 * (1.0 + tau_x.norm() + f.norm()),
+            "residual {r}"
+        );
     }
 }
 
@@ -221,7 +274,10 @@ fn analytic_ik_inverts_forward_kinematics_on_its_branch() {
                 Elbow::Positive => q[1] >= 0.0,
             });
         }
-        assert!(arm.inverse_kinematics(arm.base() + Vector2::new(0.61, 0.0)).is_err());
+        assert!(
+            arm.inverse_kinematics(arm.base() + Vector2::new(0.61, 0.0))
+                .is_err()
+        );
     }
 }
 
@@ -230,14 +286,22 @@ fn bad_link_parameters_name_the_arm_link_and_field() {
     let mut p = ArmParams::paper([0.0, 0.0], Elbow::Positive);
     p.links[1].mass = -1.0;
     let e = Arm::new("arms[1]", &p).unwrap_err();
-    assert!(matches!(&e, ModelError::Invalid { param, .. } if param == "arms[1].links[1].mass"), "{e}");
+    assert!(
+        matches!(&e, ModelError::Invalid { param, .. } if param == "arms[1].links[1].mass"),
+        "{e}"
+    );
     let mut p = ArmParams::paper([0.0, 0.0], Elbow::Positive);
     p.links[0].length = 0.0;
     let e = Arm::new("arms[0]", &p).unwrap_err();
     assert!(e.to_string().contains("arms[0].links[0].length"), "{e}");
     let mut p = ArmParams::paper([0.0, 0.0], Elbow::Positive);
     p.links[0].inertia = -0.1;
-    assert!(Arm::new("a", &p).unwrap_err().to_string().contains("inertia"));
+    assert!(
+        Arm::new("a", &p)
+            .unwrap_err()
+            .to_string()
+            .contains("inertia")
+    );
     let mut p = ArmParams::paper([0.0, 0.0], Elbow::Positive);
     p.links[0].com = 0.5;
     assert!(Arm::new("a", &p).unwrap_err().to_string().contains("com"));

@@ -7,7 +7,15 @@ use tandem::integrate::Rk4;
 use tandem::plant::{ConstrainedOde, Plant, PlantInput, PlantParams, PlantWorkspace, ReducedOde};
 
 /// Advance the constrained plant `steps` RK4 steps of `h` with a held input.
-fn run(plant: &Plant, ws: &mut PlantWorkspace, y: &mut [f64], input: &PlantInput, h: f64, steps: usize, rk: &mut Rk4) {
+fn run(
+    plant: &Plant,
+    ws: &mut PlantWorkspace,
+    y: &mut [f64],
+    input: &PlantInput,
+    h: f64,
+    steps: usize,
+    rk: &mut Rk4,
+) {
     let mut t = 0.0;
     for _ in 0..steps {
         let mut sys = ConstrainedOde { plant, ws, input };
@@ -18,16 +26,29 @@ fn run(plant: &Plant, ws: &mut PlantWorkspace, y: &mut [f64], input: &PlantInput
 
 /// Joint-space law that holds the chain near its start pose: gravity compensation of the arms,
 /// a spring-damper to the start angles, and sinusoids (SPEC §2.4 agreement test).
-fn hold_law(plant: &Plant, ws: &mut PlantWorkspace, q0: &[f64], y: &[f64], t: f64, tau: &mut [f64]) {
+fn hold_law(
+    plant: &Plant,
+    ws: &mut PlantWorkspace,
+    q0: &[f64],
+    y: &[f64],
+    t: f64,
+    tau: &mut [f64],
+) {
     let (q, _, qd, _) = plant.split(y);
     for (i, arm) in plant.arms().iter().enumerate() {
         let off = plant.offset(i);
         let n = arm.dof();
-        arm.dynamics(&q[off..off + n], &qd[off..off + n], plant.gravity(), &mut ws.terms[i]);
+        arm.dynamics(
+            &q[off..off + n],
+            &qd[off..off + n],
+            plant.gravity(),
+            &mut ws.terms[i],
+        );
         for k in 0..n {
             let j = off + k;
             // Angles from IK are defined modulo 2π: wrap the error.
-            let e = (q0[j] - q[j] + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+            let e = (q0[j] - q[j] + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
             tau[j] = ws.terms[i].G[k] + 30.0 * e - 3.0 * qd[j] + 0.5 * (1.3 * t + j as f64).sin();
         }
     }
@@ -35,7 +56,9 @@ fn hold_law(plant: &Plant, ws: &mut PlantWorkspace, q0: &[f64], y: &[f64], t: f6
 
 fn undamped_paper() -> (Plant, Vec<f64>) {
     let plant = Plant::new(&fixtures::undamped(fixtures::paper())).unwrap();
-    let y = plant.initial_state(fixtures::paper_start(), Vector3::new(0.0, 0.0, 0.3), None).unwrap();
+    let y = plant
+        .initial_state(fixtures::paper_start(), Vector3::new(0.0, 0.0, 0.3), None)
+        .unwrap();
     (plant, y)
 }
 
@@ -76,7 +99,9 @@ fn damped_chain_never_gains_energy_and_balance_holds() {
     // With C_o > 0, dE/dt = −ẋᵀC_oẋ ≤ 0. Check monotone decrease (to round-off) and the energy
     // balance E(t) − E(0) = ∫ P_in dt by the trapezoidal rule over 1 ms samples.
     let plant = Plant::new(&fixtures::paper()).unwrap();
-    let mut y = plant.initial_state(fixtures::paper_start(), Vector3::new(0.1, 0.0, 0.5), None).unwrap();
+    let mut y = plant
+        .initial_state(fixtures::paper_start(), Vector3::new(0.1, 0.0, 0.5), None)
+        .unwrap();
     let mut ws = plant.workspace();
     let input = plant.zero_input();
     let mut rk = Rk4::new(plant.state_dim());
@@ -95,7 +120,10 @@ fn damped_chain_never_gains_energy_and_balance_holds() {
         e_prev = e;
     }
     let bal = (e_prev - e0 - work).abs();
-    println!("damped chain: E drop {:.4} J, balance residual {bal:.2e} J", e0 - e_prev);
+    println!(
+        "damped chain: E drop {:.4} J, balance residual {bal:.2e} J",
+        e0 - e_prev
+    );
     // Trapezoidal quadrature error ~ h²/12·|P''|·T ≈ 1e-7·T; allow 1e-5 J.
     assert!(bal < 1e-5, "energy balance residual {bal}");
 }
@@ -103,7 +131,9 @@ fn damped_chain_never_gains_energy_and_balance_holds() {
 #[test]
 fn constraint_drift_stays_below_1e9_m_over_90_s() {
     let plant = Plant::new(&fixtures::paper()).unwrap();
-    let mut y = plant.initial_state(fixtures::paper_start(), Vector3::zeros(), None).unwrap();
+    let mut y = plant
+        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .unwrap();
     let q0 = y[..plant.n_q()].to_vec();
     let mut ws = plant.workspace();
     let mut input = plant.zero_input();
@@ -113,7 +143,11 @@ fn constraint_drift_stays_below_1e9_m_over_90_s() {
     for k in 0..90_000 {
         let t = k as f64 * h;
         hold_law(&plant, &mut ws, &q0, &y, t, &mut input.tau);
-        let mut sys = ConstrainedOde { plant: &plant, ws: &mut ws, input: &input };
+        let mut sys = ConstrainedOde {
+            plant: &plant,
+            ws: &mut ws,
+            input: &input,
+        };
         rk.step(&mut sys, t, &mut y, h);
         if k % 100 == 0 {
             worst = worst.max(plant.constraint_residual(&y, &mut ws).0);
@@ -147,7 +181,10 @@ fn constrained_and_reduced_formulations_agree() {
         // Same law, each plant evaluating it on its own state (reduced: joints from IK).
         hold_law(&plant, &mut ws, &q0, &y, t, &mut input.tau);
         let n = plant.n_q();
-        let (xo, xdo) = (Vector3::new(yr[0], yr[1], yr[2]), Vector3::new(yr[3], yr[4], yr[5]));
+        let (xo, xdo) = (
+            Vector3::new(yr[0], yr[1], yr[2]),
+            Vector3::new(yr[3], yr[4], yr[5]),
+        );
         {
             let (q, rest) = yr_full.split_at_mut(n);
             let qd = &mut rest[3..3 + n];
@@ -158,20 +195,33 @@ fn constrained_and_reduced_formulations_agree() {
         hold_law(&plant, &mut wsr, &q0, &yr_full, t, &mut input_r.tau);
         // Grasp forces at the tick, from each formulation.
         assert!(plant.derivative(&y, &input, &mut ws, &mut dy));
-        plant.reduced_derivative(&yr, &input_r, &mut wsr, &mut dyr).unwrap();
+        plant
+            .reduced_derivative(&yr, &input_r, &mut wsr, &mut dyr)
+            .unwrap();
         for i in 0..2 {
             df = df.max((ws.forces[i] - wsr.forces[i]).norm());
         }
         let (_, xc, _, _) = plant.split(&y);
         dx = dx.max((xc - xo).norm());
         moved = moved.max((xc - x0).norm());
-        let mut sys = ConstrainedOde { plant: &plant, ws: &mut ws, input: &input };
+        let mut sys = ConstrainedOde {
+            plant: &plant,
+            ws: &mut ws,
+            input: &input,
+        };
         rk.step(&mut sys, t, &mut y, h);
-        let mut sys = ReducedOde { plant: &plant, ws: &mut wsr, input: &input_r };
+        let mut sys = ReducedOde {
+            plant: &plant,
+            ws: &mut wsr,
+            input: &input_r,
+        };
         rkr.step(&mut sys, t, &mut yr, h);
     }
     println!("3 s: object motion {moved:.4} m, max |Δx_o| {dx:.3e}, max |ΔF| {df:.3e} N");
-    assert!(moved > 1e-3, "the law should move the object (moved {moved})");
+    assert!(
+        moved > 1e-3,
+        "the law should move the object (moved {moved})"
+    );
     assert!(dx < 1e-8, "object motion differs by {dx:e}");
     assert!(df < 1e-5, "grasp forces differ by {df:e} N");
 }
@@ -185,15 +235,32 @@ fn rk4_converges_at_fourth_order_on_the_chain() {
     let mut rk = Rk4::new(plant.state_dim());
     let solve = |h: f64, ws: &mut PlantWorkspace, rk: &mut Rk4| {
         let mut y = y0.clone();
-        run(&plant, ws, &mut y, &input, h, (0.5 / h).round() as usize, rk);
+        run(
+            &plant,
+            ws,
+            &mut y,
+            &input,
+            h,
+            (0.5 / h).round() as usize,
+            rk,
+        );
         y
     };
     let reference = solve(1.0 / 3200.0, &mut ws, &mut rk);
-    let err = |y: &[f64]| y.iter().zip(&reference).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let err = |y: &[f64]| {
+        y.iter()
+            .zip(&reference)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+    };
     let e1 = err(&solve(1.0 / 200.0, &mut ws, &mut rk));
     let e2 = err(&solve(1.0 / 400.0, &mut ws, &mut rk));
     let e3 = err(&solve(1.0 / 800.0, &mut ws, &mut rk));
-    println!("RK4 errors {e1:.3e} {e2:.3e} {e3:.3e}; ratios {:.2} {:.2}", e1 / e2, e2 / e3);
+    println!(
+        "RK4 errors {e1:.3e} {e2:.3e} {e3:.3e}; ratios {:.2} {:.2}",
+        e1 / e2,
+        e2 / e3
+    );
     // Asymptotic ratio 16; at these steps higher-order terms shift it by a few percent.
     for r in [e1 / e2, e2 / e3] {
         assert!((13.0..19.0).contains(&r), "ratio {r}");
@@ -207,7 +274,9 @@ fn halving_the_plant_step_moves_the_held_input_run_by_less_than_1e6_m() {
     // about 5 /s, from 5e-13 m at 0.5 s to 5e-3 m at 5 s), so the window is 2 s, where the
     // difference is ~2e-9 m; closed-loop runs are compared by their metrics (SPEC §2.4).
     let plant = Plant::new(&fixtures::paper()).unwrap();
-    let y0 = plant.initial_state(fixtures::paper_start(), Vector3::zeros(), None).unwrap();
+    let y0 = plant
+        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .unwrap();
     let q0 = y0[..plant.n_q()].to_vec();
     let mut ws = plant.workspace();
     let mut rk = Rk4::new(plant.state_dim());
@@ -242,7 +311,9 @@ fn invariants(plant: &Plant, y: Vec<f64>, label: &str) {
     let mut rk = Rk4::new(plant.state_dim());
     run(plant, &mut ws, &mut yy, &input, 0.5e-3, 10000, &mut rk);
     let (cp, cv) = plant.constraint_residual(&yy, &mut ws);
-    println!("{label}: energy drift {drift_e:.3e} (KE max {ke:.3}), constraint {cp:.2e} m {cv:.2e} m/s");
+    println!(
+        "{label}: energy drift {drift_e:.3e} (KE max {ke:.3}), constraint {cp:.2e} m {cv:.2e} m/s"
+    );
     assert!(drift_e < 1e-6, "{label}: energy drift {drift_e}");
     assert!(cp < 1e-9 && cv < 1e-8, "{label}: constraint {cp} {cv}");
 }
@@ -251,14 +322,22 @@ fn invariants(plant: &Plant, y: Vec<f64>, label: &str) {
 fn redundant_three_link_arms_keep_the_invariants() {
     let (p, guess) = fixtures::redundant_pair();
     let plant = Plant::new(&fixtures::undamped(p)).unwrap();
-    let y = plant.initial_state(fixtures::paper_start(), Vector3::new(0.0, 0.0, 0.2), Some(&guess)).unwrap();
+    let y = plant
+        .initial_state(
+            fixtures::paper_start(),
+            Vector3::new(0.0, 0.0, 0.2),
+            Some(&guess),
+        )
+        .unwrap();
     invariants(&plant, y, "3-link pair");
 }
 
 #[test]
 fn three_arm_chain_keeps_the_invariants() {
     let plant = Plant::new(&fixtures::undamped(fixtures::three_arms())).unwrap();
-    let y = plant.initial_state(fixtures::paper_start(), Vector3::new(0.05, 0.0, 0.2), None).unwrap();
+    let y = plant
+        .initial_state(fixtures::paper_start(), Vector3::new(0.05, 0.0, 0.2), None)
+        .unwrap();
     invariants(&plant, y, "three arms");
 }
 
@@ -273,11 +352,19 @@ fn bad_plant_input_is_named() {
     assert!(Plant::new(&p).unwrap_err().to_string().contains("grasps"));
     let plant = Plant::new(&PlantParams::paper()).unwrap();
     // A grasp point out of reach names the arm and the reach.
-    let e = plant.initial_state(Vector3::new(0.5, 0.0, 0.0), Vector3::zeros(), None).unwrap_err().to_string();
+    let e = plant
+        .initial_state(Vector3::new(0.5, 0.0, 0.0), Vector3::zeros(), None)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("arms[0]") && e.contains("reaches"), "{e}");
     // A starting pose that violates the grasp.
-    let mut y = plant.initial_state(fixtures::paper_start(), Vector3::zeros(), None).unwrap();
+    let mut y = plant
+        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .unwrap();
     y[0] += 0.01;
     let e = plant.check_state(&y, 1e-9).unwrap_err().to_string();
-    assert!(e.contains("arms[0]") && e.contains("violates the grasp"), "{e}");
+    assert!(
+        e.contains("arms[0]") && e.contains("violates the grasp"),
+        "{e}"
+    );
 }

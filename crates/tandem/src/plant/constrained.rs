@@ -27,11 +27,18 @@ impl Plant {
     ///
     /// A singular grasp-space matrix `K` (arms at singularities that lock the chain) is
     /// regularised (`K + ε tr(K) I`, ε = 1e-10) and counted in `ws.regularised`.
-    pub fn derivative(&self, y: &[f64], input: &PlantInput, ws: &mut PlantWorkspace, dy: &mut [f64]) -> bool {
+    pub fn derivative(
+        &self,
+        y: &[f64],
+        input: &PlantInput,
+        ws: &mut PlantWorkspace,
+        dy: &mut [f64],
+    ) -> bool {
         let n = self.n_q;
         let m = self.arms.len();
         let (q, x_o, qd, xd_o) = self.split(y);
-        let theta = x_o.z;
+        let rot = nalgebra::Rotation2::new(x_o.z);
+        let p_o = nalgebra::Vector2::new(x_o.x, x_o.y);
         let w = self.baumgarte;
         let obj = &self.object;
 
@@ -79,12 +86,13 @@ impl Plant {
                 }
             }
             // Constraint terms of grasp i.
-            let g = &self.grasps[i];
-            let jg = g.jacobian(theta);
+            // R(θ) r_i once; J_i, the grasp point and J̇_i ẋ_o = −R r_i θ̇² from it.
+            let rw = rot * self.grasps[i].r;
+            let jg = crate::grasp::Grasp::jacobian_from_arm(rw);
             ws.grasp_j[i] = jg;
-            let phi = t.p_ee - g.point(&x_o);
+            let phi = t.p_ee - (p_o + rw);
             let phid = t.v_ee - jg * xd_o;
-            let bias = t.jdot_qdot - g.jdot_xdot(theta, xd_o.z);
+            let bias = t.jdot_qdot + rw * (xd_o.z * xd_o.z);
             let mut ja0 = jg * (-a0_o);
             for r in 0..dof {
                 ja0.x += t.J[(0, r)] * a0[r];
@@ -151,4 +159,3 @@ impl Plant {
         true
     }
 }
-

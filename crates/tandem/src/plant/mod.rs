@@ -130,7 +130,11 @@ impl Plant {
         if p.grasps.len() != p.arms.len() {
             return Err(ModelError::geometry(
                 "grasps",
-                format!("{} grasp points for {} arms: give one per arm", p.grasps.len(), p.arms.len()),
+                format!(
+                    "{} grasp points for {} arms: give one per arm",
+                    p.grasps.len(),
+                    p.arms.len()
+                ),
             ));
         }
         let mut arms = Vec::with_capacity(p.arms.len());
@@ -146,15 +150,29 @@ impl Plant {
         for (i, r) in p.grasps.iter().enumerate() {
             for (k, v) in r.iter().enumerate() {
                 if !v.is_finite() {
-                    return Err(ModelError::invalid(format!("grasps[{i}][{k}]"), *v, "must be finite"));
+                    return Err(ModelError::invalid(
+                        format!("grasps[{i}][{k}]"),
+                        *v,
+                        "must be finite",
+                    ));
                 }
             }
-            grasps.push(Grasp { r: Vector2::new(r[0], r[1]) });
+            grasps.push(Grasp {
+                r: Vector2::new(r[0], r[1]),
+            });
         }
         let object = Object::new(&p.object)?;
         let g = non_negative("gravity", p.gravity)?;
         let baumgarte = non_negative("baumgarte", p.baumgarte)?;
-        Ok(Plant { arms, grasps, object, g, baumgarte, offsets, n_q })
+        Ok(Plant {
+            arms,
+            grasps,
+            object,
+            g,
+            baumgarte,
+            offsets,
+            n_q,
+        })
     }
 
     /// The arms.
@@ -197,7 +215,10 @@ impl Plant {
     }
     /// An all-zero input of the right size.
     pub fn zero_input(&self) -> PlantInput {
-        PlantInput { tau: vec![0.0; self.n_q], f_d: Vector3::zeros() }
+        PlantInput {
+            tau: vec![0.0; self.n_q],
+            f_d: Vector3::zeros(),
+        }
     }
 
     /// Allocate the workspace (once).
@@ -210,14 +231,26 @@ impl Plant {
             kkt_pivot: 1.0,
             regularised: 0,
             grasp_j: vec![Matrix2x3::zeros(); m],
-            minv_jt: self.arms.iter().map(|a| DMatrix::zeros(a.dof(), 2)).collect(),
+            minv_jt: self
+                .arms
+                .iter()
+                .map(|a| DMatrix::zeros(a.dof(), 2))
+                .collect(),
             a0: vec![0.0; self.n_q],
             k: DMatrix::zeros(2 * m, 2 * m),
             k_copy: DMatrix::zeros(2 * m, 2 * m),
             rhs: vec![0.0; 2 * m],
             q_red: vec![0.0; self.n_q],
             qd_red: vec![0.0; self.n_q],
-            cartesian: vec![Cartesian { M_x: Matrix2::identity(), C_x: Matrix2::zeros(), G_x: Vector2::zeros(), J_inv: Matrix2::identity() }; m],
+            cartesian: vec![
+                Cartesian {
+                    M_x: Matrix2::identity(),
+                    C_x: Matrix2::zeros(),
+                    G_x: Vector2::zeros(),
+                    J_inv: Matrix2::identity()
+                };
+                m
+            ],
             tau_x: vec![Vector2::zeros(); m],
         }
     }
@@ -226,7 +259,12 @@ impl Plant {
     /// on their elbow branch, other arms by damped Gauss–Newton from `q_guess` (stacked n_q; the
     /// 2-link entries are ignored). Joint velocities are the minimum-norm solution of
     /// `J_e q̇ = J_i ẋ_o`. Fails, naming the arm, if a grasp point is out of reach.
-    pub fn initial_state(&self, x_o: Vector3<f64>, xd_o: Vector3<f64>, q_guess: Option<&[f64]>) -> Result<Vec<f64>, ModelError> {
+    pub fn initial_state(
+        &self,
+        x_o: Vector3<f64>,
+        xd_o: Vector3<f64>,
+        q_guess: Option<&[f64]>,
+    ) -> Result<Vec<f64>, ModelError> {
         let n = self.n_q;
         let mut y = vec![0.0; self.state_dim()];
         let mut ws = self.workspace();
@@ -235,7 +273,9 @@ impl Plant {
             let target = self.grasps[i].point(&x_o);
             let dof = arm.dof();
             if dof == 2 {
-                let q = arm.inverse_kinematics(target).map_err(|e| ik_error(arm, i, target, e))?;
+                let q = arm
+                    .inverse_kinematics(target)
+                    .map_err(|e| ik_error(arm, i, target, e))?;
                 y[off..off + 2].copy_from_slice(&q);
             } else {
                 let q = &mut y[off..off + dof];
@@ -256,7 +296,10 @@ impl Plant {
             let j = &ws.terms[i].J;
             let jjt = j * j.transpose();
             let w = jjt.try_inverse().ok_or_else(|| {
-                ModelError::geometry(format!("arms[{i}]"), "starts in a singular configuration (J_e Jᵀ_e not invertible)")
+                ModelError::geometry(
+                    format!("arms[{i}]"),
+                    "starts in a singular configuration (J_e Jᵀ_e not invertible)",
+                )
             })? * v;
             let qd = j.transpose() * w;
             y[n + 3 + off..n + 3 + off + dof].copy_from_slice(qd.as_slice());
@@ -271,10 +314,21 @@ impl Plant {
     /// m/s); otherwise an error naming the arm and the violation.
     pub fn check_state(&self, y: &[f64], tol: f64) -> Result<(), ModelError> {
         if y.len() != self.state_dim() {
-            return Err(ModelError::geometry("state", format!("has {} entries, the plant needs {}", y.len(), self.state_dim())));
+            return Err(ModelError::geometry(
+                "state",
+                format!(
+                    "has {} entries, the plant needs {}",
+                    y.len(),
+                    self.state_dim()
+                ),
+            ));
         }
         if let Some(k) = y.iter().position(|v| !v.is_finite()) {
-            return Err(ModelError::invalid(format!("state[{k}]"), y[k], "must be finite"));
+            return Err(ModelError::invalid(
+                format!("state[{k}]"),
+                y[k],
+                "must be finite",
+            ));
         }
         let mut ws = self.workspace();
         let (q, x_o, qd, xd_o) = self.split(y);
@@ -288,7 +342,9 @@ impl Plant {
             if dp > tol || dv > tol {
                 return Err(ModelError::geometry(
                     format!("arms[{i}]"),
-                    format!("the starting pose violates the grasp: end-effector {dp:.3e} m and {dv:.3e} m/s away from its grasp point"),
+                    format!(
+                        "the starting pose violates the grasp: end-effector {dp:.3e} m and {dv:.3e} m/s away from its grasp point"
+                    ),
                 ));
             }
         }
@@ -317,7 +373,12 @@ impl Plant {
         for (i, arm) in self.arms.iter().enumerate() {
             let off = self.offsets[i];
             let dof = arm.dof();
-            arm.dynamics(&q[off..off + dof], &qd[off..off + dof], self.g, &mut ws.terms[i]);
+            arm.dynamics(
+                &q[off..off + dof],
+                &qd[off..off + dof],
+                self.g,
+                &mut ws.terms[i],
+            );
             let (k, p) = arm.energy(&qd[off..off + dof], self.g, &ws.terms[i]);
             e.kinetic += k;
             e.potential += p;
@@ -361,13 +422,20 @@ fn ik_error(arm: &Arm, i: usize, target: Vector2<f64>, e: IkFailure) -> ModelErr
                 arm.base().y
             ),
         ),
-        IkFailure::NotTwoLink => ModelError::geometry(format!("arms[{i}]"), "analytic IK needs a 2-link arm"),
+        IkFailure::NotTwoLink => {
+            ModelError::geometry(format!("arms[{i}]"), "analytic IK needs a 2-link arm")
+        }
     }
 }
 
 /// Damped Gauss–Newton position IK for an n-link arm from the angles in `q`; returns the final
 /// residual on failure.
-fn solve_ik_numeric(arm: &Arm, target: Vector2<f64>, q: &mut [f64], t: &mut ArmTerms) -> Result<(), f64> {
+fn solve_ik_numeric(
+    arm: &Arm,
+    target: Vector2<f64>,
+    q: &mut [f64],
+    t: &mut ArmTerms,
+) -> Result<(), f64> {
     let zeros = vec![0.0; q.len()];
     let mut res = f64::INFINITY;
     for _ in 0..200 {
@@ -429,7 +497,11 @@ impl crate::integrate::OdeSystem for ReducedOde<'_> {
         6
     }
     fn deriv(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
-        if self.plant.reduced_derivative(y, self.input, self.ws, dy).is_err() {
+        if self
+            .plant
+            .reduced_derivative(y, self.input, self.ws, dy)
+            .is_err()
+        {
             dy.fill(f64::NAN);
         }
     }

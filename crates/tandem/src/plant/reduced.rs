@@ -40,11 +40,20 @@ const MIN_DET: f64 = 1e-9;
 impl Plant {
     /// Joint angles and velocities of every arm for an object state, from the analytic IK
     /// (writes the stacked `q`, `q̇` into the slices and the arm terms into `ws`).
-    pub fn arms_from_object(&self, x_o: &Vector3<f64>, xd_o: &Vector3<f64>, q: &mut [f64], qd: &mut [f64], ws: &mut PlantWorkspace) -> Result<(), ReducedFailure> {
+    pub fn arms_from_object(
+        &self,
+        x_o: &Vector3<f64>,
+        xd_o: &Vector3<f64>,
+        q: &mut [f64],
+        qd: &mut [f64],
+        ws: &mut PlantWorkspace,
+    ) -> Result<(), ReducedFailure> {
         for (i, arm) in self.arms.iter().enumerate() {
             let off = self.offsets[i];
             let g = &self.grasps[i];
-            let qi = arm.inverse_kinematics(g.point(x_o)).map_err(|_| ReducedFailure::Ik(i))?;
+            let qi = arm
+                .inverse_kinematics(g.point(x_o))
+                .map_err(|_| ReducedFailure::Ik(i))?;
             q[off..off + 2].copy_from_slice(&qi);
             let t = &mut ws.terms[i];
             arm.kinematics(&q[off..off + 2], &[0.0, 0.0], t);
@@ -61,7 +70,12 @@ impl Plant {
 
     /// Object-space terms `(𝓜, 𝓒, 𝓖)` of (14) at `(x_o, ẋ_o)`; also leaves each arm's Cartesian
     /// terms in `ws.cartesian` and joint state in `ws.q_red`, `ws.qd_red`.
-    pub fn object_space(&self, x_o: &Vector3<f64>, xd_o: &Vector3<f64>, ws: &mut PlantWorkspace) -> Result<ObjectSpace, ReducedFailure> {
+    pub fn object_space(
+        &self,
+        x_o: &Vector3<f64>,
+        xd_o: &Vector3<f64>,
+        ws: &mut PlantWorkspace,
+    ) -> Result<ObjectSpace, ReducedFailure> {
         let mut q = std::mem::take(&mut ws.q_red);
         let mut qd = std::mem::take(&mut ws.qd_red);
         let r = self.arms_from_object(x_o, xd_o, &mut q, &mut qd, ws);
@@ -73,7 +87,9 @@ impl Plant {
                 let off = self.offsets[i];
                 let t = &mut ws.terms[i];
                 arm.dynamics(&q[off..off + 2], &qd[off..off + 2], self.g, t);
-                let cart = arm.cartesian(t, MIN_DET).ok_or(ReducedFailure::Singular(i))?;
+                let cart = arm
+                    .cartesian(t, MIN_DET)
+                    .ok_or(ReducedFailure::Singular(i))?;
                 ws.cartesian[i] = cart;
                 let gr = &self.grasps[i];
                 let jg = gr.jacobian(x_o.z);
@@ -95,7 +111,13 @@ impl Plant {
     /// State derivative of the reduced plant on `y = (x_o, ẋ_o)` (6), with the grasp forces
     /// recovered from (3) into `ws.forces`. Joint torques in `input.tau` are mapped to the
     /// object through `τ = Σ J_iᵀ J_e,i⁻ᵀ τ_i`.
-    pub fn reduced_derivative(&self, y: &[f64], input: &PlantInput, ws: &mut PlantWorkspace, dy: &mut [f64]) -> Result<(), ReducedFailure> {
+    pub fn reduced_derivative(
+        &self,
+        y: &[f64],
+        input: &PlantInput,
+        ws: &mut PlantWorkspace,
+        dy: &mut [f64],
+    ) -> Result<(), ReducedFailure> {
         let x_o = Vector3::new(y[0], y[1], y[2]);
         let xd_o = Vector3::new(y[3], y[4], y[5]);
         let os = self.object_space(&x_o, &xd_o, ws)?;
@@ -109,7 +131,10 @@ impl Plant {
             tau += self.grasps[i].jacobian(x_o.z).transpose() * tx;
         }
         let rhs = tau - input.f_d - os.C * xd_o - os.G;
-        let xdd = os.M.cholesky().map(|c| c.solve(&rhs)).ok_or(ReducedFailure::Singular(0))?;
+        let xdd =
+            os.M.cholesky()
+                .map(|c| c.solve(&rhs))
+                .ok_or(ReducedFailure::Singular(0))?;
         ws.xdd_o = xdd;
         // Grasp forces from (3).
         for (i, _) in self.arms.iter().enumerate() {
