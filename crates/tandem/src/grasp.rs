@@ -151,3 +151,103 @@ mod tests {
         assert!((vest - xd).norm() < 1e-13);
     }
 }
+
+/// Distribution of an object wrench over the arms (SPEC §3.2):
+/// `τ_x = (𝐉ᵀ)⁺ τ + P_N λ`, where `𝐉` stacks the grasp Jacobians, `(𝐉ᵀ)⁺ = 𝐉(𝐉ᵀ𝐉)⁻¹` gives the
+/// minimum-norm share and `P_N = I − 𝐉(𝐉ᵀ𝐉)⁻¹𝐉ᵀ` projects onto the null space of `𝐉ᵀ`
+/// (internal forces, which do not move the object). `τ_x,i` is the force arm `i` applies to the
+/// object, so `𝐉ᵀ τ_x = τ` exactly.
+///
+/// `squeeze` is the internal force magnitude `s` (N): arm `i` pushes toward the object centre
+/// with `−s R(θ) r̂_i`, projected onto the null space. Writes one 2-vector per arm into `out`.
+/// Returns `false` if `𝐉ᵀ𝐉` is singular (fewer than two distinct grasp points).
+pub fn distribute_wrench(
+    grasps: &[Grasp],
+    theta: f64,
+    tau: &Vector3<f64>,
+    squeeze: f64,
+    out: &mut [Vector2<f64>],
+) -> bool {
+    let rot = Rotation2::new(theta);
+    let mut jtj = Matrix3::zeros();
+    for g in grasps {
+        let j = Grasp::jacobian_from_arm(rot * g.r);
+        jtj += j.transpose() * j;
+    }
+    let Some(chol) = jtj.cholesky() else {
+        return false;
+    };
+    // Minimum-norm share: τ_x,i = J_i (𝐉ᵀ𝐉)⁻¹ τ.
+    let w = chol.solve(tau);
+    // Squeeze λ_i = −s R r̂_i; its range-space part 𝐉(𝐉ᵀ𝐉)⁻¹𝐉ᵀλ is removed.
+    let mut jt_lambda = Vector3::zeros();
+    for g in grasps {
+        let rw = rot * g.r;
+        let n = rw.norm();
+        if n > 0.0 {
+            let lam = -squeeze * rw / n;
+            jt_lambda += Grasp::jacobian_from_arm(rw).transpose() * lam;
+        }
+    }
+    let v = chol.solve(&jt_lambda);
+    for (g, o) in grasps.iter().zip(out.iter_mut()) {
+        let rw = rot * g.r;
+        let j = Grasp::jacobian_from_arm(rw);
+        let n = rw.norm();
+        let lam = if n > 0.0 {
+            -squeeze * rw / n
+        } else {
+            Vector2::zeros()
+        };
+        *o = j * w + lam - j * v;
+    }
+    true
+}
+
+#[cfg(test)]
+mod distribution_tests {
+    use super::*;
+
+    #[test]
+    fn distributed_wrench_reproduces_tau_and_squeeze_is_internal() {
+        for grasps in [
+            vec![
+                Grasp {
+                    r: Vector2::new(-0.05, 0.0),
+                },
+                Grasp {
+                    r: Vector2::new(0.05, 0.0),
+                },
+            ],
+            vec![
+                Grasp {
+                    r: Vector2::new(-0.05, 0.0),
+                },
+                Grasp {
+                    r: Vector2::new(0.05, 0.01),
+                },
+                Grasp {
+                    r: Vector2::new(0.0, -0.025),
+                },
+            ],
+        ] {
+            let tau = Vector3::new(1.5, 9.8, -0.3);
+            let mut out = vec![Vector2::zeros(); grasps.len()];
+            let mut sq = vec![Vector2::zeros(); grasps.len()];
+            assert!(distribute_wrench(&grasps, 0.4, &tau, 0.0, &mut out));
+            assert!(distribute_wrench(&grasps, 0.4, &tau, 5.0, &mut sq));
+            let jt = |f: &[Vector2<f64>]| {
+                grasps.iter().zip(f).fold(Vector3::zeros(), |a, (g, x)| {
+                    a + g.jacobian(0.4).transpose() * x
+                })
+            };
+            // 𝐉ᵀ τ_x = τ to round-off, with and without squeeze.
+            assert!((jt(&out) - tau).norm() < 1e-13);
+            assert!((jt(&sq) - tau).norm() < 1e-13);
+            // The squeeze part lies in the null space of 𝐉ᵀ and is not zero.
+            let diff: Vec<_> = out.iter().zip(&sq).map(|(a, b)| b - a).collect();
+            assert!(jt(&diff).norm() < 1e-13);
+            assert!(diff.iter().map(|d| d.norm()).sum::<f64>() > 1.0);
+        }
+    }
+}
