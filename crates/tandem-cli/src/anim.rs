@@ -91,7 +91,9 @@ pub fn animated_svg(path: &Path, frames: &AnimFrames, opts: &AnimOptions) -> Res
 // Colours: matplotlib tab10, as in the figures.
 const BLUE: &str = "#1f77b4";
 const ORANGE: &str = "#ff7f0e";
-const ARM_COLOURS: [&str; 6] = ["#2ca02c", "#9467bd", "#d62728", "#8c564b", "#e377c2", "#17becf"];
+const ARM_COLOURS: [&str; 6] = [
+    "#2ca02c", "#9467bd", "#d62728", "#8c564b", "#e377c2", "#17becf",
+];
 const TEXT: &str = "#191919";
 
 const MARGIN_PX: f64 = 20.0;
@@ -104,10 +106,16 @@ fn validate(a: &AnimFrames, opts: &AnimOptions) -> Result<(Vec<usize>, usize, bo
         bail!("the animation has no frames");
     };
     if !(opts.speed.is_finite() && opts.speed > 0.0) {
-        bail!("playback speed must be a positive number, got {}", opts.speed);
+        bail!(
+            "playback speed must be a positive number, got {}",
+            opts.speed
+        );
     }
     if opts.width_px < 100 {
-        bail!("animation width must be at least 100 px, got {}", opts.width_px);
+        bail!(
+            "animation width must be at least 100 px, got {}",
+            opts.width_px
+        );
     }
     let arm_shape: Vec<usize> = first.arms.iter().map(|a| a.len()).collect();
     if arm_shape.iter().any(|&n| n < 2) {
@@ -127,7 +135,10 @@ fn validate(a: &AnimFrames, opts: &AnimOptions) -> Result<(Vec<usize>, usize, bo
         prev_t = f.t;
         let shape: Vec<usize> = f.arms.iter().map(|a| a.len()).collect();
         if shape != arm_shape {
-            bail!("frame {k} (t = {}): arm point counts {shape:?} differ from frame 0's {arm_shape:?}", f.t);
+            bail!(
+                "frame {k} (t = {}): arm point counts {shape:?} differ from frame 0's {arm_shape:?}",
+                f.t
+            );
         }
         if f.object.len() != n_obj {
             bail!(
@@ -137,7 +148,10 @@ fn validate(a: &AnimFrames, opts: &AnimOptions) -> Result<(Vec<usize>, usize, bo
             );
         }
         if f.desired.is_some() != has_desired {
-            bail!("frame {k} (t = {}): the desired point must be given in every frame or in none", f.t);
+            bail!(
+                "frame {k} (t = {}): the desired point must be given in every frame or in none",
+                f.t
+            );
         }
         let all_finite = f.arms.iter().flatten().all(finite)
             && f.object.iter().all(finite)
@@ -175,7 +189,9 @@ fn centroid(pts: &[[f64; 2]]) -> Option<[f64; 2]> {
         return None;
     }
     let n = pts.len() as f64;
-    let (sx, sy) = pts.iter().fold((0.0, 0.0), |(a, b), p| (a + p[0], b + p[1]));
+    let (sx, sy) = pts
+        .iter()
+        .fold((0.0, 0.0), |(a, b), p| (a + p[0], b + p[1]));
     Some([sx / n, sy / n])
 }
 
@@ -294,7 +310,11 @@ pub fn render_animated_svg(a: &AnimFrames, opts: &AnimOptions) -> Result<String>
         items.push(("dashed", "black", "bounds ±k_c".into()));
     }
     for arm in 0..arm_shape.len() {
-        items.push(("arm", ARM_COLOURS[arm % ARM_COLOURS.len()], format!("arm {}", arm + 1)));
+        items.push((
+            "arm",
+            ARM_COLOURS[arm % ARM_COLOURS.len()],
+            format!("arm {}", arm + 1),
+        ));
     }
     // Lay the legend out in rows that fit the width (DejaVu Sans at 13 px: about 7 px per character).
     let item_w = |label: &str| 30.0 + 7.0 * label.chars().count() as f64;
@@ -521,7 +541,10 @@ pub fn render_animated_svg(a: &AnimFrames, opts: &AnimOptions) -> Result<String>
             } else if j + 1 == keys.len() {
                 ("hidden;visible".to_string(), format!("0;{}", kt(j)))
             } else {
-                ("hidden;visible;hidden".to_string(), format!("0;{};{}", kt(j), kt(j + 1)))
+                (
+                    "hidden;visible;hidden".to_string(),
+                    format!("0;{};{}", kt(j), kt(j + 1)),
+                )
             };
             let _ = writeln!(
                 svg,

@@ -228,7 +228,11 @@ pub fn temp_sibling(path: &Path) -> Result<PathBuf> {
 pub fn rename_into_place(tmp: &Path, path: &Path) -> Result<()> {
     fs::rename(tmp, path).map_err(|e| {
         let _ = fs::remove_file(tmp);
-        anyhow!(e).context(format!("cannot move {} to {}", tmp.display(), path.display()))
+        anyhow!(e).context(format!(
+            "cannot move {} to {}",
+            tmp.display(),
+            path.display()
+        ))
     })
 }
 
@@ -356,7 +360,10 @@ mod tests {
     fn temp_sibling_keeps_extension() {
         let p = temp_sibling(Path::new("out/fig.png")).expect("ok");
         let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
-        assert!(name.starts_with(".fig.tmp-") && name.ends_with(".png"), "{name}");
+        assert!(
+            name.starts_with(".fig.tmp-") && name.ends_with(".png"),
+            "{name}"
+        );
         assert_eq!(p.parent(), Some(Path::new("out")));
     }
 

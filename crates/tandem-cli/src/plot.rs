@@ -337,7 +337,12 @@ pub fn render_rgb(
 }
 
 /// Renders the figure as an SVG document.
-pub fn render_svg(title: &str, panels: &[Panel], columns: usize, size: (u32, u32)) -> Result<String> {
+pub fn render_svg(
+    title: &str,
+    panels: &[Panel],
+    columns: usize,
+    size: (u32, u32),
+) -> Result<String> {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
@@ -359,7 +364,12 @@ pub fn xy_panel<'a>(
     let mut p = Panel::new(title, "x [m]", "y [m]")
         .equal_aspect()
         .with(Series::new("actual", actual.0, actual.1, Style::solid(0)))
-        .with(Series::new("desired", desired.0, desired.1, Style::dashed(1)));
+        .with(Series::new(
+            "desired",
+            desired.0,
+            desired.1,
+            Style::dashed(1),
+        ));
     p.series.extend(extra.iter().cloned());
     p.bound_box = bounds.map(|(kx, ky)| (kx, ky, String::from("bounds ±k_c")));
     p
@@ -424,7 +434,15 @@ fn draw_figure<DB: DrawingBackend>(
         let (w, _) = root.dim_in_pixel();
         let (head, body) = root.split_vertically(FIGURE_TITLE_PX + 16);
         let pos = (w as i32 / 2, (FIGURE_TITLE_PX / 2 + 8) as i32);
-        draw_text(&head, target, title, pos, FIGURE_TITLE_PX, (HPos::Center, VPos::Center), false)?;
+        draw_text(
+            &head,
+            target,
+            title,
+            pos,
+            FIGURE_TITLE_PX,
+            (HPos::Center, VPos::Center),
+            false,
+        )?;
         body
     };
     let cells = body.split_evenly((rows, columns));
@@ -637,7 +655,7 @@ fn thin_path(pts: &[(f64, f64)], max_points: usize) -> Vec<(f64, f64)> {
             }
         }
         out.push(pts[pts.len() - 1]);
-        if out.len() <= max_points || !(tol > 0.0) {
+        if out.len() <= max_points || tol.is_nan() || tol <= 0.0 {
             return out;
         }
         tol *= 1.5;
@@ -646,7 +664,11 @@ fn thin_path(pts: &[(f64, f64)], max_points: usize) -> Vec<(f64, f64)> {
 
 /// Clips a polyline to the rectangle `[x0, x1] × [y0, y1]` (Liang–Barsky per segment); returns
 /// the visible pieces.
-fn clip_polyline(pts: &[(f64, f64)], (x0, x1): (f64, f64), (y0, y1): (f64, f64)) -> Vec<Vec<(f64, f64)>> {
+fn clip_polyline(
+    pts: &[(f64, f64)],
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> Vec<Vec<(f64, f64)>> {
     let inside = |p: (f64, f64)| p.0 >= x0 && p.0 <= x1 && p.1 >= y0 && p.1 <= y1;
     let mut pieces = Vec::new();
     let mut cur: Vec<(f64, f64)> = Vec::new();
@@ -658,7 +680,12 @@ fn clip_polyline(pts: &[(f64, f64)], (x0, x1): (f64, f64), (y0, y1): (f64, f64))
         let (dx, dy) = (b.0 - a.0, b.1 - a.1);
         let (mut t0, mut t1) = (0.0f64, 1.0f64);
         let mut visible = true;
-        for (p, q) in [(-dx, a.0 - x0), (dx, x1 - a.0), (-dy, a.1 - y0), (dy, y1 - a.1)] {
+        for (p, q) in [
+            (-dx, a.0 - x0),
+            (dx, x1 - a.0),
+            (-dy, a.1 - y0),
+            (dy, y1 - a.1),
+        ] {
             if p == 0.0 {
                 if q < 0.0 {
                     visible = false;
@@ -680,8 +707,17 @@ fn clip_polyline(pts: &[(f64, f64)], (x0, x1): (f64, f64), (y0, y1): (f64, f64))
             cur.clear();
             continue;
         }
-        let pa = (a.0 + t0 * dx, a.1 + t0 * dy);
-        let pb = (a.0 + t1 * dx, a.1 + t1 * dy);
+        // Unclipped ends are kept exactly.
+        let pa = if t0 > 0.0 {
+            (a.0 + t0 * dx, a.1 + t0 * dy)
+        } else {
+            a
+        };
+        let pb = if t1 < 1.0 {
+            (a.0 + t1 * dx, a.1 + t1 * dy)
+        } else {
+            b
+        };
         if t0 > 0.0 || cur.is_empty() {
             // Entering the box (or starting): a new piece.
             if cur.len() > 1 {
@@ -719,7 +755,12 @@ impl Ticks {
         let span = hi - lo;
         let mag = 10f64.powf((span / max_ticks as f64).log10().floor());
         // Ticks at integer multiples k·step, k in [k0, k1].
-        let ks = |step: f64| ((lo / step - 1e-9).ceil() as i64, (hi / step + 1e-9).floor() as i64);
+        let ks = |step: f64| {
+            (
+                (lo / step - 1e-9).ceil() as i64,
+                (hi / step + 1e-9).floor() as i64,
+            )
+        };
         let step = [1.0, 2.0, 2.5, 5.0, 10.0, 20.0]
             .into_iter()
             .map(|m| m * mag)
@@ -867,7 +908,11 @@ fn draw_panel<DB: DrawingBackend>(
             r.push((i, ew));
         }
     }
-    let title_h = if p.title.is_empty() { 2 } else { PANEL_TITLE_PX + 8 };
+    let title_h = if p.title.is_empty() {
+        2
+    } else {
+        PANEL_TITLE_PX + 8
+    };
     let head_h = title_h + LEGEND_ROW_PX * rows.len() as u32 + 4;
     let (head, body) = area.split_vertically(head_h);
     if !p.title.is_empty() {
@@ -983,21 +1028,53 @@ fn draw_panel<DB: DrawingBackend>(
         body.draw(&PathElement::new(vec![(tx, ty), (tx, ty + 5)], axis))
             .map_err(plot_err)?;
         let anchor = (HPos::Center, VPos::Top);
-        draw_text(&body, target, &xt.label(v), (tx, ty + 8), TICK_PX, anchor, false)?;
+        draw_text(
+            &body,
+            target,
+            &xt.label(v),
+            (tx, ty + 8),
+            TICK_PX,
+            anchor,
+            false,
+        )?;
     }
     for &v in &yt.values {
         let (tx, ty) = px((x.0, v));
         body.draw(&PathElement::new(vec![(tx - 5, ty), (tx, ty)], axis))
             .map_err(plot_err)?;
         let anchor = (HPos::Right, VPos::Center);
-        draw_text(&body, target, &yt.label(v), (tx - 8, ty), TICK_PX, anchor, false)?;
+        draw_text(
+            &body,
+            target,
+            &yt.label(v),
+            (tx - 8, ty),
+            TICK_PX,
+            anchor,
+            false,
+        )?;
     }
     let x_desc = xt.describe(&p.x_label);
     let y_desc = yt.describe(&p.y_label);
     let pos = ((left + right) / 2, bottom + 8 + TICK_PX as i32 + 10);
-    draw_text(&body, target, &x_desc, pos, AXIS_DESC_PX, (HPos::Center, VPos::Top), false)?;
+    draw_text(
+        &body,
+        target,
+        &x_desc,
+        pos,
+        AXIS_DESC_PX,
+        (HPos::Center, VPos::Top),
+        false,
+    )?;
     let pos = (4, (top + bottom) / 2);
-    draw_text(&body, target, &y_desc, pos, AXIS_DESC_PX, (HPos::Center, VPos::Top), true)?;
+    draw_text(
+        &body,
+        target,
+        &y_desc,
+        pos,
+        AXIS_DESC_PX,
+        (HPos::Center, VPos::Top),
+        true,
+    )?;
 
     // Data, in order; dashed lines keep their dash phase across points.
     for (s, runs) in p.series.iter().zip(&prep.lines) {
@@ -1022,7 +1099,10 @@ fn draw_panel<DB: DrawingBackend>(
     // A closed frame around the axes.
     chart
         .plotting_area()
-        .draw(&Rectangle::new([(x.0, y.1), (x.1, y.0)], TEXT.stroke_width(1)))
+        .draw(&Rectangle::new(
+            [(x.0, y.1), (x.1, y.0)],
+            TEXT.stroke_width(1),
+        ))
         .map_err(plot_err)?;
     Ok(())
 }
@@ -1391,13 +1471,20 @@ mod tests {
     fn nice_ticks_are_round_and_inside() {
         let t = Ticks::nice(-0.4, 0.4, 6);
         assert_eq!(t.exp, 0);
-        assert!(t.values.iter().all(|v| *v >= -0.4 - 1e-12 && *v <= 0.4 + 1e-12));
+        assert!(
+            t.values
+                .iter()
+                .all(|v| *v >= -0.4 - 1e-12 && *v <= 0.4 + 1e-12)
+        );
         let labels: Vec<String> = t.values.iter().map(|v| t.label(*v)).collect();
         assert!(labels.contains(&"0.0".to_string()), "{labels:?}");
         assert!(labels.contains(&"0.2".to_string()), "{labels:?}");
 
         let t = Ticks::nice(0.0, 90.0, 10);
-        assert_eq!(t.values, vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0]);
+        assert_eq!(
+            t.values,
+            vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0]
+        );
         assert_eq!(t.label(30.0), "30");
 
         let t = Ticks::nice(-2e-4, 3e-4, 6);
@@ -1405,9 +1492,12 @@ mod tests {
         assert_eq!(t.describe("z1 [m]"), "z1 [m]  (×10⁻⁶)");
         assert_eq!(t.label(1e-4), "100");
 
+        // 0.002 steps read fine as they are; 0.0025 steps get a factor.
         let t = Ticks::nice(-0.0106, 0.001, 6);
+        assert_eq!((t.exp, t.label(-0.004)), (0, "−0.004".to_string()));
+        let t = Ticks::nice(-0.0106, 0.001, 5);
         assert_eq!(t.exp, -3);
-        assert_eq!(t.label(-0.005), "−5");
+        assert_eq!(t.label(-0.005), "−5.0");
 
         let t = Ticks::nice(0.0, 2.5e5, 5);
         assert_eq!(t.exp, 3);
@@ -1449,7 +1539,10 @@ mod tests {
         assert_eq!(pieces[1], vec![(1.0, 1.0), (0.5, 0.5)]);
         // Fully inside: unchanged.
         let inside = [(0.0, 0.0), (0.5, 0.5), (0.2, -0.3)];
-        assert_eq!(clip_polyline(&inside, (-1.0, 1.0), (-1.0, 1.0)), vec![inside.to_vec()]);
+        assert_eq!(
+            clip_polyline(&inside, (-1.0, 1.0), (-1.0, 1.0)),
+            vec![inside.to_vec()]
+        );
     }
 
     #[test]
@@ -1463,7 +1556,9 @@ mod tests {
         let a = [1.0, 2.0];
         let b = [1.0];
         let p = Panel::new("ragged", "t [s]", "y").with(Series::new("r", &a, &b, Style::solid(0)));
-        let e = render_rgb("", &[p], 1, (300, 200)).err().map(|e| format!("{e:#}"));
+        let e = render_rgb("", &[p], 1, (300, 200))
+            .err()
+            .map(|e| format!("{e:#}"));
         assert!(e.unwrap_or_default().contains("ragged"));
         assert!(render_rgb("", &[], 1, (300, 200)).is_err());
     }
@@ -1472,7 +1567,8 @@ mod tests {
     fn constant_series_renders() {
         let t = [0.0, 1.0, 2.0];
         let y = [0.0, 0.0, 0.0];
-        let p = Panel::new("flat", "t [s]", "y [m]").with(Series::new("y", &t, &y, Style::solid(0)));
+        let p =
+            Panel::new("flat", "t [s]", "y [m]").with(Series::new("y", &t, &y, Style::solid(0)));
         let buf = render_rgb("", &[p], 1, (400, 300)).expect("renders");
         assert!(buf.iter().any(|&b| b != 255));
     }

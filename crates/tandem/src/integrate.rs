@@ -1043,27 +1043,31 @@ mod tests {
         }
     }
 
-    /// DP5 meets its tolerance on the oscillator: global error after 5 periods stays within a
-    /// small multiple of the tolerance (it accumulates local errors ≤ tol over the steps), and
-    /// shrinks with the tolerance (tolerance proportionality).
+    /// DP5 meets its tolerance on the oscillator. The controller bounds the *local* error per
+    /// step by `tol`; on this neutrally stable problem the phase error then accumulates linearly in
+    /// time, so the global error is `≈ c · tol` per period. We assert `< 3 tol` after one period
+    /// and `< 5 · 3 tol` after five (printed: ≈ 2 tol per period), and that the error shrinks with
+    /// the tolerance (tolerance proportionality).
     #[test]
     fn dp5_meets_tolerance_on_oscillator() {
-        let t_end = 5.0 * std::f64::consts::TAU;
-        let mut prev = f64::INFINITY;
-        for &tol in &[1e-6, 1e-8, 1e-10, 1e-12] {
-            let mut sys = Oscillator { omega: 1.0 };
-            let mut dp = DormandPrince::new(2, tol, tol).unwrap();
-            let mut y = [1.0, 0.0];
-            let stats = dp.integrate(&mut sys, 0.0, t_end, &mut y).unwrap();
-            let err = max_abs_diff(&y, &sys.exact(t_end));
-            println!(
-                "oscillator tol {tol:e}: err {err:.3e} ({:.2} tol), {stats:?}",
-                err / tol
-            );
-            assert!(err < 10.0 * tol, "tol {tol}: err {err}");
-            assert!(err < prev);
-            prev = err;
-            assert_eq!(stats.evaluations, 2 + 6 * (stats.accepted + stats.rejected));
+        for periods in [1.0, 5.0] {
+            let t_end = periods * std::f64::consts::TAU;
+            let mut prev = f64::INFINITY;
+            for &tol in &[1e-6, 1e-8, 1e-10, 1e-12] {
+                let mut sys = Oscillator { omega: 1.0 };
+                let mut dp = DormandPrince::new(2, tol, tol).unwrap();
+                let mut y = [1.0, 0.0];
+                let stats = dp.integrate(&mut sys, 0.0, t_end, &mut y).unwrap();
+                let err = max_abs_diff(&y, &sys.exact(t_end));
+                println!(
+                    "oscillator, {periods} periods, tol {tol:e}: err {err:.3e} ({:.2} tol), {stats:?}",
+                    err / tol
+                );
+                assert!(err < periods * 3.0 * tol, "tol {tol}: err {err}");
+                assert!(err < prev);
+                prev = err;
+                assert_eq!(stats.evaluations, 2 + 6 * (stats.accepted + stats.rejected));
+            }
         }
     }
 
@@ -1091,7 +1095,8 @@ mod tests {
             println!(
                 "tol {tol:e}: riccati rel err {e1:.2e}, exp(sin t) rel err {e2:.2e}, {stats:?}"
             );
-            assert!(e1 < 10.0 * tol && e2 < 10.0 * tol);
+            // Observed ≤ 2.8 tol (relative); a few tol is what local control gives on a short span.
+            assert!(e1 < 5.0 * tol && e2 < 5.0 * tol);
             assert_eq!(
                 t_max, t1,
                 "never evaluated beyond t1, and lands on it exactly"
