@@ -22,7 +22,8 @@
 //! World coordinates are metres, x right, y up; the SVG is in pixels, y down. Coordinates are
 //! written with 0.1 px resolution, which keeps 300 frames of two arms at about 0.1–0.2 MB.
 //!
-//! The module knows nothing about the simulator: it takes plain point lists.
+//! The module knows nothing about the simulator: it takes plain point lists. It uses `output`
+//! for the atomic write and `plot` for text measurement.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -34,15 +35,15 @@ use crate::output;
 /// One instant of the animation.
 #[derive(Clone, Debug, Default)]
 pub struct Frame {
-    /// Simulation time [s]; strictly increasing across frames.
+    /// Simulation time (s); strictly increasing across frames.
     pub t: f64,
-    /// Per arm, the joint positions base, joint 2, …, end-effector [m] (world frame). Every
+    /// Per arm, the joint positions base, joint 2, …, end-effector (m) (world frame). Every
     /// frame must have the same number of arms and of points per arm.
     pub arms: Vec<Vec<[f64; 2]>>,
-    /// The object outline (e.g. its 4 corners) [m]; same vertex count in every frame. Its
+    /// The object outline (e.g. its 4 corners) (m); same vertex count in every frame. Its
     /// centroid makes the object-centre trail.
     pub object: Vec<[f64; 2]>,
-    /// The desired object position x_d(t) [m], drawn as a moving orange ring if given (in every
+    /// The desired object position x_d(t) (m), drawn as a moving orange ring if given (in every
     /// frame or in none).
     pub desired: Option<[f64; 2]>,
 }
@@ -52,9 +53,9 @@ pub struct Frame {
 pub struct AnimFrames {
     /// The frames, in time order (e.g. one per log sample).
     pub frames: Vec<Frame>,
-    /// The desired path as a static dashed polyline [m] (may be empty).
+    /// The desired path as a static dashed polyline (m) (may be empty).
     pub desired_path: Vec<[f64; 2]>,
-    /// The output constraint box `|x| < kx, |y| < ky` [m], drawn dashed, if given.
+    /// The output constraint box `|x| < kx, |y| < ky` (m), drawn dashed, if given.
     pub bounds: Option<(f64, f64)>,
 }
 
@@ -316,8 +317,9 @@ pub fn render_animated_svg(a: &AnimFrames, opts: &AnimOptions) -> Result<String>
             format!("arm {}", arm + 1),
         ));
     }
-    // Lay the legend out in rows that fit the width (DejaVu Sans at 13 px: about 7 px per character).
-    let item_w = |label: &str| 30.0 + 7.0 * label.chars().count() as f64;
+    // Lay the legend out in rows that fit the width (text measured with the embedded DejaVu Sans,
+    // which the SVG names first).
+    let item_w = |label: &str| 30.0 + crate::plot::text_width_px(label, 13.0);
     let mut legend_rows = 1usize;
     let mut x = MARGIN_PX;
     let mut legend_pos = Vec::with_capacity(items.len());

@@ -13,8 +13,18 @@
 //! - non-finite points break the line instead of poisoning the axis range;
 //! - series longer than [`MAX_DRAWN_POINTS`] are decimated by min/max buckets, so spikes stay
 //!   visible; lines are clipped to the axes when a fixed range is given;
-//! - tick values are "nice" (1, 2, 2.5, 5 × 10^k) with one common number of decimals, and very
-//!   small or very large values get a common `×10^k` factor in the axis label.
+//! - tick values are "nice" (1, 2, 2.5, 5 × 10^k) with one common number of decimals; labels
+//!   that would need more than 3 decimals, or values from 10⁴ up, get a common engineering
+//!   factor (`×10⁻³`, `×10³`, …) in the axis label.
+//!
+//! plotters 0.3.7 pitfalls worked around here (each is explained where it is handled):
+//! - a path wider than 1 px becomes one polygon with unlimited miter joins on bitmaps, so noisy
+//!   signals grow spikes: bitmap lines are drawn segment by segment ([`draw_line`]);
+//! - with `ab_glyph`, glyphs lose their left bearing on bitmaps ("ob ject"): bitmap text is laid
+//!   out glyph by glyph from the embedded font's metrics ([`draw_text`]);
+//! - `with_key_points` drops the `f64` value formatter, so the mesh cannot be configured: a small
+//!   coordinate type ([`Axis`]) carries the ticks, and the axes are drawn here;
+//! - lines are not clipped to the plotting area: they are clipped before drawing.
 //!
 //! Fonts: the DejaVu Sans font embedded in the binary is registered with plotters' `ab_glyph`
 //! backend under every family name used here ([`register_fonts`], called automatically), so no
@@ -199,7 +209,8 @@ pub struct Panel<'a> {
     pub x_range: Option<(f64, f64)>,
     /// Fixed y range; `None`: the range of the data inside the x range (and of the bounds), padded.
     pub y_range: Option<(f64, f64)>,
-    /// One metre on x is as long as one metre on y (XY paths); ranges are widened to achieve it.
+    /// One metre on x is as long as one metre on y (XY paths); the automatic ranges are widened
+    /// to achieve it (not applied when `x_range` or `y_range` is fixed).
     pub equal_aspect: bool,
 }
 
@@ -273,23 +284,40 @@ pub fn register_fonts() -> Result<()> {
     }
 }
 
-/// The pixel size `panels` uses for `n` panels in `columns` columns.
-pub fn grid_size(n: usize, columns: usize) -> (u32, u32) {
-    let columns = columns.clamp(1, n.max(1));
-    let rows = n.div_ceil(columns).max(1);
+/// Heights of the rows of a grid (pixels, before any rescaling): [`ROW_HEIGHT`], or taller for a
+/// row holding an equal-aspect (XY) panel, so that a path is not squeezed into a strip.
+fn row_heights(panels: &[Panel], columns: usize, width: u32) -> Vec<u32> {
+    let columns = columns.clamp(1, panels.len().max(1));
+    panels
+        .chunks(columns)
+        .map(|row| {
+            if row.iter().any(|p| p.equal_aspect) {
+                (width / columns as u32 * 4 / 5).clamp(ROW_HEIGHT, 700)
+            } else {
+                ROW_HEIGHT
+            }
+        })
+        .collect()
+}
+
+/// The pixel size [`panels`] uses: 1200 px wide (500 px per column beyond two), 350 px per row
+/// (rows with an XY panel are taller), plus the title.
+pub fn figure_size(panels: &[Panel], columns: usize) -> (u32, u32) {
+    let columns = columns.clamp(1, panels.len().max(1));
     let width = FIGURE_WIDTH.max(500 * columns as u32);
-    (width, ROW_HEIGHT * rows as u32 + FIGURE_TITLE_PX + 16)
+    let rows: u32 = row_heights(panels, columns, width).iter().sum();
+    (width, rows.max(ROW_HEIGHT) + FIGURE_TITLE_PX + 16)
 }
 
 /// Writes `<stem>.png` and `<stem>.svg`: the `panels` in a grid of `columns` columns under the
-/// figure `title`, at the size [`grid_size`] gives (1200 px wide, 350 px per row).
+/// figure `title`, at the size [`figure_size`] gives (1200 px wide, 350 px per row).
 pub fn panels(path_stem: &Path, title: &str, panels: &[Panel], columns: usize) -> Result<()> {
     panels_sized(
         path_stem,
         title,
         panels,
         columns,
-        grid_size(panels.len(), columns),
+        figure_size(panels, columns),
     )
 }
 
@@ -445,10 +473,30 @@ fn draw_figure<DB: DrawingBackend>(
         )?;
         body
     };
-    let cells = body.split_evenly((rows, columns));
-    for ((cell, panel), prep) in cells.iter().zip(panels).zip(&prepared) {
-        draw_panel(&cell.margin(4, 6, 8, 10), panel, prep, target)
-            .with_context(|| format!("in panel '{}'", panel.title))?;
+    // Rows share the height in proportion to their nominal heights; columns split evenly.
+    let (width, height) = body.dim_in_pixel();
+    let nominal = row_heights(panels, columns, width);
+    let total: u32 = nominal.iter().sum::<u32>().max(1);
+    let mut rest = body;
+    let mut used = 0u32;
+    for (r, (row_panels, row_preps)) in panels
+        .chunks(columns)
+        .zip(prepared.chunks(columns))
+        .enumerate()
+    {
+        let h = if r + 1 == rows {
+            height - used
+        } else {
+            (u64::from(height) * u64::from(nominal[r]) / u64::from(total)) as u32
+        };
+        used += h;
+        let (row_area, below) = rest.split_vertically(h);
+        rest = below;
+        let cells = row_area.split_evenly((1, columns));
+        for ((cell, panel), prep) in cells.iter().zip(row_panels).zip(row_preps) {
+            draw_panel(&cell.margin(4, 6, 8, 10), panel, prep, target)
+                .with_context(|| format!("in panel '{}'", panel.title))?;
+        }
     }
     Ok(())
 }
@@ -607,7 +655,7 @@ pub fn decimate_min_max(pts: &[(f64, f64)], max_points: usize) -> Vec<(f64, f64)
     for b in 0..buckets {
         let lo = 1 + b * (n - 2) / buckets;
         let hi = 1 + (b + 1) * (n - 2) / buckets;
-        let Some(chunk) = pts.get(lo..hi) else {
+        let Some(chunk) = pts.get(lo..hi).filter(|c| !c.is_empty()) else {
             continue;
         };
         let (mut imin, mut imax) = (0, 0);
@@ -618,9 +666,6 @@ pub fn decimate_min_max(pts: &[(f64, f64)], max_points: usize) -> Vec<(f64, f64)
             if p.1 > chunk[imax].1 {
                 imax = i;
             }
-        }
-        if chunk.is_empty() {
-            continue;
         }
         let (a, c) = (imin.min(imax), imin.max(imax));
         out.push(chunk[a]);
@@ -1307,6 +1352,15 @@ struct FontMetrics {
     segments: Vec<(u16, u16, u16, usize)>,
     /// The font bytes (for glyph ids read through `id_range_offset`).
     data: &'static [u8],
+}
+
+/// Width in pixels of `text` set in the embedded font at `size` px (advance widths, no kerning);
+/// 0.6 em per character if the font tables cannot be read.
+pub fn text_width_px(text: &str, size: f64) -> f64 {
+    match font_metrics() {
+        Some(m) => text.chars().map(|c| m.advance(c, size)).sum(),
+        None => 0.6 * size * text.chars().count() as f64,
+    }
 }
 
 fn font_metrics() -> Option<&'static FontMetrics> {

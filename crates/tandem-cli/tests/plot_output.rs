@@ -194,7 +194,7 @@ fn panels_write_png_and_svg() {
     let ps = tracking_panels(&d);
     plot::panels(&dir.join("tracking"), "Tracking (NN)", &ps, 2).expect("figure");
     let (w, h) = check_png(&dir.join("tracking.png"));
-    assert_eq!((w, h), plot::grid_size(ps.len(), 2));
+    assert_eq!((w, h), plot::figure_size(&ps, 2));
     assert_eq!(w, 1200);
     let svg = fs::read_to_string(dir.join("tracking.svg")).expect("svg");
     check_xml(&svg);

@@ -27,4 +27,12 @@ pub mod rbf;
 pub mod switching;
 pub mod trajectory;
 
+pub mod adaptive;
+pub mod control;
+pub mod ctc;
+pub mod disturbance;
+pub mod pd;
+pub mod report;
+pub mod sim;
+
 pub use error::ModelError;

@@ -1,0 +1,54 @@
+use tandem::adaptive::NnGains;
+use tandem::admittance::AdmittanceParams;
+use tandem::control::{Controller, ControllerParams, LawParams};
+use tandem::disturbance::Disturbance;
+use tandem::pd::PdGains;
+use tandem::sensors::SensorParams;
+use tandem::sim::{Driver, SimParams, Simulation};
+use tandem::trajectory::Path;
+use tandem::{fixtures, report};
+
+fn main() {
+    let which = std::env::args().nth(1).unwrap_or("nn".into());
+    let dur: f64 = std::env::args()
+        .nth(2)
+        .map(|s| s.parse().unwrap())
+        .unwrap_or(10.0);
+    let law = match which.as_str() {
+        "pd" => LawParams::Pd(PdGains::paper()),
+        "paper" => LawParams::Nn(NnGains::paper()),
+        "ctc" => LawParams::Ctc(Default::default()),
+        _ => LawParams::Nn(NnGains::tuned()),
+    };
+    let plant = fixtures::paper();
+    let cp = ControllerParams {
+        law,
+        k_c: [0.35; 3],
+        admittance: Some(AdmittanceParams::default()),
+        delta: 0.005,
+        control_period: 1e-3,
+        torque_limit: None,
+        disturbance_bound: Disturbance::paper().bound(),
+    };
+    let (c, w) = Controller::new(&cp, &plant, Path::paper(), dur).unwrap();
+    for w in w {
+        println!("warning: {w}");
+    }
+    let mut sp = SimParams::paper();
+    sp.duration = dur;
+    let sim = Simulation::new(
+        &plant,
+        &SensorParams::default(),
+        Driver::Controller(Box::new(c)),
+        Disturbance::paper(),
+        sp,
+        None,
+    )
+    .unwrap();
+    let (out, _) = sim.run(|_| {});
+    let s = report::summarize(&out, &which, "", [0.35; 3], 5.0, dur);
+    println!("{}", serde_json_like(&s));
+}
+fn serde_json_like(s: &report::Summary) -> String {
+    format!("{s:#?}")
+}

@@ -1,0 +1,517 @@
+//! The cooperative controller: one tick maps (time, encoder readings, force readings) to joint
+//! torques plus a record of its internals (SPEC §3).
+//!
+//! Data flow of a tick (SPEC §3, steps 1–5):
+//! 1. `(q, q̇) → (x̂_o, ẋ̂_o)`: forward kinematics of each arm, least-squares fit through the grasps
+//!    ([`crate::grasp::fit_pose`]); the controller never reads the plant state.
+//! 2. `t → x_d, ẋ_d, ẍ_d`: the desired path ([`crate::trajectory`]).
+//! 3. `(F_i, x_d) → x_r,i → x_r`: per-arm admittance generators ([`crate::admittance`], SPEC §3.1)
+//!    around the desired end-effector points `x_d,i = p_d + R(θ_d)(r_i − δ_i)`, fed with the
+//!    unexpected force `LPF(F_i) − F_ref,i`; the object-level reference is their least-squares fit.
+//! 4. `(x̂_o, ẋ̂_o, x_r, ẋ_r, ẍ_r) → τ`: the tracking law on the object (iBLF + adaptive NN
+//!    ([`crate::adaptive`]), PD ([`crate::pd`]) or computed torque ([`crate::ctc`])).
+//! 5. `τ → τ_x,i → τ_joint,i = J_e,iᵀ τ_x,i`: wrench distribution with the internal squeeze
+//!    ([`crate::grasp::distribute_wrench`]), then actuator limits.
+//!
+//! A tick allocates nothing and never emits NaN or infinity: a barrier hit saturates and is
+//! counted, a non-finite law output is replaced by zero torque and counted.
+
+use nalgebra::{Rotation2, Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::adaptive::{AdaptiveNn, NnGains};
+use crate::admittance::{Admittance, AdmittanceParams, AdmittanceState, AdmittanceWarning};
+use crate::ctc::{Ctc, CtcGains, nominal_params};
+use crate::error::{ModelError, non_negative, positive};
+use crate::grasp::{Grasp, distribute_wrench, fit_pose, fit_velocity};
+use crate::pd::{Pd, PdGains};
+use crate::plant::{Plant, PlantParams, PlantWorkspace};
+use crate::trajectory::Path;
+
+/// Which tracking law, with its gains (plain data).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum LawParams {
+    /// iBLF backstepping + adaptive RBF network with switching (SPEC §3.3–3.4).
+    Nn(NnGains),
+    /// PD baseline (SPEC §3.5).
+    Pd(PdGains),
+    /// Computed torque with a nominal model (SPEC §3.5).
+    Ctc(CtcGains),
+}
+
+impl LawParams {
+    /// Short name: `nn`, `pd` or `ctc`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            LawParams::Nn(_) => "nn",
+            LawParams::Pd(_) => "pd",
+            LawParams::Ctc(_) => "ctc",
+        }
+    }
+}
+
+/// Controller parameters (plain data; validated by [`Controller::new`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ControllerParams {
+    /// The tracking law.
+    pub law: LawParams,
+    /// Output bounds `k_c` on `(x, y, θ)` of the object, (m, m, rad): `|x_1j| < k_cj`.
+    pub k_c: [f64; 3],
+    /// Admittance generator; `None` bypasses it (`x_r = x_d`).
+    pub admittance: Option<AdmittanceParams>,
+    /// Offset `δ` of each arm's desired point inside its grasp point, m (SPEC §3.1).
+    pub delta: f64,
+    /// Control period, s.
+    pub control_period: f64,
+    /// Joint torque limit (symmetric), N m; `None` = unlimited.
+    pub torque_limit: Option<f64>,
+    /// Known bound of the disturbance `|F_d,j|` (enters `f^U`, SPEC §3.4), (N, N, N m).
+    pub disturbance_bound: [f64; 3],
+}
+
+/// What the controller reads at a tick (sensor outputs, never the plant state).
+#[derive(Clone, Copy, Debug)]
+pub struct Measurements<'a> {
+    /// Encoder angles, stacked over arms, rad.
+    pub q: &'a [f64],
+    /// Encoder rates, rad/s.
+    pub qd: &'a [f64],
+    /// Force sensor readings `F_i` (the object on end-effector `i`), N.
+    pub forces: &'a [Vector2<f64>],
+}
+
+/// The controller's internals at one tick (SPEC §5 columns). `Copy`, fixed size.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TickRecord {
+    /// Estimated object pose `x_1 = x̂_o`.
+    pub x_o: Vector3<f64>,
+    /// Estimated object velocity `x_2`.
+    pub xd_o: Vector3<f64>,
+    /// Desired pose `x_d`.
+    pub x_d: Vector3<f64>,
+    /// Reference pose `x_r` from the admittance generators.
+    pub x_r: Vector3<f64>,
+    /// Reference velocity `ẋ_r`.
+    pub xd_r: Vector3<f64>,
+    /// `z1 = x_1 − x_r`.
+    pub z1: Vector3<f64>,
+    /// `z2 = x_2 − α` (NN) or `ż1` (PD, CTC).
+    pub z2: Vector3<f64>,
+    /// Virtual control `α` (NN; zero otherwise).
+    pub alpha: Vector3<f64>,
+    /// `α̇` (NN).
+    pub alpha_dot: Vector3<f64>,
+    /// Wrench `τ` commanded on the object, (N, N, N m).
+    pub wrench: Vector3<f64>,
+    /// Switching value `Q = M(Z)` (NN; 1 otherwise).
+    pub q_switch: f64,
+    /// Weight norms `‖Ŵ_j‖` (NN).
+    pub w_norm: Vector3<f64>,
+    /// Constraint margin `1 − max_j |x_1j|/k_cj` (negative = violated).
+    pub margin: f64,
+    /// This tick saturated the barrier (|x_1| or |x_r| at the bound).
+    pub barrier_hit: bool,
+    /// This tick clipped at least one joint torque.
+    pub torque_clipped: bool,
+    /// This tick replaced a non-finite law output or measurement.
+    pub non_finite: bool,
+}
+
+/// Counters of events since the start (SPEC §3.3: a barrier hit is recorded and counted).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct ControlEvents {
+    /// Ticks with a barrier saturation.
+    pub barrier_hits: u64,
+    /// Ticks with clipped torques.
+    pub torque_clips: u64,
+    /// Ticks with a non-finite value replaced.
+    pub non_finite: u64,
+    /// Ticks that could not estimate or distribute (degenerate grasps).
+    pub degenerate: u64,
+}
+
+/// Set-up warnings (allowed but risky choices).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ControlWarning {
+    /// From the admittance generator (the paper's first-order form).
+    Admittance(AdmittanceWarning),
+}
+
+impl std::fmt::Display for ControlWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ControlWarning::Admittance(w) => write!(f, "{w}"),
+        }
+    }
+}
+
+enum Law {
+    Nn(Box<AdaptiveNn>),
+    Pd(Pd),
+    Ctc(Ctc, Box<Plant>),
+}
+
+/// A cooperative controller: validated gains and models, its own state (admittance, weights),
+/// and preallocated scratch. Build once, then call [`Controller::tick`] at the control rate.
+pub struct Controller {
+    kin: Plant,
+    grasps: Vec<Grasp>,
+    grasps_d: Vec<Grasp>,
+    path: Path,
+    adm: Option<Admittance>,
+    adm_state: Vec<AdmittanceState>,
+    squeeze: f64,
+    law: Law,
+    k_c: Vector3<f64>,
+    h: f64,
+    torque_limit: f64,
+    events: ControlEvents,
+    theta_hint: f64,
+    theta_r_hint: f64,
+    // Scratch.
+    ws: PlantWorkspace,
+    pts: Vec<Vector2<f64>>,
+    vels: Vec<Vector2<f64>>,
+    acc: Vec<Vector2<f64>>,
+    tau_x: Vec<Vector2<f64>>,
+    f_ref: Vec<Vector2<f64>>,
+}
+
+impl Controller {
+    /// Build a controller from its parameters, the controller's model of the set-up (`model`:
+    /// arm kinematics and grasps are taken as known; dynamics are used only where a law needs a
+    /// model — the expected force `F_ref`, the bound `f^U`, computed torque), the desired path
+    /// and the run's duration (to check the path against `k_c`).
+    pub fn new(
+        p: &ControllerParams,
+        model: &PlantParams,
+        path: Path,
+        duration: f64,
+    ) -> Result<(Self, Vec<ControlWarning>), ModelError> {
+        let kin = Plant::new(model)?;
+        let h = positive("control_period", p.control_period)?;
+        let delta = non_negative("delta", p.delta)?;
+        let mut k_c = Vector3::zeros();
+        for j in 0..3 {
+            k_c[j] = positive(&format!("k_c[{j}]"), p.k_c[j])?;
+            non_negative(&format!("disturbance_bound[{j}]"), p.disturbance_bound[j])?;
+        }
+        // The path must stay strictly inside the bound (iBLF needs |x_r| < k_c).
+        let reach = path.max_abs(duration);
+        for j in 0..3 {
+            if !(reach[j] < k_c[j]) {
+                return Err(ModelError::invalid(
+                    format!("k_c[{j}]"),
+                    k_c[j],
+                    format!(
+                        "must be above the desired path's reach |x_d,{j}| = {:.4} over the run",
+                        reach[j]
+                    ),
+                ));
+            }
+        }
+        let torque_limit = match p.torque_limit {
+            Some(l) => positive("torque_limit", l)?,
+            None => f64::INFINITY,
+        };
+        let grasps: Vec<Grasp> = kin.grasps().to_vec();
+        for (i, g) in grasps.iter().enumerate() {
+            if g.r.norm() <= delta {
+                return Err(ModelError::invalid(
+                    "delta",
+                    delta,
+                    format!(
+                        "must be smaller than grasp {i}'s distance from the object centre ({:.4} m)",
+                        g.r.norm()
+                    ),
+                ));
+            }
+        }
+        if grasps.len() < 2 {
+            return Err(ModelError::geometry(
+                "grasps",
+                "the object-level scheme needs at least two grasps",
+            ));
+        }
+        let grasps_d: Vec<Grasp> = grasps
+            .iter()
+            .map(|g| Grasp {
+                r: g.r * (1.0 - delta / g.r.norm()),
+            })
+            .collect();
+        let mut warnings = Vec::new();
+        let (adm, squeeze) = match &p.admittance {
+            Some(a) => {
+                let (adm, w) = Admittance::new(a, h)?;
+                warnings.extend(w.into_iter().map(ControlWarning::Admittance));
+                // Internal force of about K_e δ (SPEC §3.1), commanded along the null space.
+                (Some(adm), a.k_e[0] * delta)
+            }
+            None => (None, 0.0),
+        };
+        let law = match &p.law {
+            LawParams::Pd(g) => Law::Pd(Pd::new(g)?),
+            LawParams::Ctc(g) => {
+                let ctc = Ctc::new(g)?;
+                let nominal = Plant::new(&nominal_params(model, g.model_error))?;
+                if nominal.arms().iter().any(|a| a.dof() != 2) {
+                    return Err(ModelError::geometry(
+                        "law",
+                        "computed torque uses the reduced model (14), which needs 2-link arms",
+                    ));
+                }
+                Law::Ctc(ctc, Box::new(nominal))
+            }
+            LawParams::Nn(g) => Law::Nn(Box::new(AdaptiveNn::new(
+                g,
+                k_c,
+                &kin,
+                p.disturbance_bound,
+                h,
+            )?)),
+        };
+        let m = grasps.len();
+        let ws = kin.workspace();
+        Ok((
+            Controller {
+                kin,
+                grasps,
+                grasps_d,
+                path,
+                adm,
+                adm_state: vec![AdmittanceState::default(); m],
+                squeeze,
+                law,
+                k_c,
+                h,
+                torque_limit,
+                events: ControlEvents::default(),
+                theta_hint: 0.0,
+                theta_r_hint: 0.0,
+                ws,
+                pts: vec![Vector2::zeros(); m],
+                vels: vec![Vector2::zeros(); m],
+                acc: vec![Vector2::zeros(); m],
+                tau_x: vec![Vector2::zeros(); m],
+                f_ref: vec![Vector2::zeros(); m],
+            },
+            warnings,
+        ))
+    }
+
+    /// Control period, s.
+    pub fn period(&self) -> f64 {
+        self.h
+    }
+    /// Event counters since the start.
+    pub fn events(&self) -> ControlEvents {
+        self.events
+    }
+    /// Output bounds `k_c`.
+    pub fn k_c(&self) -> Vector3<f64> {
+        self.k_c
+    }
+    /// The internal squeeze force commanded, N.
+    pub fn squeeze(&self) -> f64 {
+        self.squeeze
+    }
+    /// The desired path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+    /// The adaptive law, when this controller runs one (for inspection and tests).
+    pub fn adaptive(&self) -> Option<&AdaptiveNn> {
+        match &self.law {
+            Law::Nn(nn) => Some(nn),
+            _ => None,
+        }
+    }
+
+    /// Start (or restart) at time `t0`: admittance offsets at rest, each force filter started at
+    /// its expected force `F_ref,i(t0)` (SPEC §3.1), the pose estimate's angle branch set from
+    /// the measurements. Adaptive weights are kept (call [`Controller::reset_weights`] to zero
+    /// them).
+    pub fn start(&mut self, t0: f64, meas: &Measurements) {
+        let s = self.path.sample(t0);
+        self.expected_forces(&s.p, &s.v, &s.a);
+        for (st, f) in self.adm_state.iter_mut().zip(&self.f_ref) {
+            *st = AdmittanceState::with_filter_at(*f);
+        }
+        self.theta_hint = s.p.z;
+        self.theta_r_hint = s.p.z;
+        self.estimate(meas);
+        self.events = ControlEvents::default();
+    }
+
+    /// Zero the adaptive weights (NN law).
+    pub fn reset_weights(&mut self) {
+        if let Law::Nn(nn) = &mut self.law {
+            nn.reset_weights();
+        }
+    }
+
+    /// `F_ref,i`: minus arm i's share of the nominal wrench `M_o ẍ_d + C_o ẋ_d + G_o` plus the
+    /// squeeze reaction (SPEC §3.1), into `self.f_ref`.
+    fn expected_forces(&mut self, x_d: &Vector3<f64>, xd_d: &Vector3<f64>, xdd_d: &Vector3<f64>) {
+        let o = self.kin.object();
+        let w = o.M_o * xdd_d + o.C_o * xd_d + o.G_o;
+        if distribute_wrench(&self.grasps, x_d.z, &w, self.squeeze, &mut self.tau_x) {
+            for (f, t) in self.f_ref.iter_mut().zip(&self.tau_x) {
+                *f = -t;
+            }
+        }
+    }
+
+    /// Object pose and velocity from the encoders (step 1). Returns false if degenerate.
+    fn estimate(&mut self, meas: &Measurements) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        for (i, arm) in self.kin.arms().iter().enumerate() {
+            let off = self.kin.offset(i);
+            let n = arm.dof();
+            let t = &mut self.ws.terms[i];
+            arm.kinematics(&meas.q[off..off + n], &meas.qd[off..off + n], t);
+            self.pts[i] = t.p_ee;
+            self.vels[i] = t.v_ee;
+        }
+        let x = fit_pose(&self.grasps, &self.pts, self.theta_hint);
+        let v = fit_velocity(&self.grasps, x.z, &self.vels)?;
+        self.theta_hint = x.z;
+        Some((x, v))
+    }
+
+    /// One control tick at time `t`: `(t, q, q̇, F) → τ_joint` (written into `tau`, n_q) and the
+    /// internals into `rec`. No allocation; never writes NaN or infinity into `tau`.
+    pub fn tick(&mut self, t: f64, meas: &Measurements, tau: &mut [f64], rec: &mut TickRecord) {
+        *rec = TickRecord {
+            q_switch: 1.0,
+            ..TickRecord::default()
+        };
+        // 1. Estimate.
+        let Some((x1, x2)) = self.estimate(meas) else {
+            self.events.degenerate += 1;
+            tau.fill(0.0);
+            return;
+        };
+        if !(x1.iter().chain(x2.iter()).all(|v| v.is_finite())) {
+            self.events.non_finite += 1;
+            rec.non_finite = true;
+            tau.fill(0.0);
+            return;
+        }
+        // 2. Desired path.
+        let s = self.path.sample(t);
+        // 3. Reference: admittance around x_d,i, fitted back to the object.
+        let (x_r, xd_r, xdd_r) = self.reference(&s.p, &s.v, &s.a, meas, rec);
+        // 4. Tracking law → wrench on the object.
+        let z1 = x1 - x_r;
+        let z1_dot = x2 - xd_r;
+        let mut w = match &mut self.law {
+            Law::Pd(pd) => {
+                rec.z2 = z1_dot;
+                pd.wrench(&z1, &z1_dot)
+            }
+            Law::Ctc(ctc, nominal) => {
+                rec.z2 = z1_dot;
+                let a = ctc.acceleration(&xdd_r, &z1, &z1_dot);
+                match nominal.object_space(&x1, &x2, &mut self.ws) {
+                    Ok(os) => os.M * a + os.C * x2 + os.G,
+                    Err(_) => {
+                        self.events.degenerate += 1;
+                        Vector3::zeros()
+                    }
+                }
+            }
+            Law::Nn(nn) => nn.wrench(&x1, &x2, &x_r, &xd_r, &xdd_r, rec),
+        };
+        if !w.iter().all(|v| v.is_finite()) {
+            rec.non_finite = true;
+            w = Vector3::zeros();
+        }
+        rec.x_o = x1;
+        rec.xd_o = x2;
+        rec.x_d = s.p;
+        rec.x_r = x_r;
+        rec.xd_r = xd_r;
+        rec.z1 = z1;
+        rec.wrench = w;
+        rec.margin = (0..3)
+            .map(|j| 1.0 - x1[j].abs() / self.k_c[j])
+            .fold(f64::INFINITY, f64::min);
+        // 5. Distribute and map to joints.
+        if !distribute_wrench(&self.grasps, x1.z, &w, self.squeeze, &mut self.tau_x) {
+            self.events.degenerate += 1;
+            tau.fill(0.0);
+            return;
+        }
+        for (i, arm) in self.kin.arms().iter().enumerate() {
+            let off = self.kin.offset(i);
+            let t = &self.ws.terms[i];
+            for k in 0..arm.dof() {
+                let v = t.J[(0, k)] * self.tau_x[i].x + t.J[(1, k)] * self.tau_x[i].y;
+                let c = v.clamp(-self.torque_limit, self.torque_limit);
+                rec.torque_clipped |= c != v;
+                tau[off + k] = if c.is_finite() { c } else { 0.0 };
+            }
+        }
+        if rec.barrier_hit {
+            self.events.barrier_hits += 1;
+        }
+        if rec.torque_clipped {
+            self.events.torque_clips += 1;
+        }
+        if rec.non_finite {
+            self.events.non_finite += 1;
+        }
+    }
+
+    /// Step 3: the reference `(x_r, ẋ_r, ẍ_r)` at this tick. Uses the generators' state
+    /// before the update (no direct feed-through of this tick's force), then advances them.
+    fn reference(
+        &mut self,
+        x_d: &Vector3<f64>,
+        xd_d: &Vector3<f64>,
+        xdd_d: &Vector3<f64>,
+        meas: &Measurements,
+        rec: &mut TickRecord,
+    ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
+        let Some(adm) = self.adm else {
+            return (*x_d, *xd_d, *xdd_d);
+        };
+        self.expected_forces(x_d, xd_d, xdd_d);
+        let rot = Rotation2::new(x_d.z);
+        let p_d = Vector2::new(x_d.x, x_d.y);
+        for (i, g) in self.grasps_d.iter().enumerate() {
+            let rw = rot * g.r;
+            let j = Grasp::jacobian_from_arm(rw);
+            let st = &mut self.adm_state[i];
+            let edd = adm.e_ddot(st, self.f_ref[i]);
+            self.pts[i] = p_d + rw + st.e;
+            self.vels[i] = j * xd_d + st.e_dot;
+            // ẍ_d,i = J ẍ_d + J̇ ẋ_d, J̇ ẋ = −R r θ̇².
+            self.acc[i] = j * xdd_d - rw * (xd_d.z * xd_d.z) + edd;
+            let f = meas.forces[i];
+            if !adm.step(st, f, self.f_ref[i]) {
+                rec.non_finite = true;
+            }
+        }
+        let x_r = fit_pose(&self.grasps_d, &self.pts, self.theta_r_hint);
+        self.theta_r_hint = x_r.z;
+        let xd_r = fit_velocity(&self.grasps_d, x_r.z, &self.vels).unwrap_or(*xd_d);
+        let rot_r = Rotation2::new(x_r.z);
+        for (i, g) in self.grasps_d.iter().enumerate() {
+            // Remove the velocity-product term: ẍ_i − J̇_i ẋ_r = J_i ẍ_r.
+            self.acc[i] += (rot_r * g.r) * (xd_r.z * xd_r.z);
+        }
+        let xdd_r = fit_velocity(&self.grasps_d, x_r.z, &self.acc).unwrap_or(*xdd_d);
+        (x_r, xd_r, xdd_r)
+    }
+
+    /// Expected grasp forces `F_ref,i` of the last tick (N), for logging.
+    pub fn expected(&self) -> &[Vector2<f64>] {
+        &self.f_ref
+    }
+    /// Admittance offsets `e_i` of every arm (m), for logging.
+    pub fn admittance_offsets(&self) -> impl Iterator<Item = Vector2<f64>> + '_ {
+        self.adm_state.iter().map(|s| s.e)
+    }
+}

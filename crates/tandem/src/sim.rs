@@ -1,0 +1,689 @@
+//! The simulation loop (SPEC §3 step order, §2.4 integration, §5 outputs).
+//!
+//! Per control tick `k` at `t_k = k h_c`:
+//! 1. grasp forces at `(y(t_k), u_{k−1})` (the input still held) → force sensors; encoders;
+//! 2. the driver (a [`Controller`] or a torque [`Replay`]) → joint torques `u_k`, actuator limits;
+//! 3. `F_d(t_k)`; the plant advances `h_c / h_p` RK4 substeps with `(u_k, F_d)` held (ZOH);
+//! 4. health checks (non-finite state, constraint drift, singular arms) → a [`Fault`] stops the
+//!    run cleanly with the time and the state;
+//! 5. every `log_period`, one row into the preallocated [`Log`].
+//!
+//! Deterministic: the only randomness is in the seeded sensors.
+
+use std::time::Instant;
+
+use nalgebra::{Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::control::{ControlEvents, Controller, Measurements, TickRecord};
+use crate::disturbance::Disturbance;
+use crate::error::{ModelError, positive};
+use crate::integrate::Rk4;
+use crate::plant::{ConstrainedOde, Plant, PlantInput, PlantParams, PlantWorkspace, ReducedOde};
+use crate::sensors::{SensorParams, Sensors};
+
+/// Which plant formulation integrates the truth (SPEC §2.4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Formulation {
+    /// Joints + object with Lagrange multipliers (default; any arms).
+    #[default]
+    Constrained,
+    /// Object coordinates only, (14) (2-link arms).
+    Reduced,
+}
+
+/// Run settings (plain data).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimParams {
+    /// Duration, s.
+    pub duration: f64,
+    /// Plant RK4 step, s (the control period must be a whole multiple).
+    pub plant_step: f64,
+    /// Control period, s.
+    pub control_period: f64,
+    /// Logging period, s (a whole multiple of the control period).
+    pub log_period: f64,
+    /// Start pose of the object, (m, m, rad); at rest.
+    pub start: [f64; 3],
+    /// Plant formulation.
+    #[serde(default)]
+    pub formulation: Formulation,
+    /// Largest grasp-constraint drift tolerated before the run stops, m.
+    #[serde(default = "default_drift")]
+    pub max_drift: f64,
+    /// Smallest arm-Jacobian singular value tolerated before the run stops, m/rad.
+    #[serde(default = "default_sigma")]
+    pub min_sigma: f64,
+}
+
+fn default_drift() -> f64 {
+    1e-6
+}
+fn default_sigma() -> f64 {
+    1e-3
+}
+
+impl SimParams {
+    /// The paper's run: 90 s, 1 kHz control, 1 ms plant step, log every 30 ms, start
+    /// `(0.19, 0, 0)` (SPEC §4).
+    pub fn paper() -> Self {
+        SimParams {
+            duration: 90.0,
+            plant_step: 1e-3,
+            control_period: 1e-3,
+            log_period: 0.03,
+            start: [0.19, 0.0, 0.0],
+            formulation: Formulation::Constrained,
+            max_drift: default_drift(),
+            min_sigma: default_sigma(),
+        }
+    }
+
+    /// Validate periods and their ratios; returns (substeps per tick, ticks per log row, ticks).
+    pub fn validate(&self) -> Result<(usize, usize, usize), ModelError> {
+        let d = positive("duration", self.duration)?;
+        let hp = positive("plant_step", self.plant_step)?;
+        let hc = positive("control_period", self.control_period)?;
+        let hl = positive("log_period", self.log_period)?;
+        positive("max_drift", self.max_drift)?;
+        positive("min_sigma", self.min_sigma)?;
+        let ratio = |a: f64, b: f64, what: &str, of: &str| -> Result<usize, ModelError> {
+            let r = a / b;
+            let n = r.round();
+            if n < 1.0 || (r - n).abs() > 1e-9 * n {
+                Err(ModelError::invalid(
+                    what,
+                    a,
+                    format!("must be a whole multiple of {of} ({b})"),
+                ))
+            } else {
+                Ok(n as usize)
+            }
+        };
+        let sub = ratio(hc, hp, "control_period", "plant_step")?;
+        let per_log = ratio(hl, hc, "log_period", "control_period")?;
+        let ticks = (d / hc).round() as usize;
+        for (j, v) in self.start.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(ModelError::invalid(
+                    format!("start[{j}]"),
+                    *v,
+                    "must be finite",
+                ));
+            }
+        }
+        Ok((sub, per_log, ticks))
+    }
+}
+
+/// Joint torques replayed from a table (`t` plus one column per joint), each row held until the
+/// next (zero-order hold); before the first row the first row applies.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Replay {
+    times: Vec<f64>,
+    rows: Vec<Vec<f64>>,
+    cursor: usize,
+}
+
+impl Replay {
+    /// Validate: at least one row, strictly increasing finite times, `n_q` finite torques a row.
+    pub fn new(times: Vec<f64>, rows: Vec<Vec<f64>>, n_q: usize) -> Result<Self, ModelError> {
+        if times.is_empty() || times.len() != rows.len() {
+            return Err(ModelError::geometry(
+                "replay",
+                "needs at least one row and one time per row",
+            ));
+        }
+        for (k, (t, r)) in times.iter().zip(&rows).enumerate() {
+            if !t.is_finite() || (k > 0 && *t <= times[k - 1]) {
+                return Err(ModelError::invalid(
+                    format!("replay row {}: t", k + 1),
+                    *t,
+                    "times must be finite and strictly increasing",
+                ));
+            }
+            if r.len() != n_q {
+                return Err(ModelError::geometry(
+                    format!("replay row {}", k + 1),
+                    format!("has {} torques, the plant has {n_q} joints", r.len()),
+                ));
+            }
+            if let Some(j) = r.iter().position(|v| !v.is_finite()) {
+                return Err(ModelError::invalid(
+                    format!("replay row {}: joint {j}", k + 1),
+                    r[j],
+                    "must be finite",
+                ));
+            }
+        }
+        Ok(Replay {
+            times,
+            rows,
+            cursor: 0,
+        })
+    }
+    /// The held row at `t` (monotone `t` is O(1) amortised).
+    pub fn at(&mut self, t: f64) -> &[f64] {
+        if self.cursor > 0 && t < self.times[self.cursor] {
+            self.cursor = 0;
+        }
+        while self.cursor + 1 < self.times.len() && self.times[self.cursor + 1] <= t {
+            self.cursor += 1;
+        }
+        &self.rows[self.cursor]
+    }
+}
+
+/// What produces the joint torques.
+pub enum Driver {
+    /// A cooperative controller (boxed: it owns sizeable buffers).
+    Controller(Box<Controller>),
+    /// A torque replay.
+    Replay(Replay),
+}
+
+/// Why a run stopped early.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Fault {
+    /// The plant state became non-finite.
+    NonFinite {
+        /// Time, s.
+        t: f64,
+    },
+    /// The grasp constraints drifted beyond `max_drift`.
+    ConstraintDrift {
+        /// Time, s.
+        t: f64,
+        /// Drift, m.
+        drift: f64,
+    },
+    /// An arm came within `min_sigma` of a singular configuration.
+    Singular {
+        /// Time, s.
+        t: f64,
+        /// Smallest singular value, m/rad.
+        sigma: f64,
+    },
+    /// The reduced formulation could not be evaluated (IK out of reach or singular arm).
+    Reduced {
+        /// Time, s.
+        t: f64,
+    },
+}
+
+impl std::fmt::Display for Fault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Fault::NonFinite { t } => {
+                write!(f, "the plant state became non-finite at t = {t:.4} s")
+            }
+            Fault::ConstraintDrift { t, drift } => {
+                write!(f, "grasp constraint drift {drift:.3e} m at t = {t:.4} s")
+            }
+            Fault::Singular { t, sigma } => write!(
+                f,
+                "an arm reached a singular configuration (σ_min = {sigma:.3e} m/rad) at t = {t:.4} s"
+            ),
+            Fault::Reduced { t } => write!(
+                f,
+                "the reduced formulation failed (grasp out of reach or singular arm) at t = {t:.4} s"
+            ),
+        }
+    }
+}
+
+/// One logged column: name, unit and samples (capacity reserved at start).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Column {
+    /// Name, e.g. `x_o.x`.
+    pub name: String,
+    /// Unit, e.g. `m`.
+    pub unit: String,
+    /// Samples.
+    pub data: Vec<f64>,
+}
+
+/// The time series of a run (SPEC §5), column-major, preallocated.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Log {
+    /// Columns in a fixed order (see [`Log::names`]).
+    pub columns: Vec<Column>,
+}
+
+impl Log {
+    fn with_layout(layout: &[(String, String)], rows: usize) -> Self {
+        Log {
+            columns: layout
+                .iter()
+                .map(|(n, u)| Column {
+                    name: n.clone(),
+                    unit: u.clone(),
+                    data: Vec::with_capacity(rows),
+                })
+                .collect(),
+        }
+    }
+    /// Column by name.
+    pub fn get(&self, name: &str) -> Option<&[f64]> {
+        self.columns
+            .iter()
+            .find(|c| c.name == name)
+            .map(|c| c.data.as_slice())
+    }
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.columns.first().map_or(0, |c| c.data.len())
+    }
+    /// No rows.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Column names with units, `name [unit]`.
+    pub fn names(&self) -> Vec<String> {
+        self.columns
+            .iter()
+            .map(|c| format!("{} [{}]", c.name, c.unit))
+            .collect()
+    }
+}
+
+const AX: [&str; 3] = ["x", "y", "theta"];
+
+fn layout(n_q: usize, n_arms: usize) -> Vec<(String, String)> {
+    let mut l: Vec<(String, String)> = vec![("t".into(), "s".into())];
+    let lin = |j: usize, m: &str, r: &str| if j < 2 { m.to_string() } else { r.to_string() };
+    for (group, (m, r)) in [
+        ("x_o", ("m", "rad")),
+        ("x_hat", ("m", "rad")),
+        ("x_d", ("m", "rad")),
+        ("x_r", ("m", "rad")),
+        ("z1", ("m", "rad")),
+        ("z2", ("m/s", "rad/s")),
+        ("alpha", ("m/s", "rad/s")),
+        ("alpha_dot", ("m/s^2", "rad/s^2")),
+        ("tau", ("N", "N m")),
+        ("w_norm", ("1", "1")),
+    ] {
+        for (j, a) in AX.iter().enumerate() {
+            l.push((format!("{group}.{a}"), lin(j, m, r)));
+        }
+    }
+    for k in 0..n_q {
+        l.push((format!("tau_q{}", k + 1), "N m".into()));
+    }
+    for i in 0..n_arms {
+        for a in ["x", "y"] {
+            l.push((format!("F{}.{a}", i + 1), "N".into()));
+        }
+    }
+    for i in 0..n_arms {
+        for a in ["x", "y"] {
+            l.push((format!("F_meas{}.{a}", i + 1), "N".into()));
+        }
+    }
+    l.push(("Q".into(), "1".into()));
+    l.push(("margin".into(), "1".into()));
+    l.push(("drift".into(), "m".into()));
+    l
+}
+
+/// The result of a run.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The log (rows up to the stop).
+    pub log: Log,
+    /// Why the run stopped early, if it did.
+    pub fault: Option<Fault>,
+    /// Controller event counters (zero for a replay).
+    pub events: ControlEvents,
+    /// Ticks simulated.
+    pub ticks: usize,
+    /// Simulated time reached, s.
+    pub t_end: f64,
+    /// Wall time of the loop (outputs excluded), s.
+    pub wall_time: f64,
+    /// Largest constraint drift seen, m.
+    pub max_drift: f64,
+    /// Evaluations that needed a regularised grasp-space solve.
+    pub regularised: u64,
+}
+
+/// A simulation: plant, sensors, driver, state, scratch and the log.
+pub struct Simulation {
+    plant: Plant,
+    params: SimParams,
+    sensors: Sensors,
+    driver: Driver,
+    disturbance: Disturbance,
+    y: Vec<f64>,
+    y_red: [f64; 6],
+    ws: PlantWorkspace,
+    rk: Rk4,
+    rk_red: Rk4,
+    input: PlantInput,
+    dy: Vec<f64>,
+    forces: Vec<Vector2<f64>>,
+    rec: TickRecord,
+    log: Log,
+    substeps: usize,
+    per_log: usize,
+    ticks: usize,
+}
+
+impl Simulation {
+    /// Build a run: validates every part, places the chain at the start pose (analytic IK for
+    /// 2-link arms, `q_guess` for others) and starts the driver.
+    pub fn new(
+        plant: &PlantParams,
+        sensors: &SensorParams,
+        driver: Driver,
+        disturbance: Disturbance,
+        params: SimParams,
+        q_guess: Option<&[f64]>,
+    ) -> Result<Self, ModelError> {
+        let (substeps, per_log, ticks) = params.validate()?;
+        disturbance.validate()?;
+        let plant = Plant::new(plant)?;
+        if params.formulation == Formulation::Reduced && plant.arms().iter().any(|a| a.dof() != 2) {
+            return Err(ModelError::geometry(
+                "formulation",
+                "the reduced formulation needs 2-link arms",
+            ));
+        }
+        let x0 = Vector3::from(params.start);
+        let y = plant.initial_state(x0, Vector3::zeros(), q_guess)?;
+        let mut ws = plant.workspace();
+        let sigma = plant.min_singular_value(&y, &mut ws);
+        if sigma < params.min_sigma {
+            return Err(ModelError::invalid(
+                "start",
+                sigma,
+                format!(
+                    "puts an arm at a singular configuration (σ_min below min_sigma = {})",
+                    params.min_sigma
+                ),
+            ));
+        }
+        let n_arms = plant.arms().len();
+        let mut sensors = Sensors::new(sensors, plant.n_q(), n_arms, params.control_period)?;
+        let rows = ticks / per_log + 2;
+        let log = Log::with_layout(&layout(plant.n_q(), n_arms), rows);
+        let n = plant.state_dim();
+        let mut sim = Simulation {
+            input: plant.zero_input(),
+            dy: vec![0.0; n],
+            forces: vec![Vector2::zeros(); n_arms],
+            rk: Rk4::new(n),
+            rk_red: Rk4::new(6),
+            y_red: [x0.x, x0.y, x0.z, 0.0, 0.0, 0.0],
+            plant,
+            params,
+            sensors: {
+                // Placeholder reset below once the forces are known.
+                let _ = &mut sensors;
+                sensors
+            },
+            driver,
+            disturbance,
+            y,
+            ws,
+            rec: TickRecord::default(),
+            log,
+            substeps,
+            per_log,
+            ticks,
+        };
+        // Initial forces with zero torque held (the object hanging in the arms' grasp).
+        sim.eval_forces();
+        let (q, _, qd, _) = sim.plant.split(&sim.y);
+        sim.sensors.reset(q, qd, &sim.forces);
+        if let Driver::Controller(c) = &mut sim.driver {
+            let meas = Measurements {
+                q: sim.sensors.q(),
+                qd: sim.sensors.qd(),
+                forces: &sim.forces,
+            };
+            c.start(0.0, &meas);
+        }
+        Ok(sim)
+    }
+
+    /// The plant model.
+    pub fn plant(&self) -> &Plant {
+        &self.plant
+    }
+    /// The flat plant state.
+    pub fn state(&self) -> &[f64] {
+        &self.y
+    }
+    /// Total number of control ticks in the run.
+    pub fn total_ticks(&self) -> usize {
+        self.ticks
+    }
+    /// The driver (to inspect a controller after a run).
+    pub fn driver(&self) -> &Driver {
+        &self.driver
+    }
+
+    /// Grasp forces at the current state with the held input.
+    fn eval_forces(&mut self) -> bool {
+        let ok = match self.params.formulation {
+            Formulation::Constrained => {
+                self.plant
+                    .derivative(&self.y, &self.input, &mut self.ws, &mut self.dy)
+            }
+            Formulation::Reduced => {
+                let mut d = [0.0; 6];
+                self.plant
+                    .reduced_derivative(&self.y_red, &self.input, &mut self.ws, &mut d)
+                    .is_ok()
+            }
+        };
+        self.forces.copy_from_slice(&self.ws.forces);
+        ok
+    }
+
+    /// Reduced runs keep the joint part of `y` in step with the object (for sensors and logs).
+    fn sync_reduced(&mut self) -> bool {
+        let n = self.plant.n_q();
+        let x = Vector3::new(self.y_red[0], self.y_red[1], self.y_red[2]);
+        let xd = Vector3::new(self.y_red[3], self.y_red[4], self.y_red[5]);
+        let (q, rest) = self.y.split_at_mut(n);
+        let (xo, rest) = rest.split_at_mut(3);
+        let (qd, xdo) = rest.split_at_mut(n);
+        xo.copy_from_slice(x.as_slice());
+        xdo.copy_from_slice(xd.as_slice());
+        self.plant
+            .arms_from_object(&x, &xd, q, qd, &mut self.ws)
+            .is_ok()
+    }
+
+    /// Advance one control tick; `Err` stops the run.
+    pub fn tick(&mut self, k: usize) -> Result<(), Fault> {
+        let hc = self.params.control_period;
+        let t = k as f64 * hc;
+        // 1. Sensors.
+        if !self.eval_forces() {
+            return Err(Fault::Reduced { t });
+        }
+        {
+            let (q, _, qd, _) = self.plant.split(&self.y);
+            self.sensors.sample(q, qd, &self.forces);
+        }
+        // 2. Driver.
+        match &mut self.driver {
+            Driver::Controller(c) => {
+                let n_arms = self.forces.len();
+                for i in 0..n_arms {
+                    self.forces[i] = self.sensors.force(i);
+                }
+                let meas = Measurements {
+                    q: self.sensors.q(),
+                    qd: self.sensors.qd(),
+                    forces: &self.forces,
+                };
+                c.tick(t, &meas, &mut self.input.tau, &mut self.rec);
+            }
+            Driver::Replay(r) => {
+                self.input.tau.copy_from_slice(r.at(t));
+                let (_, x, _, xd) = self.plant.split(&self.y);
+                self.rec = TickRecord {
+                    x_o: x,
+                    xd_o: xd,
+                    q_switch: 1.0,
+                    ..TickRecord::default()
+                };
+            }
+        }
+        self.input.f_d = self.disturbance.at(t);
+        // 5 (before advancing): log the state at t_k with the torque chosen at t_k.
+        if k % self.per_log == 0 {
+            self.log_row(t);
+        }
+        // 3. Plant substeps with the input held.
+        let hp = self.params.plant_step;
+        match self.params.formulation {
+            Formulation::Constrained => {
+                let mut sys = ConstrainedOde {
+                    plant: &self.plant,
+                    ws: &mut self.ws,
+                    input: &self.input,
+                };
+                self.rk.substeps(
+                    &mut sys,
+                    t,
+                    &mut self.y,
+                    hp * self.substeps as f64,
+                    self.substeps,
+                );
+            }
+            Formulation::Reduced => {
+                let mut sys = ReducedOde {
+                    plant: &self.plant,
+                    ws: &mut self.ws,
+                    input: &self.input,
+                };
+                self.rk_red.substeps(
+                    &mut sys,
+                    t,
+                    &mut self.y_red,
+                    hp * self.substeps as f64,
+                    self.substeps,
+                );
+                if !self.y_red.iter().all(|v| v.is_finite()) {
+                    return Err(Fault::NonFinite { t: t + hc });
+                }
+                if !self.sync_reduced() {
+                    return Err(Fault::Reduced { t: t + hc });
+                }
+            }
+        }
+        // 4. Health.
+        let t1 = t + hc;
+        if !self.y.iter().all(|v| v.is_finite()) {
+            return Err(Fault::NonFinite { t: t1 });
+        }
+        Ok(())
+    }
+
+    fn log_row(&mut self, t: f64) {
+        let (_, x, _, _) = self.plant.split(&self.y);
+        let drift = self.plant.constraint_residual(&self.y, &mut self.ws).0;
+        let r = &self.rec;
+        let mut vals = [0.0f64; 31];
+        vals[0] = t;
+        let groups = [
+            x,
+            r.x_o,
+            r.x_d,
+            r.x_r,
+            r.z1,
+            r.z2,
+            r.alpha,
+            r.alpha_dot,
+            r.wrench,
+            r.w_norm,
+        ];
+        for (g, v) in groups.iter().enumerate() {
+            for j in 0..3 {
+                vals[1 + 3 * g + j] = v[j];
+            }
+        }
+        let mut c = 0;
+        for v in vals {
+            self.log.columns[c].data.push(v);
+            c += 1;
+        }
+        for k in 0..self.input.tau.len() {
+            self.log.columns[c].data.push(self.input.tau[k]);
+            c += 1;
+        }
+        for f in &self.ws.forces {
+            self.log.columns[c].data.push(f.x);
+            self.log.columns[c + 1].data.push(f.y);
+            c += 2;
+        }
+        for i in 0..self.forces.len() {
+            let f = self.sensors.force(i);
+            self.log.columns[c].data.push(f.x);
+            self.log.columns[c + 1].data.push(f.y);
+            c += 2;
+        }
+        self.log.columns[c].data.push(r.q_switch);
+        self.log.columns[c + 1].data.push(r.margin);
+        self.log.columns[c + 2].data.push(drift);
+    }
+
+    /// Run to the end (or the first fault). `progress(fraction)` is called about 200 times.
+    pub fn run(mut self, mut progress: impl FnMut(f64)) -> (Outcome, Self) {
+        let start = Instant::now();
+        let mut fault = None;
+        let mut max_drift: f64 = 0.0;
+        let every = (self.ticks / 200).max(1);
+        let mut k = 0;
+        while k < self.ticks {
+            if let Err(f) = self.tick(k) {
+                fault = Some(f);
+                break;
+            }
+            k += 1;
+            // Drift and singularity checks every 10 ticks (kinematics only).
+            if k % 10 == 0 {
+                let t = k as f64 * self.params.control_period;
+                let d = self.plant.constraint_residual(&self.y, &mut self.ws).0;
+                max_drift = max_drift.max(d);
+                if d > self.params.max_drift {
+                    fault = Some(Fault::ConstraintDrift { t, drift: d });
+                    break;
+                }
+                let s = self.plant.min_singular_value(&self.y, &mut self.ws);
+                if s < self.params.min_sigma {
+                    fault = Some(Fault::Singular { t, sigma: s });
+                    break;
+                }
+            }
+            if k % every == 0 {
+                progress(k as f64 / self.ticks as f64);
+            }
+        }
+        let wall_time = start.elapsed().as_secs_f64();
+        let events = match &self.driver {
+            Driver::Controller(c) => c.events(),
+            Driver::Replay(_) => ControlEvents::default(),
+        };
+        let out = Outcome {
+            log: std::mem::take(&mut self.log),
+            fault,
+            events,
+            ticks: k,
+            t_end: k as f64 * self.params.control_period,
+            wall_time,
+            max_drift,
+            regularised: self.ws.regularised,
+        };
+        (out, self)
+    }
+}
