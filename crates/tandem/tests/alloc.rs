@@ -1,0 +1,142 @@
+//! A counting global allocator proves that plant steps, controller ticks and simulation ticks
+//! allocate nothing once built (STYLE habit 5; Drake's LimitMalloc, Pinocchio's test_crba_malloc).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use nalgebra::{Vector2, Vector3};
+use tandem::adaptive::NnGains;
+use tandem::admittance::AdmittanceParams;
+use tandem::control::{Controller, ControllerParams, LawParams, Measurements, TickRecord};
+use tandem::disturbance::Disturbance;
+use tandem::fixtures;
+use tandem::integrate::Rk4;
+use tandem::pd::PdGains;
+use tandem::plant::{ConstrainedOde, Plant, ReducedOde};
+use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::sim::{Driver, SimParams, Simulation};
+use tandem::trajectory::Path;
+
+struct Counting;
+
+thread_local! {
+    static COUNT: Cell<usize> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        COUNT.with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        unsafe { System.dealloc(p, l) }
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
+        COUNT.with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(p, l, n) }
+    }
+}
+
+#[global_allocator]
+static A: Counting = Counting;
+
+/// Allocations made by `f` on this thread.
+fn count(f: impl FnOnce()) -> usize {
+    let before = COUNT.with(|c| c.get());
+    f();
+    COUNT.with(|c| c.get()) - before
+}
+
+#[test]
+fn the_counter_counts() {
+    // Guards the other tests against a counter that never counts.
+    let n = count(|| {
+        let v: Vec<u64> = std::hint::black_box(vec![1, 2, 3]);
+        drop(v);
+    });
+    assert_eq!(n, 1);
+}
+
+fn params(law: LawParams) -> ControllerParams {
+    ControllerParams {
+        law,
+        k_c: [0.35; 3],
+        admittance: Some(AdmittanceParams::default()),
+        delta: 0.005,
+        control_period: 1e-3,
+        torque_limit: Some(50.0),
+        disturbance_bound: Disturbance::paper().bound(),
+    }
+}
+
+#[test]
+fn plant_steps_allocate_nothing() {
+    for p in [fixtures::paper(), fixtures::three_arms()] {
+        let plant = Plant::new(&p).unwrap();
+        let mut y = plant.initial_state(fixtures::paper_start(), Vector3::new(0.01, 0.0, 0.1), None).unwrap();
+        let mut ws = plant.workspace();
+        let input = plant.zero_input();
+        let mut rk = Rk4::new(plant.state_dim());
+        let mut yr = [0.19, 0.0, 0.0, 0.01, 0.0, 0.1];
+        let mut rkr = Rk4::new(6);
+        let n = count(|| {
+            for k in 0..100 {
+                let mut sys = ConstrainedOde { plant: &plant, ws: &mut ws, input: &input };
+                rk.step(&mut sys, k as f64 * 1e-3, &mut y, 1e-3);
+            }
+        });
+        assert_eq!(n, 0, "constrained plant steps allocated {n} times");
+        if plant.arms().len() == 2 {
+            let n = count(|| {
+                for k in 0..100 {
+                    let mut sys = ReducedOde { plant: &plant, ws: &mut ws, input: &input };
+                    rkr.step(&mut sys, k as f64 * 1e-3, &mut yr, 1e-3);
+                }
+            });
+            assert_eq!(n, 0, "reduced plant steps allocated {n} times");
+        }
+    }
+}
+
+#[test]
+fn controller_ticks_allocate_nothing() {
+    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let y = plant.initial_state(fixtures::paper_start(), Vector3::zeros(), None).unwrap();
+    let (q, _, qd, _) = plant.split(&y);
+    let forces = [Vector2::new(1.0, -5.0), Vector2::new(-1.0, -5.0)];
+    for law in [LawParams::Nn(NnGains::tuned()), LawParams::Pd(PdGains::paper()), LawParams::Ctc(Default::default())] {
+        let name = law.name();
+        let (mut c, _) = Controller::new(&params(law), &fixtures::paper(), Path::paper(), 10.0).unwrap();
+        let meas = Measurements { q, qd, forces: &forces };
+        c.start(0.0, &meas);
+        let mut tau = vec![0.0; plant.n_q()];
+        let mut rec = TickRecord::default();
+        c.tick(0.0, &meas, &mut tau, &mut rec);
+        let n = count(|| {
+            for k in 1..200 {
+                c.tick(k as f64 * 1e-3, &meas, &mut tau, &mut rec);
+            }
+        });
+        assert_eq!(n, 0, "{name} controller ticks allocated {n} times");
+        assert!(tau.iter().all(|v| v.is_finite()));
+    }
+}
+
+#[test]
+fn simulation_ticks_allocate_nothing() {
+    let plant = fixtures::paper();
+    let (c, _) = Controller::new(&params(LawParams::Nn(NnGains::tuned())), &plant, Path::paper(), 1.0).unwrap();
+    let noisy = ChannelNoise { std_dev: 1e-4, bias: 0.0, tau: 0.002, dropout: 0.01 };
+    let sensors = SensorParams { encoder_q: noisy, encoder_qd: noisy, force: noisy, seed: 7 };
+    let mut sp = SimParams::paper();
+    sp.duration = 1.0;
+    let mut sim = Simulation::new(&plant, &sensors, Driver::Controller(Box::new(c)), Disturbance::paper(), sp, None).unwrap();
+    sim.tick(0).unwrap();
+    // Logging rows included (every 30 ticks): the log's capacity is reserved at start.
+    let n = count(|| {
+        for k in 1..300 {
+            sim.tick(k).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "simulation ticks allocated {n} times");
+}
