@@ -194,6 +194,7 @@ pub struct AdaptiveNn {
     varpi: f64,
     fu: FuBound,
     h: f64,
+    theta: [f64; 3],
     z: [f64; 12],
     s: Vec<f64>,
 }
@@ -242,6 +243,7 @@ impl AdaptiveNn {
             varpi: g.varpi,
             fu,
             h,
+            theta: g.theta,
             z: [0.0; 12],
             s,
         })
@@ -254,6 +256,14 @@ impl AdaptiveNn {
     /// Zero the weights.
     pub fn reset_weights(&mut self) {
         self.net.reset();
+    }
+    /// The weights `Ŵ`, interleaved by node (`w[k·3 + j]`: node k, output j).
+    pub fn weights(&self) -> &[f64] {
+        self.net.weights()
+    }
+    /// The adaptation gains `Θ_j`.
+    pub fn theta(&self) -> [f64; 3] {
+        self.theta
     }
     /// Current weight norms `‖Ŵ_j‖`.
     pub fn weight_norms(&self) -> [f64; 3] {

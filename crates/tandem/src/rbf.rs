@@ -83,6 +83,10 @@ impl AdaptiveRbf {
     pub fn reset(&mut self) {
         self.w.fill(0.0);
     }
+    /// The weights, interleaved by node (`w[k·n_out + j]` is node k of output j).
+    pub fn weights(&self) -> &[f64] {
+        &self.w
+    }
     /// `‖Ŵ_j‖`.
     pub fn weight_norm(&self, j: usize) -> f64 {
         self.w

@@ -73,7 +73,9 @@ fn params(law: LawParams) -> ControllerParams {
 fn plant_steps_allocate_nothing() {
     for p in [fixtures::paper(), fixtures::three_arms()] {
         let plant = Plant::new(&p).unwrap();
-        let mut y = plant.initial_state(fixtures::paper_start(), Vector3::new(0.01, 0.0, 0.1), None).unwrap();
+        let mut y = plant
+            .initial_state(fixtures::paper_start(), Vector3::new(0.01, 0.0, 0.1), None)
+            .unwrap();
         let mut ws = plant.workspace();
         let input = plant.zero_input();
         let mut rk = Rk4::new(plant.state_dim());
@@ -81,7 +83,11 @@ fn plant_steps_allocate_nothing() {
         let mut rkr = Rk4::new(6);
         let n = count(|| {
             for k in 0..100 {
-                let mut sys = ConstrainedOde { plant: &plant, ws: &mut ws, input: &input };
+                let mut sys = ConstrainedOde {
+                    plant: &plant,
+                    ws: &mut ws,
+                    input: &input,
+                };
                 rk.step(&mut sys, k as f64 * 1e-3, &mut y, 1e-3);
             }
         });
@@ -89,7 +95,11 @@ fn plant_steps_allocate_nothing() {
         if plant.arms().len() == 2 {
             let n = count(|| {
                 for k in 0..100 {
-                    let mut sys = ReducedOde { plant: &plant, ws: &mut ws, input: &input };
+                    let mut sys = ReducedOde {
+                        plant: &plant,
+                        ws: &mut ws,
+                        input: &input,
+                    };
                     rkr.step(&mut sys, k as f64 * 1e-3, &mut yr, 1e-3);
                 }
             });
@@ -101,13 +111,24 @@ fn plant_steps_allocate_nothing() {
 #[test]
 fn controller_ticks_allocate_nothing() {
     let plant = Plant::new(&fixtures::paper()).unwrap();
-    let y = plant.initial_state(fixtures::paper_start(), Vector3::zeros(), None).unwrap();
+    let y = plant
+        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .unwrap();
     let (q, _, qd, _) = plant.split(&y);
     let forces = [Vector2::new(1.0, -5.0), Vector2::new(-1.0, -5.0)];
-    for law in [LawParams::Nn(NnGains::tuned()), LawParams::Pd(PdGains::paper()), LawParams::Ctc(Default::default())] {
+    for law in [
+        LawParams::Nn(NnGains::tuned()),
+        LawParams::Pd(PdGains::paper()),
+        LawParams::Ctc(Default::default()),
+    ] {
         let name = law.name();
-        let (mut c, _) = Controller::new(&params(law), &fixtures::paper(), Path::paper(), 10.0).unwrap();
-        let meas = Measurements { q, qd, forces: &forces };
+        let (mut c, _) =
+            Controller::new(&params(law), &fixtures::paper(), Path::paper(), 10.0).unwrap();
+        let meas = Measurements {
+            q,
+            qd,
+            forces: &forces,
+        };
         c.start(0.0, &meas);
         let mut tau = vec![0.0; plant.n_q()];
         let mut rec = TickRecord::default();
@@ -125,12 +146,36 @@ fn controller_ticks_allocate_nothing() {
 #[test]
 fn simulation_ticks_allocate_nothing() {
     let plant = fixtures::paper();
-    let (c, _) = Controller::new(&params(LawParams::Nn(NnGains::tuned())), &plant, Path::paper(), 1.0).unwrap();
-    let noisy = ChannelNoise { std_dev: 1e-4, bias: 0.0, tau: 0.002, dropout: 0.01 };
-    let sensors = SensorParams { encoder_q: noisy, encoder_qd: noisy, force: noisy, seed: 7 };
+    let (c, _) = Controller::new(
+        &params(LawParams::Nn(NnGains::tuned())),
+        &plant,
+        Path::paper(),
+        1.0,
+    )
+    .unwrap();
+    let noisy = ChannelNoise {
+        std_dev: 1e-4,
+        bias: 0.0,
+        tau: 0.002,
+        dropout: 0.01,
+    };
+    let sensors = SensorParams {
+        encoder_q: noisy,
+        encoder_qd: noisy,
+        force: noisy,
+        seed: 7,
+    };
     let mut sp = SimParams::paper();
     sp.duration = 1.0;
-    let mut sim = Simulation::new(&plant, &sensors, Driver::Controller(Box::new(c)), Disturbance::paper(), sp, None).unwrap();
+    let mut sim = Simulation::new(
+        &plant,
+        &sensors,
+        Driver::Controller(Box::new(c)),
+        Disturbance::paper(),
+        sp,
+        None,
+    )
+    .unwrap();
     sim.tick(0).unwrap();
     // Logging rows included (every 30 ticks): the log's capacity is reserved at start.
     let n = count(|| {
