@@ -22,6 +22,15 @@ fn main() {
     };
     let plant = fixtures::paper();
     let cp = ControllerParams {
+        scheme: std::env::var("SCHEME")
+            .map(|s| {
+                if s == "arm" {
+                    tandem::control::Scheme::PerArm
+                } else {
+                    Default::default()
+                }
+            })
+            .unwrap_or_default(),
         law,
         k_c: [0.35; 3],
         admittance: Some(AdmittanceParams::default()),

@@ -14,7 +14,7 @@
 //! `F = 𝓖 + 𝓒α + 𝓜α̇ + F_d`; the constants come from the controller's model at set-up
 //! ([`FuBound::from_model`]).
 
-use nalgebra::{Vector3, Vector6};
+use nalgebra::{Matrix2, SVector, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::control::TickRecord;
@@ -86,26 +86,47 @@ impl NnGains {
     }
 }
 
-/// Constants of `f_jᵁ = a_j + b_j ‖x_2‖‖α‖ + c_j ‖α̇‖ + d_j ‖α‖`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+/// Constants of `f_jᵁ = a_j + b_j ‖x_2‖‖α‖ + c_j ‖α̇‖ + d_j ‖α‖`, one entry per output.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FuBound {
     /// Gravity plus disturbance bound, (N, N, N m).
-    pub a: [f64; 3],
+    pub a: Vec<f64>,
     /// Coriolis coefficient.
-    pub b: [f64; 3],
+    pub b: Vec<f64>,
     /// Inertia row norms.
-    pub c: [f64; 3],
-    /// Object damping row norms.
-    pub d: [f64; 3],
+    pub c: Vec<f64>,
+    /// Damping row norms.
+    pub d: Vec<f64>,
     /// Model poses used (reachable and well-conditioned).
     pub poses: usize,
 }
 
+/// Grid point `i` of `m` on `[−k, k]`.
+fn grid(i: usize, m: usize, k: f64) -> f64 {
+    k * (2.0 * i as f64 / (m - 1) as f64 - 1.0)
+}
+
 impl FuBound {
-    /// Bound the terms of (39) over the part of the constraint box `|x_j| ≤ k_cj` where every
-    /// arm reaches its grasp with `σ_min(J_e) ≥ 0.05 m/rad`, on a 13 × 13 × 5 grid, times
-    /// `safety`. `𝓒(x, ẋ) − C_o` is linear in `ẋ`, so `|((𝓒 − C_o)α)_j| ≤ ‖x_2‖‖α‖ Σ_k ‖row_j C_k‖`
-    /// with `C_k = 𝓒(x, e_k) − C_o`.
+    fn finish(mut self, safety: f64, dist: &[f64]) -> Result<Self, ModelError> {
+        if self.poses == 0 {
+            return Err(ModelError::geometry(
+                "k_c",
+                "no pose in the constraint box is reachable by every arm with a well-conditioned Jacobian",
+            ));
+        }
+        for j in 0..self.a.len() {
+            self.a[j] = safety * (self.a[j] + dist[j]);
+            self.b[j] *= safety;
+            self.c[j] *= safety;
+            self.d[j] *= safety;
+        }
+        Ok(self)
+    }
+
+    /// Object scheme: bound the terms of (39) over the part of the constraint box `|x_j| ≤ k_cj`
+    /// where every arm reaches its grasp with `σ_min(J_e) ≥ 0.05 m/rad`, on a 13 × 13 × 5 grid,
+    /// times `safety`. `𝓒(x, ẋ) − C_o` is linear in `ẋ`, so
+    /// `|((𝓒 − C_o)α)_j| ≤ ‖x_2‖‖α‖ Σ_k ‖row_j C_k‖` with `C_k = 𝓒(x, e_k) − C_o`.
     pub fn from_model(
         model: &Plant,
         k_c: Vector3<f64>,
@@ -113,20 +134,27 @@ impl FuBound {
         safety: f64,
     ) -> Result<Self, ModelError> {
         let mut ws = model.workspace();
-        let (mut a, mut b, mut c) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
-        let mut poses = 0;
-        let n = 13;
-        let nt = 5;
+        let mut fu = FuBound {
+            a: vec![0.0; 3],
+            b: vec![0.0; 3],
+            c: vec![0.0; 3],
+            d: vec![0.0; 3],
+            poses: 0,
+        };
+        let co = model.object().C_o;
+        for j in 0..3 {
+            fu.d[j] = co.row(j).norm();
+        }
+        let (n, nt) = (13, 5);
         for ix in 0..n {
             for iy in 0..n {
                 for it in 0..nt {
-                    let f =
-                        |i: usize, m: usize, k: f64| k * (2.0 * i as f64 / (m - 1) as f64 - 1.0);
-                    let x = Vector3::new(f(ix, n, k_c.x), f(iy, n, k_c.y), f(it, nt, k_c.z));
+                    let x =
+                        Vector3::new(grid(ix, n, k_c.x), grid(iy, n, k_c.y), grid(it, nt, k_c.z));
                     let Ok(os) = model.object_space(&x, &Vector3::zeros(), &mut ws) else {
                         continue;
                     };
-                    // Conditioning of every arm at this pose (kinematics left in ws by object_space).
+                    // Conditioning of every arm at this pose (kinematics left in ws).
                     let sig = model
                         .arms()
                         .iter()
@@ -142,37 +170,78 @@ impl FuBound {
                         let mut e = Vector3::zeros();
                         e[k] = 1.0;
                         match model.object_space(&x, &e, &mut ws) {
-                            Ok(o) => *ckk = o.C - model.object().C_o,
+                            Ok(o) => *ckk = o.C - co,
                             Err(_) => ok = false,
                         }
                     }
                     if !ok {
                         continue;
                     }
-                    poses += 1;
+                    fu.poses += 1;
                     for j in 0..3 {
-                        a[j] = a[j].max(os.G[j].abs());
-                        c[j] = c[j].max(os.M.row(j).norm());
-                        b[j] = b[j].max(ck.iter().map(|m| m.row(j).norm()).sum());
+                        fu.a[j] = fu.a[j].max(os.G[j].abs());
+                        fu.c[j] = fu.c[j].max(os.M.row(j).norm());
+                        fu.b[j] = fu.b[j].max(ck.iter().map(|m| m.row(j).norm()).sum());
                     }
                 }
             }
         }
-        if poses == 0 {
-            return Err(ModelError::geometry(
-                "k_c",
-                "no pose in the constraint box is reachable by every arm with a well-conditioned Jacobian",
-            ));
+        fu.finish(safety, &dist)
+    }
+
+    /// Per-arm scheme: bound `F_i = G_x + C_x α + M_x α̇` of arm `i`'s Cartesian dynamics (3)
+    /// over end-effector points `|x_j| ≤ k_j` the arm reaches with `σ_min ≥ 0.05 m/rad`
+    /// (21 × 21 grid), times `safety`; `dist` bounds what the force feed-forward leaves.
+    pub fn from_arm(
+        model: &Plant,
+        i: usize,
+        k: Vector2<f64>,
+        dist: [f64; 2],
+        safety: f64,
+    ) -> Result<Self, ModelError> {
+        let arm = &model.arms()[i];
+        let mut t = arm.terms();
+        let mut fu = FuBound {
+            a: vec![0.0; 2],
+            b: vec![0.0; 2],
+            c: vec![0.0; 2],
+            d: vec![0.0; 2],
+            poses: 0,
+        };
+        let n = 21;
+        for ix in 0..n {
+            for iy in 0..n {
+                let p = Vector2::new(grid(ix, n, k.x), grid(iy, n, k.y));
+                let Ok(q) = arm.inverse_kinematics(p) else {
+                    continue;
+                };
+                arm.dynamics(&q, &[0.0, 0.0], model.gravity(), &mut t);
+                if arm.min_singular_value(&t) < 0.05 {
+                    continue;
+                }
+                let Some(c0) = arm.cartesian(&t, 1e-9) else {
+                    continue;
+                };
+                // C_x is linear in ẋ: C_k = C_x(ẋ = e_k).
+                let mut ck = [Matrix2::zeros(); 2];
+                for (kk, m) in ck.iter_mut().enumerate() {
+                    let mut v = Vector2::zeros();
+                    v[kk] = 1.0;
+                    let qd = c0.J_inv * v;
+                    arm.dynamics(&q, qd.as_slice(), model.gravity(), &mut t);
+                    if let Some(c) = arm.cartesian(&t, 1e-9) {
+                        *m = c.C_x;
+                    }
+                }
+                fu.poses += 1;
+                for j in 0..2 {
+                    fu.a[j] = fu.a[j].max(c0.G_x[j].abs());
+                    fu.c[j] = fu.c[j].max(c0.M_x.row(j).norm());
+                    fu.b[j] = fu.b[j].max(ck.iter().map(|m| m.row(j).norm()).sum());
+                }
+            }
         }
-        let co = model.object().C_o;
-        let mut d = [0.0; 3];
-        for j in 0..3 {
-            a[j] = safety * (a[j] + dist[j]);
-            b[j] *= safety;
-            c[j] *= safety;
-            d[j] = safety * co.row(j).norm();
-        }
-        Ok(FuBound { a, b, c, d, poses })
+        fu.finish(safety, &dist)
     }
 
     /// `f_jᵁ(Z)`.
@@ -182,33 +251,28 @@ impl FuBound {
     }
 }
 
-/// The NN law: validated gains, the iBLF, switching, the RBF grid and its weights (state), and
-/// the input/basis scratch.
-pub struct AdaptiveNn {
-    iblf: Iblf<3>,
+/// The NN law for `N` outputs (3 on the object, 2 on one arm's end-effector): validated gains,
+/// the iBLF, switching, the RBF grid and its weights (state), and the input/basis scratch.
+pub struct AdaptiveNn<const N: usize = 3> {
+    iblf: Iblf<N>,
     switching: Switching,
     grid: RbfGrid,
     net: AdaptiveRbf,
-    k2: Vector3<f64>,
-    k_r: Vector3<f64>,
+    k2: SVector<f64, N>,
+    k_r: SVector<f64, N>,
     varpi: f64,
     fu: FuBound,
     h: f64,
     theta: [f64; 3],
-    z: [f64; 12],
+    z: Vec<f64>,
     s: Vec<f64>,
 }
 
-impl AdaptiveNn {
+impl<const N: usize> AdaptiveNn<N> {
     /// Validate the gains against the theory's conditions (SPEC §3.4: `K1, K2, Θ, σ > 0`,
-    /// `0 < d1 < d2`, `ω ≥ 1`, `ϖ > 0`, `ϑ² > 0`) and build the network and the `f^U` bound.
-    pub fn new(
-        g: &NnGains,
-        k_c: Vector3<f64>,
-        model: &Plant,
-        dist: [f64; 3],
-        h: f64,
-    ) -> Result<Self, ModelError> {
+    /// `0 < d1 < d2`, `ω ≥ 1`, `ϖ > 0`, `ϑ² > 0`) and build the network on `4N` inputs with the
+    /// given `f^U` bound. With `N = 2` the `x` and `y` entries of the gains are used.
+    pub fn new(g: &NnGains, k_c: SVector<f64, N>, fu: FuBound, h: f64) -> Result<Self, ModelError> {
         for j in 0..3 {
             positive(&format!("gains.k2[{j}]"), g.k2[j])?;
             crate::error::non_negative(&format!("gains.k_r[{j}]"), g.k_r[j])?;
@@ -217,10 +281,10 @@ impl AdaptiveNn {
         }
         positive("gains.varpi", g.varpi)?;
         positive("gains.fu_safety", g.fu_safety)?;
-        let iblf =
-            Iblf::new(k_c, Vector3::from(g.k1)).map_err(|e| prefix_gains(e, "k1", "kappa1"))?;
+        let k1 = SVector::<f64, N>::from_fn(|j, _| g.k1[j]);
+        let iblf = Iblf::new(k_c, k1).map_err(|e| prefix_gains(e, "k1", "kappa1"))?;
         let sw = SwitchParams::new(g.d1, g.d2, g.omega).map_err(|e| prefix_gains(e, "", ""))?;
-        let switching = Switching::uniform(12, sw)?;
+        let switching = Switching::uniform(4 * N, sw)?;
         if g.levels.is_empty() {
             return Err(ModelError::geometry(
                 "gains.levels",
@@ -228,23 +292,22 @@ impl AdaptiveNn {
             ));
         }
         let grid =
-            RbfGrid::uniform(12, &g.levels, g.width2).map_err(|e| prefix_gains(e, "", ""))?;
-        let net = AdaptiveRbf::new(grid.n_nodes(), 3, &g.theta, &g.sigma)
+            RbfGrid::uniform(4 * N, &g.levels, g.width2).map_err(|e| prefix_gains(e, "", ""))?;
+        let net = AdaptiveRbf::new(grid.n_nodes(), N, &g.theta, &g.sigma)
             .map_err(|e| prefix_gains(e, "", ""))?;
-        let fu = FuBound::from_model(model, k_c, dist, g.fu_safety)?;
         let s = vec![0.0; grid.n_nodes()];
         Ok(AdaptiveNn {
             iblf,
             switching,
             grid,
             net,
-            k2: Vector3::from(g.k2),
-            k_r: Vector3::from(g.k_r),
+            k2: SVector::from_fn(|j, _| g.k2[j]),
+            k_r: SVector::from_fn(|j, _| g.k_r[j]),
             varpi: g.varpi,
             fu,
             h,
             theta: g.theta,
-            z: [0.0; 12],
+            z: vec![0.0; 4 * N],
             s,
         })
     }
@@ -257,7 +320,7 @@ impl AdaptiveNn {
     pub fn reset_weights(&mut self) {
         self.net.reset();
     }
-    /// The weights `Ŵ`, interleaved by node (`w[k·3 + j]`: node k, output j).
+    /// The weights `Ŵ`, interleaved by node (`w[k·N + j]`: node k, output j).
     pub fn weights(&self) -> &[f64] {
         self.net.weights()
     }
@@ -265,37 +328,30 @@ impl AdaptiveNn {
     pub fn theta(&self) -> [f64; 3] {
         self.theta
     }
-    /// Current weight norms `‖Ŵ_j‖`.
-    pub fn weight_norms(&self) -> [f64; 3] {
-        let mut n = [0.0; 3];
-        for (j, v) in n.iter_mut().enumerate() {
-            *v = self.net.weight_norm(j);
-        }
-        n
-    }
 
     /// One tick of (42)–(44): `(x_1, x_2, x_r, ẋ_r, ẍ_r) → τ` and the weight update over the
-    /// control period; internals into `rec`. No allocation.
+    /// control period; writes `z2, α, α̇, Q, ‖Ŵ‖` and the event flags into `rec` (first `N`
+    /// components). No allocation.
     pub fn wrench(
         &mut self,
-        x1: &Vector3<f64>,
-        x2: &Vector3<f64>,
-        x_r: &Vector3<f64>,
-        xd_r: &Vector3<f64>,
-        xdd_r: &Vector3<f64>,
+        x1: &SVector<f64, N>,
+        x2: &SVector<f64, N>,
+        x_r: &SVector<f64, N>,
+        xd_r: &SVector<f64, N>,
+        xdd_r: &SVector<f64, N>,
         rec: &mut TickRecord,
-    ) -> Vector3<f64> {
+    ) -> SVector<f64, N> {
         // Step 1: α, α̇ with barrier saturation (never NaN).
         let ev = self.iblf.eval(x1, x2, x_r, xd_r, xdd_r);
-        rec.barrier_hit = ev.saturation.iter().any(|s| s.x1 || s.x_r);
+        rec.barrier_hit |= ev.saturation.iter().any(|s| s.x1 || s.x_r);
         rec.non_finite |= ev.saturation.iter().any(|s| s.non_finite);
         let z2 = x2 - ev.alpha;
         // Z = [x1, x2, α, α̇] (SPEC §3.4).
-        for j in 0..3 {
+        for j in 0..N {
             self.z[j] = x1[j];
-            self.z[3 + j] = x2[j];
-            self.z[6 + j] = ev.alpha[j];
-            self.z[9 + j] = ev.alpha_dot[j];
+            self.z[N + j] = x2[j];
+            self.z[2 * N + j] = ev.alpha[j];
+            self.z[3 * N + j] = ev.alpha_dot[j];
         }
         let q = self.switching.eval(&self.z);
         self.grid.eval_into(&self.z, &mut self.s);
@@ -304,8 +360,8 @@ impl AdaptiveNn {
         self.net
             .tick(&self.s, q, z2.as_slice(), self.h, &mut phi_a, &mut norms);
         let (nx2, na, nad) = (x2.norm(), ev.alpha.norm(), ev.alpha_dot.norm());
-        let mut tau = Vector3::zeros();
-        for j in 0..3 {
+        let mut tau = SVector::<f64, N>::zeros();
+        for j in 0..N {
             let fu = self.fu.eval(j, nx2, na, nad);
             let phi_b = -fu * (fu * z2[j] / self.varpi).tanh();
             let sgn = if z2[j] > 0.0 {
@@ -317,13 +373,12 @@ impl AdaptiveNn {
             };
             tau[j] = -ev.gain[j] * ev.z1[j] - self.k2[j] * z2[j] + q * phi_a[j] + (1.0 - q) * phi_b
                 - self.k_r[j] * sgn;
+            rec.z2[j] = z2[j];
+            rec.alpha[j] = ev.alpha[j];
+            rec.alpha_dot[j] = ev.alpha_dot[j];
+            rec.w_norm[j] = norms[j];
         }
-        rec.z2 = z2;
-        rec.alpha = ev.alpha;
-        rec.alpha_dot = ev.alpha_dot;
-        rec.q_switch = q;
-        rec.w_norm = Vector3::from(norms);
-        let _ = Vector6::<f64>::zeros;
+        rec.q_switch = rec.q_switch.min(q);
         tau
     }
 }

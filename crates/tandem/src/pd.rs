@@ -50,6 +50,11 @@ impl Pd {
         })
     }
 
+    /// `(K_P, K_D)` diagonals.
+    pub fn gains(&self) -> (Vector3<f64>, Vector3<f64>) {
+        (self.k_p, self.k_d)
+    }
+
     /// `(z1, ż1) → τ`.
     #[inline]
     pub fn wrench(&self, z1: &Vector3<f64>, z1_dot: &Vector3<f64>) -> Vector3<f64> {

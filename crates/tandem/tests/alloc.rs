@@ -60,6 +60,7 @@ fn the_counter_counts() {
 fn params(law: LawParams) -> ControllerParams {
     ControllerParams {
         law,
+        scheme: Default::default(),
         k_c: [0.35; 3],
         admittance: Some(AdmittanceParams::default()),
         delta: 0.005,
@@ -139,6 +140,23 @@ fn controller_ticks_allocate_nothing() {
             }
         });
         assert_eq!(n, 0, "{name} controller ticks allocated {n} times");
+        // The per-arm scheme (PD and NN).
+        if name != "ctc" {
+            let mut p = params(match name {
+                "nn" => LawParams::Nn(NnGains::tuned()),
+                _ => LawParams::Pd(PdGains::paper()),
+            });
+            p.scheme = tandem::control::Scheme::PerArm;
+            let (mut c, _) = Controller::new(&p, &fixtures::paper(), Path::paper(), 10.0).unwrap();
+            c.start(0.0, &meas);
+            c.tick(0.0, &meas, &mut tau, &mut rec);
+            let n = count(|| {
+                for k in 1..200 {
+                    c.tick(k as f64 * 1e-3, &meas, &mut tau, &mut rec);
+                }
+            });
+            assert_eq!(n, 0, "per-arm {name} controller ticks allocated {n} times");
+        }
         assert!(tau.iter().all(|v| v.is_finite()));
     }
 }

@@ -18,6 +18,7 @@ use tandem::trajectory::Path;
 fn params(law: LawParams) -> ControllerParams {
     ControllerParams {
         law,
+        scheme: Default::default(),
         k_c: [0.35; 3],
         admittance: Some(AdmittanceParams::default()),
         delta: 0.005,
@@ -380,4 +381,36 @@ fn both_laws_are_stable_with_and_without_the_admittance() {
             );
         }
     }
+}
+
+#[test]
+fn per_arm_scheme_tracks_with_both_laws() {
+    use tandem::control::Scheme;
+    let mut results = Vec::new();
+    for law in [
+        LawParams::Nn(NnGains::tuned()),
+        LawParams::Pd(PdGains::paper()),
+    ] {
+        let name = law.name();
+        let mut cp = params(law);
+        cp.scheme = Scheme::PerArm;
+        let (s, _) = run(cp, Disturbance::paper(), 6.0, 0.03);
+        println!(
+            "per-arm {name}: rms z1 after 2 s {:.2e} m, peak wrench {:.1} N, grasp forces {:?}",
+            s.rms_z1_after, s.peak_wrench, s.grasp_force_range
+        );
+        assert_eq!(s.violations, 0, "{name}");
+        assert!(
+            s.max_z1_after < 5e-3,
+            "{name}: max z1 after 2 s {}",
+            s.max_z1_after
+        );
+        results.push(s);
+    }
+    // The adaptive law learns what PD leaves as a steady error (gravity, internal force).
+    assert!(results[0].rms_z1_after < 0.5 * results[1].rms_z1_after);
+    // Computed torque is object-scheme only: a clear error.
+    let mut cp = params(LawParams::Ctc(Default::default()));
+    cp.scheme = Scheme::PerArm;
+    assert!(err_of(cp).contains("object scheme"));
 }

@@ -16,10 +16,10 @@
 //! A tick allocates nothing and never emits NaN or infinity: a barrier hit saturates and is
 //! counted, a non-finite law output is replaced by zero torque and counted.
 
-use nalgebra::{Rotation2, Vector2, Vector3};
+use nalgebra::{Rotation2, SVector, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::adaptive::{AdaptiveNn, NnGains};
+use crate::adaptive::{AdaptiveNn, FuBound, NnGains};
 use crate::admittance::{Admittance, AdmittanceParams, AdmittanceState, AdmittanceWarning};
 use crate::ctc::{Ctc, CtcGains, nominal_params};
 use crate::error::{ModelError, non_negative, positive};
@@ -51,11 +51,28 @@ impl LawParams {
     }
 }
 
+/// Where the tracking law acts (SPEC §3.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Scheme {
+    /// On the object dynamics (14), tracking `x_r`; the wrench is distributed to the arms
+    /// (the paper's Section IV and simulation).
+    #[default]
+    Object,
+    /// Each arm on its own Cartesian dynamics (3), tracking `x_r,i`, with the measured grasp force
+    /// fed forward; internal force comes from the offsets `δ_i` (the paper's "controller for each
+    /// manipulator"). PD and NN laws; the NN uses the `x`, `y` entries of its gains, bounds
+    /// `k_c,xy + |r_i|` on the end-effector, and `2^8` nodes per arm with the paper's 2-level grid.
+    PerArm,
+}
+
 /// Controller parameters (plain data; validated by [`Controller::new`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ControllerParams {
     /// The tracking law.
     pub law: LawParams,
+    /// Where it acts.
+    pub scheme: Scheme,
     /// Output bounds `k_c` on `(x, y, θ)` of the object, (m, m, rad): `|x_1j| < k_cj`.
     pub k_c: [f64; 3],
     /// Admittance generator; `None` bypasses it (`x_r = x_d`).
@@ -149,7 +166,9 @@ impl std::fmt::Display for ControlWarning {
 enum Law {
     Nn(Box<AdaptiveNn>),
     Pd(Pd),
-    Ctc(Ctc, Box<Plant>),
+    Ctc(Ctc, Box<Plant>, Box<PlantWorkspace>),
+    PerArmPd(Pd),
+    PerArmNn(Vec<AdaptiveNn<2>>),
 }
 
 /// A cooperative controller: validated gains and models, its own state (admittance, weights),
@@ -176,6 +195,9 @@ pub struct Controller {
     acc: Vec<Vector2<f64>>,
     tau_x: Vec<Vector2<f64>>,
     f_ref: Vec<Vector2<f64>>,
+    ref_p: Vec<Vector2<f64>>,
+    ref_v: Vec<Vector2<f64>>,
+    ref_a: Vec<Vector2<f64>>,
 }
 
 impl Controller {
@@ -250,9 +272,10 @@ impl Controller {
             }
             None => (None, 0.0),
         };
-        let law = match &p.law {
-            LawParams::Pd(g) => Law::Pd(Pd::new(g)?),
-            LawParams::Ctc(g) => {
+        let law = match (&p.law, p.scheme) {
+            (LawParams::Pd(g), Scheme::Object) => Law::Pd(Pd::new(g)?),
+            (LawParams::Pd(g), Scheme::PerArm) => Law::PerArmPd(Pd::new(g)?),
+            (LawParams::Ctc(g), Scheme::Object) => {
                 let ctc = Ctc::new(g)?;
                 let nominal = Plant::new(&nominal_params(model, g.model_error))?;
                 if nominal.arms().iter().any(|a| a.dof() != 2) {
@@ -261,15 +284,41 @@ impl Controller {
                         "computed torque uses the reduced model (14), which needs 2-link arms",
                     ));
                 }
-                Law::Ctc(ctc, Box::new(nominal))
+                let ws = nominal.workspace();
+                Law::Ctc(ctc, Box::new(nominal), Box::new(ws))
             }
-            LawParams::Nn(g) => Law::Nn(Box::new(AdaptiveNn::new(
-                g,
-                k_c,
-                &kin,
-                p.disturbance_bound,
-                h,
-            )?)),
+            (LawParams::Ctc(_), Scheme::PerArm) => {
+                return Err(ModelError::geometry(
+                    "scheme",
+                    "computed torque is implemented for the object scheme only",
+                ));
+            }
+            (LawParams::Nn(g), Scheme::Object) => {
+                let fu = FuBound::from_model(&kin, k_c, p.disturbance_bound, g.fu_safety)?;
+                Law::Nn(Box::new(AdaptiveNn::new(g, k_c, fu, h)?))
+            }
+            (LawParams::Nn(g), Scheme::PerArm) => {
+                let mut nets = Vec::new();
+                for (i, arm) in kin.arms().iter().enumerate() {
+                    if arm.dof() != 2 {
+                        return Err(ModelError::geometry(
+                            format!("arms[{i}]"),
+                            "the per-arm NN law needs 2-link arms (Cartesian dynamics (3))",
+                        ));
+                    }
+                    let r = grasps[i].r.norm();
+                    let kb = Vector2::new(k_c.x + r, k_c.y + r);
+                    let fu = FuBound::from_arm(
+                        &kin,
+                        i,
+                        kb,
+                        [p.disturbance_bound[0], p.disturbance_bound[1]],
+                        g.fu_safety,
+                    )?;
+                    nets.push(AdaptiveNn::<2>::new(g, kb, fu, h)?);
+                }
+                Law::PerArmNn(nets)
+            }
         };
         let m = grasps.len();
         let ws = kin.workspace();
@@ -295,6 +344,9 @@ impl Controller {
                 acc: vec![Vector2::zeros(); m],
                 tau_x: vec![Vector2::zeros(); m],
                 f_ref: vec![Vector2::zeros(); m],
+                ref_p: vec![Vector2::zeros(); m],
+                ref_v: vec![Vector2::zeros(); m],
+                ref_a: vec![Vector2::zeros(); m],
             },
             warnings,
         ))
@@ -405,15 +457,16 @@ impl Controller {
         // 4. Tracking law → wrench on the object.
         let z1 = x1 - x_r;
         let z1_dot = x2 - xd_r;
+        let per_arm = matches!(self.law, Law::PerArmPd(_) | Law::PerArmNn(_));
         let mut w = match &mut self.law {
             Law::Pd(pd) => {
                 rec.z2 = z1_dot;
                 pd.wrench(&z1, &z1_dot)
             }
-            Law::Ctc(ctc, nominal) => {
+            Law::Ctc(ctc, nominal, ws) => {
                 rec.z2 = z1_dot;
                 let a = ctc.acceleration(&xdd_r, &z1, &z1_dot);
-                match nominal.object_space(&x1, &x2, &mut self.ws) {
+                match nominal.object_space(&x1, &x2, ws) {
                     Ok(os) => os.M * a + os.C * x2 + os.G,
                     Err(_) => {
                         self.events.degenerate += 1;
@@ -422,6 +475,17 @@ impl Controller {
                 }
             }
             Law::Nn(nn) => nn.wrench(&x1, &x2, &x_r, &xd_r, &xdd_r, rec),
+            Law::PerArmPd(_) | Law::PerArmNn(_) => {
+                rec.z2 = z1_dot;
+                self.per_arm_forces(rec);
+                // The wrench the arms' commands put on the object (for the record).
+                let rot = Rotation2::new(x1.z);
+                let mut w = Vector3::zeros();
+                for (g, t) in self.grasps.iter().zip(&self.tau_x) {
+                    w += Grasp::jacobian_from_arm(rot * g.r).transpose() * t;
+                }
+                w
+            }
         };
         if !w.iter().all(|v| v.is_finite()) {
             rec.non_finite = true;
@@ -437,8 +501,8 @@ impl Controller {
         rec.margin = (0..3)
             .map(|j| 1.0 - x1[j].abs() / self.k_c[j])
             .fold(f64::INFINITY, f64::min);
-        // 5. Distribute and map to joints.
-        if !distribute_wrench(&self.grasps, x1.z, &w, self.squeeze, &mut self.tau_x) {
+        // 5. Distribute (object scheme) and map to joints.
+        if !per_arm && !distribute_wrench(&self.grasps, x1.z, &w, self.squeeze, &mut self.tau_x) {
             self.events.degenerate += 1;
             tau.fill(0.0);
             return;
@@ -464,6 +528,45 @@ impl Controller {
         }
     }
 
+    /// Per-arm scheme, step 4: each arm's law on its end-effector tracks `x_r,i`, with the
+    /// *expected* grasp force fed forward (`τ_x,i = law − F_ref,i`, cancelling the nominal `F_i`
+    /// in (3)). Feeding the *measured* force forward closes an algebraic loop through the rigid
+    /// grasp (the internal force responds one-to-one to the commands: per-tick gain ≈ 1); it
+    /// diverged within 1 ms in tandem's runs, so it is not offered. Writes `τ_x,i`.
+    fn per_arm_forces(&mut self, rec: &mut TickRecord) {
+        let mut sub = TickRecord {
+            q_switch: 1.0,
+            ..TickRecord::default()
+        };
+        let mut wn = Vector3::zeros();
+        for i in 0..self.grasps.len() {
+            let t = &self.ws.terms[i];
+            let (x1, x2) = (t.p_ee, t.v_ee);
+            let (xr, xdr, xddr) = (self.ref_p[i], self.ref_v[i], self.ref_a[i]);
+            let law = match &mut self.law {
+                Law::PerArmPd(pd) => {
+                    let (kp, kd) = pd.gains();
+                    -Vector2::new(kp.x, kp.y).component_mul(&(x1 - xr))
+                        - Vector2::new(kd.x, kd.y).component_mul(&(x2 - xdr))
+                }
+                Law::PerArmNn(nets) => {
+                    let v = |a: Vector2<f64>| SVector::<f64, 2>::new(a.x, a.y);
+                    let f = nets[i].wrench(&v(x1), &v(x2), &v(xr), &v(xdr), &v(xddr), &mut sub);
+                    for j in 0..2 {
+                        wn[j] += sub.w_norm[j] * sub.w_norm[j];
+                    }
+                    rec.barrier_hit |= sub.barrier_hit;
+                    rec.non_finite |= sub.non_finite;
+                    rec.q_switch = rec.q_switch.min(sub.q_switch);
+                    Vector2::new(f[0], f[1])
+                }
+                _ => Vector2::zeros(),
+            };
+            self.tau_x[i] = law - self.f_ref[i];
+        }
+        rec.w_norm = wn.map(f64::sqrt);
+    }
+
     /// Step 3: the reference `(x_r, ẋ_r, ẍ_r)` at this tick. Uses the generators' state
     /// before the update (no direct feed-through of this tick's force), then advances them.
     fn reference(
@@ -474,25 +577,35 @@ impl Controller {
         meas: &Measurements,
         rec: &mut TickRecord,
     ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
-        let Some(adm) = self.adm else {
-            return (*x_d, *xd_d, *xdd_d);
-        };
+        let adm = self.adm;
         self.expected_forces(x_d, xd_d, xdd_d);
         let rot = Rotation2::new(x_d.z);
         let p_d = Vector2::new(x_d.x, x_d.y);
         for (i, g) in self.grasps_d.iter().enumerate() {
             let rw = rot * g.r;
             let j = Grasp::jacobian_from_arm(rw);
-            let st = &mut self.adm_state[i];
-            let edd = adm.e_ddot(st, self.f_ref[i]);
-            self.pts[i] = p_d + rw + st.e;
-            self.vels[i] = j * xd_d + st.e_dot;
-            // ẍ_d,i = J ẍ_d + J̇ ẋ_d, J̇ ẋ = −R r θ̇².
-            self.acc[i] = j * xdd_d - rw * (xd_d.z * xd_d.z) + edd;
-            let f = meas.forces[i];
-            if !adm.step(st, f, self.f_ref[i]) {
-                rec.non_finite = true;
+            // x_d,i and its derivatives: ẍ_d,i = J ẍ_d + J̇ ẋ_d, J̇ ẋ = −R r θ̇².
+            let mut p = p_d + rw;
+            let mut v = j * xd_d;
+            let mut a = j * xdd_d - rw * (xd_d.z * xd_d.z);
+            if let Some(adm) = &adm {
+                let st = &mut self.adm_state[i];
+                a += adm.e_ddot(st, self.f_ref[i]);
+                p += st.e;
+                v += st.e_dot;
+                if !adm.step(st, meas.forces[i], self.f_ref[i]) {
+                    rec.non_finite = true;
+                }
             }
+            self.pts[i] = p;
+            self.vels[i] = v;
+            self.acc[i] = a;
+            self.ref_p[i] = p;
+            self.ref_v[i] = v;
+            self.ref_a[i] = a;
+        }
+        if adm.is_none() {
+            return (*x_d, *xd_d, *xdd_d);
         }
         let x_r = fit_pose(&self.grasps_d, &self.pts, self.theta_r_hint);
         self.theta_r_hint = x_r.z;
