@@ -1,0 +1,72 @@
+//! The whole 90 s paper scenario (SPEC §4), outputs excluded: NN (tuned) at 1 kHz control on the
+//! constrained plant (the default) and on the reduced plant, and PD for comparison.
+use criterion::{Criterion, criterion_group, criterion_main};
+use tandem::adaptive::NnGains;
+use tandem::admittance::AdmittanceParams;
+use tandem::control::{Controller, ControllerParams, LawParams, Scheme};
+use tandem::disturbance::Disturbance;
+use tandem::fixtures;
+use tandem::pd::PdGains;
+use tandem::sensors::SensorParams;
+use tandem::sim::{Driver, Formulation, SimParams, Simulation};
+use tandem::trajectory::Path;
+
+fn build(law: LawParams, formulation: Formulation) -> Simulation {
+    let plant = fixtures::paper();
+    let cp = ControllerParams {
+        law,
+        scheme: Scheme::Object,
+        k_c: [0.35; 3],
+        admittance: Some(AdmittanceParams::default()),
+        delta: 0.005,
+        control_period: 1e-3,
+        torque_limit: None,
+        disturbance_bound: Disturbance::paper().bound(),
+    };
+    let (c, _) = Controller::new(&cp, &plant, Path::paper(), 90.0).unwrap();
+    let mut sp = SimParams::paper();
+    sp.formulation = formulation;
+    Simulation::new(
+        &plant,
+        &SensorParams::default(),
+        Driver::Controller(Box::new(c)),
+        Disturbance::paper(),
+        sp,
+        None,
+    )
+    .unwrap()
+}
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("scenario_90s");
+    g.sample_size(10);
+    for (name, law, f) in [
+        (
+            "nn_tuned_constrained",
+            LawParams::Nn(NnGains::tuned()),
+            Formulation::Constrained,
+        ),
+        (
+            "nn_tuned_reduced",
+            LawParams::Nn(NnGains::tuned()),
+            Formulation::Reduced,
+        ),
+        (
+            "pd_constrained",
+            LawParams::Pd(PdGains::paper()),
+            Formulation::Constrained,
+        ),
+    ] {
+        g.bench_function(name, |b| {
+            b.iter_batched(
+                || build(law.clone(), f),
+                |sim| sim.run(|_| {}).0.t_end,
+                criterion::BatchSize::PerIteration,
+            )
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
