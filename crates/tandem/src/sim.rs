@@ -184,54 +184,62 @@ pub enum Driver {
     Replay(Replay),
 }
 
-/// Why a run stopped early.
+/// What went wrong numerically.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
-pub enum Fault {
+pub enum FaultKind {
     /// The plant state became non-finite.
-    NonFinite {
-        /// Time, s.
-        t: f64,
-    },
+    NonFinite,
     /// The grasp constraints drifted beyond `max_drift`.
     ConstraintDrift {
-        /// Time, s.
-        t: f64,
         /// Drift, m.
         drift: f64,
     },
     /// An arm came within `min_sigma` of a singular configuration.
     Singular {
-        /// Time, s.
-        t: f64,
         /// Smallest singular value, m/rad.
         sigma: f64,
     },
     /// The reduced formulation could not be evaluated (IK out of reach or singular arm).
-    Reduced {
-        /// Time, s.
-        t: f64,
-    },
+    Reduced,
+}
+
+/// Why a run stopped early: what, when, and the last good state (never a NaN one).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Fault {
+    /// Time of detection, s.
+    pub t: f64,
+    /// What happened.
+    #[serde(flatten)]
+    pub kind: FaultKind,
+    /// Object pose of the last good state, (m, m, rad).
+    pub x_o: [f64; 3],
+    /// Joint angles of the last good state, rad.
+    pub q: Vec<f64>,
 }
 
 impl std::fmt::Display for Fault {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Fault::NonFinite { t } => {
-                write!(f, "the plant state became non-finite at t = {t:.4} s")
+        let t = self.t;
+        match &self.kind {
+            FaultKind::NonFinite => write!(f, "the plant state became non-finite at t = {t:.4} s")?,
+            FaultKind::ConstraintDrift { drift } => {
+                write!(f, "grasp constraint drift {drift:.3e} m at t = {t:.4} s")?
             }
-            Fault::ConstraintDrift { t, drift } => {
-                write!(f, "grasp constraint drift {drift:.3e} m at t = {t:.4} s")
-            }
-            Fault::Singular { t, sigma } => write!(
+            FaultKind::Singular { sigma } => write!(
                 f,
                 "an arm reached a singular configuration (σ_min = {sigma:.3e} m/rad) at t = {t:.4} s"
-            ),
-            Fault::Reduced { t } => write!(
+            )?,
+            FaultKind::Reduced => write!(
                 f,
                 "the reduced formulation failed (grasp out of reach or singular arm) at t = {t:.4} s"
-            ),
+            )?,
         }
+        write!(
+            f,
+            "; last good state x_o = ({:.5}, {:.5}, {:.5}), q = {:.4?}",
+            self.x_o[0], self.x_o[1], self.x_o[2], self.q
+        )
     }
 }
 
@@ -359,6 +367,7 @@ pub struct Simulation {
     driver: Driver,
     disturbance: Disturbance,
     y: Vec<f64>,
+    y_prev: Vec<f64>,
     y_red: [f64; 6],
     ws: PlantWorkspace,
     rk: Rk4,
@@ -428,6 +437,7 @@ impl Simulation {
             },
             driver,
             disturbance,
+            y_prev: y.clone(),
             y,
             ws,
             rec: TickRecord::default(),
@@ -501,13 +511,26 @@ impl Simulation {
             .is_ok()
     }
 
+    /// A fault record at `t` with the last good state.
+    fn fault(&self, t: f64, kind: FaultKind) -> Fault {
+        let n = self.plant.n_q();
+        let y = &self.y_prev;
+        Fault {
+            t,
+            kind,
+            x_o: [y[n], y[n + 1], y[n + 2]],
+            q: y[..n].to_vec(),
+        }
+    }
+
     /// Advance one control tick; `Err` stops the run.
     pub fn tick(&mut self, k: usize) -> Result<(), Fault> {
         let hc = self.params.control_period;
         let t = k as f64 * hc;
+        self.y_prev.copy_from_slice(&self.y);
         // 1. Sensors.
         if !self.eval_forces() {
-            return Err(Fault::Reduced { t });
+            return Err(self.fault(t, FaultKind::Reduced));
         }
         {
             let (q, _, qd, _) = self.plant.split(&self.y);
@@ -574,17 +597,17 @@ impl Simulation {
                     self.substeps,
                 );
                 if !self.y_red.iter().all(|v| v.is_finite()) {
-                    return Err(Fault::NonFinite { t: t + hc });
+                    return Err(self.fault(t + hc, FaultKind::NonFinite));
                 }
                 if !self.sync_reduced() {
-                    return Err(Fault::Reduced { t: t + hc });
+                    return Err(self.fault(t + hc, FaultKind::Reduced));
                 }
             }
         }
         // 4. Health.
         let t1 = t + hc;
         if !self.y.iter().all(|v| v.is_finite()) {
-            return Err(Fault::NonFinite { t: t1 });
+            return Err(self.fault(t1, FaultKind::NonFinite));
         }
         Ok(())
     }
@@ -656,12 +679,14 @@ impl Simulation {
                 let d = self.plant.constraint_residual(&self.y, &mut self.ws).0;
                 max_drift = max_drift.max(d);
                 if d > self.params.max_drift {
-                    fault = Some(Fault::ConstraintDrift { t, drift: d });
+                    self.y_prev.copy_from_slice(&self.y);
+                    fault = Some(self.fault(t, FaultKind::ConstraintDrift { drift: d }));
                     break;
                 }
                 let s = self.plant.min_singular_value(&self.y, &mut self.ws);
                 if s < self.params.min_sigma {
-                    fault = Some(Fault::Singular { t, sigma: s });
+                    self.y_prev.copy_from_slice(&self.y);
+                    fault = Some(self.fault(t, FaultKind::Singular { sigma: s }));
                     break;
                 }
             }
