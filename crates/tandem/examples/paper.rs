@@ -1,3 +1,5 @@
+//! The paper scenario with one law, summary printed: `cargo run --release -p tandem --example paper -- [nn|paper|pd|ctc] [seconds]`
+//! (`SCHEME=arm` for the per-arm scheme).
 use tandem::adaptive::NnGains;
 use tandem::admittance::AdmittanceParams;
 use tandem::control::{Controller, ControllerParams, LawParams};
