@@ -21,7 +21,7 @@ use crate::control::TickRecord;
 use crate::error::{ModelError, positive};
 use crate::iblf::Iblf;
 use crate::plant::Plant;
-use crate::rbf::{AdaptiveRbf, RbfGrid};
+use crate::rbf::{NnUpdate, Rbf, RbfNetwork, RbfWorkspace};
 use crate::switching::{SwitchParams, Switching};
 
 /// Gains of the NN law (plain data). Presets: [`NnGains::paper`], [`NnGains::tuned`].
@@ -256,16 +256,16 @@ impl FuBound {
 pub struct AdaptiveNn<const N: usize = 3> {
     iblf: Iblf<N>,
     switching: Switching,
-    grid: RbfGrid,
-    net: AdaptiveRbf,
+    rbf: Rbf,
+    rbf_ws: RbfWorkspace,
+    net: RbfNetwork<N>,
+    update: NnUpdate<N>,
     k2: SVector<f64, N>,
     k_r: SVector<f64, N>,
     varpi: f64,
     fu: FuBound,
-    h: f64,
     theta: [f64; 3],
     z: Vec<f64>,
-    s: Vec<f64>,
 }
 
 impl<const N: usize> AdaptiveNn<N> {
@@ -291,24 +291,26 @@ impl<const N: usize> AdaptiveNn<N> {
                 "needs at least one centre level",
             ));
         }
-        let grid =
-            RbfGrid::uniform(4 * N, &g.levels, g.width2).map_err(|e| prefix_gains(e, "", ""))?;
-        let net = AdaptiveRbf::new(grid.n_nodes(), N, &g.theta, &g.sigma)
-            .map_err(|e| prefix_gains(e, "", ""))?;
-        let s = vec![0.0; grid.n_nodes()];
+        let levels = vec![g.levels.clone(); 4 * N];
+        let rbf = Rbf::grid(&levels, g.width2).map_err(|e| prefix_gains(e, "", ""))?;
+        let net = RbfNetwork::<N>::for_basis(&rbf)?;
+        let theta = SVector::from_fn(|j, _| g.theta[j]);
+        let sigma = SVector::from_fn(|j, _| g.sigma[j]);
+        let update = NnUpdate::new(theta, sigma, h).map_err(|e| prefix_gains(e, "", ""))?;
+        let rbf_ws = rbf.workspace();
         Ok(AdaptiveNn {
             iblf,
             switching,
-            grid,
+            rbf,
+            rbf_ws,
             net,
+            update,
             k2: SVector::from_fn(|j, _| g.k2[j]),
             k_r: SVector::from_fn(|j, _| g.k_r[j]),
             varpi: g.varpi,
             fu,
-            h,
             theta: g.theta,
             z: vec![0.0; 4 * N],
-            s,
         })
     }
 
@@ -354,11 +356,12 @@ impl<const N: usize> AdaptiveNn<N> {
             self.z[3 * N + j] = ev.alpha_dot[j];
         }
         let q = self.switching.eval(&self.z);
-        self.grid.eval_into(&self.z, &mut self.s);
-        let mut phi_a = [0.0; 3];
-        let mut norms = [0.0; 3];
-        self.net
-            .tick(&self.s, q, z2.as_slice(), self.h, &mut phi_a, &mut norms);
+        // S(Z) on the grid, outputs with the old weights and the exact held-input update of
+        // (44), fused in one pass over the weights.
+        let nt = self
+            .net
+            .tick_at(&self.rbf, &self.z, &mut self.rbf_ws, q, &z2, &self.update);
+        let (phi_a, norms) = (nt.f_hat, nt.w_norm);
         let (nx2, na, nad) = (x2.norm(), ev.alpha.norm(), ev.alpha_dot.norm());
         let mut tau = SVector::<f64, N>::zeros();
         for j in 0..N {

@@ -41,20 +41,23 @@
 //! `(g(x_1) − ρ)/z` cancels as `z → 0`, and every form is `0/0` at `z = 0`. For
 //! `|z| ≤ τ·min(a, b)` with `τ = 1/8` all three values come from the Taylor series
 //! `g(x_r + s) = (k/2) Σ sⁿ [pⁿ⁺¹ + (−1)ⁿ qⁿ⁺¹]`, `p = 1/b`, `q = 1/a`, integrated term by term:
-//! `ρ = (k/2) Σ Eₙ₊₁ zⁿ/(n+1)`, `V1 = (k/2) Σ Eₙ₊₁ zⁿ⁺²/(n+2)`, with `E_m = p^m + q^m` (n even)
-//! and `D_m = p^m − q^m` (n odd). `D_m` is formed without cancellation from
+//! `ρ = (k/2) Σ Eₙ₊₁ zⁿ/(n+1)`, `V1 = (k/2) Σ Eₙ₊₁ zⁿ⁺²/(n+2)`, where the coefficient `E_m`
+//! (`m = n + 1`) is `p^m + q^m` for even `n` and `D_m = p^m − q^m` for odd `n`. `D_m` is formed
+//! without cancellation from
 //! `D_1 = 2x_r·p·q`, `D_{m+1} = p D_m + q^m D_1`, so `∂ρ/∂z` keeps its accuracy even when
 //! `x_r ≈ 0` (the θ axis of the paper's path). The error analysis that fixes `τ` and the
-//! number of terms `N = 20`:
+//! number of terms `N = 21`:
 //!
 //! * truncation: terms shrink by at least `τ` each, the first omitted one is
-//!   `≤ 2τ^N/(N+1) ≈ 1e-19` of `ρ` and `≤ 2τ^{N−1} ≈ 1.4e-17` of the scale `(k/2)·max(p,q)²`
-//!   of `∂ρ/∂z`;
+//!   `≤ 2τ^N/(N+1) ≈ 1e-20` of `ρ` and `≤ 2τ^{N−1} ≈ 2e-18` of the scale `(k/2)·max(p,q)²`
+//!   of `∂ρ/∂z`; the sum stops earlier once the terms fall below `1e-17` of that scale (small
+//!   `z`, the usual case, needs only a few terms);
 //! * closed form just outside: `(g − ρ)/z` loses about `3/τ²·ε ≈ 200ε` relative to the scale of
 //!   `∂ρ/∂z` in the worst (symmetric) case, `φ(u)` loses `≤ 2ε/τ`; `ρ` itself loses nothing.
 //!
-//! So series and closed form agree to ~1e-15 at the switch (tested to 1e-12), and at `z = 0`
-//! exactly `ρ = k²/((k − x_r)(k + x_r))`, the limit (30).
+//! Measured at the switch over `x_r ∈ (−k, k)`: `ρ` agrees to 5e-16 relative and `∂ρ/∂z` to
+//! 7e-15 of its scale (tested to 1e-12); at `z = 0` exactly `ρ = k²/((k − x_r)(k + x_r))`, the
+//! limit (30).
 //!
 //! # Saturation (SPEC §3.3)
 //!
@@ -77,15 +80,26 @@ pub const DEFAULT_BARRIER_MARGIN: f64 = 1e-6;
 
 /// Series region: `|z| ≤ SERIES_RATIO · min(k + x_r, k − x_r)` (τ in the module docs).
 const SERIES_RATIO: f64 = 0.125;
-/// Number of series terms `N` (n = 0..N−1); see the module docs for the error analysis.
-const SERIES_TERMS: usize = 20;
-/// `INV[i] = 1/i` (INV[0] unused), computed at compile time.
+/// Number of series terms `N` (n = 0..N−1, N odd so the terms after n = 0 come in pairs); see
+/// the module docs for the error analysis.
+const SERIES_TERMS: usize = 21;
+/// `INV[i] = 1/i` (`INV[0]` unused), computed at compile time.
 const INV: [f64; SERIES_TERMS + 2] = {
     let mut t = [0.0; SERIES_TERMS + 2];
     let mut i = 1;
     while i < SERIES_TERMS + 2 {
         t[i] = 1.0 / i as f64;
         i += 1;
+    }
+    t
+};
+/// `NI[n] = n/(n+1)`.
+const NI: [f64; SERIES_TERMS + 1] = {
+    let mut t = [0.0; SERIES_TERMS + 1];
+    let mut n = 1;
+    while n <= SERIES_TERMS {
+        t[n] = n as f64 / (n + 1) as f64;
+        n += 1;
     }
     t
 };
@@ -120,7 +134,8 @@ pub fn rho(z: f64, x_r: f64, k: f64) -> f64 {
 
 /// `ρ`, `∂ρ/∂z` and `∂ρ/∂x_r` at `(z, x_r)`; see [`rho`].
 ///
-/// `∂ρ/∂z` is accurate to a few ulps of its natural scale `k/(k − |x_r|)²`;
+/// `∂ρ/∂z` is accurate to ~1e-14 of its natural scale `k/(k − |x_r|)²` (relative accuracy is
+/// impossible only near its zero, where `g(x_1) = ρ`);
 /// `∂ρ/∂x_r = k²(x_r + x_1)/((k² − x_r²)(k² − x_1²))` to a few ulps relative.
 #[inline]
 pub fn rho_partials(z: f64, x_r: f64, k: f64) -> RhoPartials {
@@ -273,36 +288,77 @@ fn closed(z: f64, k: f64, a: f64, b: f64, c: f64, d: f64) -> (f64, f64) {
 #[inline]
 fn series(z: f64, x_r: f64, k: f64, a: f64, b: f64) -> (f64, f64, f64) {
     let (p, q) = (1.0 / b, 1.0 / a);
-    // m = 1: p^m, q^m, D_m = p^m − q^m = 2 x_r p q (exact form of 1/b − 1/a).
+    // m = 1: D_1 = p − q = 2 x_r p q (exact form of 1/b − 1/a).
     let d1 = 2.0 * x_r * p * q;
-    // Advance to m = 2 for the n = 1 term; n = 0 is handled exactly below.
-    let mut d_m = p * d1 + q * d1;
-    let (mut p_m, mut q_m) = (p * p, q * q);
-    // z^(n−1) for n = 1.
-    let mut zp = 1.0;
-    let (mut rho_t, mut dz_t, mut v_t) = (0.0, 0.0, 0.0);
-    for n in 1..SERIES_TERMS {
-        // E_{n+1}: p^m + q^m for even n, D_m for odd n (m = n + 1).
-        let e = if n % 2 == 0 { p_m + q_m } else { d_m };
-        // ρ: E z^n/(n+1); ∂ρ/∂z: n E z^(n−1)/(n+1); V1/z²: E z^n/(n+2).
-        let ez = e * zp;
-        dz_t += ez * (n as f64 * INV[n + 1]);
-        let ez = ez * z;
-        rho_t += ez * INV[n + 1];
-        v_t += ez * INV[n + 2];
-        // D_{m+1} = p D_m + q^m D_1, then p^{m+1}, q^{m+1}, z^n.
-        d_m = p * d_m + q_m * d1;
-        p_m *= p;
-        q_m *= q;
-        zp *= z;
+    // State for n = 1 (m = n + 1 = 2): p^m, q^m, D_m = (p + q) D_1, z^(n−1).
+    let mut st = Series {
+        p,
+        q,
+        d1,
+        z,
+        d_m: (p + q) * d1,
+        p_m: p * p,
+        q_m: q * q,
+        zp: 1.0,
+        rho: 0.0,
+        d_z: 0.0,
+        v: 0.0,
+    };
+    // Stop once the next terms are below 1e-17 of the scale (k/2)(p² + q²) of ∂ρ/∂z (the
+    // terms of ρ and V1 are then smaller still, relative to theirs).
+    let stop = 1e-17 * (p * p + q * q);
+    // Pairs (odd n: E = D_m; even n + 1: E = p^m + q^m), so no branch on the parity.
+    let mut n = 1;
+    while n < SERIES_TERMS {
+        st.term(n, st.d_m);
+        st.term(n + 1, st.p_m + st.q_m);
+        n += 2;
+        if (st.p_m + st.q_m) * st.zp.abs() <= stop {
+            break;
+        }
     }
     let half_k = 0.5 * k;
     // n = 0: (k/2)(p + q) = k²/(ab) = g(x_r), written exactly as in `barrier_gain`.
     let c0 = k * k / (b * a);
-    let rho = c0 + half_k * rho_t;
-    let d_z = half_k * dz_t;
-    let v1 = z * z * (0.5 * c0 + half_k * v_t);
+    let rho = c0 + half_k * st.rho;
+    let d_z = half_k * st.d_z;
+    let v1 = z * z * (0.5 * c0 + half_k * st.v);
     (rho, d_z, v1)
+}
+
+/// Running state of [`series`] (without the factor `k/2`).
+struct Series {
+    p: f64,
+    q: f64,
+    d1: f64,
+    z: f64,
+    /// `D_m`, `p^m`, `q^m` for `m = n + 1`, and `z^(n−1)`.
+    d_m: f64,
+    p_m: f64,
+    q_m: f64,
+    zp: f64,
+    /// Partial sums of ρ, ∂ρ/∂z and V1/z² (terms n ≥ 1).
+    rho: f64,
+    d_z: f64,
+    v: f64,
+}
+
+impl Series {
+    /// Add term `n` with coefficient `e = E_{n+1}`, then advance `m`:
+    /// `D_{m+1} = p D_m + q^m D_1`, `p^{m+1}`, `q^{m+1}`, `zⁿ`.
+    #[inline(always)]
+    fn term(&mut self, n: usize, e: f64) {
+        // ∂ρ/∂z: n E z^(n−1)/(n+1); ρ: E zⁿ/(n+1); V1/z²: E zⁿ/(n+2).
+        let ez = e * self.zp;
+        self.d_z += ez * NI[n];
+        let ez = ez * self.z;
+        self.rho += ez * INV[n + 1];
+        self.v += ez * INV[n + 2];
+        self.d_m = self.p * self.d_m + self.q_m * self.d1;
+        self.p_m *= self.p;
+        self.q_m *= self.q;
+        self.zp *= self.z;
+    }
 }
 
 /// What the saturated evaluation had to do. All `false` is the normal case.
@@ -355,7 +411,8 @@ impl IblfAxis {
         Self::with_margin(k_c, kappa1, DEFAULT_BARRIER_MARGIN)
     }
 
-    /// As [`IblfAxis::new`] with margin `δ ∈ (0, 0.5]` (clamp at `±(1 − δ)k_c`).
+    /// As [`IblfAxis::new`] with margin `δ ∈ [1e-12, 0.5]` (clamp at `±(1 − δ)k_c`; the lower
+    /// limit keeps `k_c − |x_1|` far above rounding, so `g ≤ 5·10¹¹`).
     pub fn with_margin(k_c: f64, kappa1: f64, margin: f64) -> Result<Self, ModelError> {
         Self::named(k_c, kappa1, margin, "k_c", "kappa1")
     }
@@ -369,11 +426,11 @@ impl IblfAxis {
     ) -> Result<Self, ModelError> {
         positive(k_name, k_c)?;
         positive(kappa_name, kappa1)?;
-        if !(margin > 0.0 && margin <= 0.5) {
+        if !((1e-12..=0.5).contains(&margin)) {
             return Err(ModelError::invalid(
                 "barrier_margin",
                 margin,
-                "must be in (0, 0.5]",
+                "must be in [1e-12, 0.5]",
             ));
         }
         Ok(Self {
@@ -509,7 +566,7 @@ impl<const N: usize> Iblf<N> {
         Self::with_margin(k_c, kappa1, DEFAULT_BARRIER_MARGIN)
     }
 
-    /// As [`Iblf::new`] with a barrier margin `δ ∈ (0, 0.5]`.
+    /// As [`Iblf::new`] with a barrier margin `δ ∈ [1e-12, 0.5]`.
     pub fn with_margin(
         k_c: SVector<f64, N>,
         kappa1: SVector<f64, N>,
@@ -894,6 +951,49 @@ mod tests {
         }
     }
 
+    /// The paper's object path (x_r = 0.2 cos 0.1t, 0.2 sin 0.1t, 0; k = 0.35, κ1 = (15, 20, 15))
+    /// with a decaying start error, reporting the worst error of α̇ against the difference.
+    #[test]
+    fn alpha_dot_on_the_paper_path() {
+        let k = 0.35;
+        let mut worst = 0.0f64;
+        for (axis, kappa1) in [(0usize, 15.0), (1, 20.0), (2, 15.0)] {
+            let r = |t: f64| match axis {
+                0 => (
+                    0.2 * (0.1 * t).cos(),
+                    -0.02 * (0.1 * t).sin(),
+                    -0.002 * (0.1 * t).cos(),
+                ),
+                1 => (
+                    0.2 * (0.1 * t).sin(),
+                    0.02 * (0.1 * t).cos(),
+                    -0.002 * (0.1 * t).sin(),
+                ),
+                _ => (0.0, 0.0, 0.0),
+            };
+            // z(t) = 0.01 e^{−3t} cos(5t) + 1e-4 sin(7t).
+            let e = |t: f64| {
+                let d = (-3.0 * t).exp();
+                (
+                    0.01 * d * (5.0 * t).cos() + 1e-4 * (7.0 * t).sin(),
+                    0.01 * d * (-3.0 * (5.0 * t).cos() - 5.0 * (5.0 * t).sin())
+                        + 7e-4 * (7.0 * t).cos(),
+                )
+            };
+            for i in 0..400 {
+                let t = 0.01 * i as f64;
+                let a = |t: f64| alpha(r(t).0 + e(t).0, r(t).0, r(t).1, kappa1, k);
+                let fd = d4(&a, t, 1e-3);
+                let (x_r, v, acc) = r(t);
+                let exact = alpha_dot(x_r + e(t).0, v + e(t).1, x_r, v, acc, kappa1, k);
+                let rel = (fd - exact).abs() / (exact.abs() + kappa1 * e(t).1.abs() + 1e-9);
+                worst = worst.max(rel);
+            }
+        }
+        eprintln!("alpha_dot vs 4th-order difference on the paper path: worst rel {worst:.1e}");
+        assert!(worst <= 1e-6);
+    }
+
     #[test]
     fn alpha_uses_x1_in_the_barrier_factor() {
         // SPEC §3.3 erratum: (k² − x1²), not (k² − x_r²).
@@ -1097,6 +1197,8 @@ mod tests {
         let e = Iblf3::new(Vector3::repeat(0.35), Vector3::new(1.0, 1.0, -1.0)).unwrap_err();
         assert!(matches!(&e, ModelError::Invalid { param, .. } if param == "kappa1[2]"));
         assert!(IblfAxis::with_margin(1.0, 1.0, 0.0).is_err());
+        assert!(IblfAxis::with_margin(1.0, 1.0, 1e-13).is_err());
+        assert!(IblfAxis::with_margin(1.0, 1.0, 0.6).is_err());
         assert!(IblfAxis::with_margin(1.0, 1.0, f64::NAN).is_err());
     }
 }

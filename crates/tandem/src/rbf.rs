@@ -1,133 +1,1585 @@
-//! Gaussian RBF network (8), (41), (44) — interim grid implementation (to be replaced by the
-//! full module with general centres).
+//! Gaussian RBF basis (8) and the adaptive network (41), (44).
+//!
+//! $$
+//! s_k(Z) = \exp\!\Big(-\frac{\lVert Z - \mu_k\rVert^2}{\vartheta^2}\Big)\quad (8),\qquad
+//! \hat f_j(Z) = \hat W_j^{\mathsf T} S(Z)\quad (41),\qquad
+//! \dot{\hat W}_j = -\Theta_j\big(Q\,S(Z)\,z_{2j} + \sigma_j \hat W_j\big)\quad (44).
+//! $$
+//!
+//! SPEC §3.4: the paper's `2^12` centres "evenly distributed in [−1, 1]" are the grid
+//! `{−1, 1}^12` over the 12 inputs `Z = [x_1, x_2, α, α̇]`, "variance 50" is `ϑ² = 50`, the
+//! weights start at 0; `Q = M(Z)·I` is a scalar (see [`crate::switching`]), and `Θ_j` is a
+//! positive scalar per output. One width `ϑ` is shared by all nodes.
+//!
+//! # Grid centres and node ordering
+//!
+//! A grid has, per input `i`, levels `c_{i,0..n_i}`; its centres are the Cartesian product.
+//! Node `k` is the multi-index `(l_0, …, l_{N−1})` in **row-major order: the last input varies
+//! fastest**, `k = ((l_0 n_1 + l_1) n_2 + l_2)…`, which is the Kronecker convention, so
+//! `S(Z) = f_0 ⊗ f_1 ⊗ … ⊗ f_{N−1}` with `f_i[l] = exp(−(Z_i − c_{i,l})²/ϑ²)`.
+//! [`Rbf::to_general`] lists the same centres in the same order, so the two forms agree node for
+//! node. The Kronecker form costs `Σ n_i` exponentials (24 for the paper grid instead of 4096)
+//! and one multiply per node: the inputs are split into a head and a tail whose partial
+//! products `A`, `B` have about `√N_s` entries each, and `S = A ⊗ B` is an outer product.
+//!
+//! # Adaptive network: exact discretisation of (44)
+//!
+//! With `S`, `Q`, `z_2` held over one control period `h` (zero-order hold), (44) is linear with
+//! constant coefficients and its exact solution is
+//!
+//! $$
+//! \hat W_j \leftarrow e^{-\Theta_j\sigma_j h}\,\hat W_j -
+//!   \frac{1 - e^{-\Theta_j\sigma_j h}}{\sigma_j}\,Q\,S\,z_{2j}.
+//! $$
+//!
+//! To first order in `h` this is the Euler step `Ŵ − hΘ(QSz_2 + σŴ)`; unlike Euler it is
+//! unconditionally stable (the decay factor is in `(0, 1)` for every `h`) and exact for held
+//! inputs. `1 − e^{−x}` is formed with `expm1`.
+//!
+//! # Storage and the fused tick
+//!
+//! `Ŵ` (`N_s × M`) is stored **interleaved by node** (node-major, `w[k·M + j]`), so one
+//! forward pass over memory (96 KB for the paper) serves every output. The tick
+//! ([`RbfNetwork::tick`]) reads each weight once, adds its contribution to `f̂_j` (with the
+//! weights *before* the update, as the continuous law evaluates both at the same instant),
+//! writes the updated weight and adds its square to `‖Ŵ_j‖²`, all in that one pass, with no
+//! allocation. [`RbfNetwork::tick_at`] on a grid also forms `S = A ⊗ B` inside that pass.
+//!
+//! The kernels work on blocks of 4 nodes (`4M` weights, `M` AVX2 registers); each lane keeps its
+//! own partial sums, reduced per output in a fixed order at the end. So results are bitwise
+//! reproducible, identical between the output-only, update-only and fused paths, and identical
+//! between the portable and the AVX2 code (x86-64 picks AVX2 at run time when the CPU has it; no
+//! FMA is used, so the rounding is the same). This is the only `unsafe` in the module: the
+//! AVX2 intrinsics and the call into a `#[target_feature]` function after detection.
+//!
+use nalgebra::{DMatrix, DVector, SVector};
 
 use crate::error::{ModelError, positive};
 
-/// A grid of centres: the Cartesian product of `levels` over `n_inputs` inputs; input 0 varies
-/// slowest, the last input fastest.
-#[derive(Clone, Debug)]
-pub struct RbfGrid {
-    n_inputs: usize,
-    levels: Vec<f64>,
-    inv_w2: f64,
-    factors: Vec<f64>,
+/// Largest number of outputs of an [`RbfNetwork`].
+pub const MAX_OUTPUTS: usize = 8;
+
+/// Largest number of nodes accepted (a guard against typos such as 10 levels × 12 inputs).
+pub const MAX_NODES: usize = 1 << 24;
+
+/// Where the centres come from.
+#[derive(Debug, Clone, PartialEq)]
+enum Centres {
+    /// Per-input levels; node order as in the module docs.
+    Grid {
+        /// All levels, input after input.
+        levels: Vec<f64>,
+        /// Input `i` owns `levels[offsets[i]..offsets[i + 1]]`.
+        offsets: Vec<usize>,
+        /// Inputs `0..split` form the head product `A`, the rest the tail `B`.
+        split: usize,
+        /// `len(A)`, `len(B)`; `n_a · n_b = N_s`.
+        n_a: usize,
+        n_b: usize,
+    },
+    /// Explicit centres, node-major (`centres[k * n_in + i] = μ_k,i`).
+    General { centres: Vec<f64> },
 }
 
-impl RbfGrid {
-    /// Same levels on every input; `width2 = ϑ²`.
-    pub fn uniform(n_inputs: usize, levels: &[f64], width2: f64) -> Result<Self, ModelError> {
+/// A Gaussian RBF basis (8): `N_s` centres in `R^{N_in}` and a common width `ϑ²`. Immutable.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rbf {
+    centres: Centres,
+    width2: f64,
+    inv_width2: f64,
+    n_in: usize,
+    n_nodes: usize,
+    /// Use the AVX2 build of the outer product (detected once, at construction).
+    avx2: bool,
+}
+
+/// Scratch memory and the output `S(Z)` of [`Rbf::eval_into`]; sized once by
+/// [`Rbf::workspace`], reused every tick.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RbfWorkspace {
+    /// Per-input factors `f_i`, input after input (grid only).
+    f: Vec<f64>,
+    /// Head and tail partial products (grid only).
+    a: Vec<f64>,
+    b: Vec<f64>,
+    /// Ping-pong buffer for building `A` and `B`.
+    t: Vec<f64>,
+    /// `S(Z)`, length `N_s`.
+    s: Vec<f64>,
+    /// `‖S‖²` of the last evaluation.
+    s_norm2: f64,
+}
+
+impl RbfWorkspace {
+    /// `S(Z)` from the last [`Rbf::eval_into`] (length `N_s`, node order of the module docs).
+    #[inline]
+    pub fn s(&self) -> &[f64] {
+        &self.s
+    }
+
+    /// `‖S(Z)‖²` from the last [`Rbf::eval_into`].
+    #[inline]
+    pub fn s_norm2(&self) -> f64 {
+        self.s_norm2
+    }
+}
+
+impl Rbf {
+    /// Grid centres: `levels[i]` lists the levels of input `i` (node order: last input
+    /// fastest), width `ϑ² = width2 > 0`.
+    pub fn grid(levels: &[Vec<f64>], width2: f64) -> Result<Self, ModelError> {
         positive("width2", width2)?;
-        Ok(RbfGrid {
-            n_inputs,
-            levels: levels.to_vec(),
-            inv_w2: 1.0 / width2,
-            factors: vec![0.0; n_inputs * levels.len()],
+        if levels.is_empty() {
+            return Err(ModelError::geometry(
+                "rbf.levels",
+                "needs at least one input",
+            ));
+        }
+        let mut flat = Vec::new();
+        let mut offsets = vec![0];
+        let mut n_nodes: usize = 1;
+        for (i, li) in levels.iter().enumerate() {
+            if li.is_empty() {
+                return Err(ModelError::geometry(
+                    format!("rbf.levels[{i}]"),
+                    "needs at least one level",
+                ));
+            }
+            if let Some(&bad) = li.iter().find(|c| !c.is_finite()) {
+                return Err(ModelError::invalid(
+                    format!("rbf.levels[{i}]"),
+                    bad,
+                    "must be finite",
+                ));
+            }
+            n_nodes = n_nodes
+                .checked_mul(li.len())
+                .filter(|&n| n <= MAX_NODES)
+                .ok_or_else(|| {
+                    ModelError::geometry("rbf.levels", format!("more than {MAX_NODES} nodes"))
+                })?;
+            flat.extend_from_slice(li);
+            offsets.push(flat.len());
+        }
+        // Split so that the head product is as close to √N_s as possible.
+        let (mut split, mut n_a, mut best) = (0, 1, n_nodes as f64);
+        let mut prod = 1usize;
+        for (i, li) in levels.iter().enumerate() {
+            prod *= li.len();
+            let dist = ((prod as f64).ln() - 0.5 * (n_nodes as f64).ln()).abs();
+            if dist < best {
+                (split, n_a, best) = (i + 1, prod, dist);
+            }
+        }
+        Ok(Self {
+            centres: Centres::Grid {
+                levels: flat,
+                offsets,
+                split,
+                n_a,
+                n_b: n_nodes / n_a,
+            },
+            width2,
+            inv_width2: 1.0 / width2,
+            n_in: levels.len(),
+            n_nodes,
+            avx2: detect_avx2(),
         })
     }
-    /// Number of nodes.
-    pub fn n_nodes(&self) -> usize {
-        self.levels.len().pow(self.n_inputs as u32)
+
+    /// The paper's basis (SPEC §3.4): 12 inputs × levels `{−1, 1}` → 4096 nodes, `ϑ² = 50`.
+    pub fn paper() -> Self {
+        Self::grid(&vec![vec![-1.0, 1.0]; 12], 50.0).expect("the paper grid is valid")
     }
-    /// `S(Z)` as a Kronecker product of per-input factors, into `s`.
-    pub fn eval_into(&mut self, z: &[f64], s: &mut [f64]) {
-        let l = self.levels.len();
-        for i in 0..self.n_inputs {
-            for (k, c) in self.levels.iter().enumerate() {
-                let d = z[i] - c;
-                self.factors[i * l + k] = (-d * d * self.inv_w2).exp();
-            }
+
+    /// General centres: row `k` of `centres` (`N_s × N_in`) is `μ_k`; width `ϑ² = width2`.
+    pub fn general(centres: &DMatrix<f64>, width2: f64) -> Result<Self, ModelError> {
+        positive("width2", width2)?;
+        let (n_nodes, n_in) = centres.shape();
+        if n_nodes == 0 || n_in == 0 || n_nodes > MAX_NODES {
+            return Err(ModelError::geometry(
+                "rbf.centres",
+                format!("shape {n_nodes} × {n_in}: needs 1..={MAX_NODES} nodes and ≥ 1 input"),
+            ));
         }
-        s[0] = 1.0;
-        let mut len = 1;
-        for i in 0..self.n_inputs {
-            for p in (0..len).rev() {
-                let v = s[p];
-                for k in 0..l {
-                    s[p * l + k] = v * self.factors[i * l + k];
+        if let Some(&bad) = centres.iter().find(|c| !c.is_finite()) {
+            return Err(ModelError::invalid("rbf.centres", bad, "must be finite"));
+        }
+        // Node-major copy so that one centre is contiguous.
+        let mut flat = Vec::with_capacity(n_nodes * n_in);
+        for k in 0..n_nodes {
+            flat.extend(centres.row(k).iter());
+        }
+        Ok(Self {
+            centres: Centres::General { centres: flat },
+            width2,
+            inv_width2: 1.0 / width2,
+            n_in,
+            n_nodes,
+            avx2: detect_avx2(),
+        })
+    }
+
+    /// The same basis with explicit centres, in the same node order (a grid is expanded).
+    pub fn to_general(&self) -> Self {
+        let mut m = DMatrix::zeros(self.n_nodes, self.n_in);
+        let mut mu = vec![0.0; self.n_in];
+        for k in 0..self.n_nodes {
+            self.centre_into(k, &mut mu);
+            m.row_mut(k).copy_from_slice(&mu);
+        }
+        Self::general(&m, self.width2).expect("centres of a valid basis are valid")
+    }
+
+    /// Writes centre `μ_k` into `out` (length `N_in`).
+    ///
+    /// # Panics
+    /// If `k ≥ N_s` or `out.len() != N_in`.
+    pub fn centre_into(&self, k: usize, out: &mut [f64]) {
+        assert!(
+            k < self.n_nodes && out.len() == self.n_in,
+            "rbf: centre index or length"
+        );
+        match &self.centres {
+            Centres::Grid {
+                levels, offsets, ..
+            } => {
+                // Row-major multi-index: peel the last (fastest) input first.
+                let mut rest = k;
+                for i in (0..self.n_in).rev() {
+                    let n = offsets[i + 1] - offsets[i];
+                    out[i] = levels[offsets[i] + rest % n];
+                    rest /= n;
                 }
             }
-            len *= l;
+            Centres::General { centres } => {
+                out.copy_from_slice(&centres[k * self.n_in..(k + 1) * self.n_in]);
+            }
+        }
+    }
+
+    /// Number of inputs `N_in`.
+    pub fn n_inputs(&self) -> usize {
+        self.n_in
+    }
+
+    /// Number of nodes `N_s`.
+    pub fn n_nodes(&self) -> usize {
+        self.n_nodes
+    }
+
+    /// Width `ϑ²`.
+    pub fn width2(&self) -> f64 {
+        self.width2
+    }
+
+    /// Whether the Kronecker fast path is used.
+    pub fn is_grid(&self) -> bool {
+        matches!(self.centres, Centres::Grid { .. })
+    }
+
+    /// Buffers for [`Rbf::eval_into`] (the only allocation; do it at set-up).
+    pub fn workspace(&self) -> RbfWorkspace {
+        let (nf, na, nb) = match &self.centres {
+            Centres::Grid {
+                levels, n_a, n_b, ..
+            } => (levels.len(), *n_a, *n_b),
+            Centres::General { .. } => (0, 0, 0),
+        };
+        RbfWorkspace {
+            f: vec![0.0; nf],
+            a: vec![0.0; na],
+            b: vec![0.0; nb],
+            t: vec![0.0; na.max(nb)],
+            s: vec![0.0; self.n_nodes],
+            s_norm2: 0.0,
+        }
+    }
+
+    /// `S(Z)` into `ws.s()` (and `‖S‖²` into `ws.s_norm2()`); no allocation.
+    ///
+    /// Grid: Kronecker form (`Σ n_i` exponentials, one multiply per node). General centres:
+    /// the direct sum of (8), one exponential per node.
+    ///
+    /// # Panics
+    /// If `z.len() != N_in` or `ws` was made for another basis.
+    pub fn eval_into(&self, z: &[f64], ws: &mut RbfWorkspace) {
+        if self.eval_factors(z, ws) {
+            // S = A ⊗ B: one multiply per node.
+            outer_into(&ws.a, &ws.b, &mut ws.s, self.avx2);
+        }
+    }
+
+    /// Grid: the factors `f_i`, the partial products `A`, `B` and `‖S‖²` into `ws`, returning
+    /// `true` (S itself is left to the caller). General centres: all of `S`, returning `false`.
+    fn eval_factors(&self, z: &[f64], ws: &mut RbfWorkspace) -> bool {
+        assert_eq!(z.len(), self.n_in, "rbf: input length");
+        assert_eq!(ws.s.len(), self.n_nodes, "rbf: workspace size");
+        match &self.centres {
+            Centres::Grid {
+                levels,
+                offsets,
+                split,
+                ..
+            } => {
+                // f_i[l] = exp(−(Z_i − c_{i,l})²/ϑ²) for every input and level.
+                let mut fn2 = 1.0;
+                for i in 0..self.n_in {
+                    let (lo, hi) = (offsets[i], offsets[i + 1]);
+                    let mut n2 = 0.0;
+                    for (f, &c) in ws.f[lo..hi].iter_mut().zip(&levels[lo..hi]) {
+                        let d = z[i] - c;
+                        *f = (-(d * d) * self.inv_width2).exp();
+                        n2 += *f * *f;
+                    }
+                    fn2 *= n2;
+                }
+                // A = f_0 ⊗ … ⊗ f_{split−1}, B = f_split ⊗ … ⊗ f_{N−1}.
+                let (na, nb) = (ws.a.len(), ws.b.len());
+                kron_into(&ws.f, offsets, 0, *split, &mut ws.a, &mut ws.t[..na]);
+                kron_into(
+                    &ws.f,
+                    offsets,
+                    *split,
+                    self.n_in,
+                    &mut ws.b,
+                    &mut ws.t[..nb],
+                );
+                // ‖A ⊗ B‖² = Π‖f_i‖².
+                ws.s_norm2 = fn2;
+                true
+            }
+            Centres::General { centres } => {
+                let s = &mut ws.s;
+                naive(centres, self.n_in, self.inv_width2, z, s);
+                ws.s_norm2 = s.iter().map(|v| v * v).sum();
+                false
+            }
+        }
+    }
+
+    /// `S(Z)` by the direct definition (8), one exponential per node, for either kind of
+    /// centres (the reference the Kronecker form is tested against). No allocation.
+    ///
+    /// # Panics
+    /// If `z.len() != N_in` or `s.len() != N_s`.
+    pub fn eval_naive_into(&self, z: &[f64], s: &mut [f64]) {
+        assert!(
+            z.len() == self.n_in && s.len() == self.n_nodes,
+            "rbf: lengths"
+        );
+        match &self.centres {
+            Centres::General { centres } => naive(centres, self.n_in, self.inv_width2, z, s),
+            Centres::Grid { .. } => {
+                let mut mu = [0.0; 64];
+                assert!(
+                    self.n_in <= mu.len(),
+                    "rbf: naive grid path supports ≤ 64 inputs"
+                );
+                for (k, sk) in s.iter_mut().enumerate() {
+                    self.centre_into(k, &mut mu[..self.n_in]);
+                    let d2: f64 = z.iter().zip(&mu).map(|(a, b)| (a - b) * (a - b)).sum();
+                    *sk = (-d2 * self.inv_width2).exp();
+                }
+            }
+        }
+    }
+
+    /// Allocating form of [`Rbf::eval_into`].
+    pub fn eval(&self, z: &[f64]) -> DVector<f64> {
+        let mut ws = self.workspace();
+        self.eval_into(z, &mut ws);
+        DVector::from_vec(ws.s)
+    }
+}
+
+/// Kronecker product of the factors of inputs `from..to` into `out` (length `Π n_i`), the last
+/// input varying fastest. Built forward, ping-ponging between `out` and `tmp` (same length).
+fn kron_into(
+    f: &[f64],
+    offsets: &[usize],
+    from: usize,
+    to: usize,
+    out: &mut [f64],
+    tmp: &mut [f64],
+) {
+    // Start in whichever buffer makes the last factor land in `out`.
+    let (mut src, mut dst) = if (to - from) % 2 == 0 {
+        (&mut *out, &mut *tmp)
+    } else {
+        (&mut *tmp, &mut *out)
+    };
+    src[0] = 1.0;
+    let mut len = 1;
+    for i in from..to {
+        let fi = &f[offsets[i]..offsets[i + 1]];
+        let n = fi.len();
+        if let &[f0, f1] = fi {
+            // Two levels (the paper's grid): unrolled.
+            for (&v, row) in src[..len].iter().zip(dst.chunks_exact_mut(2)) {
+                row[0] = v * f0;
+                row[1] = v * f1;
+            }
+        } else {
+            for (&v, row) in src[..len].iter().zip(dst.chunks_exact_mut(n)) {
+                for (o, &fl) in row.iter_mut().zip(fi) {
+                    *o = v * fl;
+                }
+            }
+        }
+        len *= n;
+        std::mem::swap(&mut src, &mut dst);
+    }
+    debug_assert_eq!(len, src.len());
+}
+
+/// `s[i·n_b + j] = a[i]·b[j]`.
+fn outer_into(a: &[f64], b: &[f64], s: &mut [f64], avx2: bool) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` is true only if the CPU reported AVX2 (`detect_avx2`).
+        unsafe { outer_avx2(a, b, s) };
+        return;
+    }
+    let _ = avx2;
+    outer_portable(a, b, s);
+}
+
+#[inline(always)]
+fn outer_portable(a: &[f64], b: &[f64], s: &mut [f64]) {
+    for (row, &ai) in s.chunks_exact_mut(b.len()).zip(a) {
+        for (sk, &bj) in row.iter_mut().zip(b) {
+            *sk = ai * bj;
         }
     }
 }
 
-/// Weights of an adaptive network with `n_out` outputs, interleaved by node.
-#[derive(Clone, Debug)]
-pub struct AdaptiveRbf {
-    n_out: usize,
-    w: Vec<f64>,
-    theta: Vec<f64>,
-    sigma: Vec<f64>,
+/// [`outer_portable`] compiled for AVX2 (element-wise products: the same bits).
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn outer_avx2(a: &[f64], b: &[f64], s: &mut [f64]) {
+    outer_portable(a, b, s);
 }
 
-impl AdaptiveRbf {
-    /// Zero weights.
-    pub fn new(
-        n_nodes: usize,
-        n_out: usize,
-        theta: &[f64],
-        sigma: &[f64],
-    ) -> Result<Self, ModelError> {
-        for j in 0..n_out {
+/// Direct evaluation of (8) with node-major centres.
+fn naive(centres: &[f64], n_in: usize, inv_width2: f64, z: &[f64], s: &mut [f64]) {
+    for (sk, mu) in s.iter_mut().zip(centres.chunks_exact(n_in)) {
+        let d2: f64 = z.iter().zip(mu).map(|(a, b)| (a - b) * (a - b)).sum();
+        *sk = (-d2 * inv_width2).exp();
+    }
+}
+
+/// Discretised update law (44) for `M` outputs: `Θ_j`, `σ_j` and the period `h` folded into
+/// `decay_j = e^{−Θ_j σ_j h}` and `gain_j = (1 − decay_j)/σ_j`. Validated, immutable.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NnUpdate<const M: usize> {
+    theta: SVector<f64, M>,
+    sigma: SVector<f64, M>,
+    h: f64,
+    decay: [f64; M],
+    gain: [f64; M],
+}
+
+impl<const M: usize> NnUpdate<M> {
+    /// `Θ_j > 0`, `σ_j > 0`, `h > 0`; errors name `theta[j]`, `sigma[j]`, `h`.
+    pub fn new(theta: SVector<f64, M>, sigma: SVector<f64, M>, h: f64) -> Result<Self, ModelError> {
+        positive("h", h)?;
+        for j in 0..M {
             positive(&format!("theta[{j}]"), theta[j])?;
             positive(&format!("sigma[{j}]"), sigma[j])?;
         }
-        Ok(AdaptiveRbf {
-            n_out,
-            w: vec![0.0; n_nodes * n_out],
-            theta: theta[..n_out].to_vec(),
-            sigma: sigma[..n_out].to_vec(),
+        Ok(Self::from_validated(theta, sigma, h))
+    }
+
+    /// The folding of [`NnUpdate::new`] without the checks (no allocation).
+    fn from_validated(theta: SVector<f64, M>, sigma: SVector<f64, M>, h: f64) -> Self {
+        let (mut decay, mut gain) = ([0.0; M], [0.0; M]);
+        for j in 0..M {
+            let x = theta[j] * sigma[j] * h;
+            decay[j] = (-x).exp();
+            // (1 − e^{−x})/σ without cancellation for small x.
+            gain[j] = -(-x).exp_m1() / sigma[j];
+        }
+        Self {
+            theta,
+            sigma,
+            h,
+            decay,
+            gain,
+        }
+    }
+
+    /// Adaptation gains `Θ_j`.
+    pub fn theta(&self) -> &SVector<f64, M> {
+        &self.theta
+    }
+
+    /// Leakage `σ_j`.
+    pub fn sigma(&self) -> &SVector<f64, M> {
+        &self.sigma
+    }
+
+    /// Control period `h`, s.
+    pub fn h(&self) -> f64 {
+        self.h
+    }
+
+    /// `e^{−Θ_j σ_j h}`.
+    pub fn decay(&self) -> [f64; M] {
+        self.decay
+    }
+
+    /// `(1 − e^{−Θ_j σ_j h})/σ_j` (→ `Θ_j h` as `σ_j → 0`).
+    pub fn gain(&self) -> [f64; M] {
+        self.gain
+    }
+}
+
+/// Result of one fused tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NnTick<const M: usize> {
+    /// `f̂_j = Ŵ_jᵀ S` (41) with the weights before the update.
+    pub f_hat: SVector<f64, M>,
+    /// `‖Ŵ_j‖` after the update.
+    pub w_norm: SVector<f64, M>,
+}
+
+/// The adaptive RBF network: weights `Ŵ` (`N_s × M`, zero at start, SPEC §3.4) and the fused
+/// output + update tick. `M` is the number of outputs (3 for the object scheme, 2 per arm),
+/// `1 ≤ M ≤` [`MAX_OUTPUTS`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct RbfNetwork<const M: usize> {
+    n_nodes: usize,
+    /// Node-major: `w[k·M + j]` is node `k`, output `j`.
+    w: Vec<f64>,
+    /// Use the AVX2 build of the kernels (detected once, at construction).
+    avx2: bool,
+}
+
+impl<const M: usize> RbfNetwork<M> {
+    /// `N_s` nodes, all weights 0.
+    pub fn new(n_nodes: usize) -> Result<Self, ModelError> {
+        if n_nodes == 0 || n_nodes > MAX_NODES || M == 0 || M > MAX_OUTPUTS {
+            return Err(ModelError::geometry(
+                "rbf_network",
+                format!(
+                    "{n_nodes} nodes × {M} outputs: needs 1..={MAX_NODES} nodes and \
+                     1..={MAX_OUTPUTS} outputs"
+                ),
+            ));
+        }
+        Ok(Self {
+            n_nodes,
+            w: vec![0.0; n_nodes * M],
+            avx2: detect_avx2(),
         })
     }
-    /// Zero the weights.
-    pub fn reset(&mut self) {
-        self.w.fill(0.0);
+
+    /// A zero network sized for `rbf`.
+    pub fn for_basis(rbf: &Rbf) -> Result<Self, ModelError> {
+        Self::new(rbf.n_nodes())
     }
-    /// The weights, interleaved by node (`w[k·n_out + j]` is node k of output j).
+
+    /// Number of nodes `N_s`.
+    pub fn n_nodes(&self) -> usize {
+        self.n_nodes
+    }
+
+    /// `Ŵ`, node-major: `w[k·M + j]` is node `k`, output `j` (length `N_s·M`).
     pub fn weights(&self) -> &[f64] {
         &self.w
     }
-    /// `‖Ŵ_j‖`.
-    pub fn weight_norm(&self, j: usize) -> f64 {
-        self.w
-            .iter()
-            .skip(j)
-            .step_by(self.n_out)
-            .map(|v| v * v)
-            .sum::<f64>()
-            .sqrt()
+
+    /// Mutable `Ŵ` in the layout of [`RbfNetwork::weights`] (e.g. to restore a checkpoint).
+    pub fn weights_mut(&mut self) -> &mut [f64] {
+        &mut self.w
     }
-    /// Outputs with the current weights, then the exact held-input update of (44).
+
+    /// Weight `Ŵ[k, j]` (node `k`, output `j`).
+    ///
+    /// # Panics
+    /// If `k ≥ N_s` or `j ≥ M`.
+    pub fn weight(&self, k: usize, j: usize) -> f64 {
+        assert!(k < self.n_nodes && j < M, "rbf_network: index");
+        self.w[k * M + j]
+    }
+
+    /// Load `Ŵ` from the layout of [`RbfNetwork::weights`].
+    pub fn set_weights(&mut self, w: &[f64]) -> Result<(), ModelError> {
+        if w.len() != self.w.len() {
+            return Err(ModelError::geometry(
+                "rbf_network.weights",
+                format!("length {} ≠ {} nodes × {M}", w.len(), self.n_nodes),
+            ));
+        }
+        self.w.copy_from_slice(w);
+        Ok(())
+    }
+
+    /// `Ŵ` as an `N_s × M` matrix (allocates).
+    pub fn weights_matrix(&self) -> DMatrix<f64> {
+        DMatrix::from_row_slice(self.n_nodes, M, &self.w)
+    }
+
+    /// All weights back to 0.
+    pub fn reset(&mut self) {
+        self.w.fill(0.0);
+    }
+
+    /// `f̂_j = Ŵ_jᵀ S` (41), without updating.
+    ///
+    /// # Panics
+    /// If `s.len() != N_s`.
+    pub fn output(&self, s: &[f64]) -> SVector<f64, M> {
+        assert_eq!(s.len(), self.n_nodes, "rbf_network: S length");
+        SVector::from(self.dispatch_read::<true, false>(s).0)
+    }
+
+    /// `‖Ŵ_j‖` per output.
+    pub fn norms(&self) -> SVector<f64, M> {
+        SVector::from(self.dispatch_read::<false, true>(&[]).1.map(f64::sqrt))
+    }
+
+    /// The update (44) alone (exact discretisation, see the module docs); returns `‖Ŵ_j‖`
+    /// after it.
+    ///
+    /// # Panics
+    /// If `s.len() != N_s`.
+    pub fn update(
+        &mut self,
+        s: &[f64],
+        q: f64,
+        z2: &SVector<f64, M>,
+        upd: &NnUpdate<M>,
+    ) -> SVector<f64, M> {
+        assert_eq!(s.len(), self.n_nodes, "rbf_network: S length");
+        let c = coefficients(q, z2, upd);
+        SVector::from(
+            self.dispatch_tick::<false>(s, &upd.decay, &c)
+                .1
+                .map(f64::sqrt),
+        )
+    }
+
+    /// Fused tick: `f̂_j = Ŵ_jᵀ S` with the weights before the update, then
+    /// `Ŵ_j ← e^{−Θσh} Ŵ_j − ((1 − e^{−Θσh})/σ) Q S z_2j`, and `‖Ŵ_j‖` after it, in one pass
+    /// over the weights. `(S, Q, z_2) → (f̂, ‖Ŵ‖)`, `Ŵ` updated in place; no allocation.
+    ///
+    /// # Panics
+    /// If `s.len() != N_s`.
+    #[inline]
     pub fn tick(
         &mut self,
         s: &[f64],
         q: f64,
-        z2: &[f64],
-        h: f64,
-        out: &mut [f64],
-        norms: &mut [f64],
-    ) {
-        let n = self.n_out;
-        let mut decay = [0.0; 8];
-        let mut gain = [0.0; 8];
-        for j in 0..n {
-            let a = self.theta[j] * self.sigma[j] * h;
-            decay[j] = (-a).exp();
-            // −(1 − e^{−Θσh})/σ · Q z2_j (multiplies S_k).
-            gain[j] = (-a).exp_m1() / self.sigma[j] * q * z2[j];
-            out[j] = 0.0;
-            norms[j] = 0.0;
+        z2: &SVector<f64, M>,
+        upd: &NnUpdate<M>,
+    ) -> NnTick<M> {
+        assert_eq!(s.len(), self.n_nodes, "rbf_network: S length");
+        let c = coefficients(q, z2, upd);
+        let (acc, n2) = self.dispatch_tick::<true>(s, &upd.decay, &c);
+        NnTick {
+            f_hat: SVector::from(acc),
+            w_norm: SVector::from(n2.map(f64::sqrt)),
         }
-        for (k, sk) in s.iter().enumerate() {
-            for j in 0..n {
-                let w = &mut self.w[k * n + j];
-                out[j] += *w * sk;
-                *w = decay[j] * *w + gain[j] * sk;
-                norms[j] += *w * *w;
+    }
+
+    /// `S(Z)` (left in `ws.s()`) and the fused [`RbfNetwork::tick`], for the NN input `z`.
+    ///
+    /// On a grid basis with AVX2 the outer product `S = A ⊗ B` is formed block by block inside
+    /// the weight pass instead of in a separate pass (same products, same bits as
+    /// [`Rbf::eval_into`] followed by [`RbfNetwork::tick`]). No allocation.
+    ///
+    /// # Panics
+    /// On size mismatches between `rbf`, `ws`, `z` and the network.
+    #[inline]
+    pub fn tick_at(
+        &mut self,
+        rbf: &Rbf,
+        z: &[f64],
+        ws: &mut RbfWorkspace,
+        q: f64,
+        z2: &SVector<f64, M>,
+        upd: &NnUpdate<M>,
+    ) -> NnTick<M> {
+        assert_eq!(rbf.n_nodes(), self.n_nodes, "rbf_network: basis size");
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 && rbf.eval_factors(z, ws) && ws.b.len() % BLOCK == 0 {
+            let c = coefficients(q, z2, upd);
+            // SAFETY: `avx2` is true only if the CPU reported AVX2 (`detect_avx2`).
+            let (acc, n2) = unsafe {
+                avx2::tick_grid::<M>(&mut self.w, &ws.a, &ws.b, &mut ws.s, &upd.decay, &c)
+            };
+            return NnTick {
+                f_hat: SVector::from(acc),
+                w_norm: SVector::from(n2.map(f64::sqrt)),
+            };
+        }
+        rbf.eval_into(z, ws);
+        self.tick(&ws.s, q, z2, upd)
+    }
+
+    #[inline]
+    fn dispatch_tick<const OUT: bool>(
+        &mut self,
+        s: &[f64],
+        e: &[f64; M],
+        c: &[f64; M],
+    ) -> ([f64; M], [f64; M]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is true only if the CPU reported AVX2 (`detect_avx2`).
+            return unsafe { avx2::tick::<M, OUT>(&mut self.w, s, e, c) };
+        }
+        kernel_tick::<M, OUT>(&mut self.w, s, e, c)
+    }
+
+    #[inline]
+    fn dispatch_read<const OUT: bool, const NORM: bool>(&self, s: &[f64]) -> ([f64; M], [f64; M]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: as in `dispatch_tick`.
+            return unsafe { avx2::read::<M, OUT, NORM>(&self.w, s, self.n_nodes) };
+        }
+        kernel_read::<M, OUT, NORM>(&self.w, s, self.n_nodes)
+    }
+}
+
+/// `c_j = gain_j · Q · z2_j`, the coefficient of `S` in the update.
+#[inline]
+fn coefficients<const M: usize>(q: f64, z2: &SVector<f64, M>, upd: &NnUpdate<M>) -> [f64; M] {
+    std::array::from_fn(|j| upd.gain[j] * q * z2[j])
+}
+
+/// Whether the AVX2 kernels may run on this CPU.
+fn detect_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+// ---- kernels ------------------------------------------------------------------------------
+//
+// A block is BLOCK = 4 consecutive nodes, i.e. 4·M consecutive weights (node-major). Lane
+// i ∈ [0, 4M) of a block is weight i: node i / M, output i % M. Every sum runs per lane and is
+// reduced per output in the fixed order of `reduce`, so all kernels (fused, output-only,
+// update-only; portable and AVX2, where lane 4r + t is lane t of register r) produce the same
+// bits.
+
+/// Nodes per block (one AVX2 register of `S`).
+const BLOCK: usize = 4;
+/// Lanes of the largest block.
+const MAX_LANES: usize = BLOCK * MAX_OUTPUTS;
+
+/// Per-output sums of the lanes: `(v[j] + v[2M + j]) + (v[M + j] + v[3M + j])`.
+#[inline(always)]
+fn reduce<const M: usize>(v: &[f64; MAX_LANES]) -> [f64; M] {
+    std::array::from_fn(|j| (v[j] + v[2 * M + j]) + (v[M + j] + v[3 * M + j]))
+}
+
+/// `S` of the last, partial block, zero-padded (the padding lanes then add exact zeros).
+#[inline(always)]
+fn s_tail(s: &[f64]) -> [f64; BLOCK] {
+    let lo = s.len() / BLOCK * BLOCK;
+    let mut out = [0.0; BLOCK];
+    out[..s.len() - lo].copy_from_slice(&s[lo..]);
+    out
+}
+
+/// `e_j`, `c_j` spread over the lanes of a block.
+#[inline(always)]
+fn lane_pattern<const M: usize>(v: &[f64; M]) -> [f64; MAX_LANES] {
+    std::array::from_fn(|i| if i < BLOCK * M { v[i % M] } else { 0.0 })
+}
+
+/// One block of the fused pass: per lane `acc += old·S`, `w = e·old − c·S`, `n2 += w·w`
+/// (plain IEEE operations in this order, no FMA).
+#[inline(always)]
+fn tick_block<const M: usize, const OUT: bool>(
+    wb: &mut [f64],
+    sb: &[f64; BLOCK],
+    ep: &[f64; MAX_LANES],
+    cp: &[f64; MAX_LANES],
+    acc: &mut [f64; MAX_LANES],
+    n2: &mut [f64; MAX_LANES],
+) {
+    for (i, w) in wb.iter_mut().enumerate().take(BLOCK * M) {
+        let s = sb[i / M];
+        let old = *w;
+        if OUT {
+            acc[i] += old * s;
+        }
+        let new = ep[i] * old - cp[i] * s;
+        *w = new;
+        n2[i] += new * new;
+    }
+}
+
+/// Portable fused pass: `acc_j = Σ w S` (if `OUT`), `w ← e_j w − c_j S`, `n2_j = Σ w²`.
+fn kernel_tick<const M: usize, const OUT: bool>(
+    w: &mut [f64],
+    s: &[f64],
+    e: &[f64; M],
+    c: &[f64; M],
+) -> ([f64; M], [f64; M]) {
+    let (ep, cp) = (lane_pattern(e), lane_pattern(c));
+    let mut acc = [0.0; MAX_LANES];
+    let mut n2 = [0.0; MAX_LANES];
+    let full = s.len() / BLOCK;
+    let (w_full, w_tail) = w.split_at_mut(full * BLOCK * M);
+    for (wb, sb) in w_full
+        .chunks_exact_mut(BLOCK * M)
+        .zip(s.chunks_exact(BLOCK))
+    {
+        let sb: &[f64; BLOCK] = sb.try_into().expect("BLOCK lanes");
+        tick_block::<M, OUT>(wb, sb, &ep, &cp, &mut acc, &mut n2);
+    }
+    if !w_tail.is_empty() {
+        // Partial block through a zero-padded copy: padding lanes stay exactly 0.
+        let mut tmp = [0.0; MAX_LANES];
+        tmp[..w_tail.len()].copy_from_slice(w_tail);
+        tick_block::<M, OUT>(&mut tmp, &s_tail(s), &ep, &cp, &mut acc, &mut n2);
+        w_tail.copy_from_slice(&tmp[..w_tail.len()]);
+    }
+    (reduce(&acc), reduce(&n2))
+}
+
+/// One read-only block: `acc += w·S` (if `OUT`), `n2 += w·w` (if `NORM`).
+#[inline(always)]
+fn read_block<const M: usize, const OUT: bool, const NORM: bool>(
+    wb: &[f64],
+    sb: &[f64; BLOCK],
+    acc: &mut [f64; MAX_LANES],
+    n2: &mut [f64; MAX_LANES],
+) {
+    for (i, &x) in wb.iter().enumerate().take(BLOCK * M) {
+        if OUT {
+            acc[i] += x * sb[i / M];
+        }
+        if NORM {
+            n2[i] += x * x;
+        }
+    }
+}
+
+/// Portable read-only pass: `acc_j = Σ w S` (if `OUT`), `n2_j = Σ w²` (if `NORM`).
+fn kernel_read<const M: usize, const OUT: bool, const NORM: bool>(
+    w: &[f64],
+    s: &[f64],
+    n_nodes: usize,
+) -> ([f64; M], [f64; M]) {
+    let mut acc = [0.0; MAX_LANES];
+    let mut n2 = [0.0; MAX_LANES];
+    let full = n_nodes / BLOCK;
+    let (w_full, w_tail) = w.split_at(full * BLOCK * M);
+    let zeros = [0.0; BLOCK];
+    for (b, wb) in w_full.chunks_exact(BLOCK * M).enumerate() {
+        let sb: [f64; BLOCK] = if OUT {
+            s[b * BLOCK..(b + 1) * BLOCK]
+                .try_into()
+                .expect("BLOCK lanes")
+        } else {
+            zeros
+        };
+        read_block::<M, OUT, NORM>(wb, &sb, &mut acc, &mut n2);
+    }
+    if !w_tail.is_empty() {
+        let mut tmp = [0.0; MAX_LANES];
+        tmp[..w_tail.len()].copy_from_slice(w_tail);
+        let sb = if OUT { s_tail(s) } else { zeros };
+        read_block::<M, OUT, NORM>(&tmp, &sb, &mut acc, &mut n2);
+    }
+    (reduce(&acc), reduce(&n2))
+}
+
+/// AVX2 builds of the kernels: the same operations in the same order as the portable ones,
+/// so the same bits. Register `r` of a block holds lanes `4r..4r+4`; the `S` value of each lane
+/// (node `i / M`) is put in place by one `vpermd` with a precomputed index.
+///
+/// Written for the workspace MSRV (1.85): the entry points are `unsafe fn` with
+/// `#[target_feature]`, and the bodies are `#[inline(always)]` helpers without features (so
+/// every intrinsic call is `unsafe` on every toolchain) that inline into them. No closures:
+/// they would not inherit the target feature on 1.85.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{BLOCK, MAX_LANES, MAX_OUTPUTS, reduce, s_tail};
+    use std::arch::x86_64::{
+        __m256d, __m256i, _mm256_add_pd, _mm256_castpd_si256, _mm256_castsi256_pd, _mm256_loadu_pd,
+        _mm256_loadu_si256, _mm256_mul_pd, _mm256_permutevar8x32_epi32, _mm256_set1_pd,
+        _mm256_setzero_pd, _mm256_storeu_pd, _mm256_sub_pd,
+    };
+
+    /// Per-register constants and accumulators of one pass.
+    struct Regs<const M: usize> {
+        /// `e_j`, `c_j` of each lane.
+        e: [__m256d; M],
+        c: [__m256d; M],
+        /// 32-bit permutation that spreads the block's 4 `S` values over the lanes.
+        idx: [__m256i; M],
+        acc: [__m256d; M],
+        n2: [__m256d; M],
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn regs<const M: usize>(e: &[f64; M], c: &[f64; M]) -> Regs<M> {
+        const { assert!(M >= 1 && M <= MAX_OUTPUTS) };
+        // SAFETY: every load reads a local array of the right size; AVX2 (caller's contract).
+        unsafe {
+            let zero = _mm256_setzero_pd();
+            let mut r = Regs {
+                e: [zero; M],
+                c: [zero; M],
+                idx: [_mm256_castpd_si256(zero); M],
+                acc: [zero; M],
+                n2: [zero; M],
+            };
+            for q in 0..M {
+                let mut ev = [0.0; BLOCK];
+                let mut cv = [0.0; BLOCK];
+                let mut iv = [0i32; 2 * BLOCK];
+                for t in 0..BLOCK {
+                    let i = BLOCK * q + t;
+                    ev[t] = e[i % M];
+                    cv[t] = c[i % M];
+                    let node = (i / M) as i32;
+                    iv[2 * t] = 2 * node;
+                    iv[2 * t + 1] = 2 * node + 1;
+                }
+                r.e[q] = _mm256_loadu_pd(ev.as_ptr());
+                r.c[q] = _mm256_loadu_pd(cv.as_ptr());
+                r.idx[q] = _mm256_loadu_si256(iv.as_ptr().cast());
+            }
+            r
+        }
+    }
+
+    /// Lanes of `v` in order, then [`reduce`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn sums<const M: usize>(v: &[__m256d; M]) -> [f64; M] {
+        let mut l = [0.0; MAX_LANES];
+        for (q, chunk) in l.chunks_exact_mut(BLOCK).take(M).enumerate() {
+            // SAFETY: `chunk` holds exactly BLOCK = 4 f64; AVX2 (caller's contract).
+            unsafe { _mm256_storeu_pd(chunk.as_mut_ptr(), v[q]) };
+        }
+        reduce(&l)
+    }
+
+    /// Load 4 lanes.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn load(x: &[f64]) -> __m256d {
+        assert!(x.len() >= BLOCK);
+        // SAFETY: bounds checked above (unaligned load); AVX2 (caller's contract).
+        unsafe { _mm256_loadu_pd(x.as_ptr()) }
+    }
+
+    /// Store 4 lanes.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn store(x: &mut [f64], v: __m256d) {
+        assert!(x.len() >= BLOCK);
+        // SAFETY: bounds checked above (unaligned store); AVX2 (caller's contract).
+        unsafe { _mm256_storeu_pd(x.as_mut_ptr(), v) }
+    }
+
+    /// `S` of each lane of register `q`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn spread(sv: __m256d, idx: __m256i) -> __m256d {
+        // SAFETY: AVX2 (caller's contract).
+        unsafe { _mm256_castsi256_pd(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(sv), idx)) }
+    }
+
+    /// One block of the fused pass (`wb.len() ≥ 4M`): per lane `acc += old·S`,
+    /// `w = e·old − c·S`, `n2 += w·w`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn tick_block<const M: usize, const OUT: bool>(
+        wb: &mut [f64],
+        sv: __m256d,
+        r: &mut Regs<M>,
+    ) {
+        for (q, wq) in wb.chunks_exact_mut(BLOCK).take(M).enumerate() {
+            // SAFETY: AVX2 (caller's contract).
+            unsafe {
+                let sq = spread(sv, r.idx[q]);
+                let old = load(wq);
+                if OUT {
+                    r.acc[q] = _mm256_add_pd(r.acc[q], _mm256_mul_pd(old, sq));
+                }
+                let new = _mm256_sub_pd(_mm256_mul_pd(r.e[q], old), _mm256_mul_pd(r.c[q], sq));
+                store(wq, new);
+                r.n2[q] = _mm256_add_pd(r.n2[q], _mm256_mul_pd(new, new));
             }
         }
-        for v in norms.iter_mut().take(n) {
-            *v = v.sqrt();
+    }
+
+    /// [`super::kernel_tick`] on AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn tick<const M: usize, const OUT: bool>(
+        w: &mut [f64],
+        s: &[f64],
+        e: &[f64; M],
+        c: &[f64; M],
+    ) -> ([f64; M], [f64; M]) {
+        // SAFETY: AVX2 (caller's contract).
+        unsafe {
+            let mut r = regs(e, c);
+            let full = s.len() / BLOCK;
+            let (w_full, w_tail) = w.split_at_mut(full * BLOCK * M);
+            for (wb, sb) in w_full
+                .chunks_exact_mut(BLOCK * M)
+                .zip(s.chunks_exact(BLOCK))
+            {
+                tick_block::<M, OUT>(wb, load(sb), &mut r);
+            }
+            if !w_tail.is_empty() {
+                let mut tmp = [0.0; MAX_LANES];
+                tmp[..w_tail.len()].copy_from_slice(w_tail);
+                tick_block::<M, OUT>(&mut tmp, load(&s_tail(s)), &mut r);
+                w_tail.copy_from_slice(&tmp[..w_tail.len()]);
+            }
+            (sums(&r.acc), sums(&r.n2))
+        }
+    }
+
+    /// Fused tick on a grid basis: `S = A ⊗ B` formed block by block (`a_i · b[4k..4k+4]`,
+    /// stored into `s`) and consumed at once by the same block update as [`tick`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX2. Panics unless `b.len() % 4 == 0`,
+    /// `s.len() = a.len()·b.len()` and `w.len() = s.len()·M`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn tick_grid<const M: usize>(
+        w: &mut [f64],
+        a: &[f64],
+        b: &[f64],
+        s: &mut [f64],
+        e: &[f64; M],
+        c: &[f64; M],
+    ) -> ([f64; M], [f64; M]) {
+        let nb = b.len();
+        assert!(nb % BLOCK == 0 && s.len() == a.len() * nb && w.len() == s.len() * M);
+        // SAFETY: AVX2 (caller's contract).
+        unsafe {
+            let mut r = regs(e, c);
+            let rows = w.chunks_exact_mut(nb * M).zip(s.chunks_exact_mut(nb));
+            for ((w_row, s_row), &ai) in rows.zip(a) {
+                let av = _mm256_set1_pd(ai);
+                let blocks = w_row
+                    .chunks_exact_mut(BLOCK * M)
+                    .zip(s_row.chunks_exact_mut(BLOCK));
+                for ((wb, sb), bb) in blocks.zip(b.chunks_exact(BLOCK)) {
+                    // S = a_i · b_j, the product `eval_into` forms.
+                    let sv = _mm256_mul_pd(av, load(bb));
+                    store(sb, sv);
+                    tick_block::<M, true>(wb, sv, &mut r);
+                }
+            }
+            (sums(&r.acc), sums(&r.n2))
+        }
+    }
+
+    /// One read-only block: `acc += w·S` (if `OUT`), `n2 += w·w` (if `NORM`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn read_block<const M: usize, const OUT: bool, const NORM: bool>(
+        wb: &[f64],
+        sv: __m256d,
+        r: &mut Regs<M>,
+    ) {
+        for (q, wq) in wb.chunks_exact(BLOCK).take(M).enumerate() {
+            // SAFETY: AVX2 (caller's contract).
+            unsafe {
+                let x = load(wq);
+                if OUT {
+                    r.acc[q] = _mm256_add_pd(r.acc[q], _mm256_mul_pd(x, spread(sv, r.idx[q])));
+                }
+                if NORM {
+                    r.n2[q] = _mm256_add_pd(r.n2[q], _mm256_mul_pd(x, x));
+                }
+            }
+        }
+    }
+
+    /// [`super::kernel_read`] on AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn read<const M: usize, const OUT: bool, const NORM: bool>(
+        w: &[f64],
+        s: &[f64],
+        n_nodes: usize,
+    ) -> ([f64; M], [f64; M]) {
+        // SAFETY: AVX2 (caller's contract).
+        unsafe {
+            let mut r = regs(&[0.0; M], &[0.0; M]);
+            let zero = _mm256_setzero_pd();
+            let full = n_nodes / BLOCK;
+            let (w_full, w_tail) = w.split_at(full * BLOCK * M);
+            for (b, wb) in w_full.chunks_exact(BLOCK * M).enumerate() {
+                let sv = if OUT {
+                    load(&s[b * BLOCK..(b + 1) * BLOCK])
+                } else {
+                    zero
+                };
+                read_block::<M, OUT, NORM>(wb, sv, &mut r);
+            }
+            if !w_tail.is_empty() {
+                let mut tmp = [0.0; MAX_LANES];
+                tmp[..w_tail.len()].copy_from_slice(w_tail);
+                let sv = if OUT { load(&s_tail(s)) } else { zero };
+                read_block::<M, OUT, NORM>(&tmp, sv, &mut r);
+            }
+            (sums(&r.acc), sums(&r.n2))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Vector2, Vector3};
+    use proptest::prelude::*;
+
+    /// SplitMix64, for reproducible test data.
+    struct Rng(u64);
+    impl Rng {
+        fn next_f64(&mut self) -> f64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^= z >> 31;
+            (z >> 11) as f64 / (1u64 << 53) as f64
+        }
+        fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+            lo + (hi - lo) * self.next_f64()
+        }
+    }
+
+    fn uneven() -> Rbf {
+        Rbf::grid(
+            &[
+                vec![-0.5, 0.7],
+                vec![-1.0, 0.0, 2.0],
+                vec![-2.0, -1.0, 0.0, 1.0, 2.5],
+            ],
+            0.8,
+        )
+        .unwrap()
+    }
+
+    fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn kronecker_equals_the_naive_sum_on_the_paper_grid() {
+        let rbf = Rbf::paper();
+        assert_eq!((rbf.n_inputs(), rbf.n_nodes()), (12, 4096));
+        let general = rbf.to_general();
+        let mut ws = rbf.workspace();
+        let mut naive = vec![0.0; 4096];
+        let mut rng = Rng(7);
+        let mut worst = 0.0f64;
+        for _ in 0..20 {
+            let z: Vec<f64> = (0..12).map(|_| rng.uniform(-3.0, 3.0)).collect();
+            rbf.eval_into(&z, &mut ws);
+            general.eval_naive_into(&z, &mut naive);
+            worst = worst.max(max_abs_diff(ws.s(), &naive));
+            // The general form through eval_into is the naive sum too, in the same order.
+            assert_eq!(general.eval(&z).as_slice(), &naive[..]);
+            let n2: f64 = naive.iter().map(|v| v * v).sum();
+            assert!((ws.s_norm2() - n2).abs() <= 1e-12 * n2);
+        }
+        eprintln!("paper grid: max |S_kron − S_naive| = {worst:.2e}");
+        assert!(worst <= 1e-12);
+    }
+
+    #[test]
+    fn kronecker_equals_the_naive_sum_on_an_uneven_grid() {
+        let rbf = uneven();
+        assert_eq!(rbf.n_nodes(), 30);
+        let mut ws = rbf.workspace();
+        let mut naive = vec![0.0; 30];
+        let mut rng = Rng(11);
+        for _ in 0..50 {
+            let z: Vec<f64> = (0..3).map(|_| rng.uniform(-3.0, 3.0)).collect();
+            rbf.eval_into(&z, &mut ws);
+            rbf.eval_naive_into(&z, &mut naive);
+            assert!(max_abs_diff(ws.s(), &naive) <= 1e-12);
+            rbf.to_general().eval_naive_into(&z, &mut naive);
+            assert!(max_abs_diff(ws.s(), &naive) <= 1e-12);
+        }
+    }
+
+    #[test]
+    fn node_order_is_row_major_last_input_fastest() {
+        let rbf = uneven();
+        let mut mu = [0.0; 3];
+        // k = (l0·3 + l1)·5 + l2.
+        for (k, want) in [
+            (0, [-0.5, -1.0, -2.0]),
+            (1, [-0.5, -1.0, -1.0]),
+            (5, [-0.5, 0.0, -2.0]),
+            (15, [0.7, -1.0, -2.0]),
+            (29, [0.7, 2.0, 2.5]),
+        ] {
+            rbf.centre_into(k, &mut mu);
+            assert_eq!(mu, want, "node {k}");
+        }
+        let p = Rbf::paper();
+        let mut mu = [0.0; 12];
+        p.centre_into(1, &mut mu);
+        assert_eq!(mu[11], 1.0);
+        assert!(mu[..11].iter().all(|&c| c == -1.0));
+        p.centre_into(2048, &mut mu);
+        assert_eq!(mu[0], 1.0);
+        assert!(mu[1..].iter().all(|&c| c == -1.0));
+    }
+
+    #[test]
+    fn paper_basis_near_zero_is_nearly_constant() {
+        // SPEC §3.4: with ϑ² = 50 and centres at ±1 every basis is about 0.79 and ‖S‖² ≈ 2535.
+        let rbf = Rbf::paper();
+        let mut ws = rbf.workspace();
+        rbf.eval_into(&[0.0; 12], &mut ws);
+        let each = (-12.0f64 / 50.0).exp();
+        let norm2 = 4096.0 * (-24.0f64 / 50.0).exp();
+        eprintln!("Z = 0: every s_k = {each:.6}, ‖S‖² = {norm2:.3}");
+        assert!(ws.s().iter().all(|&v| (v - each).abs() <= 1e-15));
+        assert!((ws.s_norm2() - norm2).abs() <= 1e-12 * norm2);
+        assert!((norm2 - 2534.6).abs() < 0.1);
+        // Near the start of the paper run (x1 ≈ (0.19, 0, 0)), the basis still barely varies.
+        let mut z = [0.0; 12];
+        z[0] = 0.19;
+        rbf.eval_into(&z, &mut ws);
+        let (lo, hi) = ws
+            .s()
+            .iter()
+            .fold((f64::MAX, 0.0f64), |(l, h), &v| (l.min(v), h.max(v)));
+        eprintln!(
+            "Z = (0.19, 0, …): s_k in [{lo:.4}, {hi:.4}], ‖S‖² = {:.1}",
+            ws.s_norm2()
+        );
+        assert!(lo > 0.77 && hi < 0.81);
+    }
+
+    /// The reference network: plain N_s × M matrices and the textbook loops.
+    fn reference_tick(
+        w: &mut DMatrix<f64>,
+        s: &[f64],
+        q: f64,
+        z2: &[f64],
+        upd: &NnUpdate<3>,
+    ) -> ([f64; 3], [f64; 3]) {
+        let mut f = [0.0; 3];
+        for j in 0..3 {
+            f[j] = (0..s.len()).map(|k| w[(k, j)] * s[k]).sum();
+        }
+        let (e, g) = (upd.decay(), upd.gain());
+        for j in 0..3 {
+            for k in 0..s.len() {
+                w[(k, j)] = e[j] * w[(k, j)] - g[j] * q * s[k] * z2[j];
+            }
+        }
+        let n = std::array::from_fn(|j| w.column(j).norm());
+        (f, n)
+    }
+
+    fn random_network(n: usize, rng: &mut Rng) -> RbfNetwork<3> {
+        let mut net = RbfNetwork::<3>::new(n).unwrap();
+        for w in net.weights_mut() {
+            *w = rng.uniform(-2.0, 2.0);
+        }
+        net
+    }
+
+    fn paper_update() -> NnUpdate<3> {
+        NnUpdate::new(
+            Vector3::new(120.0, 150.0, 120.0),
+            Vector3::repeat(0.001),
+            1e-3,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn fused_tick_equals_output_then_update() {
+        let upd = paper_update();
+        let mut rng = Rng(3);
+        for rbf in [Rbf::paper(), uneven()] {
+            let n = rbf.n_nodes();
+            let mut ws = rbf.workspace();
+            let mut fused = random_network(n, &mut rng);
+            let mut sep = fused.clone();
+            let mut grid_path = fused.clone();
+            let mut reference = fused.weights_matrix();
+            for step in 0..20 {
+                let z: Vec<f64> = (0..rbf.n_inputs())
+                    .map(|_| rng.uniform(-2.0, 2.0))
+                    .collect();
+                let q = if step % 3 == 0 { 1.0 } else { rng.next_f64() };
+                let z2 = Vector3::new(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), 0.1);
+                // tick_at: the grid fast path where it applies.
+                let t_grid = grid_path.tick_at(&rbf, &z, &mut ws, q, &z2, &upd);
+                let s = ws.s().to_vec();
+                let t = fused.tick(&s, q, &z2, &upd);
+                let f = sep.output(&s);
+                let norms = sep.update(&s, q, &z2, &upd);
+                // Same lanes, same order: bitwise equal.
+                assert_eq!(t.f_hat, f);
+                assert_eq!(t.w_norm, norms);
+                assert_eq!(t, t_grid);
+                assert_eq!(sep.norms(), norms);
+                assert_eq!(fused, sep);
+                assert_eq!(fused.w, grid_path.w);
+                // Against the textbook loops (different summation order).
+                let (fr, nr) = reference_tick(&mut reference, &s, q, z2.as_slice(), &upd);
+                for j in 0..3 {
+                    assert!((t.f_hat[j] - fr[j]).abs() <= 1e-10 * (1.0 + fr[j].abs()));
+                    assert!((t.w_norm[j] - nr[j]).abs() <= 1e-12 * nr[j]);
+                }
+                let diff = fused.weights_matrix() - &reference;
+                assert!(diff.amax() <= 1e-13);
+            }
+        }
+    }
+
+    /// Fused vs separate, portable vs AVX2, for other output counts and a partial last block.
+    fn check_m<const M: usize>(n: usize, seed: u64) {
+        let mut rng = Rng(seed);
+        let upd = NnUpdate::<M>::new(
+            SVector::from_fn(|j, _| 1.0 + j as f64),
+            SVector::repeat(0.5),
+            1e-2,
+        )
+        .unwrap();
+        let mut a = RbfNetwork::<M>::new(n).unwrap();
+        for w in a.weights_mut() {
+            *w = rng.uniform(-1.0, 1.0);
+        }
+        let mut b = a.clone();
+        b.avx2 = false;
+        let mut c = a.clone();
+        let mut reference = a.weights_matrix();
+        for _ in 0..5 {
+            let s: Vec<f64> = (0..n).map(|_| rng.next_f64()).collect();
+            let z2 = SVector::<f64, M>::from_fn(|_, _| rng.uniform(-1.0, 1.0));
+            let ta = a.tick(&s, 0.9, &z2, &upd);
+            let tb = b.tick(&s, 0.9, &z2, &upd);
+            let f = c.output(&s);
+            let nc = c.update(&s, 0.9, &z2, &upd);
+            assert_eq!(ta, tb);
+            assert_eq!(ta.f_hat, f);
+            assert_eq!(ta.w_norm, nc);
+            assert_eq!(a.weights(), b.weights());
+            assert_eq!(a.weights(), c.weights());
+            assert_eq!(b.norms(), nc);
+            let (e, g) = (upd.decay(), upd.gain());
+            for j in 0..M {
+                let fr: f64 = (0..n).map(|k| reference[(k, j)] * s[k]).sum();
+                assert!((ta.f_hat[j] - fr).abs() <= 1e-12 * (1.0 + fr.abs()));
+                for k in 0..n {
+                    reference[(k, j)] = e[j] * reference[(k, j)] - g[j] * 0.9 * s[k] * z2[j];
+                }
+            }
+            assert!((a.weights_matrix() - &reference).amax() <= 1e-14);
+        }
+    }
+
+    #[test]
+    fn other_output_counts_and_partial_blocks() {
+        check_m::<1>(13, 1);
+        check_m::<2>(30, 2);
+        check_m::<3>(7, 3);
+        check_m::<4>(9, 4);
+        check_m::<5>(6, 5);
+        check_m::<8>(21, 6);
+        check_m::<2>(4096, 7);
+    }
+
+    #[test]
+    fn portable_and_avx2_kernels_agree_bitwise() {
+        let rbf = Rbf::paper();
+        let mut ws = rbf.workspace();
+        let mut rng = Rng(5);
+        let upd = paper_update();
+        let mut a = random_network(rbf.n_nodes(), &mut rng);
+        if !a.avx2 {
+            eprintln!("no AVX2 on this CPU: nothing to compare");
+            return;
+        }
+        let mut b = a.clone();
+        b.avx2 = false;
+        let mut rbf_portable = rbf.clone();
+        rbf_portable.avx2 = false;
+        let mut ws_b = rbf_portable.workspace();
+        for _ in 0..5 {
+            let z: Vec<f64> = (0..12).map(|_| rng.uniform(-2.0, 2.0)).collect();
+            let z2 = Vector3::new(0.3, -0.2, 0.01);
+            let ta = a.tick_at(&rbf, &z, &mut ws, 0.7, &z2, &upd);
+            let tb = b.tick_at(&rbf_portable, &z, &mut ws_b, 0.7, &z2, &upd);
+            assert_eq!(ta, tb);
+            assert_eq!(ws.s(), ws_b.s());
+            assert_eq!(a.w, b.w);
+            assert_eq!(a.output(ws.s()), b.output(ws.s()));
+            assert_eq!(a.norms(), b.norms());
+        }
+    }
+
+    #[test]
+    fn exact_update_solves_the_weight_ode_for_held_inputs() {
+        // Ŵ̇ = −Θ(Q S z2 + σŴ) with constant S, Q, z2:
+        // Ŵ(t) = e^{−Θσt} Ŵ(0) − (1 − e^{−Θσt}) Q S z2 / σ.
+        let rbf = uneven();
+        let s = rbf.eval(&[0.3, -0.4, 1.1]);
+        let (theta, sigma, h, q) = (
+            Vector2::new(120.0, 0.5),
+            Vector2::new(0.001, 2.0),
+            1e-3,
+            0.8,
+        );
+        let upd = NnUpdate::new(theta, sigma, h).unwrap();
+        let z2 = Vector2::new(0.05, -1.5);
+        let mut rng = Rng(9);
+        let mut net = RbfNetwork::<2>::new(rbf.n_nodes()).unwrap();
+        let w0: Vec<f64> = (0..rbf.n_nodes() * 2)
+            .map(|_| rng.uniform(-1.0, 1.0))
+            .collect();
+        net.set_weights(&w0).unwrap();
+        let n = 5000;
+        for _ in 0..n {
+            net.tick(s.as_slice(), q, &z2, &upd);
+        }
+        let t = n as f64 * h;
+        for k in 0..rbf.n_nodes() {
+            for j in 0..2 {
+                let x = theta[j] * sigma[j] * t;
+                let want = (-x).exp() * w0[k * 2 + j] + (-x).exp_m1() * q * s[k] * z2[j] / sigma[j];
+                let got = net.weight(k, j);
+                assert!(
+                    (got - want).abs() <= 1e-12 * (1.0 + want.abs()),
+                    "{k} {j}: {got} {want}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn exact_update_is_euler_to_first_order() {
+        let theta = Vector3::new(120.0, 150.0, 120.0);
+        let sigma = Vector3::repeat(0.001);
+        for h in [1e-3, 1e-4, 1e-5] {
+            let upd = NnUpdate::new(theta, sigma, h).unwrap();
+            for j in 0..3 {
+                // decay = 1 − Θσh + O(h²), gain = Θh + O(h²).
+                let x = theta[j] * sigma[j] * h;
+                assert!((upd.decay()[j] - (1.0 - x)).abs() <= x * x);
+                assert!((upd.gain()[j] - theta[j] * h).abs() <= theta[j] * h * x);
+            }
+        }
+    }
+
+    #[test]
+    fn zero_at_start_partial_block_and_layout() {
+        let rbf = uneven(); // 30 nodes: the last block of 4 is partial.
+        let mut net = RbfNetwork::<3>::for_basis(&rbf).unwrap();
+        assert_eq!(net.norms(), Vector3::zeros());
+        assert_eq!(net.weights().len(), 90);
+        let mut ws = rbf.workspace();
+        let upd = paper_update();
+        let z2 = Vector3::new(1.0, 2.0, 3.0);
+        let t = net.tick_at(&rbf, &[0.1, 0.2, 0.3], &mut ws, 1.0, &z2, &upd);
+        assert_eq!(t.f_hat, Vector3::zeros());
+        // From zero weights one step gives Ŵ[k, j] = −gain_j Q S_k z2_j, node-major.
+        let g = upd.gain();
+        for k in 0..30 {
+            for j in 0..3 {
+                let want = 0.0 * upd.decay()[j] - g[j] * z2[j] * ws.s()[k];
+                assert_eq!(net.weights()[k * 3 + j], want);
+                assert_eq!(net.weight(k, j), want);
+            }
+        }
+        let m = net.weights_matrix();
+        assert_eq!(m.shape(), (30, 3));
+        assert_eq!(m[(29, 2)], net.weight(29, 2));
+        for j in 0..3 {
+            assert!((t.w_norm[j] - m.column(j).norm()).abs() <= 1e-15 * t.w_norm[j]);
+        }
+        let mut other = RbfNetwork::<3>::for_basis(&rbf).unwrap();
+        other.set_weights(net.weights()).unwrap();
+        assert_eq!(other.weights(), net.weights());
+        net.reset();
+        assert_eq!(net.norms(), Vector3::zeros());
+    }
+
+    #[test]
+    fn validation() {
+        let e = NnUpdate::new(Vector3::new(1.0, 0.0, 1.0), Vector3::repeat(0.1), 1e-3).unwrap_err();
+        assert!(matches!(&e, ModelError::Invalid { param, .. } if param == "theta[1]"));
+        let e =
+            NnUpdate::new(Vector3::repeat(1.0), Vector3::new(-1.0, 1.0, 1.0), 1e-3).unwrap_err();
+        assert!(matches!(&e, ModelError::Invalid { param, .. } if param == "sigma[0]"));
+        let e = NnUpdate::new(Vector3::repeat(1.0), Vector3::repeat(1.0), 0.0).unwrap_err();
+        assert!(matches!(&e, ModelError::Invalid { param, .. } if param == "h"));
+        let e = Rbf::grid(&[vec![-1.0, 1.0]], 0.0).unwrap_err();
+        assert!(matches!(&e, ModelError::Invalid { param, .. } if param == "width2"));
+        assert!(Rbf::grid(&[vec![-1.0, 1.0], vec![]], 1.0).is_err());
+        assert!(Rbf::grid(&[], 1.0).is_err());
+        assert!(Rbf::grid(&[vec![f64::NAN]], 1.0).is_err());
+        assert!(Rbf::grid(&vec![vec![0.0, 1.0, 2.0, 3.0]; 13], 1.0).is_err());
+        assert!(Rbf::general(&DMatrix::from_element(3, 2, f64::INFINITY), 1.0).is_err());
+        assert!(Rbf::general(&DMatrix::zeros(0, 2), 1.0).is_err());
+        assert!(RbfNetwork::<3>::new(0).is_err());
+        assert!(RbfNetwork::<9>::new(4).is_err());
+        let mut net = RbfNetwork::<3>::new(4).unwrap();
+        assert!(net.set_weights(&[0.0; 11]).is_err());
+    }
+
+    proptest! {
+        #[test]
+        fn basis_values_in_unit_interval_and_general_matches_grid(
+            z in proptest::collection::vec(-5.0f64..5.0, 3),
+            width2 in 0.1f64..100.0,
+        ) {
+            let rbf = Rbf::grid(&[vec![-1.0, 1.0], vec![0.0, 0.5, 1.0], vec![-2.0, 2.0]], width2)
+                .unwrap();
+            let s = rbf.eval(&z);
+            prop_assert!(s.iter().all(|&v| (0.0..=1.0).contains(&v)));
+            let g = rbf.to_general().eval(&z);
+            prop_assert!(max_abs_diff(s.as_slice(), g.as_slice()) <= 1e-14);
         }
     }
 }

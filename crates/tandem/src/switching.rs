@@ -5,9 +5,9 @@
 //! $$
 //! $$
 //! m_k(z) = \begin{cases}
-//!   1 & |z| \le d_{1,k}\\[2pt]
+//!   1 & |z| \le d_{1,k}\\
 //!   (1 - s)\,\exp\!\big((s/\omega_k)^2\big),\quad s = \dfrac{z^2 - d_{1,k}^2}{d_{2,k}^2 - d_{1,k}^2}
-//!     & d_{1,k} < |z| < d_{2,k}\\[2pt]
+//!     & d_{1,k} < |z| < d_{2,k}\\
 //!   0 & |z| \ge d_{2,k}
 //! \end{cases}
 //! $$
