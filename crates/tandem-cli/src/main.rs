@@ -1,10 +1,610 @@
-// Figures, animations and all-or-nothing outputs (self-contained; used by the commands once
-// they are written). `dead_code` is allowed until then.
-#[allow(dead_code)]
+//! `tandem`: run cooperative-manipulation scenarios, compare controllers, write figures.
+//!
+//! Exit codes: 0 success, 1 a run fault (a numerical failure during the simulation: the outputs
+//! are written with the fault in `summary.json`) or an I/O failure, 2 bad input (command line,
+//! scenario file, replay file, or an output folder that exists without `--force`).
+
 mod anim;
+mod figures;
+// The colleague's output and plotting helpers offer more API than the commands use (their own
+// tests exercise it).
 #[allow(dead_code)]
 mod output;
 #[allow(dead_code)]
 mod plot;
+mod replay;
+mod runner;
+mod scenario;
+mod scene;
+mod suggest;
+mod table;
 
-fn main() {}
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::Result;
+use clap::{Args, Parser, Subcommand};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::output::OutputDir;
+use crate::runner::{Finished, Outputs};
+use crate::scenario::{ControllerKind, GainPreset, Overrides, Scenario, ScenarioError, Source};
+
+/// Bad input: the command line, a scenario, a replay file or an existing output folder. Exit 2.
+#[derive(Debug)]
+pub struct BadInput(String);
+
+impl BadInput {
+    /// From a message.
+    pub fn msg(s: impl Into<String>) -> Self {
+        BadInput(s.into())
+    }
+}
+
+impl fmt::Display for BadInput {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for BadInput {}
+
+#[derive(Parser)]
+#[command(
+    name = "tandem",
+    version,
+    about = "Cooperative manipulation: several planar arms carry one object along a path",
+    long_about = "Cooperative manipulation: several planar arms carry one object along a path.\n\n\
+        Scenarios are TOML files (or embedded: see `tandem scenario list`). `tandem run` with no \
+        arguments runs the paper's scenario with the tuned NN controller and writes the time \
+        series, summary, figures and an animation to out/paper-nn-tuned.",
+    after_help = "Exit codes: 0 success, 1 a run fault (outputs written, fault in summary.json) \
+        or an I/O error, 2 bad input (arguments, scenario, replay file, existing output folder)."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run one scenario with one controller and write its outputs.
+    ///
+    /// Writes into the output folder (atomically: a temporary folder renamed into place):
+    /// timeseries.csv (every logged signal, units in the header), summary.json (metrics, seed,
+    /// version, fault), scenario.toml (the resolved scenario, re-runnable), the paper's figures
+    /// as PNG and SVG (xy_path, trajectories, z1, z2, wrench, weights, plus admittance,
+    /// grasp_forces, joint_torques, switching) and animation.svg. A run that hits a numerical
+    /// fault writes what it has and exits with code 1.
+    Run(RunArgs),
+    /// Run PD, NN (paper gains), NN (tuned gains) and CTC from one common start; side-by-side
+    /// figures and a report.
+    ///
+    /// Writes report.md (summary table and figure links), summary.json, scenario.toml, the
+    /// comparison figures (compare_xy, compare_trajectories, compare_z1, compare_wrench,
+    /// compare_margin) and one sub-folder per controller with its own run outputs.
+    Compare(CompareArgs),
+    /// Check a scenario (parse and every library validation) without running it.
+    Validate {
+        /// Scenario file or embedded scenario name.
+        scenario: String,
+    },
+    /// The embedded scenarios.
+    Scenario {
+        #[command(subcommand)]
+        command: ScenarioCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum ScenarioCommand {
+    /// List the embedded scenarios.
+    List,
+    /// Print an embedded scenario, with comments on where every value comes from.
+    Show {
+        /// Embedded scenario name (e.g. `paper`).
+        name: String,
+    },
+}
+
+#[derive(Args)]
+struct Common {
+    /// Output folder (default: out/SCENARIO-CONTROLLER[-GAINS] for run, out/SCENARIO-compare for
+    /// compare).
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Replace the output folder if it exists. Without it an existing folder (e.g. from the
+    /// previous `tandem run`) is left untouched, nothing is run, and the exact command to re-run
+    /// with --force is printed (exit code 2). The old folder is replaced only once the new outputs
+    /// are complete.
+    #[arg(long)]
+    force: bool,
+    /// Simulated time in seconds (overrides run.duration).
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    duration: Option<f64>,
+    /// Seed of the sensor noise (overrides run.seed).
+    #[arg(long, value_name = "N")]
+    seed: Option<u64>,
+    /// Write no figures and no animation (time series, summary and scenario only).
+    #[arg(long)]
+    no_figures: bool,
+}
+
+#[derive(Args)]
+struct RunArgs {
+    /// Scenario file or embedded scenario name [default: paper].
+    scenario: Option<String>,
+    /// Controller (overrides controller.kind).
+    #[arg(long, value_enum)]
+    controller: Option<ControllerKind>,
+    /// Gain preset of the nn controller (overrides controller.gains).
+    #[arg(long, value_enum)]
+    gains: Option<GainPreset>,
+    /// Joint torques to replay: a run's timeseries.csv or a `t,tau1,tau2,...` table (implies
+    /// --controller replay).
+    #[arg(long, value_name = "FILE")]
+    replay: Option<PathBuf>,
+    #[command(flatten)]
+    common: Common,
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// Scenario file or embedded scenario name [default: paper].
+    scenario: Option<String>,
+    #[command(flatten)]
+    common: Common,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run(a) => cmd_run(a),
+        Command::Compare(a) => cmd_compare(a),
+        Command::Validate { scenario } => cmd_validate(&scenario),
+        Command::Scenario { command } => cmd_scenario(command),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            let bad = e.downcast_ref::<BadInput>().is_some()
+                || e.downcast_ref::<ScenarioError>().is_some();
+            ExitCode::from(if bad { 2 } else { 1 })
+        }
+    }
+}
+
+/// Resolve, parse and apply the command line's overrides.
+fn load(arg: Option<&str>, o: &Overrides) -> Result<(Source, Scenario)> {
+    let src = scenario::resolve(arg)?;
+    let mut sc = scenario::parse(&src)?;
+    sc.apply(o)?;
+    Ok((src, sc))
+}
+
+/// Refuse an existing output folder without --force, with the command that would overwrite it.
+fn check_out(dir: &Path, force: bool) -> Result<()> {
+    if force || std::fs::symlink_metadata(dir).is_err() {
+        return Ok(());
+    }
+    let mut cmd = vec!["tandem".to_string()];
+    cmd.extend(std::env::args().skip(1).map(|a| shell_quote(&a)));
+    cmd.push("--force".into());
+    Err(BadInput::msg(format!(
+        "output folder {} exists (nothing was run). To overwrite it, run:\n    {}\nor choose another folder with --out DIR",
+        dir.display(),
+        cmd.join(" ")
+    ))
+    .into())
+}
+
+fn shell_quote(s: &str) -> String {
+    let plain = !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c));
+    if plain {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+fn bar_style() -> ProgressStyle {
+    ProgressStyle::with_template("{prefix:>16} [{bar:36}] {percent:>3}% {elapsed:>4} (ETA {eta})")
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> ")
+}
+
+fn print_warnings(label: &str, w: &[String]) {
+    for w in w {
+        eprintln!("warning ({label}): {w}");
+    }
+}
+
+fn cmd_run(a: RunArgs) -> Result<ExitCode> {
+    let o = Overrides {
+        controller: a.controller,
+        gains: a.gains,
+        duration: a.common.duration,
+        replay: a.replay.clone(),
+        seed: a.common.seed,
+    };
+    let (src, sc) = load(a.scenario.as_deref(), &o)?;
+    let kind = sc.controller.kind;
+    let out_dir = a.common.out.clone().unwrap_or_else(|| {
+        let mut name = format!("{}-{}", src.name, kind.name());
+        if kind == ControllerKind::Nn {
+            name.push('-');
+            name.push_str(sc.controller.gains.unwrap_or(GainPreset::Tuned).name());
+        }
+        PathBuf::from("out").join(name)
+    });
+    check_out(&out_dir, a.common.force)?;
+    let label = runner::label(&sc);
+    let prepared = runner::prepare(sc, &src)?;
+    print_warnings(&label, &prepared.ready.warnings);
+    let out = OutputDir::create(&out_dir, a.common.force)?;
+
+    let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
+    bar.set_style(bar_style());
+    bar.set_prefix(label.clone());
+    let fin = runner::execute(prepared, |f| bar.set_position((f * 1000.0) as u64));
+    bar.finish_and_clear();
+
+    let (times, problems) = runner::write_run(
+        out.tmp_dir(),
+        &fin,
+        &src.name,
+        Outputs {
+            figures: !a.common.no_figures,
+        },
+    )?;
+    for p in &problems {
+        eprintln!("warning: {p}");
+    }
+    let dir = out.commit()?;
+    println!(
+        "{} — {}, {} s{}",
+        src.name,
+        label,
+        table::num(fin.built.sim.duration, 4),
+        if fin.sc.run.seed != 0 {
+            format!(", seed {}", fin.sc.run.seed)
+        } else {
+            String::new()
+        }
+    );
+    print!("{}", table::text(&[(label.as_str(), &fin.summary)]));
+    println!(
+        "outputs in {} (written in {} s: CSV {} s, figures {} s, animation {} s)",
+        dir.display(),
+        table::num(times.total(), 3),
+        table::num(times.csv, 3),
+        table::num(times.figures, 3),
+        table::num(times.animation, 3),
+    );
+    Ok(fault_exit(&[&fin]))
+}
+
+/// Exit code 1 (with a message) when a run faulted.
+fn fault_exit(runs: &[&Finished]) -> ExitCode {
+    let mut code = ExitCode::SUCCESS;
+    for f in runs {
+        if let Some(fault) = &f.outcome.fault {
+            eprintln!(
+                "error: the {} run stopped: {fault} (outputs up to the fault are written; see summary.json)",
+                f.label()
+            );
+            code = ExitCode::from(1);
+        }
+    }
+    code
+}
+
+/// The compared controllers: (kind, preset, sub-folder).
+const COMPARED: [(ControllerKind, Option<GainPreset>, &str); 4] = [
+    (ControllerKind::Pd, None, "pd"),
+    (ControllerKind::Nn, Some(GainPreset::Paper), "nn-paper"),
+    (ControllerKind::Nn, Some(GainPreset::Tuned), "nn-tuned"),
+    (ControllerKind::Ctc, None, "ctc"),
+];
+
+fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
+    let o = Overrides {
+        duration: a.common.duration,
+        seed: a.common.seed,
+        ..Overrides::default()
+    };
+    let (src, base) = load(a.scenario.as_deref(), &o)?;
+    let out_dir = a
+        .common
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-compare", src.name)));
+    check_out(&out_dir, a.common.force)?;
+    let mut prepared = Vec::new();
+    for (kind, gains, slug) in COMPARED {
+        let mut sc = base.clone();
+        sc.controller.kind = kind;
+        sc.controller.gains = gains.or(sc.controller.gains);
+        let label = runner::label(&sc);
+        let p = runner::prepare(sc, &src)?;
+        print_warnings(&label, &p.ready.warnings);
+        prepared.push((slug, label, p));
+    }
+    let out = OutputDir::create(&out_dir, a.common.force)?;
+
+    // All runs at once, one progress bar each.
+    let multi = MultiProgress::with_draw_target(ProgressDrawTarget::stderr());
+    let t0 = Instant::now();
+    let finished: Vec<(&str, Finished)> = std::thread::scope(|s| {
+        let handles: Vec<_> = prepared
+            .into_iter()
+            .map(|(slug, label, p)| {
+                let bar = multi.add(ProgressBar::new(1000));
+                bar.set_style(bar_style());
+                bar.set_prefix(label);
+                s.spawn(move || {
+                    let f = runner::execute(p, |x| bar.set_position((x * 1000.0) as u64));
+                    bar.finish();
+                    (slug, f)
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("a simulation thread panicked"))
+            .collect()
+    });
+    let _ = multi.clear();
+    let sim_time = t0.elapsed().as_secs_f64();
+
+    let t1 = Instant::now();
+    let dir = out.tmp_dir().to_path_buf();
+    let mut problems = Vec::new();
+    for (slug, f) in &finished {
+        let sub = dir.join(slug);
+        std::fs::create_dir_all(&sub)?;
+        let (_, p) = runner::write_run(
+            &sub,
+            f,
+            &src.name,
+            Outputs {
+                figures: !a.common.no_figures,
+            },
+        )?;
+        problems.extend(p.into_iter().map(|p| format!("{slug}: {p}")));
+    }
+    let mut figure_stems = Vec::new();
+    if !a.common.no_figures {
+        let runs: Vec<figures::CompareRun> = finished
+            .iter()
+            .map(|(_, f)| figures::CompareRun {
+                label: f.label(),
+                log: &f.outcome.log,
+            })
+            .collect();
+        match figures::compare_figures(&dir, &runs, &src.name, base.k_c(), runner::zoom(&base)) {
+            Ok(s) => figure_stems = s,
+            Err(e) => problems.push(format!("comparison figures: {e:#}")),
+        }
+    }
+    let labels: Vec<String> = finished.iter().map(|(_, f)| f.label()).collect();
+    let cols: Vec<(&str, &tandem::report::Summary)> = finished
+        .iter()
+        .zip(&labels)
+        .map(|((_, f), l)| (l.as_str(), &f.summary))
+        .collect();
+    output::write_text_atomic(
+        &dir.join("report.md"),
+        &report_md(&src, &base, &finished, &cols, &figure_stems),
+    )?;
+    let mut all = serde_json::Map::new();
+    all.insert("scenario".into(), serde_json::json!(src.name));
+    all.insert(
+        "tandem_version".into(),
+        serde_json::json!(env!("CARGO_PKG_VERSION")),
+    );
+    let mut runs = serde_json::Map::new();
+    for (slug, f) in &finished {
+        runs.insert(slug.to_string(), runner::summary_json(f, &src.name, None));
+    }
+    all.insert("runs".into(), serde_json::Value::Object(runs));
+    output::write_json_atomic(&dir.join("summary.json"), &serde_json::Value::Object(all))?;
+    output::write_text_atomic(
+        &dir.join("scenario.toml"),
+        &runner::scenario_toml(&base, &src.name, None)?,
+    )?;
+    for p in &problems {
+        eprintln!("warning: {p}");
+    }
+    let final_dir = out.commit()?;
+    println!(
+        "{} — comparison, {} s, common start ({}, {}, {})",
+        src.name,
+        table::num(base.run.duration, 4),
+        base.run.start[0],
+        base.run.start[1],
+        base.run.start[2]
+    );
+    print!("{}", table::text(&cols));
+    println!(
+        "outputs in {} (simulated in {} s, written in {} s); report: {}",
+        final_dir.display(),
+        table::num(sim_time, 3),
+        table::num(t1.elapsed().as_secs_f64(), 3),
+        final_dir.join("report.md").display()
+    );
+    let refs: Vec<&Finished> = finished.iter().map(|(_, f)| f).collect();
+    Ok(fault_exit(&refs))
+}
+
+fn report_md(
+    src: &Source,
+    base: &Scenario,
+    finished: &[(&str, Finished)],
+    cols: &[(&str, &tandem::report::Summary)],
+    figures: &[String],
+) -> String {
+    let mut s = format!(
+        "# Controller comparison: scenario `{}`\n\n{}\n\n",
+        src.name,
+        if base.description.is_empty() {
+            String::new()
+        } else {
+            format!("{}.", base.description.trim_end_matches('.'))
+        }
+    );
+    s.push_str(&format!(
+        "Every controller starts at rest from the same pose x_o = ({}, {}, {}) (SPEC §4) and runs \
+         {} s with seed {}. Generated by tandem {}.\n\n",
+        base.run.start[0],
+        base.run.start[1],
+        base.run.start[2],
+        table::num(base.run.duration, 4),
+        base.run.seed,
+        env!("CARGO_PKG_VERSION")
+    ));
+    s.push_str("## Summary\n\n");
+    s.push_str(&table::markdown(cols));
+    s.push_str(
+        "\n`z1 = x_1 − x_r` is the tracking error against the admittance reference; ‖z1_xy‖ is \
+         its position part. The margin is `1 − max_j |x_1j|/k_cj` (negative: the output bound \
+         is violated). Wall times vary from run to run; everything else is deterministic.\n\n",
+    );
+    let captions = [
+        (
+            "compare_xy",
+            "Object centre in the XY plane (paper Figs. 6 and 11)",
+        ),
+        (
+            "compare_trajectories",
+            "Object coordinates against the desired path, with the bounds ±k_c (Figs. 7 and 12)",
+        ),
+        (
+            "compare_z1",
+            "Position tracking error z1, whole run and transient (Figs. 8 and 13)",
+        ),
+        (
+            "compare_wrench",
+            "Control wrench τ on the object (Figs. 10 and 15)",
+        ),
+        (
+            "compare_margin",
+            "Constraint margin 1 − max_j |x_1j|/k_cj (negative: bound violated)",
+        ),
+    ];
+    if !figures.is_empty() {
+        s.push_str("## Figures\n\n");
+        for (stem, cap) in captions {
+            if figures.iter().any(|f| f == stem) {
+                s.push_str(&format!(
+                    "### {cap}\n\n![{cap}]({stem}.png)\n\n[SVG]({stem}.svg)\n\n"
+                ));
+            }
+        }
+    }
+    s.push_str("## Per-controller outputs\n\n");
+    for (slug, f) in finished {
+        s.push_str(&format!(
+            "- **{}**: [`{slug}/`]({slug}/) — `timeseries.csv`, `summary.json`, `scenario.toml`{}\n",
+            f.label(),
+            if figures.is_empty() {
+                ""
+            } else {
+                ", the paper's figures, `animation.svg`"
+            }
+        ));
+    }
+    s.push_str(
+        "\n## Reading the results\n\n\
+         - **NN (paper)** keeps the paper's gains. SPEC §3.4 explains why they do not converge: \
+         with ϑ² = 50 and centres at ±1 the basis is nearly constant, the network acts as an \
+         adaptive bias with a very high gain, and K2 is far below what the loop needs, so z2 \
+         chatters in a limit cycle and the weight norms never settle.\n\
+         - **NN (tuned)** is SPEC §3.4's preset that makes the paper's claims hold.\n\
+         - **PD** is the paper's baseline (Section V-B-1, sign erratum of SPEC §3.5); **CTC** is \
+         computed torque with the nominal model (SPEC §3.5), an extra baseline.\n\
+         - For PD and CTC, `z2` is the velocity error ż1; for NN it is x_2 − α.\n",
+    );
+    s
+}
+
+fn cmd_validate(arg: &str) -> Result<ExitCode> {
+    let (src, sc) = load(Some(arg), &Overrides::default())?;
+    let label = runner::label(&sc);
+    let p = runner::prepare(sc, &src)?;
+    let b = &p.built;
+    let n_q: usize = b.plant.arms.iter().map(|a| a.links.len()).sum();
+    let ticks = (b.sim.duration / b.sim.control_period).round() as u64;
+    let per_log = (b.sim.log_period / b.sim.control_period).round().max(1.0) as u64;
+    let rows = ticks.div_ceil(per_log);
+    println!("ok: {}", src.display);
+    if !p.sc.description.is_empty() {
+        println!("  {}", p.sc.description);
+    }
+    println!(
+        "  {} arms ({n_q} joints), path {}, controller {label}{}",
+        b.plant.arms.len(),
+        p.sc.path.kind.name(),
+        if p.built
+            .controller
+            .as_ref()
+            .and_then(|c| c.admittance.as_ref())
+            .is_some()
+        {
+            ", admittance on"
+        } else {
+            ""
+        }
+    );
+    println!(
+        "  {} s: {} control ticks, {} log rows",
+        table::num(b.sim.duration, 6),
+        ticks,
+        rows
+    );
+    print_warnings(&label, &p.ready.warnings);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_scenario(c: ScenarioCommand) -> Result<ExitCode> {
+    match c {
+        ScenarioCommand::List => {
+            let w = scenario::EMBEDDED
+                .iter()
+                .map(|e| e.name.len())
+                .max()
+                .unwrap_or(0);
+            for e in scenario::EMBEDDED {
+                println!(
+                    "{:w$}  {}{}",
+                    e.name,
+                    e.summary,
+                    if e.name == scenario::DEFAULT {
+                        " (default)"
+                    } else {
+                        ""
+                    }
+                );
+            }
+            println!("\nShow one with `tandem scenario show NAME`; copy it to start your own.");
+        }
+        ScenarioCommand::Show { name } => {
+            let Some(e) = scenario::EMBEDDED.iter().find(|e| e.name == name) else {
+                let names: Vec<&str> = scenario::EMBEDDED.iter().map(|e| e.name).collect();
+                let mut msg = format!("no embedded scenario `{name}`");
+                if let Some(s) = suggest::closest(&name, names.iter().copied()) {
+                    msg.push_str(&format!(" — did you mean `{s}`?"));
+                }
+                msg.push_str(&format!(" (embedded: {})", names.join(", ")));
+                return Err(BadInput::msg(msg).into());
+            };
+            print!("{}", e.text);
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}

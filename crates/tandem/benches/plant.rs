@@ -1,4 +1,15 @@
 //! Plant derivative and step costs for the paper's two arms (SPEC §2.4).
+//!
+//! # Performance log
+//! Criterion medians on the shared 2-core development VM (load ≈ 1–3 from other builds, so
+//! ±15 %); instruction counts from callgrind (`valgrind --tool=callgrind`, per call, stable).
+//!
+//! | date       | change                                              | constrained          | reduced              | RK4 step |
+//! |------------|-----------------------------------------------------|----------------------|----------------------|----------|
+//! | 2025-11-25 | general dynamic-size path (DMatrix, per-link Vecs)  | 0.44–0.57 µs, 7222 Ir | 0.57–0.64 µs, 6031 Ir | 1.9–2.3 µs |
+//! | 2025-11-25 | fixed-size 2-link fast path, 4×4 K, trig-free IK    | 0.15–0.19 µs, 1546 Ir | 0.17–0.24 µs, 1519 Ir | 0.6–0.84 µs |
+//!
+//! `plant/constrained_derivative_general` keeps the general algorithm measured on the same plant.
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Vector3;
 use std::hint::black_box;
@@ -18,6 +29,9 @@ fn bench(c: &mut Criterion) {
     c.bench_function("plant/constrained_derivative", |b| {
         b.iter(|| plant.derivative(black_box(&y), &input, &mut ws, &mut dy))
     });
+    c.bench_function("plant/constrained_derivative_general", |b| {
+        b.iter(|| plant.derivative_general(black_box(&y), &input, &mut ws, &mut dy))
+    });
     let yr = [0.19, 0.0, 0.0, 0.01, 0.02, 0.0];
     let mut dyr = [0.0; 6];
     c.bench_function("plant/reduced_derivative", |b| {
@@ -27,6 +41,10 @@ fn bench(c: &mut Criterion) {
                 .unwrap()
         })
     });
+    let (xo, xdo) = (Vector3::new(0.19, 0.0, 0.0), Vector3::new(0.01, 0.02, 0.0));
+    c.bench_function("plant/object_space", |b| {
+        b.iter(|| plant.object_space(black_box(&xo), &xdo, &mut ws).unwrap())
+    });
     let arm = &plant.arms()[0];
     let mut t = arm.terms();
     c.bench_function("arm/dynamics_2link", |b| {
@@ -34,6 +52,10 @@ fn bench(c: &mut Criterion) {
     });
     c.bench_function("arm/kinematics_2link", |b| {
         b.iter(|| arm.kinematics(black_box(&[0.5, -1.0]), &[0.1, 0.2], &mut t))
+    });
+    let k = arm.two_link().unwrap();
+    c.bench_function("arm/two_link_terms", |b| {
+        b.iter(|| k.terms(&k.pose(black_box([0.5, -1.0])), [0.1, 0.2], 9.8))
     });
     let mut rk = Rk4::new(plant.state_dim());
     let mut yy = y.clone();

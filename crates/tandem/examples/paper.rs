@@ -1,7 +1,6 @@
 //! The paper scenario with one law, summary printed: `cargo run --release -p tandem --example paper -- [nn|paper|pd|ctc] [seconds]`
 //! (`SCHEME=arm` for the per-arm scheme).
 use tandem::adaptive::NnGains;
-use tandem::admittance::AdmittanceParams;
 use tandem::control::{Controller, ControllerParams, LawParams};
 use tandem::disturbance::Disturbance;
 use tandem::pd::PdGains;
@@ -33,13 +32,7 @@ fn main() {
                 }
             })
             .unwrap_or_default(),
-        law,
-        k_c: [0.35; 3],
-        admittance: Some(AdmittanceParams::default()),
-        delta: 0.005,
-        control_period: 1e-3,
-        torque_limit: None,
-        disturbance_bound: Disturbance::paper().bound(),
+        ..ControllerParams::paper(law)
     };
     let (c, w) = Controller::new(&cp, &plant, Path::paper(), dur).unwrap();
     for w in w {

@@ -5,8 +5,7 @@
 //! `cargo run --release -p tandem --example sweep -- [runs] [seconds] [threads]`
 
 use tandem::adaptive::NnGains;
-use tandem::admittance::AdmittanceParams;
-use tandem::control::{Controller, ControllerParams, LawParams, Scheme};
+use tandem::control::{Controller, ControllerParams, LawParams};
 use tandem::disturbance::Disturbance;
 use tandem::fixtures;
 use tandem::report::{Summary, summarize};
@@ -33,16 +32,7 @@ fn one(run: u64, duration: f64) -> Summary {
         plant.object.inertia[k] *= s;
         plant.object.gravity[k] *= s;
     }
-    let cp = ControllerParams {
-        law: LawParams::Nn(NnGains::tuned()),
-        scheme: Scheme::Object,
-        k_c: [0.35; 3],
-        admittance: Some(AdmittanceParams::default()),
-        delta: 0.005,
-        control_period: 1e-3,
-        torque_limit: None,
-        disturbance_bound: Disturbance::paper().bound(),
-    };
+    let cp = ControllerParams::paper(LawParams::Nn(NnGains::tuned()));
     let (c, _) = Controller::new(&cp, &fixtures::paper(), Path::paper(), duration).unwrap();
     let noise = ChannelNoise {
         std_dev: 1e-5,

@@ -24,6 +24,17 @@
 //! the paper's `C12`, `C21` give a wrong Coriolis vector, its `G1` squares lengths); they are a
 //! fast path that the tests hold equal to the general algorithm.
 //!
+//! # Two evaluation paths
+//! * [`ArmTerms`] (`DMatrix` blocks, per-link points, COMs and their velocities), filled by
+//!   [`Arm::kinematics`] / [`Arm::dynamics`]: any link count; it serves the energy, RNEA, the
+//!   general algorithm and the general plant.
+//! * [`TwoLinkArm`] (from [`Arm::two_link`], selected once at construction): the 2-link closed
+//!   forms end to end in `Matrix2`/`Vector2` values — link directions from one `sin_cos` per
+//!   link ([`TwoLinkArm::pose`]) or from the inverse kinematics without transcendental calls
+//!   ([`TwoLinkArm::ik_pose`]), then `M`, `C`, `G`, `J_e`, `J̇_e`, `J̇_e q̇`, `det M` in closed
+//!   form ([`TwoLinkArm::terms`]), `M⁻¹` and the Cartesian terms (3)–(4) in closed form. Only
+//!   end-effector quantities; the plant's hot paths use it.
+//!
 //! Cartesian dynamics (3)–(4) for square (2-joint) arms: `M_x = J⁻ᵀ M J⁻¹`,
 //! `C_x = J⁻ᵀ (C − M J⁻¹ J̇) J⁻¹` (the paper prints `J⁻ᵀ J̇`; SPEC §2.1), `G_x = J⁻ᵀ G`.
 
@@ -109,16 +120,76 @@ impl ArmParams {
     }
 }
 
-/// Constants of the 2-link closed forms (SPEC §2.1).
-#[derive(Clone, Copy, Debug)]
-struct TwoLink {
+/// A 2-link arm's fast path: the constants of the SPEC §2.1 closed forms and the geometry its
+/// fixed-size kinematics need, computed once by [`Arm::new`] (see [`Arm::two_link`]).
+///
+/// Every method works on `Matrix2`/`Vector2` values on the stack: no `DMatrix` indexing, no
+/// per-link `Vec` stores, at most one `sin_cos` per link ([`TwoLinkArm::pose`]) and none on the
+/// inverse-kinematics route ([`TwoLinkArm::ik_pose`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwoLinkArm {
+    base: Vector2<f64>,
+    base_angle: f64,
+    /// `(sin, cos)` of the base angle.
+    base_sc: (f64, f64),
+    l1: f64,
+    l2: f64,
+    /// `p1 = m1 lc1² + m2 (l1² + lc2²) + I1 + I2`, kg m².
     p1: f64,
+    /// `p2 = m2 l1 lc2`, kg m².
     p2: f64,
+    /// `p3 = m2 lc2² + I2`, kg m².
     p3: f64,
-    /// `m1 lc1 + m2 l1`.
+    /// `m1 lc1 + m2 l1`, kg m.
     g1: f64,
-    /// `m2 lc2`.
+    /// `m2 lc2`, kg m.
     g2: f64,
+    /// `p3 (p1 − p3)`: `det M = p3 (p1 − p3) − (p2 cos q2)²` without cancellation, kg² m⁴.
+    det0: f64,
+    /// Elbow sign `±1` of the inverse-kinematics branch.
+    elbow: f64,
+}
+
+/// Link directions of a 2-link arm at one configuration (the output of
+/// [`TwoLinkArm::pose`] or [`TwoLinkArm::ik_pose`]).
+#[allow(non_snake_case)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwoLinkPose {
+    /// `u(φ_1) = (cos φ_1, sin φ_1)`, link 1's world direction (`φ_1 = base angle + q_1`).
+    pub u1: Vector2<f64>,
+    /// `u(φ_2)`, link 2's world direction (`φ_2 = φ_1 + q_2`).
+    pub u12: Vector2<f64>,
+    /// `cos q_2`.
+    pub c2: f64,
+    /// `sin q_2`.
+    pub s2: f64,
+    /// End-effector Jacobian `J_e = [(l_1 u_1 + l_2 u_12)^⊥ | (l_2 u_12)^⊥]`, m/rad.
+    pub J: Matrix2<f64>,
+}
+
+/// Kinematics and dynamics of a 2-link arm at one state in fixed-size types
+/// ([`TwoLinkArm::terms`]); the same quantities as the matching [`ArmTerms`] fields.
+#[allow(non_snake_case)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwoLinkTerms {
+    /// Joint-space inertia `M(q)`, kg m².
+    pub M: Matrix2<f64>,
+    /// Christoffel-form Coriolis matrix `C(q, q̇)`, kg m²/s.
+    pub C: Matrix2<f64>,
+    /// Gravity torques `G(q)`, N m.
+    pub G: Vector2<f64>,
+    /// End-effector Jacobian `J_e`, m/rad.
+    pub J: Matrix2<f64>,
+    /// `J̇_e`, m/(rad s).
+    pub Jdot: Matrix2<f64>,
+    /// `J̇_e q̇`, m/s².
+    pub jdot_qdot: Vector2<f64>,
+    /// End-effector position `p_WE`, m.
+    pub p_ee: Vector2<f64>,
+    /// End-effector velocity `J_e q̇`, m/s.
+    pub v_ee: Vector2<f64>,
+    /// `det M = p3 (p1 − p3) − (p2 cos q2)²` (> 0 for physical parameters), kg² m⁴.
+    pub det_M: f64,
 }
 
 /// A validated, immutable planar arm.
@@ -132,7 +203,8 @@ pub struct Arm {
     lc: Vec<f64>,
     inertia: Vec<f64>,
     elbow: Elbow,
-    two: Option<TwoLink>,
+    /// The 2-link fast path, selected once here (`None` for other link counts).
+    two: Option<TwoLinkArm>,
 }
 
 /// Per-arm scratch and results of one evaluation (the arm's part of the workspace).
@@ -259,19 +331,31 @@ impl Arm {
             lc.push(c);
             inertia.push(non_negative(&p("inertia"), link.inertia)?);
         }
-        let two = (n == 2).then(|| TwoLink {
-            p1: m[0] * lc[0] * lc[0]
+        let base = Vector2::new(params.base[0], params.base[1]);
+        let two = (n == 2).then(|| {
+            let p1 = m[0] * lc[0] * lc[0]
                 + m[1] * (l[0] * l[0] + lc[1] * lc[1])
                 + inertia[0]
-                + inertia[1],
-            p2: m[1] * l[0] * lc[1],
-            p3: m[1] * lc[1] * lc[1] + inertia[1],
-            g1: m[0] * lc[0] + m[1] * l[0],
-            g2: m[1] * lc[1],
+                + inertia[1];
+            let p3 = m[1] * lc[1] * lc[1] + inertia[1];
+            TwoLinkArm {
+                base,
+                base_angle: params.base_angle,
+                base_sc: params.base_angle.sin_cos(),
+                l1: l[0],
+                l2: l[1],
+                p1,
+                p2: m[1] * l[0] * lc[1],
+                p3,
+                g1: m[0] * lc[0] + m[1] * l[0],
+                g2: m[1] * lc[1],
+                det0: p3 * (p1 - p3),
+                elbow: params.elbow.sign(),
+            }
         });
         Ok(Arm {
             name: name.to_string(),
-            base: Vector2::new(params.base[0], params.base[1]),
+            base,
             base_angle: params.base_angle,
             m,
             l,
@@ -416,25 +500,14 @@ impl Arm {
         }
     }
 
-    fn two_link_dynamics(&self, k: &TwoLink, qd: &[f64], g: f64, t: &mut ArmTerms) {
+    fn two_link_dynamics(&self, k: &TwoLinkArm, qd: &[f64], g: f64, t: &mut ArmTerms) {
         // SPEC §2.1 closed forms. The link directions u1 = u(q1), u12 = u(q1 + q2) come from
         // the kinematics pass: cos q2 = u1·u12, sin q2 = u1 × u12 (no further trigonometry).
         let (u1, u12) = (t.u[0], t.u[1]);
-        let c2 = u1.dot(&u12);
-        let s2 = cross(u1, u12);
-        let m12 = k.p3 + k.p2 * c2;
-        t.M[(0, 0)] = k.p1 + 2.0 * k.p2 * c2;
-        t.M[(0, 1)] = m12;
-        t.M[(1, 0)] = m12;
-        t.M[(1, 1)] = k.p3;
-        let h = k.p2 * s2;
-        t.C[(0, 0)] = -h * qd[1];
-        t.C[(0, 1)] = -h * (qd[0] + qd[1]);
-        t.C[(1, 0)] = h * qd[0];
-        t.C[(1, 1)] = 0.0;
-        let c12 = u12.x;
-        t.G[0] = k.g1 * g * u1.x + k.g2 * g * c12;
-        t.G[1] = k.g2 * g * c12;
+        let (m, c, gv) = k.mcg(u1.dot(&u12), cross(u1, u12), u1.x, u12.x, [qd[0], qd[1]], g);
+        t.M.copy_from(&m);
+        t.C.copy_from(&c);
+        t.G.copy_from(&gv);
     }
 
     /// Recursive Newton–Euler inverse dynamics: `τ = M q̈ + C q̇ + G − J_eᵀ F_ext`, where
@@ -509,27 +582,16 @@ impl Arm {
     /// Analytic inverse kinematics of a 2-link arm on its elbow branch: joint angles that put
     /// the end-effector at `p_WE`.
     pub fn inverse_kinematics(&self, p_we: Vector2<f64>) -> Result<[f64; 2], IkFailure> {
-        if self.dof() != 2 {
-            return Err(IkFailure::NotTwoLink);
+        match &self.two {
+            Some(k) => k.inverse_kinematics(p_we),
+            None => Err(IkFailure::NotTwoLink),
         }
-        let (l1, l2) = (self.l[0], self.l[1]);
-        let d = p_we - self.base;
-        let (sb, cb) = self.base_angle.sin_cos();
-        // Target in the base frame.
-        let x = cb * d.x + sb * d.y;
-        let y = -sb * d.x + cb * d.y;
-        let r2 = x * x + y * y;
-        let c2 = (r2 - l1 * l1 - l2 * l2) / (2.0 * l1 * l2);
-        if !(-1.0..=1.0).contains(&c2) {
-            return Err(IkFailure::OutOfReach {
-                distance: r2.sqrt(),
-                min: (l1 - l2).abs(),
-                max: l1 + l2,
-            });
-        }
-        let q2 = self.elbow.sign() * c2.acos();
-        let q1 = y.atan2(x) - (l2 * q2.sin()).atan2(l1 + l2 * q2.cos());
-        Ok([q1, q2])
+    }
+
+    /// The 2-link fast path (fixed-size kinematics and dynamics), `None` unless the arm has
+    /// exactly two links. Selected once at construction.
+    pub fn two_link(&self) -> Option<&TwoLinkArm> {
+        self.two.as_ref()
     }
 
     /// Cartesian dynamics (3)–(4) of a square (2-joint) arm after [`Arm::dynamics`];
@@ -538,30 +600,22 @@ impl Arm {
         if self.dof() != 2 {
             return None;
         }
+        let m2 = |a: &DMatrix<f64>| Matrix2::new(a[(0, 0)], a[(0, 1)], a[(1, 0)], a[(1, 1)]);
         let j = Matrix2::new(t.J[(0, 0)], t.J[(0, 1)], t.J[(1, 0)], t.J[(1, 1)]);
-        let det = j.determinant();
-        if !(det.abs() >= min_det) {
-            return None;
-        }
-        let ji = Matrix2::new(j[(1, 1)], -j[(0, 1)], -j[(1, 0)], j[(0, 0)]) / det;
-        let jit = ji.transpose();
-        let m = Matrix2::new(t.M[(0, 0)], t.M[(0, 1)], t.M[(1, 0)], t.M[(1, 1)]);
-        let c = Matrix2::new(t.C[(0, 0)], t.C[(0, 1)], t.C[(1, 0)], t.C[(1, 1)]);
         let jd = Matrix2::new(
             t.Jdot[(0, 0)],
             t.Jdot[(0, 1)],
             t.Jdot[(1, 0)],
             t.Jdot[(1, 1)],
         );
-        let m_x = jit * m * ji;
-        let c_x = jit * (c - m * ji * jd) * ji;
-        let g_x = jit * Vector2::new(t.G[0], t.G[1]);
-        Some(Cartesian {
-            M_x: m_x,
-            C_x: c_x,
-            G_x: g_x,
-            J_inv: ji,
-        })
+        cartesian_2x2(
+            &j,
+            &m2(&t.M),
+            &m2(&t.C),
+            &jd,
+            &Vector2::new(t.G[0], t.G[1]),
+            min_det,
+        )
     }
 
     /// Smallest singular value of `J_e` after [`Arm::kinematics`] (2 × n), m/rad.
@@ -592,5 +646,178 @@ impl Arm {
         }
         let pe = (0..n).map(|k| self.m[k] * g * t.com[k].y).sum();
         (ke, pe)
+    }
+}
+
+/// Cartesian dynamics (3)–(4) from 2×2 joint-space terms: `M_x = J⁻ᵀ M J⁻¹`,
+/// `C_x = J⁻ᵀ (C − M J⁻¹ J̇) J⁻¹`, `G_x = J⁻ᵀ G` (SPEC §2.1); `None` when |det J| < `min_det`.
+#[inline]
+fn cartesian_2x2(
+    j: &Matrix2<f64>,
+    m: &Matrix2<f64>,
+    c: &Matrix2<f64>,
+    jd: &Matrix2<f64>,
+    g: &Vector2<f64>,
+    min_det: f64,
+) -> Option<Cartesian> {
+    let det = j.determinant();
+    if !(det.abs() >= min_det) {
+        return None;
+    }
+    let ji = Matrix2::new(j[(1, 1)], -j[(0, 1)], -j[(1, 0)], j[(0, 0)]) * (1.0 / det);
+    let jit = ji.transpose();
+    let m_x = jit * m * ji;
+    let c_x = jit * (c - m * ji * jd) * ji;
+    let g_x = jit * g;
+    Some(Cartesian {
+        M_x: m_x,
+        C_x: c_x,
+        G_x: g_x,
+        J_inv: ji,
+    })
+}
+
+impl TwoLinkArm {
+    /// SPEC §2.1 closed forms `(M, C, G)` from `cos q2`, `sin q2`, the world-frame cosines
+    /// `cos φ_1`, `cos φ_2` of the two links (gravity acts along −y) and `q̇`.
+    #[inline]
+    fn mcg(
+        &self,
+        c2: f64,
+        s2: f64,
+        cos_phi1: f64,
+        cos_phi2: f64,
+        qd: [f64; 2],
+        g: f64,
+    ) -> (Matrix2<f64>, Matrix2<f64>, Vector2<f64>) {
+        let m12 = self.p3 + self.p2 * c2;
+        let m = Matrix2::new(self.p1 + 2.0 * self.p2 * c2, m12, m12, self.p3);
+        let h = self.p2 * s2;
+        let c = Matrix2::new(-h * qd[1], -h * (qd[0] + qd[1]), h * qd[0], 0.0);
+        let gv = Vector2::new(
+            self.g1 * g * cos_phi1 + self.g2 * g * cos_phi2,
+            self.g2 * g * cos_phi2,
+        );
+        (m, c, gv)
+    }
+
+    /// Pose from link directions: fills `J_e = [(l_1 u_1 + l_2 u_12)^⊥ | (l_2 u_12)^⊥]`.
+    #[inline]
+    fn pose_from_dirs(&self, u1: Vector2<f64>, u12: Vector2<f64>, c2: f64, s2: f64) -> TwoLinkPose {
+        let e2 = self.l2 * u12;
+        let e = self.l1 * u1 + e2;
+        TwoLinkPose {
+            u1,
+            u12,
+            c2,
+            s2,
+            J: Matrix2::new(-e.y, -e2.y, e.x, e2.x),
+        }
+    }
+
+    /// Pose at joint angles `q`: one `sin_cos` per link, accumulated as [`Arm::kinematics`]
+    /// does (`φ_1 = base angle + q_1`, `φ_2 = φ_1 + q_2`), so the directions are bitwise those
+    /// of the general path; `cos q2 = u_1·u_12`, `sin q2 = u_1 × u_12`.
+    #[inline]
+    pub fn pose(&self, q: [f64; 2]) -> TwoLinkPose {
+        let phi1 = self.base_angle + q[0];
+        let phi2 = phi1 + q[1];
+        let (s1, c1) = phi1.sin_cos();
+        let (s12, c12) = phi2.sin_cos();
+        let u1 = Vector2::new(c1, s1);
+        let u12 = Vector2::new(c12, s12);
+        self.pose_from_dirs(u1, u12, u1.dot(&u12), cross(u1, u12))
+    }
+
+    /// Target in the base frame and `cos q2` from the law of cosines; the reach check.
+    /// Returns `(x, y, x² + y², cos q2)`.
+    #[inline]
+    fn ik_cos_q2(&self, p_we: Vector2<f64>) -> Result<(f64, f64, f64, f64), IkFailure> {
+        let (l1, l2) = (self.l1, self.l2);
+        let d = p_we - self.base;
+        let (sb, cb) = self.base_sc;
+        let x = cb * d.x + sb * d.y;
+        let y = -sb * d.x + cb * d.y;
+        let r2 = x * x + y * y;
+        let c2 = (r2 - l1 * l1 - l2 * l2) / (2.0 * l1 * l2);
+        if !(-1.0..=1.0).contains(&c2) {
+            return Err(IkFailure::OutOfReach {
+                distance: r2.sqrt(),
+                min: (l1 - l2).abs(),
+                max: l1 + l2,
+            });
+        }
+        Ok((x, y, r2, c2))
+    }
+
+    /// Analytic inverse kinematics on the elbow branch, as angles
+    /// (`q2 = ±acos c2`, `q1 = atan2(y, x) − atan2(l2 sin q2, l1 + l2 cos q2)`).
+    pub fn inverse_kinematics(&self, p_we: Vector2<f64>) -> Result<[f64; 2], IkFailure> {
+        let (x, y, _, c2) = self.ik_cos_q2(p_we)?;
+        let (l1, l2) = (self.l1, self.l2);
+        let q2 = self.elbow * c2.acos();
+        let q1 = y.atan2(x) - (l2 * q2.sin()).atan2(l1 + l2 * q2.cos());
+        Ok([q1, q2])
+    }
+
+    /// The same inverse kinematics as [`TwoLinkArm::inverse_kinematics`], as link directions
+    /// and without transcendental calls (two `sqrt`, one division): `sin q2 = ±√((1 − c2)(1 + c2))`
+    /// on the elbow branch, and `u(q_1)` is `(x, y)` rotated back by the angle of
+    /// `k = (l1 + l2 c2, l2 s2)`: `(x k1 + y k2, y k1 − x k2) / (|(x, y)| |k|)`. (`|k| = r` by
+    /// the law of cosines, but only to `ε (l1² + l2²) / r²`, which grows near a folded arm; the
+    /// explicit norm keeps `|u_1| = 1` to ε.) Equal to the angle route up to round-off.
+    #[inline]
+    pub fn ik_pose(&self, p_we: Vector2<f64>) -> Result<TwoLinkPose, IkFailure> {
+        let (x, y, r2, c2) = self.ik_cos_q2(p_we)?;
+        let s2 = self.elbow * ((1.0 - c2) * (1.0 + c2)).sqrt();
+        let k1 = self.l1 + self.l2 * c2;
+        let k2 = self.l2 * s2;
+        let inv_rk = 1.0 / (r2 * (k1 * k1 + k2 * k2)).sqrt();
+        let (cq1, sq1) = ((x * k1 + y * k2) * inv_rk, (y * k1 - x * k2) * inv_rk);
+        // World direction of link 1 (φ_1 = base angle + q_1), then link 2 (φ_2 = φ_1 + q_2).
+        let (sb, cb) = self.base_sc;
+        let u1 = Vector2::new(cb * cq1 - sb * sq1, sb * cq1 + cb * sq1);
+        let u12 = Vector2::new(c2 * u1.x - s2 * u1.y, s2 * u1.x + c2 * u1.y);
+        Ok(self.pose_from_dirs(u1, u12, c2, s2))
+    }
+
+    /// Kinematics and dynamics at `(pose, q̇)`: reads the pose's directions and Jacobian;
+    /// writes every field of the result (SPEC §2.1 closed forms for `M`, `C`, `G`;
+    /// `J̇_e = [v_E^⊥ | (l_2 φ̇_2 u_12^⊥)^⊥]`, `J̇_e q̇ = −l_1 φ̇_1² u_1 − l_2 φ̇_2² u_12`).
+    #[inline]
+    pub fn terms(&self, pose: &TwoLinkPose, qd: [f64; 2], g: f64) -> TwoLinkTerms {
+        let (u1, u12) = (pose.u1, pose.u12);
+        let (w1, w2) = (qd[0], qd[0] + qd[1]);
+        let v1 = self.l1 * w1 * perp(u1);
+        let v2 = self.l2 * w2 * perp(u12);
+        let v_ee = v1 + v2;
+        let (m, c, gv) = self.mcg(pose.c2, pose.s2, u1.x, u12.x, qd, g);
+        let p2c2 = self.p2 * pose.c2;
+        TwoLinkTerms {
+            M: m,
+            C: c,
+            G: gv,
+            J: pose.J,
+            Jdot: Matrix2::new(-v_ee.y, -v2.y, v_ee.x, v2.x),
+            jdot_qdot: -(self.l1 * w1 * w1) * u1 - (self.l2 * w2 * w2) * u12,
+            p_ee: self.base + self.l1 * u1 + self.l2 * u12,
+            v_ee,
+            det_M: self.det0 - p2c2 * p2c2,
+        }
+    }
+}
+
+impl TwoLinkTerms {
+    /// `M⁻¹ = adj(M) / det M` (closed form; the caller checks `det_M > 0`).
+    #[inline]
+    pub fn m_inv(&self) -> Matrix2<f64> {
+        let m = &self.M;
+        Matrix2::new(m[(1, 1)], -m[(0, 1)], -m[(1, 0)], m[(0, 0)]) * (1.0 / self.det_M)
+    }
+
+    /// Cartesian dynamics (3)–(4), as [`Arm::cartesian`]; `None` when |det J_e| < `min_det`.
+    #[inline]
+    pub fn cartesian(&self, min_det: f64) -> Option<Cartesian> {
+        cartesian_2x2(&self.J, &self.M, &self.C, &self.Jdot, &self.G, min_det)
     }
 }

@@ -11,6 +11,7 @@ use nalgebra::{DMatrix, Dim, Matrix, RawStorageMut};
 ///
 /// Returns the smallest pivot `L_kk²` divided by the largest diagonal entry of `A` (a cheap
 /// conditioning indicator), or `Err(k)` when pivot `k` is not positive (not positive definite).
+#[inline]
 pub fn cholesky_in_place<R: Dim, C: Dim, S: RawStorageMut<f64, R, C>>(
     a: &mut Matrix<f64, R, C, S>,
     n: usize,
@@ -47,6 +48,7 @@ pub fn cholesky_in_place<R: Dim, C: Dim, S: RawStorageMut<f64, R, C>>(
 }
 
 /// Solve `L Lᵀ x = b` in place (`b` becomes `x`) with the factor from [`cholesky_in_place`].
+#[inline]
 pub fn cholesky_solve_in_place<R: Dim, C: Dim, S: RawStorageMut<f64, R, C>>(
     l: &Matrix<f64, R, C, S>,
     n: usize,

@@ -6,7 +6,6 @@ use std::cell::Cell;
 
 use nalgebra::{Vector2, Vector3};
 use tandem::adaptive::NnGains;
-use tandem::admittance::AdmittanceParams;
 use tandem::control::{Controller, ControllerParams, LawParams, Measurements, TickRecord};
 use tandem::disturbance::Disturbance;
 use tandem::fixtures;
@@ -58,15 +57,10 @@ fn the_counter_counts() {
 }
 
 fn params(law: LawParams) -> ControllerParams {
+    // With a torque limit, so the clamp path runs too.
     ControllerParams {
-        law,
-        scheme: Default::default(),
-        k_c: [0.35; 3],
-        admittance: Some(AdmittanceParams::default()),
-        delta: 0.005,
-        control_period: 1e-3,
         torque_limit: Some(50.0),
-        disturbance_bound: Disturbance::paper().bound(),
+        ..ControllerParams::paper(law)
     }
 }
 

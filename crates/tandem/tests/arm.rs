@@ -1,7 +1,8 @@
-//! Arm kinematics and dynamics against independent references: the 2-link closed forms against
-//! the general algorithm, finite differences, RNEA against `Mq̈ + Cq̇ + G`, Property 1.
+//! Arm kinematics and dynamics against independent references: the 2-link closed forms and the
+//! fixed-size 2-link fast path against the general algorithm, finite differences, RNEA against
+//! `Mq̈ + Cq̇ + G`, Property 1.
 
-use nalgebra::{DMatrix, Vector2};
+use nalgebra::{DMatrix, Matrix2, Vector2};
 use proptest::prelude::*;
 use tandem::arm::{Arm, ArmParams, Elbow, LinkParams};
 use tandem::error::ModelError;
@@ -89,6 +90,196 @@ fn two_link_closed_forms_equal_general_algorithm() {
         let ge = (&fast.G - &general.G).norm() / general.G.norm().max(1e-12);
         assert!(ge < 1e-12, "G: {} vs {}", fast.G, general.G);
     }
+}
+
+/// `‖a − b‖ / ‖b‖` for fixed-size values.
+fn rel2<const R: usize, const C: usize>(
+    a: &nalgebra::SMatrix<f64, R, C>,
+    b: &nalgebra::SMatrix<f64, R, C>,
+) -> f64 {
+    (a - b).norm() / b.norm().max(1e-300)
+}
+
+fn mat2(a: &DMatrix<f64>) -> Matrix2<f64> {
+    Matrix2::new(a[(0, 0)], a[(0, 1)], a[(1, 0)], a[(1, 1)])
+}
+
+#[test]
+fn two_link_fixed_size_terms_equal_general_algorithm() {
+    // The fast path (TwoLinkArm: one sin_cos per link, closed forms, fixed-size values) against
+    // the general algorithm on ArmTerms (per-link points, composite-rigid-body M, Christoffel C):
+    // the same physics by two routes, so only round-off separates them. Entries are sums of a
+    // handful of products: 1e-12 of their scale leaves ~3 digits of slack over ε.
+    let mut rng = Rng(21);
+    let mut worst: f64 = 0.0;
+    for trial in 0..500 {
+        let arm = if trial % 2 == 0 {
+            paper_arm()
+        } else {
+            random_arm(&mut rng, 2)
+        };
+        let k = arm.two_link().expect("a 2-link arm has the fast path");
+        let q = rng.vec(2, 3.0);
+        let qd = rng.vec(2, 5.0);
+        let mut t = arm.terms();
+        arm.kinematics(&q, &qd, &mut t);
+        arm.general_dynamics(9.8, &mut t);
+        let f = k.terms(&k.pose([q[0], q[1]]), [qd[0], qd[1]], 9.8);
+        // Relative to each quantity's natural scale (M, M|q̇|, reach, reach|q̇|, reach|q̇|²,
+        // m g reach), so that a small entry made of cancelling O(scale) terms (C when
+        // sin q2 ≈ 0) is judged by the round-off of those terms.
+        let reach = arm.reach();
+        let w = qd[0].abs() + qd[1].abs();
+        let m_scale = mat2(&t.M).norm();
+        let rel = |e: f64, b: f64, s: f64| e / (b + s);
+        let jd_g = Matrix2::new(
+            t.Jdot[(0, 0)],
+            t.Jdot[(0, 1)],
+            t.Jdot[(1, 0)],
+            t.Jdot[(1, 1)],
+        );
+        let j_g = Matrix2::new(t.J[(0, 0)], t.J[(0, 1)], t.J[(1, 0)], t.J[(1, 1)]);
+        let g_g = Vector2::new(t.G[0], t.G[1]);
+        let errs = [
+            rel((f.M - mat2(&t.M)).norm(), m_scale, 0.0),
+            rel((f.C - mat2(&t.C)).norm(), mat2(&t.C).norm(), m_scale * w),
+            rel((f.G - g_g).norm(), g_g.norm(), 9.8 * m_scale / reach),
+            rel((f.J - j_g).norm(), j_g.norm(), reach),
+            rel((f.Jdot - jd_g).norm(), jd_g.norm(), reach * w),
+            rel(
+                (f.jdot_qdot - t.jdot_qdot).norm(),
+                t.jdot_qdot.norm(),
+                reach * w * w,
+            ),
+            rel((f.p_ee - t.p_ee).norm(), t.p_ee.norm(), reach),
+            rel((f.v_ee - t.v_ee).norm(), t.v_ee.norm(), reach * w),
+        ];
+        for (name, e) in ["M", "C", "G", "J", "Jdot", "jdot_qdot", "p_ee", "v_ee"]
+            .iter()
+            .zip(errs)
+        {
+            assert!(
+                e < 1e-12,
+                "trial {trial}: {name} differs by {e:e} (relative)"
+            );
+            worst = worst.max(e);
+        }
+        // det M in closed form is cancellation-free; from the entries it carries an absolute
+        // round-off of a few ε·M11·M22.
+        let m = &f.M;
+        assert!(
+            (f.det_M - m.determinant()).abs() < 1e-14 * m[(0, 0)] * m[(1, 1)],
+            "det M {} vs {}",
+            f.det_M,
+            m.determinant()
+        );
+        // M⁻¹ in closed form: ‖M⁻¹M − I‖ ≲ ε·cond(M).
+        let cond = m.norm() * m.try_inverse().unwrap().norm();
+        assert!((f.m_inv() * m - Matrix2::identity()).norm() < 1e-14 * cond);
+    }
+    println!("fixed-size 2-link terms vs general algorithm: worst relative difference {worst:.2e}");
+    // Other link counts have no fast path.
+    let mut r = Rng(2);
+    assert!(random_arm(&mut r, 3).two_link().is_none());
+    assert!(random_arm(&mut r, 1).two_link().is_none());
+}
+
+#[test]
+fn two_link_fixed_size_cartesian_terms_equal_the_arm_terms_route() {
+    // Away from the stretched/folded singularities (|q2| in [0.3, 2.8], cond J_e ≲ 10), the
+    // Cartesian terms (3)–(4) from the fixed-size terms equal Arm::cartesian on ArmTerms.
+    let mut rng = Rng(23);
+    for trial in 0..200 {
+        let arm = if trial % 2 == 0 {
+            paper_arm()
+        } else {
+            random_arm(&mut rng, 2)
+        };
+        let k = arm.two_link().unwrap();
+        let sign = if trial % 4 < 2 { 1.0 } else { -1.0 };
+        let q = vec![rng.range(-3.0, 3.0), sign * rng.range(0.3, 2.8)];
+        let qd = rng.vec(2, 3.0);
+        let mut t = arm.terms();
+        arm.dynamics(&q, &qd, 9.8, &mut t);
+        let a = arm.cartesian(&t, 1e-9).unwrap();
+        let b = k
+            .terms(&k.pose([q[0], q[1]]), [qd[0], qd[1]], 9.8)
+            .cartesian(1e-9)
+            .unwrap();
+        for (name, e) in [
+            ("M_x", rel2(&b.M_x, &a.M_x)),
+            ("C_x", rel2(&b.C_x, &a.C_x)),
+            ("G_x", rel2(&b.G_x, &a.G_x)),
+            ("J_inv", rel2(&b.J_inv, &a.J_inv)),
+        ] {
+            assert!(
+                e < 1e-12,
+                "trial {trial}: {name} differs by {e:e} (relative)"
+            );
+        }
+    }
+}
+
+#[test]
+fn transcendental_free_ik_equals_the_angle_route() {
+    // TwoLinkArm::ik_pose (sin q2 = ±√((1−c2)(1+c2)), u(q1) by rotating the target back; one
+    // sqrt) against the angles of inverse_kinematics (acos, two atan2) fed to pose (two
+    // sin_cos). Targets stay 2 % of the reach inside the annulus, where |sin q2| ≳ 0.2 and the
+    // angle route's acos loses at most ~ε/|sin q2| (the two agree to ~1e-15 there).
+    let mut rng = Rng(29);
+    for trial in 0..400 {
+        let elbow = if trial % 2 == 0 {
+            Elbow::Negative
+        } else {
+            Elbow::Positive
+        };
+        let mut p = if trial % 4 < 2 {
+            ArmParams::paper([0.1, -0.2], elbow)
+        } else {
+            let l1 = rng.range(0.1, 0.5);
+            let l2 = rng.range(0.1, 0.5);
+            let mut p = ArmParams::paper([rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)], elbow);
+            p.links[0].length = l1;
+            p.links[0].com = l1 / 2.0;
+            p.links[1].length = l2;
+            p.links[1].com = l2 / 2.0;
+            p
+        };
+        p.base_angle = rng.range(-3.0, 3.0);
+        let arm = Arm::new("arm", &p).unwrap();
+        let k = arm.two_link().unwrap();
+        let (l1, l2) = (p.links[0].length, p.links[1].length);
+        let margin = 0.02 * (l1 + l2);
+        let r = rng.range((l1 - l2).abs() + margin, l1 + l2 - margin);
+        let a = rng.range(-3.1, 3.1);
+        let target = arm.base() + r * Vector2::new(a.cos(), a.sin());
+        let fast = k.ik_pose(target).unwrap();
+        let q = arm.inverse_kinematics(target).unwrap();
+        let slow = k.pose(q);
+        let e = (fast.u1 - slow.u1)
+            .norm()
+            .max((fast.u12 - slow.u12).norm())
+            .max((fast.c2 - slow.c2).abs())
+            .max((fast.s2 - slow.s2).abs())
+            .max(rel2(&fast.J, &slow.J));
+        assert!(e < 1e-12, "trial {trial}: ik_pose differs by {e:e}");
+        // It reaches the target, on the branch, with unit directions.
+        let reach = arm.base() + l1 * fast.u1 + l2 * fast.u12;
+        assert!(
+            (reach - target).norm() < 1e-13,
+            "misses by {}",
+            (reach - target).norm()
+        );
+        assert!(fast.s2 * q[1] >= 0.0);
+        assert!((fast.u1.norm() - 1.0).abs() < 1e-15 && (fast.u12.norm() - 1.0).abs() < 1e-15);
+    }
+    // Out of reach: the same error as the angle route.
+    let arm = paper_arm();
+    let far = arm.base() + Vector2::new(0.61, 0.0);
+    assert_eq!(
+        arm.two_link().unwrap().ik_pose(far).unwrap_err(),
+        arm.inverse_kinematics(far).unwrap_err()
+    );
 }
 
 #[test]

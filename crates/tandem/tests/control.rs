@@ -16,16 +16,7 @@ use tandem::sim::{Driver, Log, SimParams, Simulation};
 use tandem::trajectory::Path;
 
 fn params(law: LawParams) -> ControllerParams {
-    ControllerParams {
-        law,
-        scheme: Default::default(),
-        k_c: [0.35; 3],
-        admittance: Some(AdmittanceParams::default()),
-        delta: 0.005,
-        control_period: 1e-3,
-        torque_limit: None,
-        disturbance_bound: Disturbance::paper().bound(),
-    }
+    ControllerParams::paper(law)
 }
 
 fn run(cp: ControllerParams, dist: Disturbance, duration: f64, log_period: f64) -> (Summary, Log) {

@@ -2,8 +2,7 @@
 //! `cargo test --release -- --ignored` (CI does).
 
 use tandem::adaptive::NnGains;
-use tandem::admittance::AdmittanceParams;
-use tandem::control::{Controller, ControllerParams, LawParams, Scheme};
+use tandem::control::{Controller, ControllerParams, LawParams};
 use tandem::disturbance::Disturbance;
 use tandem::fixtures;
 use tandem::pd::PdGains;
@@ -15,16 +14,7 @@ use tandem::trajectory::Path;
 fn paper_run(law: LawParams) -> (Summary, Log) {
     let plant = fixtures::paper();
     let name = law.name();
-    let cp = ControllerParams {
-        law,
-        scheme: Scheme::Object,
-        k_c: [0.35; 3],
-        admittance: Some(AdmittanceParams::default()),
-        delta: 0.005,
-        control_period: 1e-3,
-        torque_limit: None,
-        disturbance_bound: Disturbance::paper().bound(),
-    };
+    let cp = ControllerParams::paper(law);
     let (c, _) = Controller::new(&cp, &plant, Path::paper(), 90.0).unwrap();
     let sim = Simulation::new(
         &plant,

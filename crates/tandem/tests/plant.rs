@@ -1,10 +1,28 @@
 //! Closed-chain plant invariants: energy balance, constraint drift, constrained vs reduced
-//! agreement, RK4 order, redundant and three-arm chains, bad input.
+//! agreement, RK4 order, redundant and three-arm chains, bad input; the fixed-size fast paths
+//! against the general algorithms.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector2, Vector3};
 use tandem::fixtures;
 use tandem::integrate::Rk4;
-use tandem::plant::{ConstrainedOde, Plant, PlantInput, PlantParams, PlantWorkspace, ReducedOde};
+use tandem::plant::{
+    Algorithm, ConstrainedOde, Plant, PlantInput, PlantParams, PlantWorkspace, ReducedOde,
+};
+
+/// SplitMix64: a tiny seeded generator for reproducible random states.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.next()
+    }
+}
 
 /// Advance the constrained plant `steps` RK4 steps of `h` with a held input.
 fn run(
@@ -367,4 +385,263 @@ fn bad_plant_input_is_named() {
         e.contains("arms[0]") && e.contains("violates the grasp"),
         "{e}"
     );
+}
+
+/// `‖a − b‖ / ‖b‖` over slices.
+fn rel(a: &[f64], b: &[f64]) -> f64 {
+    let d: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+    let n: f64 = b.iter().map(|y| y * y).sum();
+    (d / n.max(1e-300)).sqrt()
+}
+
+/// A random state near the paper's workspace: a consistent chain at a random object pose and
+/// velocity, then joints and object pushed off the constraint (so the Baumgarte terms act).
+fn random_state(plant: &Plant, rng: &mut Rng) -> Vec<f64> {
+    loop {
+        let x = Vector3::new(
+            rng.range(-0.25, 0.25),
+            rng.range(-0.25, 0.25),
+            rng.range(-0.4, 0.4),
+        );
+        let xd = Vector3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-2.0, 2.0),
+        );
+        let Ok(mut y) = plant.initial_state(x, xd, None) else {
+            continue;
+        };
+        let mut ws = plant.workspace();
+        if plant.min_singular_value(&y, &mut ws) < 0.05 {
+            continue;
+        }
+        for v in y.iter_mut() {
+            *v += rng.range(-1e-3, 1e-3);
+        }
+        return y;
+    }
+}
+
+#[test]
+fn each_plant_selects_its_constrained_algorithm() {
+    let alg = |p: PlantParams| Plant::new(&p).unwrap().algorithm();
+    assert_eq!(alg(fixtures::paper()), Algorithm::TwoArmsTwoLinks);
+    assert_eq!(alg(fixtures::three_arms()), Algorithm::General);
+    assert_eq!(alg(fixtures::redundant_pair().0), Algorithm::General);
+}
+
+#[test]
+fn fixed_size_constrained_derivative_equals_the_general_algorithm() {
+    // Two implementations of the same KKT solve (fixed-size closed forms with M⁻¹ = adj M/det M
+    // vs dynamic-size blocks with per-arm Cholesky), so only round-off separates them; it is
+    // amplified by cond(K) (≤ ~1/kkt_pivot ≈ 1e2 here), hence 1e-12 relative.
+    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let mut rng = Rng(31);
+    let (mut ws_a, mut ws_b) = (plant.workspace(), plant.workspace());
+    let n = plant.state_dim();
+    let (mut dy_a, mut dy_b) = (vec![0.0; n], vec![0.0; n]);
+    let mut input = plant.zero_input();
+    let mut worst: f64 = 0.0;
+    for trial in 0..300 {
+        let y = random_state(&plant, &mut rng);
+        for t in input.tau.iter_mut() {
+            *t = rng.range(-5.0, 5.0);
+        }
+        input.f_d = Vector3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-0.1, 0.1),
+        );
+        assert!(plant.derivative(&y, &input, &mut ws_a, &mut dy_a));
+        assert!(plant.derivative_general(&y, &input, &mut ws_b, &mut dy_b));
+        let f = |ws: &PlantWorkspace| {
+            ws.forces
+                .iter()
+                .flat_map(|v| [v.x, v.y])
+                .collect::<Vec<_>>()
+        };
+        let e = [
+            rel(&dy_a, &dy_b),
+            rel(&f(&ws_a), &f(&ws_b)),
+            rel(ws_a.xdd_o.as_slice(), ws_b.xdd_o.as_slice()),
+            (ws_a.kkt_pivot - ws_b.kkt_pivot).abs() / ws_b.kkt_pivot,
+        ];
+        for (name, e) in ["dy", "forces", "xdd_o", "kkt_pivot"].iter().zip(e) {
+            assert!(
+                e < 1e-12,
+                "trial {trial}: {name} differs by {e:e} (relative)"
+            );
+            worst = worst.max(e);
+        }
+    }
+    assert_eq!((ws_a.regularised, ws_b.regularised), (0, 0));
+    println!("fixed-size vs general constrained derivative: worst relative difference {worst:.2e}");
+}
+
+#[test]
+fn both_constrained_paths_regularise_a_locked_chain_alike() {
+    // Both arms stretched along +x (q = 0) with the object level: each J_e has vertical columns,
+    // so opposite horizontal grasp forces λ = (v, −v) satisfy J_eᵀ λ_i = 0 and 𝐉ᵀλ = 0 — K is
+    // exactly singular and both paths regularise it (K + 1e-10 tr(K) I). λ then has a ~1e11 N
+    // component along that locked direction, known only to ~cond·ε ≈ 1e-6 relative; it does
+    // not reach the accelerations (J_eᵀ λ_i = 0, 𝐉ᵀλ = 0), which stay well conditioned.
+    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let n = plant.state_dim();
+    let mut y = vec![0.0; n];
+    y[4] = 0.2;
+    y[7..11].copy_from_slice(&[0.3, -0.2, 0.1, 0.4]);
+    let mut input = plant.zero_input();
+    input.tau.copy_from_slice(&[1.0, -0.5, 0.3, 0.2]);
+    let (mut ws_a, mut ws_b) = (plant.workspace(), plant.workspace());
+    let (mut dy_a, mut dy_b) = (vec![0.0; n], vec![0.0; n]);
+    assert!(plant.derivative(&y, &input, &mut ws_a, &mut dy_a));
+    assert!(plant.derivative_general(&y, &input, &mut ws_b, &mut dy_b));
+    assert_eq!((ws_a.regularised, ws_b.regularised), (1, 1));
+    assert_eq!((ws_a.kkt_pivot, ws_b.kkt_pivot), (0.0, 0.0));
+    assert!(dy_a.iter().all(|v| v.is_finite()));
+    let f = |ws: &PlantWorkspace| {
+        ws.forces
+            .iter()
+            .flat_map(|v| [v.x, v.y])
+            .collect::<Vec<_>>()
+    };
+    let (e_dy, e_f) = (rel(&dy_a, &dy_b), rel(&f(&ws_a), &f(&ws_b)));
+    let f_max = ws_a.forces.iter().map(|f| f.norm()).fold(0.0, f64::max);
+    println!(
+        "locked chain: regularised in both paths, |F| ≤ {f_max:.3e} N, relative differences \
+         dy {e_dy:.2e}, F {e_f:.2e}"
+    );
+    assert!(
+        f_max > 1e9,
+        "the locked direction should carry the regularised force"
+    );
+    assert!(e_dy < 1e-12, "dy differs by {e_dy:e}");
+    assert!(e_f < 1e-4, "forces differ by {e_f:e}");
+}
+
+/// Reduced terms and results at one state: `𝓜, 𝓒, 𝓖, ẍ_o, F_i`.
+struct Reduced {
+    m: Matrix3<f64>,
+    c: Matrix3<f64>,
+    g: Vector3<f64>,
+    xdd: Vector3<f64>,
+    forces: Vec<Vector2<f64>>,
+}
+
+/// The reduced terms (14) by the route the fixed-size path replaced: joint angles from the
+/// angle IK, ArmTerms dynamics, `Arm::cartesian`, dense grasp-Jacobian products, nalgebra's
+/// Cholesky.
+fn reduced_reference(
+    plant: &Plant,
+    x: &Vector3<f64>,
+    xd: &Vector3<f64>,
+    input: &PlantInput,
+) -> Reduced {
+    let n = plant.n_q();
+    let mut ws = plant.workspace();
+    let (mut q, mut qd) = (vec![0.0; n], vec![0.0; n]);
+    plant
+        .arms_from_object(x, xd, &mut q, &mut qd, &mut ws)
+        .unwrap();
+    let o = plant.object();
+    let (mut m, mut c, mut g, mut tau) = (o.M_o, o.C_o, o.G_o, Vector3::zeros());
+    let mut carts = Vec::new();
+    for (i, arm) in plant.arms().iter().enumerate() {
+        let off = plant.offset(i);
+        let t = &mut ws.terms[i];
+        arm.dynamics(&q[off..off + 2], &qd[off..off + 2], plant.gravity(), t);
+        let cart = arm.cartesian(t, 1e-9).unwrap();
+        let gr = &plant.grasps()[i];
+        let jg = gr.jacobian(x.z);
+        let rw = gr.arm_w(x.z);
+        let jgd = nalgebra::Matrix2x3::new(0.0, 0.0, -rw.x * xd.z, 0.0, 0.0, -rw.y * xd.z);
+        m += jg.transpose() * cart.M_x * jg;
+        c += jg.transpose() * (cart.M_x * jgd + cart.C_x * jg);
+        g += jg.transpose() * cart.G_x;
+        let tx = cart.J_inv.transpose() * Vector2::new(input.tau[off], input.tau[off + 1]);
+        tau += jg.transpose() * tx;
+        carts.push((cart, tx));
+    }
+    let xdd = m.cholesky().unwrap().solve(&(tau - input.f_d - c * xd - g));
+    let forces = plant
+        .grasps()
+        .iter()
+        .zip(&carts)
+        .map(|(gr, (cart, tx))| {
+            let jg = gr.jacobian(x.z);
+            cart.M_x * (jg * xdd + gr.jdot_xdot(x.z, xd.z)) + cart.C_x * (jg * xd) + cart.G_x - tx
+        })
+        .collect();
+    Reduced {
+        m,
+        c,
+        g,
+        xdd,
+        forces,
+    }
+}
+
+#[test]
+fn fixed_size_reduced_terms_equal_the_arm_terms_route() {
+    // The fixed-size reduced path (transcendental-free IK, closed-form 2×2 Cartesian terms,
+    // structured grasp products) against the ArmTerms route at random well-conditioned states:
+    // round-off apart, amplified by cond(J_e)² ≲ 4e2 in the Cartesian terms, hence 1e-12.
+    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let mut rng = Rng(37);
+    let mut ws = plant.workspace();
+    let mut input = plant.zero_input();
+    let mut worst: f64 = 0.0;
+    for trial in 0..300 {
+        let y = random_state(&plant, &mut rng);
+        let (_, x, _, xd) = plant.split(&y);
+        for t in input.tau.iter_mut() {
+            *t = rng.range(-5.0, 5.0);
+        }
+        input.f_d = Vector3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-0.1, 0.1),
+        );
+        let Reduced {
+            m,
+            c,
+            g,
+            xdd,
+            forces,
+        } = reduced_reference(&plant, &x, &xd, &input);
+        let os = plant.object_space(&x, &xd, &mut ws).unwrap();
+        let mut dyr = [0.0; 6];
+        let yr = [x.x, x.y, x.z, xd.x, xd.y, xd.z];
+        plant
+            .reduced_derivative(&yr, &input, &mut ws, &mut dyr)
+            .unwrap();
+        let f = |v: &[Vector2<f64>]| v.iter().flat_map(|v| [v.x, v.y]).collect::<Vec<_>>();
+        let e = [
+            rel(os.M.as_slice(), m.as_slice()),
+            rel(os.C.as_slice(), c.as_slice()),
+            rel(os.G.as_slice(), g.as_slice()),
+            rel(&dyr[3..], xdd.as_slice()),
+            rel(&f(&ws.forces), &f(&forces)),
+        ];
+        for (name, e) in ["𝓜", "𝓒", "𝓖", "ẍ_o", "forces"].iter().zip(e) {
+            assert!(
+                e < 1e-12,
+                "trial {trial}: {name} differs by {e:e} (relative)"
+            );
+            worst = worst.max(e);
+        }
+        // object_space still publishes the joint state and arm terms it promises.
+        let n = plant.n_q();
+        let (mut q, mut qd) = (vec![0.0; n], vec![0.0; n]);
+        let mut ws2 = plant.workspace();
+        plant
+            .arms_from_object(&x, &xd, &mut q, &mut qd, &mut ws2)
+            .unwrap();
+        assert_eq!(ws.q_red, q);
+        assert!(rel(&ws.qd_red, &qd) < 1e-12);
+        for i in 0..2 {
+            assert!(rel(ws.terms[i].J.as_slice(), ws2.terms[i].J.as_slice()) < 1e-12);
+        }
+    }
+    println!("fixed-size vs ArmTerms reduced path: worst relative difference {worst:.2e}");
 }

@@ -1,8 +1,7 @@
 //! The simulation loop: determinism, replay, faults reported with time and state, bad settings.
 
 use tandem::adaptive::NnGains;
-use tandem::admittance::AdmittanceParams;
-use tandem::control::{Controller, ControllerParams, LawParams, Scheme};
+use tandem::control::{Controller, ControllerParams, LawParams};
 use tandem::disturbance::Disturbance;
 use tandem::fixtures;
 use tandem::pd::PdGains;
@@ -12,16 +11,7 @@ use tandem::sim::{Driver, FaultKind, Formulation, Outcome, Replay, SimParams, Si
 use tandem::trajectory::Path;
 
 fn controller(law: LawParams, duration: f64) -> Driver {
-    let cp = ControllerParams {
-        law,
-        scheme: Scheme::Object,
-        k_c: [0.35; 3],
-        admittance: Some(AdmittanceParams::default()),
-        delta: 0.005,
-        control_period: 1e-3,
-        torque_limit: None,
-        disturbance_bound: Disturbance::paper().bound(),
-    };
+    let cp = ControllerParams::paper(law);
     Driver::Controller(Box::new(
         Controller::new(&cp, &fixtures::paper(), Path::paper(), duration)
             .unwrap()

@@ -87,6 +87,24 @@ pub struct ControllerParams {
     pub disturbance_bound: [f64; 3],
 }
 
+impl ControllerParams {
+    /// The paper scenario's settings with the given law (SPEC §3–4): object scheme, `k_c = 0.35`
+    /// on every output, the SPEC §3.1 admittance defaults, `δ = 5 mm`, 1 kHz, no torque limit,
+    /// the paper disturbance's bound.
+    pub fn paper(law: LawParams) -> Self {
+        ControllerParams {
+            law,
+            scheme: Scheme::Object,
+            k_c: [0.35; 3],
+            admittance: Some(AdmittanceParams::default()),
+            delta: 0.005,
+            control_period: 1e-3,
+            torque_limit: None,
+            disturbance_bound: crate::disturbance::Disturbance::paper().bound(),
+        }
+    }
+}
+
 /// What the controller reads at a tick (sensor outputs, never the plant state).
 #[derive(Clone, Copy, Debug)]
 pub struct Measurements<'a> {

@@ -14,11 +14,29 @@
 //! `a_0 = 𝕄⁻¹(Q − h)`, `K = A 𝕄⁻¹ Aᵀ = diag(J_e,i M_i⁻¹ J_e,iᵀ) + 𝐉 M_o⁻¹ 𝐉ᵀ` (2m × 2m, `𝐉` the
 //! stacked grasp Jacobians), `K λ = −Ȧṡ − A a_0 − 2ω_b φ̇ − ω_b² φ`, then `s̈ = a_0 + 𝕄⁻¹Aᵀλ`.
 //! Each arm's `M_i` is factored once per evaluation; no allocation.
+//!
+//! Two implementations of these equations, selected once per plant ([`Algorithm`]):
+//! * two 2-link arms (the paper): every block is a fixed-size value on the stack — the SPEC §2.1
+//!   closed forms from one `sin_cos` per link ([`TwoLinkArm`]), `M_i⁻¹ = adj(M_i)/det M_i` in
+//!   closed form, `K` a `Matrix4` factored by the same in-place Cholesky, `M_o⁻¹` and `C_o` as
+//!   diagonals;
+//! * the general algorithm on the workspace's dynamic-size buffers, for any arms.
+//!
+//! `tests/plant.rs` holds the two equal to round-off at random states.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix2, Matrix4, Vector2, Vector3, Vector4};
 
-use super::{Plant, PlantInput, PlantWorkspace};
+use super::{Algorithm, Plant, PlantInput, PlantWorkspace};
+use crate::arm::TwoLinkArm;
 use crate::linalg::{cholesky_in_place, cholesky_solve_in_place};
+
+/// Relative regularisation of a singular grasp-space matrix: `K + ε tr(K) I`.
+const K_REG: f64 = 1e-10;
+
+#[inline]
+fn perp(v: Vector2<f64>) -> Vector2<f64> {
+    Vector2::new(-v.y, v.x)
+}
 
 impl Plant {
     /// State derivative of the constrained plant: reads `(y, input)`, writes `dy` and the grasp
@@ -27,7 +45,141 @@ impl Plant {
     ///
     /// A singular grasp-space matrix `K` (arms at singularities that lock the chain) is
     /// regularised (`K + ε tr(K) I`, ε = 1e-10) and counted in `ws.regularised`.
+    ///
+    /// Dispatches on [`Plant::algorithm`]: the fixed-size path for two 2-link arms (it does not
+    /// write `ws.terms`), else [`Plant::derivative_general`]; the two agree to round-off.
+    #[inline]
     pub fn derivative(
+        &self,
+        y: &[f64],
+        input: &PlantInput,
+        ws: &mut PlantWorkspace,
+        dy: &mut [f64],
+    ) -> bool {
+        match &self.pair {
+            Some(arms) => self.derivative_pair(arms, y, input, ws, dy),
+            None => self.derivative_general(y, input, ws, dy),
+        }
+    }
+
+    /// The fixed-size constrained derivative of [`Algorithm::TwoArmsTwoLinks`]: the equations
+    /// and outputs of [`Plant::derivative_general`] (the same `K` factorisation), with every
+    /// block in registers. Reads `(y, input)`; writes `dy`, `ws.forces`, `ws.xdd_o`,
+    /// `ws.kkt_pivot`, `ws.regularised`.
+    fn derivative_pair(
+        &self,
+        arms: &[TwoLinkArm; 2],
+        y: &[f64],
+        input: &PlantInput,
+        ws: &mut PlantWorkspace,
+        dy: &mut [f64],
+    ) -> bool {
+        debug_assert_eq!(self.algorithm(), Algorithm::TwoArmsTwoLinks);
+        // y = [q (4), x_o (3), q̇ (4), ẋ_o (3)]; one length check for all the indexing below.
+        let (y, dy) = (&y[..14], &mut dy[..14]);
+        let tau = &input.tau[..4];
+        let x_o = Vector3::new(y[4], y[5], y[6]);
+        let xd_o = Vector3::new(y[11], y[12], y[13]);
+        let p_o = Vector2::new(x_o.x, x_o.y);
+        let v_o = Vector2::new(xd_o.x, xd_o.y);
+        let (sin_th, cos_th) = x_o.z.sin_cos();
+        let w = self.baumgarte;
+        let mi = &self.m_o_inv;
+
+        // Object (ẋ_o, F_d) → unconstrained acceleration a0_o = M_o⁻¹(−F_d − C_o ẋ_o − G_o).
+        let a0_o =
+            mi.component_mul(&(-input.f_d - self.c_o.component_mul(&xd_o) - self.object.G_o));
+        let a0_o_xy = Vector2::new(a0_o.x, a0_o.y);
+
+        // Arm i (q_i, q̇_i, τ_i, x_o, ẋ_o) → a0_i = M_i⁻¹(τ_i − C_i q̇_i − G_i),
+        // Y_i = M_i⁻¹ J_e,iᵀ, K_ii = J_e,i Y_i, d_i = (R(θ) r_i)^⊥ (so J_i = [I | d_i]) and
+        // grasp i's right-hand side −Ȧṡ − A a0 − 2ω_b φ̇ − ω_b² φ.
+        let mut a0 = [Vector2::zeros(); 2];
+        let mut y_blk = [Matrix2::zeros(); 2];
+        let mut k_blk = [Matrix2::zeros(); 2];
+        let mut d = [Vector2::zeros(); 2];
+        let mut rhs = Vector4::zeros();
+        for i in 0..2 {
+            let arm = &arms[i];
+            let o = 2 * i;
+            let qd = [y[7 + o], y[8 + o]];
+            let t = arm.terms(&arm.pose([y[o], y[o + 1]]), qd, self.g);
+            if !(t.det_M > 0.0) {
+                return false;
+            }
+            let m_inv = t.m_inv();
+            let b = Vector2::new(tau[o], tau[o + 1]) - t.C * Vector2::from(qd) - t.G;
+            a0[i] = m_inv * b;
+            y_blk[i] = m_inv * t.J.transpose();
+            k_blk[i] = t.J * y_blk[i];
+            // R(θ) r_i once; the grasp point, J_i ẋ_o and J̇_i ẋ_o = −R r_i θ̇² from it.
+            let r = self.grasps[i].r;
+            let rw = Vector2::new(cos_th * r.x - sin_th * r.y, sin_th * r.x + cos_th * r.y);
+            d[i] = perp(rw);
+            let phi = t.p_ee - (p_o + rw);
+            let phid = t.v_ee - (v_o + d[i] * xd_o.z);
+            let bias = t.jdot_qdot + rw * (xd_o.z * xd_o.z);
+            let ja0 = t.J * a0[i] - (a0_o_xy + d[i] * a0_o.z);
+            let rh = -bias - ja0 - 2.0 * w * phid - w * w * phi;
+            rhs[o] = rh.x;
+            rhs[o + 1] = rh.y;
+        }
+        // K = diag(K_11, K_22) + 𝐉 M_o⁻¹ 𝐉ᵀ; with diagonal M_o⁻¹ its (i, j) block is
+        // diag(m_x, m_y) + (m_θ d_i) d_jᵀ.
+        let mut k = Matrix4::zeros();
+        for i in 0..2 {
+            for j in 0..2 {
+                let mut blk = (mi.z * d[i]) * d[j].transpose();
+                blk[(0, 0)] += mi.x;
+                blk[(1, 1)] += mi.y;
+                if i == j {
+                    blk = k_blk[i] + blk;
+                }
+                k.fixed_view_mut::<2, 2>(2 * i, 2 * j).copy_from(&blk);
+            }
+        }
+        // K λ = rhs by the in-place Cholesky (regularised if K is singular); λ into rhs.
+        let k_copy = k;
+        match cholesky_in_place(&mut k, 4) {
+            Ok(p) => ws.kkt_pivot = p,
+            Err(_) => {
+                let trace = k_copy.trace();
+                k = k_copy;
+                for dd in 0..4 {
+                    k[(dd, dd)] += K_REG * trace.max(f64::MIN_POSITIVE);
+                }
+                ws.regularised += 1;
+                ws.kkt_pivot = 0.0;
+                if cholesky_in_place(&mut k, 4).is_err() {
+                    return false;
+                }
+            }
+        }
+        cholesky_solve_in_place(&k, 4, rhs.as_mut_slice());
+
+        // Accelerations: q̈_i = a0_i + Y_i λ_i; ẍ_o = a0_o − M_o⁻¹ Σ J_iᵀ λ_i.
+        dy[..4].copy_from_slice(&y[7..11]);
+        dy[4..7].copy_from_slice(xd_o.as_slice());
+        let mut f_sum = Vector3::zeros();
+        for i in 0..2 {
+            let lam = Vector2::new(rhs[2 * i], rhs[2 * i + 1]);
+            ws.forces[i] = lam;
+            f_sum += Vector3::new(lam.x, lam.y, d[i].dot(&lam));
+            let qdd = a0[i] + y_blk[i] * lam;
+            dy[7 + 2 * i] = qdd.x;
+            dy[8 + 2 * i] = qdd.y;
+        }
+        let xdd = a0_o - mi.component_mul(&f_sum);
+        ws.xdd_o = xdd;
+        dy[11..14].copy_from_slice(xdd.as_slice());
+        true
+    }
+
+    /// The general constrained derivative (any arms, any joint counts) on the workspace's
+    /// dynamic-size buffers: the contract of [`Plant::derivative`], and it also leaves each
+    /// arm's terms in `ws.terms`. [`Plant::derivative`] runs it unless the plant has a
+    /// fixed-size path; public so that tests hold the two equal.
+    pub fn derivative_general(
         &self,
         y: &[f64],
         input: &PlantInput,
@@ -126,7 +278,7 @@ impl Plant {
             Err(_) => {
                 ws.k.copy_from(&ws.k_copy);
                 for d in 0..nk {
-                    ws.k[(d, d)] += 1e-10 * trace.max(f64::MIN_POSITIVE);
+                    ws.k[(d, d)] += K_REG * trace.max(f64::MIN_POSITIVE);
                 }
                 ws.regularised += 1;
                 ws.kkt_pivot = 0.0;

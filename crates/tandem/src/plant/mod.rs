@@ -9,6 +9,15 @@
 //!
 //! State layout (flat, for the integrators): `y = [q (n_q), x_o (3), q̇ (n_q), ẋ_o (3)]`, where
 //! `q` stacks the arms' joint angles in arm order.
+//!
+//! # Fast paths
+//! [`Plant::new`] selects the constrained algorithm once ([`Algorithm`]): the paper's set-up, two
+//! 2-link arms, runs [`Plant::derivative`] entirely in fixed-size types (2×2 arm blocks from the
+//! SPEC §2.1 closed forms, closed-form `M⁻¹`, a 4×4 grasp-space Cholesky); any other plant runs
+//! the general dynamic-size algorithm ([`Plant::derivative_general`]), which stays public so
+//! tests hold the two equal. The reduced plant (2-link arms only) always uses the fixed-size
+//! per-arm terms ([`TwoLinkArm`]), with the inverse kinematics as link directions (no
+//! transcendental calls).
 
 pub mod constrained;
 pub mod reduced;
@@ -16,7 +25,7 @@ pub mod reduced;
 use nalgebra::{DMatrix, Matrix2, Matrix2x3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::arm::{Arm, ArmParams, ArmTerms, Cartesian, IkFailure};
+use crate::arm::{Arm, ArmParams, ArmTerms, Cartesian, IkFailure, TwoLinkArm};
 use crate::error::{ModelError, non_negative};
 use crate::grasp::Grasp;
 use crate::object::{Object, ObjectParams};
@@ -65,6 +74,16 @@ pub struct PlantInput {
     pub f_d: Vector3<f64>,
 }
 
+/// The constrained-derivative algorithm of a plant, selected once by [`Plant::new`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Algorithm {
+    /// Exactly two 2-link arms (the paper's set-up): fixed-size 2×2 arm blocks and a 4×4
+    /// grasp-space solve, no dynamic-size buffers.
+    TwoArmsTwoLinks,
+    /// Any number of arms with any number of joints: dynamic-size blocks in the workspace.
+    General,
+}
+
 /// A validated, immutable plant model.
 #[derive(Clone, Debug)]
 pub struct Plant {
@@ -75,12 +94,22 @@ pub struct Plant {
     baumgarte: f64,
     offsets: Vec<usize>,
     n_q: usize,
+    /// The two arms' fast paths when the plant is [`Algorithm::TwoArmsTwoLinks`].
+    pair: Option<[TwoLinkArm; 2]>,
+    /// Diagonal of `M_o⁻¹` ([`Object::new`] builds `M_o` diagonal), (1/kg, 1/kg, 1/(kg m²)).
+    m_o_inv: Vector3<f64>,
+    /// Diagonal of `C_o` (diagonal by construction), (N s/m, N s/m, N m s/rad).
+    c_o: Vector3<f64>,
 }
 
 /// Per-step scratch and the step's secondary results (grasp forces, diagnostics).
 #[derive(Clone, Debug)]
 pub struct PlantWorkspace {
-    /// Per-arm kinematics and dynamics.
+    /// Per-arm kinematics and dynamics. Written by the functions that say so
+    /// ([`Plant::energy`], [`Plant::constraint_residual`], [`Plant::min_singular_value`],
+    /// [`Plant::arms_from_object`], [`Plant::object_space`], [`Plant::derivative_general`]); the
+    /// fixed-size paths of [`Plant::derivative`] and [`Plant::reduced_derivative`] keep their
+    /// per-arm terms on the stack and leave it as it was.
     pub terms: Vec<ArmTerms>,
     /// Grasp forces `F_i` (the object on end-effector `i`) of the last evaluation, N.
     pub forces: Vec<Vector2<f64>>,
@@ -103,6 +132,8 @@ pub struct PlantWorkspace {
     /// Per-arm Cartesian terms (3)–(4) from the last reduced evaluation.
     pub cartesian: Vec<Cartesian>,
     tau_x: Vec<Vector2<f64>>,
+    /// Per-arm `R(θ) r_i` of the last reduced evaluation, m.
+    rw: Vec<Vector2<f64>>,
 }
 
 /// Plant energy split, J.
@@ -164,6 +195,12 @@ impl Plant {
         let object = Object::new(&p.object)?;
         let g = non_negative("gravity", p.gravity)?;
         let baumgarte = non_negative("baumgarte", p.baumgarte)?;
+        let pair = match arms.as_slice() {
+            [a, b] => a.two_link().zip(b.two_link()).map(|(a, b)| [*a, *b]),
+            _ => None,
+        };
+        let m_o_inv = object.M_o_inv.diagonal();
+        let c_o = object.C_o.diagonal();
         Ok(Plant {
             arms,
             grasps,
@@ -172,9 +209,20 @@ impl Plant {
             baumgarte,
             offsets,
             n_q,
+            pair,
+            m_o_inv,
+            c_o,
         })
     }
 
+    /// The constrained-derivative algorithm selected at construction.
+    pub fn algorithm(&self) -> Algorithm {
+        if self.pair.is_some() {
+            Algorithm::TwoArmsTwoLinks
+        } else {
+            Algorithm::General
+        }
+    }
     /// The arms.
     pub fn arms(&self) -> &[Arm] {
         &self.arms
@@ -252,6 +300,7 @@ impl Plant {
                 m
             ],
             tau_x: vec![Vector2::zeros(); m],
+            rw: vec![Vector2::zeros(); m],
         }
     }
 

@@ -1,0 +1,294 @@
+//! One run: prepare (every validation), simulate, post-process, summarize, write the outputs.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::Result;
+use serde_json::{Value, json};
+use tandem::report::{self, Summary};
+use tandem::sim::{Log, Outcome};
+
+use crate::anim::{self, AnimOptions};
+use crate::figures::{self, FigureInfo};
+use crate::output;
+use crate::scenario::{self, Built, ControllerKind, Scenario, ScenarioError, Source};
+
+/// A scenario that passed every validation, ready to run.
+pub struct Prepared {
+    /// The scenario (command-line overrides applied).
+    pub sc: Scenario,
+    /// Its library parameters.
+    pub built: Built,
+    /// The simulation and its set-up warnings.
+    pub ready: scenario::Ready,
+}
+
+/// Build and validate everything a run needs (nothing is simulated).
+pub fn prepare(sc: Scenario, src: &Source) -> Result<Prepared, ScenarioError> {
+    let built = scenario::build(&sc, src)?;
+    let ready = scenario::make_simulation(&sc, &built, src)?;
+    Ok(Prepared { sc, built, ready })
+}
+
+/// A finished run.
+pub struct Finished {
+    /// The scenario that ran.
+    pub sc: Scenario,
+    /// Its library parameters.
+    pub built: Built,
+    /// The log and how the run ended.
+    pub outcome: Outcome,
+    /// The metrics.
+    pub summary: Summary,
+    /// Set-up warnings.
+    pub warnings: Vec<String>,
+}
+
+impl Finished {
+    /// A human label, e.g. `NN (tuned)`.
+    pub fn label(&self) -> String {
+        label(&self.sc)
+    }
+}
+
+/// A human label of a scenario's controller, e.g. `NN (tuned)`, `PD`.
+pub fn label(sc: &Scenario) -> String {
+    match sc.controller.kind {
+        ControllerKind::Nn => format!("NN ({})", sc.gains_label()),
+        ControllerKind::Pd => "PD".into(),
+        ControllerKind::Ctc => "CTC".into(),
+        ControllerKind::Replay => format!("replay ({})", sc.gains_label()),
+    }
+}
+
+/// Simulate; `progress(fraction)` is called about 200 times.
+pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Finished {
+    let Prepared { sc, built, ready } = p;
+    let (mut outcome, _sim) = ready.sim.run(progress);
+    if sc.controller.kind == ControllerKind::Replay {
+        fill_replay_columns(&mut outcome.log, &built, sc.k_c());
+    }
+    let summary = report::summarize(
+        &outcome,
+        sc.controller.kind.name(),
+        &sc.gains_label(),
+        sc.k_c(),
+        sc.metrics.transient,
+        built.sim.duration,
+    );
+    Finished {
+        sc,
+        built,
+        outcome,
+        summary,
+        warnings: ready.warnings,
+    }
+}
+
+/// A replay has no controller, so the library logs zeros for its internals. Fill in what the
+/// scenario defines: `x_d` (and `x_r = x_d`, no admittance) from the path, `z1 = x_o − x_d`,
+/// and the constraint margin from the true pose.
+fn fill_replay_columns(log: &mut Log, built: &Built, k_c: [f64; 3]) {
+    let t: Vec<f64> = log.get("t").unwrap_or(&[]).to_vec();
+    let x_o: Vec<Vec<f64>> = ["x_o.x", "x_o.y", "x_o.theta"]
+        .iter()
+        .map(|n| log.get(n).unwrap_or(&[]).to_vec())
+        .collect();
+    let samples: Vec<_> = t.iter().map(|&t| built.path.sample(t)).collect();
+    for c in &mut log.columns {
+        let axis = |s: &str| match s {
+            "x" => Some(0),
+            "y" => Some(1),
+            "theta" => Some(2),
+            _ => None,
+        };
+        let Some((group, a)) = c.name.split_once('.') else {
+            if c.name == "margin" {
+                for (k, v) in c.data.iter_mut().enumerate() {
+                    *v = (0..3)
+                        .map(|j| 1.0 - x_o[j][k].abs() / k_c[j])
+                        .fold(f64::INFINITY, f64::min);
+                }
+            }
+            continue;
+        };
+        let Some(j) = axis(a) else { continue };
+        match group {
+            "x_d" | "x_r" => {
+                for (v, s) in c.data.iter_mut().zip(&samples) {
+                    *v = s.p[j];
+                }
+            }
+            "z1" => {
+                for (k, v) in c.data.iter_mut().enumerate() {
+                    *v = x_o[j][k] - samples[k].p[j];
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// The content of `summary.json`: the library's summary, the scenario's name and seed, the
+/// tandem version, warnings, and (in `timing`, excluded from determinism checks) wall times.
+pub fn summary_json(f: &Finished, scenario: &str, output_time: Option<f64>) -> Value {
+    let mut v = serde_json::to_value(&f.summary).unwrap_or(Value::Null);
+    let mut timing = serde_json::Map::new();
+    if let Value::Object(m) = &mut v {
+        for k in ["wall_time", "real_time_factor"] {
+            if let Some(x) = m.remove(k) {
+                timing.insert(k.into(), x);
+            }
+        }
+    }
+    if let Some(o) = output_time {
+        timing.insert("output_time".into(), json!(o));
+    }
+    let mut head = serde_json::Map::new();
+    head.insert("scenario".into(), json!(scenario));
+    head.insert("seed".into(), json!(f.sc.run.seed));
+    head.insert("tandem_version".into(), json!(env!("CARGO_PKG_VERSION")));
+    head.insert("label".into(), json!(f.label()));
+    head.insert("duration".into(), json!(f.built.sim.duration));
+    head.insert(
+        "fault_message".into(),
+        json!(f.outcome.fault.as_ref().map(|x| x.to_string())),
+    );
+    head.insert("warnings".into(), json!(f.warnings));
+    head.insert("rows".into(), json!(f.outcome.log.len()));
+    head.insert("regularised".into(), json!(f.outcome.regularised));
+    if let Value::Object(m) = v {
+        head.extend(m);
+    }
+    head.insert("timing".into(), Value::Object(timing));
+    Value::Object(head)
+}
+
+/// The resolved scenario as TOML, with a header saying what it is.
+pub fn scenario_toml(sc: &Scenario, name: &str, replay: Option<&Path>) -> Result<String> {
+    let mut resolved = sc.resolved();
+    if let Some(r) = replay {
+        // Relative to the original scenario's folder, which this file does not live in.
+        let abs = std::path::absolute(r).unwrap_or_else(|_| r.to_path_buf());
+        resolved.controller.replay = Some(abs.display().to_string());
+    }
+    let body = toml::to_string(&resolved)?;
+    Ok(format!(
+        "# Resolved scenario `{name}` as run by tandem {} ({}).\n\
+         # Every default and preset is written out; run it again with:  tandem run <this file>\n\n{body}",
+        env!("CARGO_PKG_VERSION"),
+        label(sc),
+    ))
+}
+
+/// Write the time series of a run.
+pub fn write_timeseries(path: &Path, log: &Log) -> Result<()> {
+    let header = log.names();
+    let cols: Vec<&[f64]> = log.columns.iter().map(|c| c.data.as_slice()).collect();
+    output::write_csv(path, &header, &cols)
+}
+
+/// Which outputs to write.
+#[derive(Clone, Copy, Debug)]
+pub struct Outputs {
+    /// Figures (PNG + SVG) and the animation.
+    pub figures: bool,
+}
+
+/// Times spent writing, s.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WriteTimes {
+    /// CSV.
+    pub csv: f64,
+    /// Figures.
+    pub figures: f64,
+    /// Animation.
+    pub animation: f64,
+}
+
+impl WriteTimes {
+    /// Total.
+    pub fn total(&self) -> f64 {
+        self.csv + self.figures + self.animation
+    }
+}
+
+/// Write a run's files into `dir` (a temporary folder): `timeseries.csv`, `scenario.toml`,
+/// figures, `animation.svg`, then `summary.json` (last, with the write times). Figure errors are
+/// returned as warnings so that a faulted run still writes what it has.
+pub fn write_run(
+    dir: &Path,
+    f: &Finished,
+    scenario: &str,
+    what: Outputs,
+) -> Result<(WriteTimes, Vec<String>)> {
+    let mut times = WriteTimes::default();
+    let mut problems = Vec::new();
+    let t0 = Instant::now();
+    write_timeseries(&dir.join("timeseries.csv"), &f.outcome.log)?;
+    times.csv = t0.elapsed().as_secs_f64();
+    output::write_text_atomic(
+        &dir.join("scenario.toml"),
+        &scenario_toml(&f.sc, scenario, f.built.replay.as_deref())?,
+    )?;
+    if what.figures && !f.outcome.log.is_empty() {
+        let t1 = Instant::now();
+        let info = FigureInfo {
+            title: format!("{scenario} — {}", f.label()),
+            k_c: f.sc.k_c(),
+            zoom: zoom(&f.sc),
+            nn: f.sc.controller.kind == ControllerKind::Nn,
+            replay: f.sc.controller.kind == ControllerKind::Replay,
+            admittance: f.sc.controller.kind != ControllerKind::Replay && f.sc.admittance.enabled,
+            joints: f.built.plant.arms.iter().map(|a| a.links.len()).collect(),
+        };
+        if let Err(e) = figures::run_figures(dir, &f.outcome.log, &info) {
+            problems.push(format!("figures: {e:#}"));
+        }
+        times.figures = t1.elapsed().as_secs_f64();
+        let t2 = Instant::now();
+        if let Err(e) = write_animation(dir, f, scenario) {
+            problems.push(format!("animation: {e:#}"));
+        }
+        times.animation = t2.elapsed().as_secs_f64();
+    }
+    output::write_json_atomic(
+        &dir.join("summary.json"),
+        &summary_json(f, scenario, Some(times.total())),
+    )?;
+    Ok((times, problems))
+}
+
+/// The zoomed transient window of the figures: the metrics' transient, at least 2 s.
+pub fn zoom(sc: &Scenario) -> Option<f64> {
+    Some(sc.metrics.transient.max(2.0))
+}
+
+fn write_animation(dir: &Path, f: &Finished, scenario: &str) -> Result<()> {
+    let frames = crate::scene::frames(
+        &f.built.plant,
+        &f.outcome.log,
+        &f.built.path,
+        f.sc.k_c(),
+        f.built.q_guess.as_deref(),
+    )?;
+    if frames.frames.len() < 2 {
+        return Ok(());
+    }
+    let t_end = frames.frames.last().map_or(0.0, |fr| fr.t);
+    // About 30 s of playback, never slower than real time.
+    let speed = (t_end / 30.0).max(1.0);
+    anim::animated_svg(
+        &dir.join("animation.svg"),
+        &frames,
+        &AnimOptions {
+            speed,
+            title: format!(
+                "{scenario} — {} ({}× speed)",
+                f.label(),
+                crate::table::num(speed, 3)
+            ),
+            ..AnimOptions::default()
+        },
+    )
+}

@@ -1,0 +1,1544 @@
+//! Scenario files: what a run simulates, in TOML.
+//!
+//! A scenario file deserializes into the plain structs below (every struct `deny_unknown_fields`,
+//! STYLE §7 "config is not model"); [`build`] turns it into the library's parameter types and
+//! [`make_simulation`] into a validated [`Simulation`]. All range checks are the library's: its
+//! [`ModelError`] names the parameter path, which is mapped back to the file's field path (and,
+//! when the field is in the file, to its line and column).
+//!
+//! Layout (see `scenarios/paper.toml` for every field with its origin):
+//!
+//! | table | maps to |
+//! |---|---|
+//! | `description` | free text |
+//! | `[[arms]]`, `[[arms.links]]` | [`ArmParams`], [`LinkParams`], grasp point `r_i` |
+//! | `[object]` | [`ObjectParams`] |
+//! | `[plant]` | gravity, Baumgarte drift control |
+//! | `[path]` | [`Path`] (`kind` = circle, point_to_point, lemniscate, spline) |
+//! | `[disturbance]`, `[[disturbance.pushes]]` | [`Disturbance`], [`Push`] |
+//! | `[sensors]` | [`SensorParams`] (its seed is `run.seed`) |
+//! | `[controller]` (+ `.nn`, `.pd`, `.ctc`) | [`ControllerParams`] or a torque replay |
+//! | `[admittance]` | [`AdmittanceParams`] |
+//! | `[run]` | [`SimParams`] and the seed |
+//! | `[metrics]` | the transient window of the summary |
+
+use std::fmt;
+use std::ops::Range;
+use std::path::{Path as FsPath, PathBuf};
+
+use nalgebra::{Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+use tandem::ModelError;
+use tandem::adaptive::NnGains;
+use tandem::admittance::AdmittanceParams;
+use tandem::arm::{ArmParams, Elbow, LinkParams};
+use tandem::control::{ControlWarning, Controller, ControllerParams, LawParams, Scheme};
+use tandem::ctc::CtcGains;
+use tandem::disturbance::{Disturbance, Push};
+use tandem::object::ObjectParams;
+use tandem::pd::PdGains;
+use tandem::plant::PlantParams;
+use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::sim::{Driver, Formulation, SimParams, Simulation};
+use tandem::trajectory::Path;
+
+use crate::suggest;
+
+// ---------------------------------------------------------------------------------------------
+// Embedded scenarios.
+
+/// An embedded scenario: name, one-line description, TOML text.
+pub struct Embedded {
+    /// Name used on the command line (`tandem run paper`).
+    pub name: &'static str,
+    /// One line for `tandem scenario list`.
+    pub summary: &'static str,
+    /// The file.
+    pub text: &'static str,
+}
+
+/// The scenarios compiled into the binary; the first is the default.
+pub const EMBEDDED: &[Embedded] = &[
+    Embedded {
+        name: "paper",
+        summary: "the paper's Section V: two 2-link arms carry a box around a 0.2 m circle for 90 s",
+        text: include_str!("../scenarios/paper.toml"),
+    },
+    Embedded {
+        name: "push",
+        summary: "the paper scenario with a 2 N push on the object at t = 20 s for 2 s (admittance compliance)",
+        text: include_str!("../scenarios/push.toml"),
+    },
+    Embedded {
+        name: "lemniscate",
+        summary: "the paper's arms carry the box along a figure eight (Gerono lemniscate), noisy sensors",
+        text: include_str!("../scenarios/lemniscate.toml"),
+    },
+];
+
+/// The default scenario's name.
+pub const DEFAULT: &str = "paper";
+
+/// Where a scenario's text comes from.
+#[derive(Clone, Debug)]
+pub struct Source {
+    /// Scenario name: the embedded name, or the file's stem.
+    pub name: String,
+    /// How errors name it: the file path, or `embedded scenario `paper``.
+    pub display: String,
+    /// The TOML text.
+    pub text: String,
+    /// Folder that relative paths inside the file (a replay file) are resolved against.
+    pub dir: PathBuf,
+}
+
+/// Resolve the command line's `SCENARIO`: an existing file, else an embedded name; `None` is the
+/// default scenario.
+pub fn resolve(arg: Option<&str>) -> Result<Source, crate::BadInput> {
+    let arg = arg.unwrap_or(DEFAULT);
+    let p = FsPath::new(arg);
+    if p.is_file() {
+        let text = std::fs::read_to_string(p).map_err(|e| {
+            crate::BadInput::msg(format!("cannot read scenario file {}: {e}", p.display()))
+        })?;
+        let name = p
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scenario".into());
+        let dir = p
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .map(FsPath::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from("."));
+        return Ok(Source {
+            name,
+            display: p.display().to_string(),
+            text,
+            dir,
+        });
+    }
+    if let Some(e) = EMBEDDED.iter().find(|e| e.name == arg) {
+        return Ok(embedded_source(e));
+    }
+    let names: Vec<&str> = EMBEDDED.iter().map(|e| e.name).collect();
+    let looks_like_file = arg.ends_with(".toml") || arg.contains('/') || arg.contains('\\');
+    let mut msg = if p.exists() {
+        format!("scenario {arg} is not a file")
+    } else if looks_like_file {
+        format!("scenario file {arg} does not exist")
+    } else {
+        format!("`{arg}` is neither a scenario file nor an embedded scenario")
+    };
+    if !looks_like_file {
+        if let Some(s) = suggest::closest(arg, names.iter().copied()) {
+            msg.push_str(&format!(" — did you mean `{s}`?"));
+        }
+    }
+    msg.push_str(&format!(
+        " (embedded scenarios: {}; see `tandem scenario list`)",
+        names.join(", ")
+    ));
+    Err(crate::BadInput::msg(msg))
+}
+
+/// The source of an embedded scenario.
+pub fn embedded_source(e: &Embedded) -> Source {
+    Source {
+        name: e.name.to_string(),
+        display: format!("embedded scenario `{}`", e.name),
+        text: e.text.to_string(),
+        dir: PathBuf::from("."),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The file's structs.
+
+/// A scenario file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Free text, shown by `tandem validate` and in the report.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub description: String,
+    /// The arms, in order (arm 1 first).
+    pub arms: Vec<ArmConfig>,
+    /// The carried object.
+    pub object: ObjectParams,
+    /// Plant-wide constants.
+    #[serde(default)]
+    pub plant: PlantConfig,
+    /// The desired object path.
+    pub path: PathConfig,
+    /// Environment disturbance on the object (default: none).
+    #[serde(default)]
+    pub disturbance: DisturbanceConfig,
+    /// Sensor imperfections (default: ideal).
+    #[serde(default)]
+    pub sensors: SensorsConfig,
+    /// The controller (or a torque replay).
+    pub controller: ControllerConfig,
+    /// The admittance reference generator (default: on, SPEC §3.1 values).
+    #[serde(default)]
+    pub admittance: AdmittanceConfig,
+    /// Timing, start pose, formulation, seed.
+    pub run: RunConfig,
+    /// Summary metrics.
+    #[serde(default)]
+    pub metrics: MetricsConfig,
+}
+
+/// One arm.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArmConfig {
+    /// Base position in the world, m.
+    pub base: [f64; 2],
+    /// Base orientation (added to `q_1`), rad.
+    #[serde(default)]
+    pub base_angle: f64,
+    /// Elbow branch of a 2-link arm's inverse kinematics: "positive" (`q_2 > 0`) or "negative".
+    #[serde(default = "default_elbow")]
+    pub elbow: Elbow,
+    /// Grasp point `r_i` in the object frame, m.
+    pub grasp: [f64; 2],
+    /// Initial joint-angle guess for the numerical inverse kinematics of an arm that does not
+    /// have 2 links, rad (one per link).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q_guess: Option<Vec<f64>>,
+    /// The links, from the base out.
+    pub links: Vec<LinkParams>,
+}
+
+fn default_elbow() -> Elbow {
+    Elbow::Positive
+}
+
+/// Plant-wide constants.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlantConfig {
+    /// Gravity along −y, m/s².
+    #[serde(default = "default_gravity")]
+    pub gravity: f64,
+    /// Baumgarte drift-control natural frequency, rad/s (0 disables).
+    #[serde(default = "default_baumgarte")]
+    pub baumgarte: f64,
+}
+
+fn default_gravity() -> f64 {
+    tandem::arm::GRAVITY
+}
+fn default_baumgarte() -> f64 {
+    20.0
+}
+
+impl Default for PlantConfig {
+    fn default() -> Self {
+        PlantConfig {
+            gravity: default_gravity(),
+            baumgarte: default_baumgarte(),
+        }
+    }
+}
+
+/// Shape of the desired path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PathKind {
+    /// [`Path::circle`]: `center`, `radius`, `omega`, `phase`, `theta`.
+    Circle,
+    /// [`Path::point_to_point`]: `from`, `to`, `t0`, `duration`.
+    PointToPoint,
+    /// [`Path::lemniscate`]: `center`, `size`, `omega`, `phase`, `theta`.
+    Lemniscate,
+    /// [`Path::spline`]: `waypoints`.
+    Spline,
+}
+
+impl PathKind {
+    /// The name used in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            PathKind::Circle => "circle",
+            PathKind::PointToPoint => "point_to_point",
+            PathKind::Lemniscate => "lemniscate",
+            PathKind::Spline => "spline",
+        }
+    }
+    /// Fields this kind uses (required ones first), for error messages.
+    fn fields(self) -> (&'static [&'static str], &'static [&'static str]) {
+        match self {
+            PathKind::Circle => (&["center", "radius", "omega"], &["phase", "theta"]),
+            PathKind::PointToPoint => (&["from", "to", "duration"], &["t0"]),
+            PathKind::Lemniscate => (&["center", "size", "omega"], &["phase", "theta"]),
+            PathKind::Spline => (&["waypoints"], &[]),
+        }
+    }
+}
+
+/// One spline waypoint.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Waypoint {
+    /// Time, s.
+    pub t: f64,
+    /// Pose (x, y, θ), (m, m, rad).
+    pub pose: [f64; 3],
+}
+
+/// The desired path: `kind` plus the fields that kind uses (the others must be absent).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PathConfig {
+    /// Shape.
+    pub kind: PathKind,
+    /// Centre (circle, lemniscate), m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub center: Option<[f64; 2]>,
+    /// Radius (circle), m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    /// Half-width (lemniscate), m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<f64>,
+    /// Angular rate (circle, lemniscate), rad/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub omega: Option<f64>,
+    /// Phase at t = 0 (circle, lemniscate), rad; default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase: Option<f64>,
+    /// Constant orientation (circle, lemniscate), rad; default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub theta: Option<f64>,
+    /// Start pose (point_to_point), (m, m, rad).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from: Option<[f64; 3]>,
+    /// End pose (point_to_point), (m, m, rad).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to: Option<[f64; 3]>,
+    /// Start time of the motion (point_to_point), s; default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t0: Option<f64>,
+    /// Duration of the motion (point_to_point), s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub duration: Option<f64>,
+    /// Timed waypoints (spline).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub waypoints: Option<Vec<Waypoint>>,
+}
+
+/// `F_d(t) = a ∘ sin(ω t + φ) − Σ pushes`; everything defaults to zero.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisturbanceConfig {
+    /// Sinusoid amplitudes, (N, N, N m).
+    #[serde(default)]
+    pub amplitude: [f64; 3],
+    /// Angular frequencies, rad/s.
+    #[serde(default)]
+    pub frequency: [f64; 3],
+    /// Phases, rad.
+    #[serde(default)]
+    pub phase: [f64; 3],
+    /// Timed pushes (`t0`, `duration`, `wrench` on the object).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pushes: Vec<Push>,
+}
+
+/// Sensor imperfections per channel group (the seed is `run.seed`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorsConfig {
+    /// Joint-angle encoders, rad.
+    #[serde(default)]
+    pub encoder_q: ChannelNoise,
+    /// Joint-rate channels, rad/s.
+    #[serde(default)]
+    pub encoder_qd: ChannelNoise,
+    /// End-effector force sensors, N.
+    #[serde(default)]
+    pub force: ChannelNoise,
+}
+
+/// Which law drives the joints.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum ControllerKind {
+    /// iBLF backstepping + adaptive RBF network (SPEC §3.3–3.4).
+    Nn,
+    /// PD on the object (SPEC §3.5).
+    Pd,
+    /// Computed torque with a nominal model (SPEC §3.5).
+    Ctc,
+    /// Joint torques replayed from a CSV file.
+    Replay,
+}
+
+impl ControllerKind {
+    /// Short name.
+    pub fn name(self) -> &'static str {
+        match self {
+            ControllerKind::Nn => "nn",
+            ControllerKind::Pd => "pd",
+            ControllerKind::Ctc => "ctc",
+            ControllerKind::Replay => "replay",
+        }
+    }
+}
+
+/// Gain preset of the NN law.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum GainPreset {
+    /// The paper's gains (Section V-B-2); they end in a limit cycle (SPEC §3.4).
+    Paper,
+    /// Gains that make the paper's claims hold (SPEC §3.4).
+    Tuned,
+}
+
+impl GainPreset {
+    /// Short name.
+    pub fn name(self) -> &'static str {
+        match self {
+            GainPreset::Paper => "paper",
+            GainPreset::Tuned => "tuned",
+        }
+    }
+    fn gains(self) -> NnGains {
+        match self {
+            GainPreset::Paper => NnGains::paper(),
+            GainPreset::Tuned => NnGains::tuned(),
+        }
+    }
+}
+
+/// Per-field overrides of the NN preset (absent = the preset's value).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NnOverrides {
+    /// `K1` diagonal, 1/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k1: Option<[f64; 3]>,
+    /// `K2` diagonal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k2: Option<[f64; 3]>,
+    /// `K_r` diagonal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_r: Option<[f64; 3]>,
+    /// Adaptation gains `Θ_j`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub theta: Option<[f64; 3]>,
+    /// σ-modification.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<[f64; 3]>,
+    /// Robust-term smoothing `ϖ`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub varpi: Option<f64>,
+    /// Safety factor on `f^U`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fu_safety: Option<f64>,
+    /// RBF width `ϑ²`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width2: Option<f64>,
+    /// Centre levels per input.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub levels: Option<Vec<f64>>,
+    /// Switching inner radius.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub d1: Option<f64>,
+    /// Switching outer radius.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub d2: Option<f64>,
+    /// Switching shape.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub omega: Option<f64>,
+}
+
+impl NnOverrides {
+    fn is_empty(&self) -> bool {
+        *self == NnOverrides::default()
+    }
+    fn apply(&self, mut g: NnGains) -> NnGains {
+        macro_rules! set {
+            ($($f:ident),*) => { $( if let Some(v) = &self.$f { g.$f = v.clone(); } )* };
+        }
+        set!(
+            k1, k2, k_r, theta, sigma, varpi, fu_safety, width2, levels, d1, d2, omega
+        );
+        g
+    }
+    fn full(g: &NnGains) -> Self {
+        NnOverrides {
+            k1: Some(g.k1),
+            k2: Some(g.k2),
+            k_r: Some(g.k_r),
+            theta: Some(g.theta),
+            sigma: Some(g.sigma),
+            varpi: Some(g.varpi),
+            fu_safety: Some(g.fu_safety),
+            width2: Some(g.width2),
+            levels: Some(g.levels.clone()),
+            d1: Some(g.d1),
+            d2: Some(g.d2),
+            omega: Some(g.omega),
+        }
+    }
+}
+
+/// PD gains (absent = the paper's).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PdConfig {
+    /// `K_P` diagonal, (N/m, N/m, N m/rad).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_p: Option<[f64; 3]>,
+    /// `K_D` diagonal, (N s/m, N s/m, N m s/rad).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_d: Option<[f64; 3]>,
+}
+
+/// Computed-torque gains (absent = the library's defaults).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CtcConfig {
+    /// `K_P` diagonal, 1/s².
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_p: Option<[f64; 3]>,
+    /// `K_D` diagonal, 1/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_d: Option<[f64; 3]>,
+    /// Relative error of the nominal model's masses and inertias.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_error: Option<f64>,
+}
+
+/// The controller section.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerConfig {
+    /// `nn`, `pd`, `ctc` or `replay`.
+    pub kind: ControllerKind,
+    /// NN gain preset (default `tuned`); used by `kind = "nn"` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gains: Option<GainPreset>,
+    /// Where the law acts: `object` (the paper's simulation, default) or `per_arm`.
+    #[serde(default)]
+    pub scheme: Scheme,
+    /// Output bounds `|x_1j| < k_cj`, (m, m, rad).
+    pub k_c: [f64; 3],
+    /// Offset `δ` of each arm's desired point inside its grasp point, m.
+    pub delta: f64,
+    /// Symmetric joint torque limit, N m (absent: unlimited).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub torque_limit: Option<f64>,
+    /// Known bound of `|F_d,j|` for the NN law's `f^U` (absent: computed from `[disturbance]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub disturbance_bound: Option<[f64; 3]>,
+    /// Overrides of the NN preset.
+    #[serde(default, skip_serializing_if = "NnOverrides::is_empty")]
+    pub nn: NnOverrides,
+    /// PD gains.
+    #[serde(default)]
+    pub pd: PdConfig,
+    /// Computed-torque gains.
+    #[serde(default)]
+    pub ctc: CtcConfig,
+    /// Torque file of `kind = "replay"` (relative to the scenario file's folder).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replay: Option<String>,
+}
+
+/// A value given once for both axes, or as `[x, y]`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged, expecting = "a number or an array [x, y] of two numbers")]
+pub enum PerAxis {
+    /// The same value on both axes.
+    Both(f64),
+    /// `[x, y]`.
+    Each([f64; 2]),
+}
+
+impl PerAxis {
+    fn vector(self) -> Vector2<f64> {
+        match self {
+            PerAxis::Both(v) => Vector2::repeat(v),
+            PerAxis::Each([x, y]) => Vector2::new(x, y),
+        }
+    }
+}
+
+/// The admittance generator (SPEC §3.1).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdmittanceConfig {
+    /// `false` bypasses the generator (`x_r = x_d`).
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Virtual mass `M_e`, kg (0: the paper's first-order form, warned).
+    #[serde(default = "default_m_e")]
+    pub m_e: PerAxis,
+    /// Virtual damping `C_e`, N s/m.
+    #[serde(default = "default_c_e")]
+    pub c_e: PerAxis,
+    /// Virtual stiffness `K_e`, N/m.
+    #[serde(default = "default_k_e")]
+    pub k_e: PerAxis,
+    /// Force low-pass time constant `τ_f`, s.
+    #[serde(default = "default_tau_f")]
+    pub tau_f: PerAxis,
+}
+
+fn yes() -> bool {
+    true
+}
+fn default_m_e() -> PerAxis {
+    PerAxis::Both(200.0)
+}
+fn default_c_e() -> PerAxis {
+    PerAxis::Both(626.0)
+}
+fn default_k_e() -> PerAxis {
+    PerAxis::Both(1000.0)
+}
+fn default_tau_f() -> PerAxis {
+    PerAxis::Both(0.01)
+}
+
+impl Default for AdmittanceConfig {
+    fn default() -> Self {
+        AdmittanceConfig {
+            enabled: true,
+            m_e: default_m_e(),
+            c_e: default_c_e(),
+            k_e: default_k_e(),
+            tau_f: default_tau_f(),
+        }
+    }
+}
+
+/// Timing, start and determinism.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// Simulated time, s.
+    pub duration: f64,
+    /// Plant RK4 step, s.
+    pub plant_step: f64,
+    /// Control period, s (a whole multiple of `plant_step`).
+    pub control_period: f64,
+    /// Logging period, s (a whole multiple of `control_period`).
+    pub log_period: f64,
+    /// Object start pose at rest, (m, m, rad).
+    pub start: [f64; 3],
+    /// `constrained` (default) or `reduced`.
+    #[serde(default)]
+    pub formulation: Formulation,
+    /// Seed of every random stream (sensor noise and dropout).
+    #[serde(default)]
+    pub seed: u64,
+    /// Largest grasp-constraint drift before the run stops, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_drift: Option<f64>,
+    /// Smallest arm-Jacobian singular value before the run stops, m/rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_sigma: Option<f64>,
+}
+
+/// Summary metrics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MetricsConfig {
+    /// Start of the "after the transient" window, s.
+    #[serde(default = "default_transient")]
+    pub transient: f64,
+}
+
+fn default_transient() -> f64 {
+    5.0
+}
+
+impl Default for MetricsConfig {
+    fn default() -> Self {
+        MetricsConfig {
+            transient: default_transient(),
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Errors.
+
+/// A problem with a scenario: where (file, field path, line and column) and why.
+#[derive(Debug, Clone)]
+pub struct ScenarioError {
+    /// The file (or `embedded scenario `name``).
+    pub file: String,
+    /// The message, including the field path.
+    pub message: String,
+    /// Byte range in the text, if known.
+    pub span: Option<Range<usize>>,
+    /// The text (for line, column and the source excerpt).
+    pub text: String,
+}
+
+impl fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.file, self.message)?;
+        if let Some(span) = &self.span {
+            if let Some(snippet) = excerpt(&self.text, span.clone()) {
+                write!(f, "\n{snippet}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for ScenarioError {}
+
+/// 1-based (line, column) of a byte offset (column in characters).
+pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text[..floor_char(text, offset)];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, col)
+}
+
+fn floor_char(text: &str, mut i: usize) -> usize {
+    while i > 0 && !text.is_char_boundary(i) {
+        i -= 1;
+    }
+    i
+}
+
+/// ` (line L, column C)` for a span.
+fn at_line(text: &str, span: &Option<Range<usize>>) -> String {
+    match span {
+        Some(s) => {
+            let (l, c) = line_col(text, s.start);
+            format!(" (line {l}, column {c})")
+        }
+        None => String::new(),
+    }
+}
+
+/// The source line of `span` with carets under it, rustc style.
+fn excerpt(text: &str, span: Range<usize>) -> Option<String> {
+    if text.is_empty() {
+        return None;
+    }
+    let (line, col) = line_col(text, span.start);
+    let src = text.lines().nth(line - 1)?;
+    let width = text[floor_char(text, span.start)..floor_char(text, span.end.min(text.len()))]
+        .lines()
+        .next()
+        .map_or(1, |s| s.chars().count().max(1))
+        .min(src.chars().count().saturating_sub(col - 1).max(1));
+    let n = line.to_string();
+    let pad = " ".repeat(n.len());
+    Some(format!(
+        "{pad} |\n{n} | {src}\n{pad} | {}{}",
+        " ".repeat(col - 1),
+        "^".repeat(width)
+    ))
+}
+
+impl Source {
+    /// An error at a field path (its span looked up in the text when the field is there).
+    pub fn error_at(&self, path: &str, message: impl Into<String>) -> ScenarioError {
+        let (span, exact) = match span_of(&self.text, path) {
+            Some((s, e)) => (Some(s), e),
+            None => (None, false),
+        };
+        let mut message = message.into();
+        if !exact && !path.is_empty() {
+            message.push_str(" (not set in the file: a default or preset value)");
+        }
+        let message = format!("{message}{}", at_line(&self.text, &span));
+        ScenarioError {
+            file: self.display.clone(),
+            message,
+            span,
+            text: self.text.clone(),
+        }
+    }
+
+    /// A library validation error, its parameter path mapped to the file's by `map`.
+    pub fn model_error(&self, e: ModelError, map: impl Fn(&str) -> String) -> ScenarioError {
+        match e {
+            ModelError::Invalid {
+                param,
+                value,
+                reason,
+            } => {
+                let path = map(&param);
+                self.error_at(&path, format!("{path} = {value}: {reason}"))
+            }
+            ModelError::Geometry { what, reason } => {
+                let path = map(&what);
+                self.error_at(&path, format!("{path}: {reason}"))
+            }
+            other => self.error_at("", other.to_string()),
+        }
+    }
+}
+
+/// Path segments of `a.b[1].c`.
+fn segments(path: &str) -> Vec<Result<String, usize>> {
+    let mut out = Vec::new();
+    for part in path.split('.').filter(|s| !s.is_empty()) {
+        let mut rest = part;
+        if let Some(i) = rest.find('[') {
+            if i > 0 {
+                out.push(Ok(rest[..i].to_string()));
+            }
+            rest = &rest[i..];
+            while let Some(stripped) = rest.strip_prefix('[') {
+                let Some(end) = stripped.find(']') else { break };
+                if let Ok(k) = stripped[..end].parse() {
+                    out.push(Err(k));
+                }
+                rest = &stripped[end + 1..];
+            }
+        } else {
+            out.push(Ok(rest.to_string()));
+        }
+    }
+    out
+}
+
+/// The span of the value at `path` (or of its nearest ancestor present in the file, with
+/// `false`).
+pub fn span_of(text: &str, path: &str) -> Option<(Range<usize>, bool)> {
+    use toml::de::{DeTable, DeValue};
+    let root = DeTable::parse(text).ok()?;
+    let segs = segments(path);
+    let mut best: Option<Range<usize>> = None;
+    let mut table: Option<&DeTable> = Some(root.get_ref());
+    let mut value: Option<&DeValue> = None;
+    for (i, seg) in segs.iter().enumerate() {
+        // A scalar given for a per-axis value (`m_e = 200` for `m_e[1]`) is the value itself.
+        if let (Err(_), Some(v)) = (seg, value) {
+            if !v.is_array() && segs[i..].iter().all(|s| s.is_err()) {
+                return best.map(|b| (b, true));
+            }
+        }
+        let next = match (seg, value, table) {
+            (Ok(key), _, Some(t)) => t
+                .iter()
+                .find(|(k, _)| k.get_ref().as_ref() == key.as_str())
+                .map(|(_, v)| v),
+            (Err(k), Some(v), _) => v.as_array().and_then(|a| a.get(*k)),
+            _ => None,
+        };
+        match next {
+            Some(v) => {
+                best = Some(v.span());
+                value = Some(v.get_ref());
+                table = v.get_ref().as_table();
+            }
+            None => return best.map(|b| (b, false)),
+        }
+    }
+    best.map(|b| (b, true))
+}
+
+/// Parse a scenario's text.
+pub fn parse(src: &Source) -> Result<Scenario, ScenarioError> {
+    let err = |message: String, span: Option<Range<usize>>| ScenarioError {
+        file: src.display.clone(),
+        message,
+        span,
+        text: src.text.clone(),
+    };
+    let de = toml::Deserializer::parse(&src.text).map_err(|e| {
+        let span = e.span();
+        err(
+            format!(
+                "TOML syntax error: {}{}",
+                e.message().trim_end(),
+                at_line(&src.text, &span)
+            ),
+            span,
+        )
+    })?;
+    serde_path_to_error::deserialize::<_, Scenario>(de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.inner();
+        let span = inner.span();
+        let msg = inner.message().trim_end().to_string();
+        err(describe(&path, &msg, &src.text, &span), span)
+    })
+}
+
+/// Turn serde's message and path into a sentence with the place and a suggestion.
+fn describe(path: &str, msg: &str, text: &str, span: &Option<Range<usize>>) -> String {
+    let place = at_line(text, span);
+    let parent = |p: &str| -> String {
+        // The path of an unknown field ends with the field itself.
+        let cut = p.rfind('.').unwrap_or(0);
+        let parent = &p[..cut];
+        if parent.is_empty() || parent == "." {
+            "the top level".to_string()
+        } else {
+            parent.to_string()
+        }
+    };
+    let ticks: Vec<&str> = msg.split('`').skip(1).step_by(2).collect();
+    if msg.starts_with("unknown field ") {
+        let name = ticks.first().copied().unwrap_or("");
+        let expected: Vec<&str> = ticks.iter().skip(1).copied().collect();
+        let mut s = format!("unknown field `{name}` at {}{place}", parent(path));
+        match suggest::closest(name, expected.iter().copied()) {
+            Some(c) => s.push_str(&format!(" — did you mean `{c}`?")),
+            None if !expected.is_empty() => s.push_str(&format!(
+                "; expected one of {}",
+                expected
+                    .iter()
+                    .map(|e| format!("`{e}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )),
+            None => s.push_str("; this table takes no fields"),
+        }
+        return s;
+    }
+    if msg.starts_with("unknown variant ") {
+        let name = ticks.first().copied().unwrap_or("");
+        let expected: Vec<&str> = ticks.iter().skip(1).copied().collect();
+        let mut s = format!("unknown value \"{name}\" for {path}{place}");
+        if let Some(c) = suggest::closest(name, expected.iter().copied()) {
+            s.push_str(&format!(" — did you mean \"{c}\"?"));
+        } else {
+            s.push_str(&format!(
+                "; expected one of {}",
+                expected
+                    .iter()
+                    .map(|e| format!("\"{e}\""))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        return s;
+    }
+    if msg.starts_with("missing field ") {
+        let name = ticks.first().copied().unwrap_or("");
+        let at = if path.is_empty() || path == "." {
+            "the top level".to_string()
+        } else {
+            path.to_string()
+        };
+        return format!("missing field `{name}` in {at}{place}");
+    }
+    let at = if path.is_empty() || path == "." {
+        String::new()
+    } else {
+        format!(" at {path}")
+    };
+    format!("{msg}{at}{place}")
+}
+
+// ---------------------------------------------------------------------------------------------
+// Command-line overrides.
+
+/// What the command line changes in a scenario before it is built.
+#[derive(Clone, Debug, Default)]
+pub struct Overrides {
+    /// `--controller`.
+    pub controller: Option<ControllerKind>,
+    /// `--gains`.
+    pub gains: Option<GainPreset>,
+    /// `--duration`.
+    pub duration: Option<f64>,
+    /// `--replay` (a path relative to the current folder).
+    pub replay: Option<PathBuf>,
+    /// `--seed`.
+    pub seed: Option<u64>,
+}
+
+impl Scenario {
+    /// Apply command-line overrides; errors are bad input (exit code 2).
+    pub fn apply(&mut self, o: &Overrides) -> Result<(), crate::BadInput> {
+        if let Some(k) = o.controller {
+            self.controller.kind = k;
+        }
+        if let Some(r) = &o.replay {
+            if o.controller.is_none() {
+                self.controller.kind = ControllerKind::Replay;
+            } else if self.controller.kind != ControllerKind::Replay {
+                return Err(crate::BadInput::msg(format!(
+                    "--replay is for --controller replay, not --controller {}",
+                    self.controller.kind.name()
+                )));
+            }
+            let abs = std::path::absolute(r).unwrap_or_else(|_| r.clone());
+            self.controller.replay = Some(abs.display().to_string());
+        }
+        if let Some(g) = o.gains {
+            if self.controller.kind != ControllerKind::Nn {
+                return Err(crate::BadInput::msg(format!(
+                    "--gains {} selects a preset of the nn controller; this run uses the {} controller",
+                    g.name(),
+                    self.controller.kind.name()
+                )));
+            }
+            self.controller.gains = Some(g);
+        }
+        if let Some(d) = o.duration {
+            if !(d.is_finite() && d > 0.0) {
+                return Err(crate::BadInput::msg(format!(
+                    "--duration {d}: must be a positive number of seconds"
+                )));
+            }
+            self.run.duration = d;
+        }
+        if let Some(s) = o.seed {
+            self.run.seed = s;
+        }
+        Ok(())
+    }
+
+    /// The NN gains this scenario runs (preset plus overrides).
+    pub fn nn_gains(&self) -> NnGains {
+        self.controller
+            .nn
+            .apply(self.controller.gains.unwrap_or(GainPreset::Tuned).gains())
+    }
+
+    /// Short label of the gains: `tuned`, `paper+overrides`, `paper` (PD), ...
+    pub fn gains_label(&self) -> String {
+        let c = &self.controller;
+        match c.kind {
+            ControllerKind::Nn => {
+                let p = c.gains.unwrap_or(GainPreset::Tuned).name();
+                if c.nn.is_empty()
+                    || self.nn_gains() == c.gains.unwrap_or(GainPreset::Tuned).gains()
+                {
+                    p.to_string()
+                } else {
+                    format!("{p}+overrides")
+                }
+            }
+            ControllerKind::Pd => {
+                if self.pd_gains() == PdGains::paper() {
+                    "paper".into()
+                } else {
+                    "custom".into()
+                }
+            }
+            ControllerKind::Ctc => {
+                if self.ctc_gains() == CtcGains::default() {
+                    "default".into()
+                } else {
+                    "custom".into()
+                }
+            }
+            ControllerKind::Replay => c
+                .replay
+                .as_deref()
+                .and_then(|r| FsPath::new(r).file_name())
+                .map_or_else(String::new, |f| f.to_string_lossy().into_owned()),
+        }
+    }
+
+    fn pd_gains(&self) -> PdGains {
+        let d = PdGains::paper();
+        PdGains {
+            k_p: self.controller.pd.k_p.unwrap_or(d.k_p),
+            k_d: self.controller.pd.k_d.unwrap_or(d.k_d),
+        }
+    }
+
+    fn ctc_gains(&self) -> CtcGains {
+        let d = CtcGains::default();
+        let c = &self.controller.ctc;
+        CtcGains {
+            k_p: c.k_p.unwrap_or(d.k_p),
+            k_d: c.k_d.unwrap_or(d.k_d),
+            model_error: c.model_error.unwrap_or(d.model_error),
+        }
+    }
+
+    /// The same scenario with every default and preset written out (for `scenario.toml`).
+    pub fn resolved(&self) -> Scenario {
+        let mut s = self.clone();
+        let c = &mut s.controller;
+        if c.kind == ControllerKind::Nn {
+            c.gains = Some(c.gains.unwrap_or(GainPreset::Tuned));
+        }
+        c.nn = NnOverrides::full(&self.nn_gains());
+        let pd = self.pd_gains();
+        c.pd = PdConfig {
+            k_p: Some(pd.k_p),
+            k_d: Some(pd.k_d),
+        };
+        let ctc = self.ctc_gains();
+        c.ctc = CtcConfig {
+            k_p: Some(ctc.k_p),
+            k_d: Some(ctc.k_d),
+            model_error: Some(ctc.model_error),
+        };
+        if c.disturbance_bound.is_none() {
+            c.disturbance_bound = Some(disturbance(&self.disturbance).bound());
+        }
+        let d = SimParams::paper();
+        s.run.max_drift = Some(self.run.max_drift.unwrap_or(d.max_drift));
+        s.run.min_sigma = Some(self.run.min_sigma.unwrap_or(d.min_sigma));
+        s
+    }
+
+    /// The output bounds `k_c`.
+    pub fn k_c(&self) -> [f64; 3] {
+        self.controller.k_c
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Building the library's parameters.
+
+/// A scenario turned into the library's parameter types (not yet validated by the library
+/// beyond what [`build`] checks).
+pub struct Built {
+    /// The plant (truth); also the controller's model.
+    pub plant: PlantParams,
+    /// Sensors with the run's seed.
+    pub sensors: SensorParams,
+    /// `F_d`.
+    pub disturbance: Disturbance,
+    /// Timing.
+    pub sim: SimParams,
+    /// The desired path.
+    pub path: Path,
+    /// Controller parameters (`None` for a replay).
+    pub controller: Option<ControllerParams>,
+    /// The replay file (for `kind = "replay"`).
+    pub replay: Option<PathBuf>,
+    /// Stacked joint-angle guess for arms that are not 2-link.
+    pub q_guess: Option<Vec<f64>>,
+}
+
+fn disturbance(d: &DisturbanceConfig) -> Disturbance {
+    Disturbance {
+        amplitude: d.amplitude,
+        frequency: d.frequency,
+        phase: d.phase,
+        pushes: d.pushes.clone(),
+    }
+}
+
+/// Map a library parameter path of the plant to the file's.
+fn plant_path(p: &str) -> String {
+    if let Some(rest) = p.strip_prefix("grasps[") {
+        // grasps[i][k] → arms[i].grasp[k]
+        if let Some(end) = rest.find(']') {
+            return format!("arms[{}].grasp{}", &rest[..end], &rest[end + 1..]);
+        }
+    }
+    match p {
+        "gravity" | "baumgarte" => format!("plant.{p}"),
+        "grasps" => "arms".into(),
+        _ => p.to_string(),
+    }
+}
+
+/// Map a library parameter path of the path constructors (`circle.radius`) to `path.radius`.
+fn path_path(p: &str) -> String {
+    match p.split_once('.') {
+        Some((_, rest)) => format!("path.{rest}"),
+        None => format!("path.{p}"),
+    }
+}
+
+/// Map a library parameter path of the run settings to the file's.
+fn run_path(p: &str) -> String {
+    format!("run.{p}")
+}
+
+/// Map a library parameter path of [`Controller::new`] to the file's.
+fn controller_path(kind: ControllerKind) -> impl Fn(&str) -> String {
+    move |p: &str| {
+        let section = match kind {
+            ControllerKind::Nn => "nn",
+            ControllerKind::Pd => "pd",
+            ControllerKind::Ctc => "ctc",
+            ControllerKind::Replay => "replay",
+        };
+        if let Some(rest) = p.strip_prefix("gains.") {
+            if rest.starts_with("k_c") {
+                return format!("controller.{rest}");
+            }
+            return format!("controller.{section}.{rest}");
+        }
+        if p.starts_with("admittance.") {
+            return p.to_string();
+        }
+        if p.starts_with("arms") {
+            return p.to_string();
+        }
+        match p {
+            "control_period" | "h" => "run.control_period".into(),
+            "grasps" => "arms".into(),
+            "law" => "controller.kind".into(),
+            _ => format!("controller.{p}"),
+        }
+    }
+}
+
+/// Check the scenario's own structure and turn it into library parameters.
+pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
+    // Arms and grasps.
+    if sc.arms.is_empty() {
+        return Err(src.error_at("arms", "at least one arm is needed ([[arms]])"));
+    }
+    let mut q_guess = Vec::new();
+    let mut need_guess = false;
+    for (i, a) in sc.arms.iter().enumerate() {
+        match &a.q_guess {
+            Some(g) if g.len() != a.links.len() => {
+                return Err(src.error_at(
+                    &format!("arms[{i}].q_guess"),
+                    format!(
+                        "arms[{i}].q_guess has {} angles for {} links",
+                        g.len(),
+                        a.links.len()
+                    ),
+                ));
+            }
+            Some(g) => q_guess.extend_from_slice(g),
+            None if a.links.len() != 2 => {
+                return Err(src.error_at(
+                    &format!("arms[{i}]"),
+                    format!(
+                        "arms[{i}] has {} links: give q_guess (initial joint angles, rad) for its numerical inverse kinematics (analytic IK covers 2-link arms only)",
+                        a.links.len()
+                    ),
+                ));
+            }
+            None => q_guess.extend(std::iter::repeat_n(0.0, a.links.len())),
+        }
+        need_guess |= a.links.len() != 2;
+    }
+    let plant = PlantParams {
+        arms: sc
+            .arms
+            .iter()
+            .map(|a| ArmParams {
+                base: a.base,
+                base_angle: a.base_angle,
+                links: a.links.clone(),
+                elbow: a.elbow,
+            })
+            .collect(),
+        grasps: sc.arms.iter().map(|a| a.grasp).collect(),
+        object: sc.object.clone(),
+        gravity: sc.plant.gravity,
+        baumgarte: sc.plant.baumgarte,
+    };
+    tandem::plant::Plant::new(&plant).map_err(|e| src.model_error(e, plant_path))?;
+
+    // Path.
+    let path = build_path(&sc.path, src)?;
+
+    // Disturbance and sensors.
+    let disturbance = disturbance(&sc.disturbance);
+    disturbance
+        .validate()
+        .map_err(|e| src.model_error(e, |p| p.to_string()))?;
+    let sensors = SensorParams {
+        encoder_q: sc.sensors.encoder_q,
+        encoder_qd: sc.sensors.encoder_qd,
+        force: sc.sensors.force,
+        seed: sc.run.seed,
+    };
+    sensors
+        .validate()
+        .map_err(|e| src.model_error(e, |p| format!("sensors.{p}")))?;
+
+    // Run settings (the library checks the period ratios).
+    let d = SimParams::paper();
+    let sim = SimParams {
+        duration: sc.run.duration,
+        plant_step: sc.run.plant_step,
+        control_period: sc.run.control_period,
+        log_period: sc.run.log_period,
+        start: sc.run.start,
+        formulation: sc.run.formulation,
+        max_drift: sc.run.max_drift.unwrap_or(d.max_drift),
+        min_sigma: sc.run.min_sigma.unwrap_or(d.min_sigma),
+    };
+    sim.validate().map_err(|e| src.model_error(e, run_path))?;
+    if !(sc.metrics.transient.is_finite() && sc.metrics.transient >= 0.0) {
+        return Err(src.error_at(
+            "metrics.transient",
+            format!(
+                "metrics.transient = {}: must be finite and >= 0",
+                sc.metrics.transient
+            ),
+        ));
+    }
+
+    // Controller.
+    let c = &sc.controller;
+    let admittance = c_admittance(&sc.admittance);
+    let law = match c.kind {
+        ControllerKind::Nn => Some(LawParams::Nn(sc.nn_gains())),
+        ControllerKind::Pd => Some(LawParams::Pd(sc.pd_gains())),
+        ControllerKind::Ctc => Some(LawParams::Ctc(sc.ctc_gains())),
+        ControllerKind::Replay => None,
+    };
+    let controller = law.map(|law| ControllerParams {
+        law,
+        scheme: c.scheme,
+        k_c: c.k_c,
+        admittance,
+        delta: c.delta,
+        control_period: sc.run.control_period,
+        torque_limit: c.torque_limit,
+        disturbance_bound: c.disturbance_bound.unwrap_or(disturbance.bound()),
+    });
+    let replay = match (c.kind, &c.replay) {
+        (ControllerKind::Replay, None) => {
+            return Err(src.error_at(
+                "controller",
+                "controller.kind = \"replay\" needs a torque file: set controller.replay or pass --replay FILE",
+            ));
+        }
+        (ControllerKind::Replay, Some(r)) => {
+            let p = FsPath::new(r);
+            Some(if p.is_absolute() {
+                p.to_path_buf()
+            } else {
+                src.dir.join(p)
+            })
+        }
+        _ => None,
+    };
+    Ok(Built {
+        plant,
+        sensors,
+        disturbance,
+        sim,
+        path,
+        controller,
+        replay,
+        q_guess: need_guess.then_some(q_guess),
+    })
+}
+
+fn c_admittance(a: &AdmittanceConfig) -> Option<AdmittanceParams> {
+    a.enabled.then(|| AdmittanceParams {
+        m_e: a.m_e.vector(),
+        c_e: a.c_e.vector(),
+        k_e: a.k_e.vector(),
+        tau_f: a.tau_f.vector(),
+    })
+}
+
+fn build_path(p: &PathConfig, src: &Source) -> Result<Path, ScenarioError> {
+    let kind = p.kind;
+    let (required, optional) = kind.fields();
+    let present: Vec<(&str, bool)> = vec![
+        ("center", p.center.is_some()),
+        ("radius", p.radius.is_some()),
+        ("size", p.size.is_some()),
+        ("omega", p.omega.is_some()),
+        ("phase", p.phase.is_some()),
+        ("theta", p.theta.is_some()),
+        ("from", p.from.is_some()),
+        ("to", p.to.is_some()),
+        ("t0", p.t0.is_some()),
+        ("duration", p.duration.is_some()),
+        ("waypoints", p.waypoints.is_some()),
+    ];
+    for (name, set) in &present {
+        let used = required.contains(name) || optional.contains(name);
+        if *set && !used {
+            return Err(src.error_at(
+                &format!("path.{name}"),
+                format!(
+                    "path.{name} is not used by kind = \"{}\" (it takes {})",
+                    kind.name(),
+                    required
+                        .iter()
+                        .chain(optional.iter())
+                        .map(|f| format!("`{f}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        }
+        if !*set && required.contains(name) {
+            return Err(src.error_at(
+                "path",
+                format!(
+                    "missing field `{name}` in path: kind = \"{}\" needs {}",
+                    kind.name(),
+                    required
+                        .iter()
+                        .map(|f| format!("`{f}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        }
+    }
+    let v2 = |a: [f64; 2]| Vector2::new(a[0], a[1]);
+    let v3 = Vector3::from;
+    let r = match kind {
+        PathKind::Circle => Path::circle(
+            v2(p.center.unwrap_or_default()),
+            p.radius.unwrap_or_default(),
+            p.omega.unwrap_or_default(),
+            p.phase.unwrap_or(0.0),
+            p.theta.unwrap_or(0.0),
+        ),
+        PathKind::Lemniscate => Path::lemniscate(
+            v2(p.center.unwrap_or_default()),
+            p.size.unwrap_or_default(),
+            p.omega.unwrap_or_default(),
+            p.phase.unwrap_or(0.0),
+            p.theta.unwrap_or(0.0),
+        ),
+        PathKind::PointToPoint => Path::point_to_point(
+            v3(p.from.unwrap_or_default()),
+            v3(p.to.unwrap_or_default()),
+            p.t0.unwrap_or(0.0),
+            p.duration.unwrap_or_default(),
+        ),
+        PathKind::Spline => {
+            let w: Vec<(f64, Vector3<f64>)> = p
+                .waypoints
+                .as_deref()
+                .unwrap_or_default()
+                .iter()
+                .map(|w| (w.t, v3(w.pose)))
+                .collect();
+            Path::spline(&w)
+        }
+    };
+    r.map_err(|e| src.model_error(e, path_path))
+}
+
+/// The validated pieces of a run, ready to simulate.
+pub struct Ready {
+    /// The simulation (driver inside).
+    pub sim: Simulation,
+    /// Set-up warnings (e.g. the paper's first-order admittance).
+    pub warnings: Vec<String>,
+}
+
+/// Build the driver (controller or replay) and the simulation: every library validation.
+pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, ScenarioError> {
+    let mut warnings = Vec::new();
+    let driver = match &b.controller {
+        Some(cp) => {
+            let (c, w) = Controller::new(cp, &b.plant, b.path.clone(), b.sim.duration)
+                .map_err(|e| src.model_error(e, controller_path(sc.controller.kind)))?;
+            warnings.extend(w.iter().map(|w: &ControlWarning| w.to_string()));
+            Driver::Controller(Box::new(c))
+        }
+        None => {
+            let file = b.replay.as_deref().unwrap_or(FsPath::new(""));
+            let n_q: usize = b.plant.arms.iter().map(|a| a.links.len()).sum();
+            let replay = crate::replay::load(file, n_q).map_err(|e| ScenarioError {
+                file: format!("replay file {}", file.display()),
+                message: format!("{e:#}"),
+                span: None,
+                text: String::new(),
+            })?;
+            Driver::Replay(replay)
+        }
+    };
+    let sim = Simulation::new(
+        &b.plant,
+        &b.sensors,
+        driver,
+        b.disturbance.clone(),
+        b.sim.clone(),
+        b.q_guess.as_deref(),
+    )
+    .map_err(|e| {
+        // What remains to check here is the start pose (reach, singularity) and the formulation.
+        let [x, y, th] = b.sim.start;
+        let text = e.to_string();
+        match &e {
+            ModelError::Invalid { param, .. } if param == "start" => src.error_at(
+                "run.start",
+                format!(
+                    "run.start = ({x}, {y}, {th}): {}",
+                    text.trim_start_matches("start = ")
+                ),
+            ),
+            ModelError::Geometry { what, .. } if what.starts_with("arms") => src.error_at(
+                "run.start",
+                format!("run.start = ({x}, {y}, {th}) cannot be reached: {text}"),
+            ),
+            _ => src.model_error(e, |p| {
+                if p.starts_with("arms") {
+                    p.to_string()
+                } else if p.starts_with("encoder") || p.starts_with("force") {
+                    format!("sensors.{p}")
+                } else {
+                    run_path(p)
+                }
+            }),
+        }
+    })?;
+    Ok(Ready { sim, warnings })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_embedded_scenario_parses_and_builds() {
+        for e in EMBEDDED {
+            let src = embedded_source(e);
+            let sc = parse(&src).unwrap_or_else(|e| panic!("{e}"));
+            build(&sc, &src).unwrap_or_else(|e| panic!("{e}"));
+        }
+    }
+
+    #[test]
+    fn segments_split_indices() {
+        let s = segments("arms[0].links[1].mass");
+        assert_eq!(
+            s,
+            vec![
+                Ok("arms".into()),
+                Err(0),
+                Ok("links".into()),
+                Err(1),
+                Ok("mass".into())
+            ]
+        );
+    }
+
+    #[test]
+    fn span_finds_nested_values() {
+        let text = "[[arms]]\nbase = [1.0, 2.0]\n[[arms.links]]\nmass = 1.0\n[[arms.links]]\nmass = -2.0\n";
+        let (s, exact) = span_of(text, "arms[0].links[1].mass").expect("found");
+        assert!(exact);
+        assert_eq!(&text[s], "-2.0");
+        let (s, exact) = span_of(text, "arms[0].base[1]").expect("found");
+        assert!(exact);
+        assert_eq!(&text[s], "2.0");
+        let (_, exact) = span_of(text, "arms[0].links[1].inertia").expect("parent");
+        assert!(!exact);
+    }
+
+    #[test]
+    fn plant_paths_map_grasps() {
+        assert_eq!(plant_path("grasps[1][0]"), "arms[1].grasp[0]");
+        assert_eq!(plant_path("arms[0].links[1].mass"), "arms[0].links[1].mass");
+        assert_eq!(path_path("circle.radius"), "path.radius");
+        assert_eq!(path_path("spline.waypoints[2].t"), "path.waypoints[2].t");
+        let c = controller_path(ControllerKind::Nn);
+        assert_eq!(c("gains.k2[1]"), "controller.nn.k2[1]");
+        assert_eq!(c("gains.k_c[1]"), "controller.k_c[1]");
+        assert_eq!(c("delta"), "controller.delta");
+        assert_eq!(c("admittance.m_e[0]"), "admittance.m_e[0]");
+    }
+}
