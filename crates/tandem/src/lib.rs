@@ -1,10 +1,8 @@
-//! # tandem
+#![doc = include_str!("../../../README.md")]
 //!
-//! Cooperative manipulation: several planar arms hold one rigid object and carry it along a
-//! desired path. This crate holds the model, the plant, the controllers and the simulation loop;
-//! it does no I/O and no plotting (the `tandem-cli` crate does).
-//!
-//! See [`notation`] for the symbol table. SI units everywhere.
+//! This crate holds the model, the plant, the controllers and the simulation loop; it does no I/O
+//! and no plotting (the `tandem-cli` crate does). See [`notation`] for the symbol table. SI units
+//! everywhere.
 #![warn(missing_docs)]
 
 pub mod error;
@@ -36,3 +34,4 @@ pub mod report;
 pub mod sim;
 
 pub use error::ModelError;
+pub use nalgebra;
