@@ -1,13 +1,14 @@
 //! Plant derivative and step costs for the paper's two arms (SPEC §2.4).
 //!
 //! # Performance log
-//! Criterion medians on the shared 2-core development VM (load ≈ 1–3 from other builds, so
-//! ±15 %); instruction counts from callgrind (`valgrind --tool=callgrind`, per call, stable).
+//! Criterion medians on the shared 2-core development VM (other builds running: load ≈ 1.1,
+//! ±10 %), baseline and change measured alternately; instructions per call from callgrind
+//! (`valgrind --tool=callgrind`, stable). Paper plant, state as below.
 //!
-//! | date       | change                                              | constrained          | reduced              | RK4 step |
-//! |------------|-----------------------------------------------------|----------------------|----------------------|----------|
-//! | 2025-11-25 | general dynamic-size path (DMatrix, per-link Vecs)  | 0.44–0.57 µs, 7222 Ir | 0.57–0.64 µs, 6031 Ir | 1.9–2.3 µs |
-//! | 2025-11-25 | fixed-size 2-link fast path, 4×4 K, trig-free IK    | 0.15–0.19 µs, 1546 Ir | 0.17–0.24 µs, 1519 Ir | 0.6–0.84 µs |
+//! | date       | change                                             | constrained       | reduced           | RK4 step |
+//! |------------|----------------------------------------------------|-------------------|-------------------|----------|
+//! | 2026-11-25 | general dynamic-size path (DMatrix, per-link Vecs) | 447–545 ns, 7222 Ir | 562–575 ns, 6031 Ir | 1.90–1.95 µs |
+//! | 2026-11-25 | fixed-size 2-link path, 4×4 K, trig-free IK        | 170–180 ns, 1546 Ir | 188–192 ns, 1497 Ir | 0.71–0.73 µs |
 //!
 //! `plant/constrained_derivative_general` keeps the general algorithm measured on the same plant.
 use criterion::{Criterion, criterion_group, criterion_main};

@@ -266,7 +266,13 @@ pub struct AdaptiveNn<const N: usize = 3> {
     fu: FuBound,
     theta: [f64; 3],
     z: Vec<f64>,
+    /// `‖Ŵ_j‖²`, carried by the exact recurrence and refreshed every [`NORM_REFRESH`] ticks.
+    w_n2: [f64; N],
+    ticks: u64,
 }
+
+/// Ticks between exact recomputations of the weight norms (one read pass over the weights).
+const NORM_REFRESH: u64 = 1000;
 
 impl<const N: usize> AdaptiveNn<N> {
     /// Validate the gains against the theory's conditions (SPEC §3.4: `K1, K2, Θ, σ > 0`,
@@ -311,6 +317,8 @@ impl<const N: usize> AdaptiveNn<N> {
             fu,
             theta: g.theta,
             z: vec![0.0; 4 * N],
+            w_n2: [0.0; N],
+            ticks: 0,
         })
     }
 
@@ -321,6 +329,7 @@ impl<const N: usize> AdaptiveNn<N> {
     /// Zero the weights.
     pub fn reset_weights(&mut self) {
         self.net.reset();
+        self.w_n2 = [0.0; N];
     }
     /// The weights `Ŵ`, interleaved by node (`w[k·N + j]`: node k, output j).
     pub fn weights(&self) -> &[f64] {
@@ -358,10 +367,29 @@ impl<const N: usize> AdaptiveNn<N> {
         let q = self.switching.eval(&self.z);
         // S(Z) on the grid, outputs with the old weights and the exact held-input update of
         // (44), fused in one pass over the weights.
-        let nt = self
-            .net
-            .tick_at(&self.rbf, &self.z, &mut self.rbf_ws, q, &z2, &self.update);
-        let (phi_a, norms) = (nt.f_hat, nt.w_norm);
+        let phi_a =
+            self.net
+                .tick_at_outputs(&self.rbf, &self.z, &mut self.rbf_ws, q, &z2, &self.update);
+        // ‖Ŵ_j‖ for the record: ‖e Ŵ − c S‖² = e²‖Ŵ‖² − 2ec Ŵ·S + c²‖S‖², with Ŵ·S = f̂_j.
+        self.ticks += 1;
+        if self.ticks % NORM_REFRESH == 0 {
+            let n = self.net.norms();
+            for j in 0..N {
+                self.w_n2[j] = n[j] * n[j];
+            }
+        } else {
+            let (e, g, s2) = (
+                self.update.decay(),
+                self.update.gain(),
+                self.rbf_ws.s_norm2(),
+            );
+            for j in 0..N {
+                let c = g[j] * q * z2[j];
+                self.w_n2[j] =
+                    (e[j] * e[j] * self.w_n2[j] - 2.0 * e[j] * c * phi_a[j] + c * c * s2).max(0.0);
+            }
+        }
+        let norms: [f64; N] = std::array::from_fn(|j| self.w_n2[j].sqrt());
         let (nx2, na, nad) = (x2.norm(), ev.alpha.norm(), ev.alpha_dot.norm());
         let mut tau = SVector::<f64, N>::zeros();
         for j in 0..N {
@@ -406,5 +434,61 @@ fn prefix_gains(e: ModelError, from: &str, to: &str) -> ModelError {
             }
         }
         other => other,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn recorded_weight_norms_equal_the_exact_norms() {
+        // The norms are carried by a recurrence between exact refreshes; after 2500 ticks of
+        // varied inputs they must equal ‖Ŵ_j‖ computed from the weights (relative 1e-9: the
+        // recurrence adds a few ulps per tick, refreshed every 1000 ticks).
+        let plant = Plant::new(&crate::fixtures::paper()).unwrap();
+        let k_c = Vector3::repeat(0.35);
+        let fu = FuBound::from_model(&plant, k_c, [0.02, 0.02, 0.0], 1.5).unwrap();
+        let mut nn = AdaptiveNn::<3>::new(&NnGains::paper(), k_c, fu, 1e-3).unwrap();
+        let mut rec = TickRecord::default();
+        for k in 0..2500 {
+            let t = k as f64 * 1e-3;
+            let x1 = Vector3::new(
+                0.19 + 0.01 * (3.0 * t).sin(),
+                0.02 * t.cos(),
+                0.01 * (5.0 * t).sin(),
+            );
+            let x2 = Vector3::new(
+                0.03 * (3.0 * t).cos(),
+                -0.02 * t.sin(),
+                0.05 * (5.0 * t).cos(),
+            );
+            let xr = Vector3::new(0.19, 0.0, 0.0);
+            nn.wrench(
+                &x1,
+                &x2,
+                &xr,
+                &Vector3::zeros(),
+                &Vector3::zeros(),
+                &mut rec,
+            );
+            if k % 97 == 0 || k == 2499 {
+                for j in 0..3 {
+                    let exact = nn
+                        .weights()
+                        .iter()
+                        .skip(j)
+                        .step_by(3)
+                        .map(|x| x * x)
+                        .sum::<f64>()
+                        .sqrt();
+                    assert!(
+                        (rec.w_norm[j] - exact).abs() <= 1e-9 * exact.max(1e-12),
+                        "tick {k}, output {j}: {} vs {exact}",
+                        rec.w_norm[j]
+                    );
+                }
+            }
+        }
     }
 }

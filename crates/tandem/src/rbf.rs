@@ -711,7 +711,7 @@ impl<const M: usize> RbfNetwork<M> {
             let c = coefficients(q, z2, upd);
             // SAFETY: `avx2` is true only if the CPU reported AVX2 (`detect_avx2`).
             let (acc, n2) = unsafe {
-                avx2::tick_grid::<M>(&mut self.w, &ws.a, &ws.b, &mut ws.s, &upd.decay, &c)
+                avx2::tick_grid::<M, true>(&mut self.w, &ws.a, &ws.b, &mut ws.s, &upd.decay, &c)
             };
             return NnTick {
                 f_hat: SVector::from(acc),
@@ -720,6 +720,35 @@ impl<const M: usize> RbfNetwork<M> {
         }
         rbf.eval_into(z, ws);
         self.tick(&ws.s, q, z2, upd)
+    }
+
+    /// As [`RbfNetwork::tick_at`] but returns only `f̂` (the norms are not accumulated: one
+    /// multiply-add per weight less). A caller that needs `‖Ŵ_j‖` every tick can carry it by the
+    /// exact recurrence `‖Ŵ'_j‖² = e_j²‖Ŵ_j‖² − 2 e_j c_j f̂_j + c_j²‖S‖²` (`e = decay`,
+    /// `c_j = gain_j Q z2_j`, `‖S‖²` from [`RbfWorkspace::s_norm2`]) and refresh it now and then
+    /// with [`RbfNetwork::norms`]. No allocation.
+    #[inline]
+    pub fn tick_at_outputs(
+        &mut self,
+        rbf: &Rbf,
+        z: &[f64],
+        ws: &mut RbfWorkspace,
+        q: f64,
+        z2: &SVector<f64, M>,
+        upd: &NnUpdate<M>,
+    ) -> SVector<f64, M> {
+        assert_eq!(rbf.n_nodes(), self.n_nodes, "rbf_network: basis size");
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 && rbf.eval_factors(z, ws) && ws.b.len() % BLOCK == 0 {
+            let c = coefficients(q, z2, upd);
+            // SAFETY: `avx2` is true only if the CPU reported AVX2 (`detect_avx2`).
+            let (acc, _) = unsafe {
+                avx2::tick_grid::<M, false>(&mut self.w, &ws.a, &ws.b, &mut ws.s, &upd.decay, &c)
+            };
+            return SVector::from(acc);
+        }
+        rbf.eval_into(z, ws);
+        self.tick(&ws.s, q, z2, upd).f_hat
     }
 
     #[inline]
@@ -1015,7 +1044,7 @@ mod avx2 {
     /// # Safety
     /// The CPU must support AVX2.
     #[inline(always)]
-    unsafe fn tick_block<const M: usize, const OUT: bool>(
+    unsafe fn tick_block<const M: usize, const OUT: bool, const NORM: bool>(
         wb: &mut [f64],
         sv: __m256d,
         r: &mut Regs<M>,
@@ -1030,7 +1059,9 @@ mod avx2 {
                 }
                 let new = _mm256_sub_pd(_mm256_mul_pd(r.e[q], old), _mm256_mul_pd(r.c[q], sq));
                 store(wq, new);
-                r.n2[q] = _mm256_add_pd(r.n2[q], _mm256_mul_pd(new, new));
+                if NORM {
+                    r.n2[q] = _mm256_add_pd(r.n2[q], _mm256_mul_pd(new, new));
+                }
             }
         }
     }
@@ -1055,12 +1086,12 @@ mod avx2 {
                 .chunks_exact_mut(BLOCK * M)
                 .zip(s.chunks_exact(BLOCK))
             {
-                tick_block::<M, OUT>(wb, load(sb), &mut r);
+                tick_block::<M, OUT, true>(wb, load(sb), &mut r);
             }
             if !w_tail.is_empty() {
                 let mut tmp = [0.0; MAX_LANES];
                 tmp[..w_tail.len()].copy_from_slice(w_tail);
-                tick_block::<M, OUT>(&mut tmp, load(&s_tail(s)), &mut r);
+                tick_block::<M, OUT, true>(&mut tmp, load(&s_tail(s)), &mut r);
                 w_tail.copy_from_slice(&tmp[..w_tail.len()]);
             }
             (sums(&r.acc), sums(&r.n2))
@@ -1074,7 +1105,7 @@ mod avx2 {
     /// The CPU must support AVX2. Panics unless `b.len() % 4 == 0`,
     /// `s.len() = a.len()·b.len()` and `w.len() = s.len()·M`.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn tick_grid<const M: usize>(
+    pub(super) unsafe fn tick_grid<const M: usize, const NORM: bool>(
         w: &mut [f64],
         a: &[f64],
         b: &[f64],
@@ -1097,7 +1128,7 @@ mod avx2 {
                     // S = a_i · b_j, the product `eval_into` forms.
                     let sv = _mm256_mul_pd(av, load(bb));
                     store(sb, sv);
-                    tick_block::<M, true>(wb, sv, &mut r);
+                    tick_block::<M, true, NORM>(wb, sv, &mut r);
                 }
             }
             (sums(&r.acc), sums(&r.n2))
