@@ -729,6 +729,12 @@ impl TwoLinkArm {
         self.pose_from_dirs(u1, u12, u1.dot(&u12), cross(u1, u12))
     }
 
+    /// End-effector position `p_WE = base + l_1 u_1 + l_2 u_12` at a pose, m.
+    #[inline]
+    pub fn end_effector(&self, pose: &TwoLinkPose) -> Vector2<f64> {
+        self.base + self.l1 * pose.u1 + self.l2 * pose.u12
+    }
+
     /// Target in the base frame and `cos q2` from the law of cosines; the reach check.
     /// Returns `(x, y, x² + y², cos q2)`.
     #[inline]

@@ -8,7 +8,7 @@
 //! and the wrench the arms put on the object is `F_o = −Jᵀ F_e` (SPEC erratum: the paper prints
 //! `−J F_e`), with `F_e` the stacked forces the object exerts on the end-effectors.
 
-use nalgebra::{Matrix2x3, Matrix3, Rotation2, Vector2, Vector3};
+use nalgebra::{Matrix2x3, Rotation2, Vector2, Vector3};
 
 /// One grasp point `r_i` in the object frame, m.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,6 +52,15 @@ impl Grasp {
 /// With two symmetric grasps this is the midpoint and the direction angle. `θ` is returned on
 /// the branch nearest `theta_hint` (so it is continuous along a run).
 pub fn fit_pose(grasps: &[Grasp], points: &[Vector2<f64>], theta_hint: f64) -> Vector3<f64> {
+    fit_pose_rot(grasps, points, theta_hint).0
+}
+
+/// [`fit_pose`], also returning `R(θ)` (from the fit's cosine and sine: no trigonometry).
+pub fn fit_pose_rot(
+    grasps: &[Grasp],
+    points: &[Vector2<f64>],
+    theta_hint: f64,
+) -> (Vector3<f64>, Rotation2<f64>) {
     let m = grasps.len() as f64;
     let mut rbar = Vector2::zeros();
     let mut xbar = Vector2::zeros();
@@ -72,22 +81,69 @@ pub fn fit_pose(grasps: &[Grasp], points: &[Vector2<f64>], theta_hint: f64) -> V
     // Unwrap toward the hint.
     let two_pi = std::f64::consts::TAU;
     theta += ((theta_hint - theta) / two_pi).round() * two_pi;
-    let p = xbar - Rotation2::new(theta) * rbar;
-    Vector3::new(p.x, p.y, theta)
+    let h = s.hypot(c);
+    let rot = if h > 0.0 {
+        Rotation2::from_matrix_unchecked(nalgebra::Matrix2::new(c / h, -s / h, s / h, c / h))
+    } else {
+        Rotation2::identity()
+    };
+    let p = xbar - rot * rbar;
+    (Vector3::new(p.x, p.y, theta), rot)
+}
+
+/// `𝐉ᵀ𝐉 = Σ J_iᵀ J_i` for pinned grasps with world arms `ρ_i = R(θ) r_i`: the structured matrix
+/// `[[m, 0, a], [0, m, b], [a, b, c]]` with `(a, b) = Σ ρ_i^⊥`, `c = Σ |ρ_i|²`, solved by
+/// eliminating the two translations (no factorisation, no square root).
+#[derive(Clone, Copy, Debug)]
+struct Gram {
+    m: f64,
+    a: f64,
+    b: f64,
+    /// Schur complement `c − (a² + b²)/m` (> 0 unless every grasp point coincides).
+    schur: f64,
+}
+
+impl Gram {
+    fn new(grasps: &[Grasp], rot: &Rotation2<f64>) -> Option<Self> {
+        let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
+        for g in grasps {
+            let d = perp(rot * g.r);
+            a += d.x;
+            b += d.y;
+            c += d.norm_squared();
+        }
+        let m = grasps.len() as f64;
+        if m == 0.0 {
+            return None;
+        }
+        let schur = c - (a * a + b * b) / m;
+        (schur > 1e-12 * c).then_some(Gram { m, a, b, schur })
+    }
+    fn solve(&self, v: &Vector3<f64>) -> Vector3<f64> {
+        let z = (v.z - (self.a * v.x + self.b * v.y) / self.m) / self.schur;
+        Vector3::new((v.x - self.a * z) / self.m, (v.y - self.b * z) / self.m, z)
+    }
 }
 
 /// Least-squares object velocity from end-effector velocities: `ẋ_o = (Σ J_iᵀJ_i)⁻¹ Σ J_iᵀ ẋ_i`.
 /// Returns `None` if the grasps do not determine the object's motion (fewer than two distinct
 /// points).
 pub fn fit_velocity(grasps: &[Grasp], theta: f64, vels: &[Vector2<f64>]) -> Option<Vector3<f64>> {
-    let mut a = Matrix3::zeros();
+    fit_velocity_rot(grasps, &Rotation2::new(theta), vels)
+}
+
+/// [`fit_velocity`] with `R(θ)` given.
+pub fn fit_velocity_rot(
+    grasps: &[Grasp],
+    rot: &Rotation2<f64>,
+    vels: &[Vector2<f64>],
+) -> Option<Vector3<f64>> {
+    let gram = Gram::new(grasps, rot)?;
     let mut b = Vector3::zeros();
     for (g, v) in grasps.iter().zip(vels) {
-        let j = g.jacobian(theta);
-        a += j.transpose() * j;
-        b += j.transpose() * v;
+        b += Grasp::jacobian_from_arm(rot * g.r).transpose() * v;
     }
-    a.cholesky().map(|c| c.solve(&b))
+    Some(gram.solve(&b))
 }
 
 #[cfg(test)]
@@ -168,38 +224,48 @@ pub fn distribute_wrench(
     squeeze: f64,
     out: &mut [Vector2<f64>],
 ) -> bool {
-    let rot = Rotation2::new(theta);
-    let mut jtj = Matrix3::zeros();
-    for g in grasps {
-        let j = Grasp::jacobian_from_arm(rot * g.r);
-        jtj += j.transpose() * j;
-    }
-    let Some(chol) = jtj.cholesky() else {
+    distribute_wrench_rot(grasps, &Rotation2::new(theta), tau, squeeze, out)
+}
+
+/// [`distribute_wrench`] with `R(θ)` given.
+pub fn distribute_wrench_rot(
+    grasps: &[Grasp],
+    rot: &Rotation2<f64>,
+    tau: &Vector3<f64>,
+    squeeze: f64,
+    out: &mut [Vector2<f64>],
+) -> bool {
+    let Some(gram) = Gram::new(grasps, rot) else {
         return false;
     };
     // Minimum-norm share: τ_x,i = J_i (𝐉ᵀ𝐉)⁻¹ τ.
-    let w = chol.solve(tau);
+    let w = gram.solve(tau);
     // Squeeze λ_i = −s R r̂_i; its range-space part 𝐉(𝐉ᵀ𝐉)⁻¹𝐉ᵀλ is removed.
-    let mut jt_lambda = Vector3::zeros();
-    for g in grasps {
-        let rw = rot * g.r;
+    let squeeze_of = |rw: Vector2<f64>| {
         let n = rw.norm();
         if n > 0.0 {
-            let lam = -squeeze * rw / n;
-            jt_lambda += Grasp::jacobian_from_arm(rw).transpose() * lam;
-        }
-    }
-    let v = chol.solve(&jt_lambda);
-    for (g, o) in grasps.iter().zip(out.iter_mut()) {
-        let rw = rot * g.r;
-        let j = Grasp::jacobian_from_arm(rw);
-        let n = rw.norm();
-        let lam = if n > 0.0 {
             -squeeze * rw / n
         } else {
             Vector2::zeros()
+        }
+    };
+    let mut jt_lambda = Vector3::zeros();
+    if squeeze != 0.0 {
+        for g in grasps {
+            let rw = rot * g.r;
+            jt_lambda += Grasp::jacobian_from_arm(rw).transpose() * squeeze_of(rw);
+        }
+    }
+    let v = gram.solve(&jt_lambda);
+    for (g, o) in grasps.iter().zip(out.iter_mut()) {
+        let rw = rot * g.r;
+        let j = Grasp::jacobian_from_arm(rw);
+        let lam = if squeeze != 0.0 {
+            squeeze_of(rw)
+        } else {
+            Vector2::zeros()
         };
-        *o = j * w + lam - j * v;
+        *o = j * (w - v) + lam;
     }
     true
 }

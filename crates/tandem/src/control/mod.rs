@@ -23,7 +23,7 @@ use crate::adaptive::{AdaptiveNn, FuBound, NnGains};
 use crate::admittance::{Admittance, AdmittanceParams, AdmittanceState, AdmittanceWarning};
 use crate::ctc::{Ctc, CtcGains, nominal_params};
 use crate::error::{ModelError, non_negative, positive};
-use crate::grasp::{Grasp, distribute_wrench, fit_pose, fit_velocity};
+use crate::grasp::{Grasp, distribute_wrench_rot, fit_pose_rot, fit_velocity_rot};
 use crate::pd::{Pd, PdGains};
 use crate::plant::{Plant, PlantParams, PlantWorkspace};
 use crate::trajectory::Path;
@@ -404,7 +404,7 @@ impl Controller {
     /// them).
     pub fn start(&mut self, t0: f64, meas: &Measurements) {
         let s = self.path.sample(t0);
-        self.expected_forces(&s.p, &s.v, &s.a);
+        self.expected_forces(&Rotation2::new(s.p.z), &s.v, &s.a);
         for (st, f) in self.adm_state.iter_mut().zip(&self.f_ref) {
             *st = AdmittanceState::with_filter_at(*f);
         }
@@ -423,10 +423,15 @@ impl Controller {
 
     /// `F_ref,i`: minus arm i's share of the nominal wrench `M_o ẍ_d + C_o ẋ_d + G_o` plus the
     /// squeeze reaction (SPEC §3.1), into `self.f_ref`.
-    fn expected_forces(&mut self, x_d: &Vector3<f64>, xd_d: &Vector3<f64>, xdd_d: &Vector3<f64>) {
+    fn expected_forces(
+        &mut self,
+        rot_d: &Rotation2<f64>,
+        xd_d: &Vector3<f64>,
+        xdd_d: &Vector3<f64>,
+    ) {
         let o = self.kin.object();
         let w = o.M_o * xdd_d + o.C_o * xd_d + o.G_o;
-        if distribute_wrench(&self.grasps, x_d.z, &w, self.squeeze, &mut self.tau_x) {
+        if distribute_wrench_rot(&self.grasps, rot_d, &w, self.squeeze, &mut self.tau_x) {
             for (f, t) in self.f_ref.iter_mut().zip(&self.tau_x) {
                 *f = -t;
             }
@@ -434,19 +439,35 @@ impl Controller {
     }
 
     /// Object pose and velocity from the encoders (step 1). Returns false if degenerate.
-    fn estimate(&mut self, meas: &Measurements) -> Option<(Vector3<f64>, Vector3<f64>)> {
+    fn estimate(
+        &mut self,
+        meas: &Measurements,
+    ) -> Option<(Vector3<f64>, Vector3<f64>, Rotation2<f64>)> {
         for (i, arm) in self.kin.arms().iter().enumerate() {
             let off = self.kin.offset(i);
             let n = arm.dof();
             let t = &mut self.ws.terms[i];
-            arm.kinematics(&meas.q[off..off + n], &meas.qd[off..off + n], t);
+            if let Some(tl) = arm.two_link() {
+                // Fast path: one sin_cos per link; J_e into the shared terms for step 5.
+                let pose = tl.pose([meas.q[off], meas.q[off + 1]]);
+                let qd = nalgebra::Vector2::new(meas.qd[off], meas.qd[off + 1]);
+                t.p_ee = tl.end_effector(&pose);
+                t.v_ee = pose.J * qd;
+                for r in 0..2 {
+                    for c in 0..2 {
+                        t.J[(r, c)] = pose.J[(r, c)];
+                    }
+                }
+            } else {
+                arm.kinematics(&meas.q[off..off + n], &meas.qd[off..off + n], t);
+            }
             self.pts[i] = t.p_ee;
             self.vels[i] = t.v_ee;
         }
-        let x = fit_pose(&self.grasps, &self.pts, self.theta_hint);
-        let v = fit_velocity(&self.grasps, x.z, &self.vels)?;
+        let (x, rot) = fit_pose_rot(&self.grasps, &self.pts, self.theta_hint);
+        let v = fit_velocity_rot(&self.grasps, &rot, &self.vels)?;
         self.theta_hint = x.z;
-        Some((x, v))
+        Some((x, v, rot))
     }
 
     /// One control tick at time `t`: `(t, q, q̇, F) → τ_joint` (written into `tau`, n_q) and the
@@ -457,7 +478,7 @@ impl Controller {
             ..TickRecord::default()
         };
         // 1. Estimate.
-        let Some((x1, x2)) = self.estimate(meas) else {
+        let Some((x1, x2, rot1)) = self.estimate(meas) else {
             self.events.degenerate += 1;
             tau.fill(0.0);
             return;
@@ -497,10 +518,9 @@ impl Controller {
                 rec.z2 = z1_dot;
                 self.per_arm_forces(rec);
                 // The wrench the arms' commands put on the object (for the record).
-                let rot = Rotation2::new(x1.z);
                 let mut w = Vector3::zeros();
                 for (g, t) in self.grasps.iter().zip(&self.tau_x) {
-                    w += Grasp::jacobian_from_arm(rot * g.r).transpose() * t;
+                    w += Grasp::jacobian_from_arm(rot1 * g.r).transpose() * t;
                 }
                 w
             }
@@ -520,7 +540,9 @@ impl Controller {
             .map(|j| 1.0 - x1[j].abs() / self.k_c[j])
             .fold(f64::INFINITY, f64::min);
         // 5. Distribute (object scheme) and map to joints.
-        if !per_arm && !distribute_wrench(&self.grasps, x1.z, &w, self.squeeze, &mut self.tau_x) {
+        if !per_arm
+            && !distribute_wrench_rot(&self.grasps, &rot1, &w, self.squeeze, &mut self.tau_x)
+        {
             self.events.degenerate += 1;
             tau.fill(0.0);
             return;
@@ -596,8 +618,8 @@ impl Controller {
         rec: &mut TickRecord,
     ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
         let adm = self.adm;
-        self.expected_forces(x_d, xd_d, xdd_d);
         let rot = Rotation2::new(x_d.z);
+        self.expected_forces(&rot, xd_d, xdd_d);
         let p_d = Vector2::new(x_d.x, x_d.y);
         for (i, g) in self.grasps_d.iter().enumerate() {
             let rw = rot * g.r;
@@ -625,15 +647,14 @@ impl Controller {
         if adm.is_none() {
             return (*x_d, *xd_d, *xdd_d);
         }
-        let x_r = fit_pose(&self.grasps_d, &self.pts, self.theta_r_hint);
+        let (x_r, rot_r) = fit_pose_rot(&self.grasps_d, &self.pts, self.theta_r_hint);
         self.theta_r_hint = x_r.z;
-        let xd_r = fit_velocity(&self.grasps_d, x_r.z, &self.vels).unwrap_or(*xd_d);
-        let rot_r = Rotation2::new(x_r.z);
+        let xd_r = fit_velocity_rot(&self.grasps_d, &rot_r, &self.vels).unwrap_or(*xd_d);
         for (i, g) in self.grasps_d.iter().enumerate() {
             // Remove the velocity-product term: ẍ_i − J̇_i ẋ_r = J_i ẍ_r.
             self.acc[i] += (rot_r * g.r) * (xd_r.z * xd_r.z);
         }
-        let xdd_r = fit_velocity(&self.grasps_d, x_r.z, &self.acc).unwrap_or(*xdd_d);
+        let xdd_r = fit_velocity_rot(&self.grasps_d, &rot_r, &self.acc).unwrap_or(*xdd_d);
         (x_r, xd_r, xdd_r)
     }
 
