@@ -1,10 +1,10 @@
 //! Animation frames of a run: arms, object and desired point at every log row.
 //!
-//! The library's log has the object pose `x_o` per row but not the joint angles, so the arms are
-//! reconstructed from `x_o` through the grasps: 2-link arms by their analytic inverse kinematics
-//! on the scenario's elbow branch (the same branch the plant keeps, so the picture is the
-//! simulated configuration), other arms by the plant's numerical inverse kinematics started from
-//! the previous frame (a redundant arm's self-motion is then not the simulated one).
+//! The arms are drawn from the logged joint angles `q1..qN` (the simulated configuration,
+//! redundant arms included). A log without them (an older file) falls back to reconstructing
+//! the arms from `x_o` through the grasps: 2-link arms by their analytic inverse kinematics on
+//! the scenario's elbow branch, other arms by numerical inverse kinematics from the previous
+//! frame.
 
 use nalgebra::Vector3;
 use tandem::plant::{Plant, PlantParams};
@@ -45,14 +45,20 @@ pub fn frames(
     let mut q: Vec<f64> = q_guess.map_or_else(|| vec![0.0; n_q], <[f64]>::to_vec);
     let mut terms: Vec<_> = plant.arms().iter().map(|a| a.terms()).collect();
     let zeros = vec![0.0; n_q];
+    let logged_q: Vec<&[f64]> = (1..=n_q).map(|j| col(log, &format!("q{j}"))).collect();
+    let have_q = logged_q.iter().all(|c| c.len() == t.len());
     let mut out = Vec::with_capacity(t.len());
     for k in 0..t.len() {
         let x_o = Vector3::new(x[k], y[k], th[k]);
         if !x_o.iter().all(|v| v.is_finite()) {
             continue;
         }
-        // Joint angles from the object pose (keep the previous ones on failure).
-        if let Ok(state) = plant.initial_state(x_o, Vector3::zeros(), Some(&q)) {
+        if have_q {
+            for (j, c) in logged_q.iter().enumerate() {
+                q[j] = c[k];
+            }
+        } else if let Ok(state) = plant.initial_state(x_o, Vector3::zeros(), Some(&q)) {
+            // Joint angles from the object pose (keep the previous ones on failure).
             q.copy_from_slice(&state[..n_q]);
         }
         let arms = plant

@@ -322,6 +322,9 @@ fn layout(n_q: usize, n_arms: usize) -> Vec<(String, String)> {
     for k in 0..n_q {
         l.push((format!("tau_q{}", k + 1), "N m".into()));
     }
+    for k in 0..n_q {
+        l.push((format!("q{}", k + 1), "rad".into()));
+    }
     for i in 0..n_arms {
         for a in ["x", "y"] {
             l.push((format!("F{}.{a}", i + 1), "N".into()));
@@ -642,6 +645,11 @@ impl Simulation {
         }
         for k in 0..self.input.tau.len() {
             self.log.columns[c].data.push(self.input.tau[k]);
+            c += 1;
+        }
+        let n_q = self.plant.n_q();
+        for k in 0..n_q {
+            self.log.columns[c].data.push(self.y[k]);
             c += 1;
         }
         for f in &self.ws.forces {
