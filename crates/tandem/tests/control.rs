@@ -320,6 +320,19 @@ fn gains_that_break_the_theory_are_named() {
     cp.k_c = [0.15, 0.35, 0.35];
     let e = err_of(cp);
     assert!(e.contains("k_c[0]") && e.contains("reach"), "{e}");
+    // A path the arms cannot follow: a 0.25 m circle centred at (0.1, 0) passes 0.6 m from the
+    // left arm's base at (−0.38, 0).
+    let wide = Path::circle(nalgebra::Vector2::new(0.1, 0.0), 0.25, 0.1, 0.0, 0.0).unwrap();
+    let mut cp = params(LawParams::Pd(PdGains::paper()));
+    cp.k_c = [0.36, 0.36, 0.35];
+    let e = Controller::new(&cp, &fixtures::paper(), wide, 90.0)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("path") && e.contains("arms[0]") && e.contains("t = "),
+        "{e}"
+    );
     // A path that starts outside the bound.
     let path = Path::circle(nalgebra::Vector2::new(0.3, 0.0), 0.1, 0.1, 0.0, 0.0).unwrap();
     let e = Controller::new(

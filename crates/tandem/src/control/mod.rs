@@ -87,6 +87,38 @@ pub struct ControllerParams {
     pub disturbance_bound: [f64; 3],
 }
 
+/// Every arm must reach its grasp point along the whole desired path (sampled every 10 ms, at
+/// most 20 000 samples) with a Jacobian away from singular (`σ_min ≥ 1e-3 m/rad`); otherwise an
+/// error names the arm, the time and the distance.
+fn check_path_reach(kin: &Plant, path: &Path, duration: f64) -> Result<(), ModelError> {
+    let n = ((duration / 0.01).ceil() as usize).clamp(1, 20_000);
+    for k in 0..=n {
+        let t = duration * k as f64 / n as f64;
+        let x = path.sample(t).p;
+        for (i, (arm, g)) in kin.arms().iter().zip(kin.grasps()).enumerate() {
+            let p = g.point(&x);
+            let d = (p - arm.base()).norm();
+            let reach = arm.reach();
+            // 2-link arms: the analytic IK must exist and |det J_e| stay away from 0.
+            let bad = d > reach
+                || arm.two_link().is_some_and(|tl| {
+                    tl.ik_pose(p)
+                        .map_or(true, |pose| pose.J.determinant().abs() < 1e-6)
+                });
+            if bad {
+                return Err(ModelError::geometry(
+                    "path",
+                    format!(
+                        "at t = {t:.2} s the desired pose ({:.3}, {:.3}, {:.3}) puts arms[{i}]'s grasp point ({:.3}, {:.3}) m at {d:.3} m from its base; the arm reaches at most {reach:.3} m and must not be stretched straight",
+                        x.x, x.y, x.z, p.x, p.y
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 impl ControllerParams {
     /// The paper scenario's settings with the given law (SPEC §3–4): object scheme, `k_c = 0.35`
     /// on every output, the SPEC §3.1 admittance defaults, `δ = 5 mm`, 1 kHz, no torque limit,
@@ -251,6 +283,7 @@ impl Controller {
                 ));
             }
         }
+        check_path_reach(&kin, &path, duration)?;
         let torque_limit = match p.torque_limit {
             Some(l) => positive("torque_limit", l)?,
             None => f64::INFINITY,
