@@ -1180,6 +1180,8 @@ fn controller_path(kind: ControllerKind) -> impl Fn(&str) -> String {
             "control_period" | "h" => "run.control_period".into(),
             "grasps" => "arms".into(),
             "law" => "controller.kind".into(),
+            "path" => "path".into(),
+            "scheme" => "controller.scheme".into(),
             _ => format!("controller.{p}"),
         }
     }
