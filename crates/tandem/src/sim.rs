@@ -420,7 +420,7 @@ impl Simulation {
             ));
         }
         let n_arms = plant.arms().len();
-        let mut sensors = Sensors::new(sensors, plant.n_q(), n_arms, params.control_period)?;
+        let sensors = Sensors::new(sensors, plant.n_q(), n_arms, params.control_period)?;
         let rows = ticks / per_log + 2;
         let log = Log::with_layout(&layout(plant.n_q(), n_arms), rows);
         let n = plant.state_dim();
@@ -433,11 +433,8 @@ impl Simulation {
             y_red: [x0.x, x0.y, x0.z, 0.0, 0.0, 0.0],
             plant,
             params,
-            sensors: {
-                // Placeholder reset below once the forces are known.
-                let _ = &mut sensors;
-                sensors
-            },
+            // Reset below, once the initial grasp forces are known.
+            sensors,
             driver,
             disturbance,
             y_prev: y.clone(),
