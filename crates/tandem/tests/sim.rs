@@ -202,49 +202,29 @@ fn a_violent_run_stops_with_a_fault_that_names_time_and_state() {
 
 #[test]
 fn bad_periods_are_named() {
-    let mut sp = SimParams::paper();
-    sp.plant_step = 0.3e-3;
-    let e = Simulation::new(
-        &fixtures::paper(),
-        &SensorParams::default(),
-        controller(LawParams::Pd(PdGains::paper()), 90.0),
-        Disturbance::paper(),
-        sp,
-        None,
-    )
-    .err()
-    .unwrap();
+    let err = |edit: &dyn Fn(&mut SimParams)| {
+        let mut sp = SimParams::paper();
+        edit(&mut sp);
+        let driver = controller(LawParams::Pd(PdGains::paper()), 90.0);
+        match Simulation::new(
+            &fixtures::paper(),
+            &SensorParams::default(),
+            driver,
+            Disturbance::paper(),
+            sp,
+            None,
+        ) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("accepted bad settings"),
+        }
+    };
+    let e = err(&|sp| sp.plant_step = 0.3e-3);
     assert!(
-        e.to_string().contains("control_period") && e.to_string().contains("plant_step"),
+        e.contains("control_period") && e.contains("plant_step"),
         "{e}"
     );
-    let mut sp = SimParams::paper();
-    sp.log_period = 0.0015;
-    let e = Simulation::new(
-        &fixtures::paper(),
-        &SensorParams::default(),
-        controller(LawParams::Pd(PdGains::paper()), 90.0),
-        Disturbance::paper(),
-        sp,
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(e.to_string().contains("log_period"), "{e}");
-    let mut sp = SimParams::paper();
-    sp.start = [0.6, 0.0, 0.0];
-    let e = Simulation::new(
-        &fixtures::paper(),
-        &SensorParams::default(),
-        controller(LawParams::Pd(PdGains::paper()), 90.0),
-        Disturbance::paper(),
-        sp,
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(
-        e.to_string().contains("arms[0]") && e.to_string().contains("reaches"),
-        "{e}"
-    );
+    let e = err(&|sp| sp.log_period = 0.0015);
+    assert!(e.contains("log_period"), "{e}");
+    let e = err(&|sp| sp.start = [0.6, 0.0, 0.0]);
+    assert!(e.contains("arms[0]") && e.contains("reaches"), "{e}");
 }
