@@ -317,3 +317,140 @@ mod distribution_tests {
         }
     }
 }
+
+/// The grasp maps a controller needs every tick, precomputed once in the object frame.
+///
+/// The least-squares velocity fit and the wrench distribution are rotation-covariant: turning
+/// the whole scene by `θ` turns every force and velocity with it. So both are built once at
+/// `θ = 0` — per grasp a 3 × 2 fit block, a 2 × 3 share block and the null-space squeeze
+/// direction — and a tick only rotates into and out of the object frame: a few multiplies
+/// instead of a Gram matrix solve, square roots and divisions per grasp.
+#[derive(Clone, Debug)]
+pub struct GraspSet {
+    grasps: Vec<Grasp>,
+    /// `ẋ_o^O = Σ_i fit_i · (Rᵀ ẋ_i)` (then the linear part rotated back).
+    fit: Vec<nalgebra::Matrix3x2<f64>>,
+    /// `τ_x,i^O = share_i · τ^O` (minimum-norm share).
+    share: Vec<Matrix2x3<f64>>,
+    /// Null-space squeeze per newton of squeeze, object frame.
+    squeeze: Vec<Vector2<f64>>,
+}
+
+impl GraspSet {
+    /// Precompute the maps; `None` if the grasps do not determine the object's motion.
+    pub fn new(grasps: Vec<Grasp>) -> Option<Self> {
+        let m = grasps.len();
+        let id = Rotation2::identity();
+        let mut fit = vec![nalgebra::Matrix3x2::zeros(); m];
+        let mut vels = vec![Vector2::zeros(); m];
+        for i in 0..m {
+            for k in 0..2 {
+                vels.iter_mut().for_each(|v| *v = Vector2::zeros());
+                vels[i][k] = 1.0;
+                fit[i].set_column(k, &fit_velocity_rot(&grasps, &id, &vels)?);
+            }
+        }
+        let mut share = vec![Matrix2x3::zeros(); m];
+        let mut out = vec![Vector2::zeros(); m];
+        for k in 0..3 {
+            let mut tau = Vector3::zeros();
+            tau[k] = 1.0;
+            if !distribute_wrench_rot(&grasps, &id, &tau, 0.0, &mut out) {
+                return None;
+            }
+            for i in 0..m {
+                share[i].set_column(k, &out[i]);
+            }
+        }
+        let mut squeeze = vec![Vector2::zeros(); m];
+        distribute_wrench_rot(&grasps, &id, &Vector3::zeros(), 1.0, &mut squeeze);
+        Some(GraspSet {
+            grasps,
+            fit,
+            share,
+            squeeze,
+        })
+    }
+
+    /// The grasps.
+    pub fn grasps(&self) -> &[Grasp] {
+        &self.grasps
+    }
+
+    /// [`fit_velocity`] at the orientation `rot`.
+    #[inline]
+    pub fn fit_velocity(&self, rot: &Rotation2<f64>, vels: &[Vector2<f64>]) -> Vector3<f64> {
+        let mut v = Vector3::zeros();
+        for (f, x) in self.fit.iter().zip(vels) {
+            v += f * rot.inverse_transform_vector(x);
+        }
+        let lin = rot * Vector2::new(v.x, v.y);
+        Vector3::new(lin.x, lin.y, v.z)
+    }
+
+    /// [`distribute_wrench`] at the orientation `rot`, with squeeze `squeeze` (N).
+    #[inline]
+    pub fn distribute(
+        &self,
+        rot: &Rotation2<f64>,
+        tau: &Vector3<f64>,
+        squeeze: f64,
+        out: &mut [Vector2<f64>],
+    ) {
+        let f = rot.inverse_transform_vector(&Vector2::new(tau.x, tau.y));
+        let tau_o = Vector3::new(f.x, f.y, tau.z);
+        for ((s, q), o) in self.share.iter().zip(&self.squeeze).zip(out.iter_mut()) {
+            *o = rot * (s * tau_o + q * squeeze);
+        }
+    }
+}
+
+#[cfg(test)]
+mod grasp_set_tests {
+    use super::*;
+
+    #[test]
+    fn precomputed_maps_equal_the_direct_solves_at_any_angle() {
+        for grasps in [
+            vec![
+                Grasp {
+                    r: Vector2::new(-0.05, 0.0),
+                },
+                Grasp {
+                    r: Vector2::new(0.05, 0.0),
+                },
+            ],
+            vec![
+                Grasp {
+                    r: Vector2::new(-0.05, 0.0),
+                },
+                Grasp {
+                    r: Vector2::new(0.05, 0.01),
+                },
+                Grasp {
+                    r: Vector2::new(0.0, -0.025),
+                },
+            ],
+        ] {
+            let set = GraspSet::new(grasps.clone()).unwrap();
+            let m = grasps.len();
+            for k in 0..50 {
+                let th = -3.0 + 0.13 * k as f64;
+                let rot = Rotation2::new(th);
+                let vels: Vec<_> = (0..m)
+                    .map(|i| Vector2::new((i as f64 + th).sin(), (2.0 * th - i as f64).cos()))
+                    .collect();
+                let a = set.fit_velocity(&rot, &vels);
+                let b = fit_velocity_rot(&grasps, &rot, &vels).unwrap();
+                assert!((a - b).norm() < 1e-13 * (1.0 + b.norm()), "{a} vs {b}");
+                let tau = Vector3::new(th.cos() * 9.0, 20.0, 0.3 * th);
+                let (mut x, mut y) = (vec![Vector2::zeros(); m], vec![Vector2::zeros(); m]);
+                set.distribute(&rot, &tau, 5.0, &mut x);
+                assert!(distribute_wrench_rot(&grasps, &rot, &tau, 5.0, &mut y));
+                for (p, q) in x.iter().zip(&y) {
+                    assert!((p - q).norm() < 1e-12 * (1.0 + q.norm()), "{p} vs {q}");
+                }
+            }
+        }
+    }
+}

@@ -23,7 +23,7 @@ use crate::adaptive::{AdaptiveNn, FuBound, NnGains};
 use crate::admittance::{Admittance, AdmittanceParams, AdmittanceState, AdmittanceWarning};
 use crate::ctc::{Ctc, CtcGains, nominal_params};
 use crate::error::{ModelError, non_negative, positive};
-use crate::grasp::{Grasp, distribute_wrench_rot, fit_pose_rot, fit_velocity_rot};
+use crate::grasp::{Grasp, GraspSet, fit_pose_rot};
 use crate::pd::{Pd, PdGains};
 use crate::plant::{Plant, PlantParams, PlantWorkspace};
 use crate::trajectory::Path;
@@ -225,8 +225,10 @@ enum Law {
 /// and preallocated scratch. Build once, then call [`Controller::tick`] at the control rate.
 pub struct Controller {
     kin: Plant,
-    grasps: Vec<Grasp>,
-    grasps_d: Vec<Grasp>,
+    /// The actual grasps `r_i` (estimation, distribution).
+    set: GraspSet,
+    /// The desired points `r_i − δ_i` (reference fit).
+    set_d: GraspSet,
     path: Path,
     adm: Option<Admittance>,
     adm_state: Vec<AdmittanceState>,
@@ -313,6 +315,13 @@ impl Controller {
                 r: g.r * (1.0 - delta / g.r.norm()),
             })
             .collect();
+        let degenerate = || {
+            ModelError::geometry(
+                "grasps",
+                "the grasp points do not determine the object's motion (they coincide)",
+            )
+        };
+        let set_d = GraspSet::new(grasps_d).ok_or_else(degenerate)?;
         let mut warnings = Vec::new();
         let (adm, squeeze) = match &p.admittance {
             Some(a) => {
@@ -376,8 +385,8 @@ impl Controller {
         Ok((
             Controller {
                 kin,
-                grasps,
-                grasps_d,
+                set: GraspSet::new(grasps).ok_or_else(degenerate)?,
+                set_d,
                 path,
                 adm,
                 adm_state: vec![AdmittanceState::default(); m],
@@ -464,10 +473,10 @@ impl Controller {
     ) {
         let o = self.kin.object();
         let w = o.M_o * xdd_d + o.C_o * xd_d + o.G_o;
-        if distribute_wrench_rot(&self.grasps, rot_d, &w, self.squeeze, &mut self.tau_x) {
-            for (f, t) in self.f_ref.iter_mut().zip(&self.tau_x) {
-                *f = -t;
-            }
+        self.set
+            .distribute(rot_d, &w, self.squeeze, &mut self.tau_x);
+        for (f, t) in self.f_ref.iter_mut().zip(&self.tau_x) {
+            *f = -t;
         }
     }
 
@@ -497,8 +506,8 @@ impl Controller {
             self.pts[i] = t.p_ee;
             self.vels[i] = t.v_ee;
         }
-        let (x, rot) = fit_pose_rot(&self.grasps, &self.pts, self.theta_hint);
-        let v = fit_velocity_rot(&self.grasps, &rot, &self.vels)?;
+        let (x, rot) = fit_pose_rot(self.set.grasps(), &self.pts, self.theta_hint);
+        let v = self.set.fit_velocity(&rot, &self.vels);
         self.theta_hint = x.z;
         Some((x, v, rot))
     }
@@ -552,7 +561,7 @@ impl Controller {
                 self.per_arm_forces(rec);
                 // The wrench the arms' commands put on the object (for the record).
                 let mut w = Vector3::zeros();
-                for (g, t) in self.grasps.iter().zip(&self.tau_x) {
+                for (g, t) in self.set.grasps().iter().zip(&self.tau_x) {
                     w += Grasp::jacobian_from_arm(rot1 * g.r).transpose() * t;
                 }
                 w
@@ -573,12 +582,9 @@ impl Controller {
             .map(|j| 1.0 - x1[j].abs() / self.k_c[j])
             .fold(f64::INFINITY, f64::min);
         // 5. Distribute (object scheme) and map to joints.
-        if !per_arm
-            && !distribute_wrench_rot(&self.grasps, &rot1, &w, self.squeeze, &mut self.tau_x)
-        {
-            self.events.degenerate += 1;
-            tau.fill(0.0);
-            return;
+        if !per_arm {
+            self.set
+                .distribute(&rot1, &w, self.squeeze, &mut self.tau_x);
         }
         for (i, arm) in self.kin.arms().iter().enumerate() {
             let off = self.kin.offset(i);
@@ -612,7 +618,7 @@ impl Controller {
             ..TickRecord::default()
         };
         let mut wn = Vector3::zeros();
-        for i in 0..self.grasps.len() {
+        for i in 0..self.tau_x.len() {
             let t = &self.ws.terms[i];
             let (x1, x2) = (t.p_ee, t.v_ee);
             let (xr, xdr, xddr) = (self.ref_p[i], self.ref_v[i], self.ref_a[i]);
@@ -654,7 +660,7 @@ impl Controller {
         let rot = Rotation2::new(x_d.z);
         self.expected_forces(&rot, xd_d, xdd_d);
         let p_d = Vector2::new(x_d.x, x_d.y);
-        for (i, g) in self.grasps_d.iter().enumerate() {
+        for (i, g) in self.set_d.grasps().iter().enumerate() {
             let rw = rot * g.r;
             let j = Grasp::jacobian_from_arm(rw);
             // x_d,i and its derivatives: ẍ_d,i = J ẍ_d + J̇ ẋ_d, J̇ ẋ = −R r θ̇².
@@ -680,14 +686,14 @@ impl Controller {
         if adm.is_none() {
             return (*x_d, *xd_d, *xdd_d);
         }
-        let (x_r, rot_r) = fit_pose_rot(&self.grasps_d, &self.pts, self.theta_r_hint);
+        let (x_r, rot_r) = fit_pose_rot(self.set_d.grasps(), &self.pts, self.theta_r_hint);
         self.theta_r_hint = x_r.z;
-        let xd_r = fit_velocity_rot(&self.grasps_d, &rot_r, &self.vels).unwrap_or(*xd_d);
-        for (i, g) in self.grasps_d.iter().enumerate() {
+        let xd_r = self.set_d.fit_velocity(&rot_r, &self.vels);
+        for (i, g) in self.set_d.grasps().iter().enumerate() {
             // Remove the velocity-product term: ẍ_i − J̇_i ẋ_r = J_i ẍ_r.
             self.acc[i] += (rot_r * g.r) * (xd_r.z * xd_r.z);
         }
-        let xdd_r = fit_velocity_rot(&self.grasps_d, &rot_r, &self.acc).unwrap_or(*xdd_d);
+        let xdd_r = self.set_d.fit_velocity(&rot_r, &self.acc);
         (x_r, xd_r, xdd_r)
     }
 
