@@ -334,6 +334,9 @@ pub struct GraspSet {
     share: Vec<Matrix2x3<f64>>,
     /// Null-space squeeze per newton of squeeze, object frame.
     squeeze: Vec<Vector2<f64>>,
+    /// Mean grasp point `r̄` and the centred points `r_i − r̄` (pose fit).
+    r_bar: Vector2<f64>,
+    centred: Vec<Vector2<f64>>,
 }
 
 impl GraspSet {
@@ -364,17 +367,55 @@ impl GraspSet {
         }
         let mut squeeze = vec![Vector2::zeros(); m];
         distribute_wrench_rot(&grasps, &id, &Vector3::zeros(), 1.0, &mut squeeze);
+        let r_bar = grasps.iter().map(|g| g.r).sum::<Vector2<f64>>() / m as f64;
+        let centred = grasps.iter().map(|g| g.r - r_bar).collect();
         Some(GraspSet {
             grasps,
             fit,
             share,
             squeeze,
+            r_bar,
+            centred,
         })
     }
 
     /// The grasps.
     pub fn grasps(&self) -> &[Grasp] {
         &self.grasps
+    }
+
+    /// [`fit_pose_rot`] with the centred grasp points precomputed (no `hypot`, no `round`).
+    #[inline]
+    pub fn fit_pose(
+        &self,
+        points: &[Vector2<f64>],
+        theta_hint: f64,
+    ) -> (Vector3<f64>, Rotation2<f64>) {
+        let xbar = points.iter().sum::<Vector2<f64>>() / points.len() as f64;
+        let (mut s, mut c) = (0.0, 0.0);
+        for (a, x) in self.centred.iter().zip(points) {
+            let b = x - xbar;
+            c += a.dot(&b);
+            s += a.x * b.y - a.y * b.x;
+        }
+        let mut theta = s.atan2(c);
+        // Unwrap toward the hint (a run moves far less than π between ticks).
+        let (pi, tau) = (std::f64::consts::PI, std::f64::consts::TAU);
+        while theta - theta_hint > pi {
+            theta -= tau;
+        }
+        while theta_hint - theta > pi {
+            theta += tau;
+        }
+        let h2 = s * s + c * c;
+        let rot = if h2 > 0.0 {
+            let k = 1.0 / h2.sqrt();
+            Rotation2::from_matrix_unchecked(nalgebra::Matrix2::new(c * k, -s * k, s * k, c * k))
+        } else {
+            Rotation2::identity()
+        };
+        let p = xbar - rot * self.r_bar;
+        (Vector3::new(p.x, p.y, theta), rot)
     }
 
     /// [`fit_velocity`] at the orientation `rot`.
@@ -440,6 +481,17 @@ mod grasp_set_tests {
                 let vels: Vec<_> = (0..m)
                     .map(|i| Vector2::new((i as f64 + th).sin(), (2.0 * th - i as f64).cos()))
                     .collect();
+                let pts: Vec<_> = grasps
+                    .iter()
+                    .zip(&vels)
+                    .map(|(g, v)| Vector2::new(0.1, -0.2) + rot * g.r + 1e-3 * v)
+                    .collect();
+                let (pa, ra) = set.fit_pose(&pts, th);
+                let (pb, rb) = fit_pose_rot(&grasps, &pts, th);
+                assert!(
+                    (pa - pb).norm() < 1e-13 && (ra.matrix() - rb.matrix()).norm() < 1e-13,
+                    "{pa} vs {pb}"
+                );
                 let a = set.fit_velocity(&rot, &vels);
                 let b = fit_velocity_rot(&grasps, &rot, &vels).unwrap();
                 assert!((a - b).norm() < 1e-13 * (1.0 + b.norm()), "{a} vs {b}");

@@ -23,7 +23,7 @@ use crate::adaptive::{AdaptiveNn, FuBound, NnGains};
 use crate::admittance::{Admittance, AdmittanceParams, AdmittanceState, AdmittanceWarning};
 use crate::ctc::{Ctc, CtcGains, nominal_params};
 use crate::error::{ModelError, non_negative, positive};
-use crate::grasp::{Grasp, GraspSet, fit_pose_rot};
+use crate::grasp::{Grasp, GraspSet};
 use crate::pd::{Pd, PdGains};
 use crate::plant::{Plant, PlantParams, PlantWorkspace};
 use crate::trajectory::Path;
@@ -240,6 +240,8 @@ pub struct Controller {
     events: ControlEvents,
     theta_hint: f64,
     theta_r_hint: f64,
+    /// `(θ_d, R(θ_d))` of the last tick: a path with a constant angle needs no `sin_cos`.
+    rot_d: (f64, Rotation2<f64>),
     // Scratch.
     ws: PlantWorkspace,
     pts: Vec<Vector2<f64>>,
@@ -398,6 +400,7 @@ impl Controller {
                 events: ControlEvents::default(),
                 theta_hint: 0.0,
                 theta_r_hint: 0.0,
+                rot_d: (0.0, Rotation2::identity()),
                 ws,
                 pts: vec![Vector2::zeros(); m],
                 vels: vec![Vector2::zeros(); m],
@@ -506,7 +509,7 @@ impl Controller {
             self.pts[i] = t.p_ee;
             self.vels[i] = t.v_ee;
         }
-        let (x, rot) = fit_pose_rot(self.set.grasps(), &self.pts, self.theta_hint);
+        let (x, rot) = self.set.fit_pose(&self.pts, self.theta_hint);
         let v = self.set.fit_velocity(&rot, &self.vels);
         self.theta_hint = x.z;
         Some((x, v, rot))
@@ -657,7 +660,10 @@ impl Controller {
         rec: &mut TickRecord,
     ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
         let adm = self.adm;
-        let rot = Rotation2::new(x_d.z);
+        if self.rot_d.0 != x_d.z {
+            self.rot_d = (x_d.z, Rotation2::new(x_d.z));
+        }
+        let rot = self.rot_d.1;
         self.expected_forces(&rot, xd_d, xdd_d);
         let p_d = Vector2::new(x_d.x, x_d.y);
         for (i, g) in self.set_d.grasps().iter().enumerate() {
@@ -686,7 +692,7 @@ impl Controller {
         if adm.is_none() {
             return (*x_d, *xd_d, *xdd_d);
         }
-        let (x_r, rot_r) = fit_pose_rot(self.set_d.grasps(), &self.pts, self.theta_r_hint);
+        let (x_r, rot_r) = self.set_d.fit_pose(&self.pts, self.theta_r_hint);
         self.theta_r_hint = x_r.z;
         let xd_r = self.set_d.fit_velocity(&rot_r, &self.vels);
         for (i, g) in self.set_d.grasps().iter().enumerate() {
