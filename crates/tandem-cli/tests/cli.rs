@@ -355,7 +355,7 @@ fn bad_values_name_the_field() {
             "k_c = [0.35, 0.35, 0.35]",
             "k_c = [0.15, 0.35, 0.35]",
             "controller.k_c[0] = 0.15",
-            "reach",
+            "largest excursion",
         ),
     ];
     for (i, (from, to, path, why)) in cases.iter().enumerate() {

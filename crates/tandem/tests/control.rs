@@ -327,7 +327,10 @@ fn gains_that_break_the_theory_are_named() {
     let mut cp = params(LawParams::Pd(PdGains::paper()));
     cp.k_c = [0.15, 0.35, 0.35];
     let e = err_of(cp);
-    assert!(e.contains("k_c[0]") && e.contains("reach"), "{e}");
+    assert!(
+        e.contains("k_c[0]") && e.contains("max |x_d,0| = 0.2000 m"),
+        "{e}"
+    );
     // A path the arms cannot follow: a 0.25 m circle centred at (0.1, 0) passes 0.6 m from the
     // left arm's base at (−0.38, 0).
     let wide = Path::circle(nalgebra::Vector2::new(0.1, 0.0), 0.25, 0.1, 0.0, 0.0).unwrap();
@@ -342,7 +345,15 @@ fn gains_that_break_the_theory_are_named() {
         "{e}"
     );
     // A path that starts outside the bound.
-    let path = Path::circle(nalgebra::Vector2::new(0.3, 0.0), 0.1, 0.1, 0.0, 0.0).unwrap();
+    // (a 0.1 m circle about (0, 0.3) starting at its top, (0, 0.4): reachable, above k_c = 0.35)
+    let path = Path::circle(
+        nalgebra::Vector2::new(0.0, 0.3),
+        0.1,
+        0.1,
+        std::f64::consts::FRAC_PI_2,
+        0.0,
+    )
+    .unwrap();
     let e = Controller::new(
         &params(LawParams::Pd(PdGains::paper())),
         &fixtures::paper(),
@@ -352,7 +363,7 @@ fn gains_that_break_the_theory_are_named() {
     .err()
     .unwrap();
     assert!(
-        matches!(e, ModelError::Invalid { ref param, .. } if param == "k_c[0]"),
+        matches!(e, ModelError::Invalid { ref param, .. } if param == "k_c[1]"),
         "{e}"
     );
 }

@@ -109,7 +109,7 @@ fn check_path_reach(kin: &Plant, path: &Path, duration: f64) -> Result<(), Model
                 return Err(ModelError::geometry(
                     "path",
                     format!(
-                        "at t = {t:.2} s the desired pose ({:.3}, {:.3}, {:.3}) puts arms[{i}]'s grasp point ({:.3}, {:.3}) m at {d:.3} m from its base; the arm reaches at most {reach:.3} m and must not be stretched straight",
+                        "at t = {t:.2} s the desired pose ({:.3}, {:.3}, {:.3}) puts arms[{i}]'s grasp point ({:.4}, {:.4}) m at {d:.4} m from its base; the arm reaches at most {reach:.4} m, and a 2-link arm must not be stretched straight (|det J_e| ≥ 1e-6)",
                         x.x, x.y, x.z, p.x, p.y
                     ),
                 ));
@@ -273,21 +273,31 @@ impl Controller {
             k_c[j] = positive(&format!("k_c[{j}]"), p.k_c[j])?;
             non_negative(&format!("disturbance_bound[{j}]"), p.disturbance_bound[j])?;
         }
-        // The path must stay strictly inside the bound (iBLF needs |x_r| < k_c).
-        let reach = path.max_abs(duration);
-        for j in 0..3 {
-            if !(reach[j] < k_c[j]) {
-                return Err(ModelError::invalid(
-                    format!("k_c[{j}]"),
-                    k_c[j],
-                    format!(
-                        "must be above the desired path's reach |x_d,{j}| = {:.4} over the run",
-                        reach[j]
-                    ),
-                ));
-            }
-        }
+        // The arms must reach the path (checked first: an unreachable path is the root cause
+        // whatever the bounds), then the path must stay strictly inside the bound (iBLF needs
+        // |x_r| < k_c).
         check_path_reach(&kin, &path, duration)?;
+        let peak = path.max_abs(duration);
+        let unit = ["m", "m", "rad"];
+        let short: Vec<String> = (0..3)
+            .filter(|&j| !(peak[j] < k_c[j]))
+            .map(|j| {
+                format!(
+                    "k_c[{j}] = {} ≤ max |x_d,{j}| = {:.4} {}",
+                    k_c[j], peak[j], unit[j]
+                )
+            })
+            .collect();
+        if let Some(j) = (0..3).find(|&j| !(peak[j] < k_c[j])) {
+            return Err(ModelError::invalid(
+                format!("k_c[{j}]"),
+                k_c[j],
+                format!(
+                    "every bound must lie above the desired path's largest excursion over the run: {}",
+                    short.join("; ")
+                ),
+            ));
+        }
         let torque_limit = match p.torque_limit {
             Some(l) => positive("torque_limit", l)?,
             None => f64::INFINITY,
@@ -356,6 +366,12 @@ impl Controller {
                 ));
             }
             (LawParams::Nn(g), Scheme::Object) => {
+                if let Some(i) = kin.arms().iter().position(|a| a.dof() != 2) {
+                    return Err(ModelError::geometry(
+                        format!("arms[{i}]"),
+                        "the NN law's bound f^U is built from the object-space model (14), which needs 2-link arms; with other arms use the PD law",
+                    ));
+                }
                 let fu = FuBound::from_model(&kin, k_c, p.disturbance_bound, g.fu_safety)?;
                 Law::Nn(Box::new(AdaptiveNn::new(g, k_c, fu, h)?))
             }
