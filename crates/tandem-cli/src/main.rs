@@ -179,8 +179,12 @@ fn main() -> ExitCode {
 
 /// Resolve, parse and apply the command line's overrides.
 fn load(arg: Option<&str>, o: &Overrides) -> Result<(Source, Scenario)> {
-    let src = scenario::resolve(arg)?;
+    let mut src = scenario::resolve(arg)?;
     let mut sc = scenario::parse(&src)?;
+    // A file may name itself (a resolved `scenario.toml` keeps its run's name).
+    if let Some(n) = sc.name.as_ref().filter(|n| !n.trim().is_empty()) {
+        src.name = n.clone();
+    }
     sc.apply(o)?;
     Ok((src, sc))
 }

@@ -167,6 +167,7 @@ pub fn summary_json(f: &Finished, scenario: &str, output_time: Option<f64>) -> V
 /// The resolved scenario as TOML, with a header saying what it is.
 pub fn scenario_toml(sc: &Scenario, name: &str, replay: Option<&Path>) -> Result<String> {
     let mut resolved = sc.resolved();
+    resolved.name = Some(name.to_string());
     if let Some(r) = replay {
         // Relative to the original scenario's folder, which this file does not live in.
         let abs = std::path::absolute(r).unwrap_or_else(|_| r.to_path_buf());
@@ -175,7 +176,8 @@ pub fn scenario_toml(sc: &Scenario, name: &str, replay: Option<&Path>) -> Result
     let body = toml::to_string(&resolved)?;
     Ok(format!(
         "# Resolved scenario `{name}` as run by tandem {} ({}).\n\
-         # Every default and preset is written out; run it again with:  tandem run <this file>\n\n{body}",
+         # Every default is written out (NN gains: the preset plus your overrides); run it\n\
+         # again with:  tandem run <this file>\n\n{body}",
         env!("CARGO_PKG_VERSION"),
         label(sc),
     ))

@@ -158,6 +158,9 @@ pub fn embedded_source(e: &Embedded) -> Source {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
+    /// Scenario name (outputs and figure titles); defaults to the file's stem.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// Free text, shown by `tandem validate` and in the report.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub description: String,
@@ -467,22 +470,6 @@ impl NnOverrides {
             k1, k2, k_r, theta, sigma, varpi, fu_safety, width2, levels, d1, d2, omega
         );
         g
-    }
-    fn full(g: &NnGains) -> Self {
-        NnOverrides {
-            k1: Some(g.k1),
-            k2: Some(g.k2),
-            k_r: Some(g.k_r),
-            theta: Some(g.theta),
-            sigma: Some(g.sigma),
-            varpi: Some(g.varpi),
-            fu_safety: Some(g.fu_safety),
-            width2: Some(g.width2),
-            levels: Some(g.levels.clone()),
-            d1: Some(g.d1),
-            d2: Some(g.d2),
-            omega: Some(g.omega),
-        }
     }
 }
 
@@ -1067,7 +1054,9 @@ impl Scenario {
         if c.kind == ControllerKind::Nn {
             c.gains = Some(c.gains.unwrap_or(GainPreset::Tuned));
         }
-        c.nn = NnOverrides::full(&self.nn_gains());
+        // The NN gains stay as preset name + the user's own overrides (not the expanded preset
+        // values), so `--gains` and `compare`'s paper/tuned columns still switch the preset
+        // when this file is run again.
         let pd = self.pd_gains();
         c.pd = PdConfig {
             k_p: Some(pd.k_p),

@@ -550,3 +550,41 @@ fn a_run_fault_writes_its_outputs_and_exits_1() {
     assert!(d.join("f/timeseries.csv").is_file());
     let _ = fs::remove_dir_all(&d);
 }
+
+#[test]
+fn a_resolved_scenario_still_switches_the_gain_preset() {
+    // Regression: `scenario.toml` used to spell out the preset's values as overrides, so
+    // `--gains paper` (and compare's paper column) ran the tuned gains again.
+    let d = scratch("preset");
+    ok(&tandem(
+        &d,
+        &["run", "--duration", "2", "--no-figures", "--out", "tuned"],
+    ));
+    ok(&tandem(
+        &d,
+        &[
+            "run",
+            "tuned/scenario.toml",
+            "--gains",
+            "paper",
+            "--duration",
+            "2",
+            "--no-figures",
+            "--out",
+            "paper",
+        ],
+    ));
+    let t = read_json(&d.join("tuned/summary.json"));
+    let p = read_json(&d.join("paper/summary.json"));
+    assert_eq!(p["gains"], "paper", "{}", p["gains"]);
+    assert_eq!(
+        p["scenario"], "paper",
+        "the resolved file keeps its scenario's name"
+    );
+    let (a, b) = (t["rms_z1"].as_f64().unwrap(), p["rms_z1"].as_f64().unwrap());
+    assert!(
+        (a - b).abs() > 1e-6,
+        "paper and tuned gains gave the same run ({a} vs {b})"
+    );
+    let _ = fs::remove_dir_all(&d);
+}
