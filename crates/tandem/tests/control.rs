@@ -437,3 +437,40 @@ fn per_arm_scheme_tracks_with_both_laws() {
     cp.scheme = Scheme::PerArm;
     assert!(err_of(cp).contains("object scheme"));
 }
+
+#[test]
+fn the_internal_force_is_the_commanded_squeeze() {
+    // Object scheme: K_e δ = 1000 × 0.005 = 5 N, commanded in the null space of 𝐉ᵀ, with the
+    // arms' own gravity's internal part fed forward (otherwise it adds 2–7 N along the paper's
+    // path). The squeeze along the grasp axis is (F2.x − F1.x)/2 for the paper's grasps at θ ≈ 0.
+    // Per-arm scheme: the offsets δ squeeze through the per-arm law in series with the
+    // admittance spring, K_P K_e δ/(K_P + K_e) = 4.17 N for PD, plus the arms' uncompensated
+    // internal gravity (measured 4.5–5.0 N; before the fix it squeezed twice, 9.7 N).
+    use tandem::control::Scheme;
+    for (law, scheme, lo, hi) in [
+        (LawParams::Nn(NnGains::tuned()), Scheme::Object, 4.9, 5.1),
+        (LawParams::Pd(PdGains::paper()), Scheme::Object, 4.9, 5.1),
+        (LawParams::Pd(PdGains::paper()), Scheme::PerArm, 3.5, 5.5),
+    ] {
+        let name = format!("{} {scheme:?}", law.name());
+        let mut cp = params(law);
+        cp.scheme = scheme;
+        let (_, log) = run(cp, Disturbance::paper(), 10.0, 0.01);
+        let (f1, f2) = (log.get("F1.x").unwrap(), log.get("F2.x").unwrap());
+        let s: Vec<f64> = f1
+            .iter()
+            .zip(f2)
+            .skip(200)
+            .map(|(a, b)| (b - a) / 2.0)
+            .collect();
+        let (min, max) = (
+            s.iter().cloned().fold(f64::MAX, f64::min),
+            s.iter().cloned().fold(f64::MIN, f64::max),
+        );
+        println!("{name}: internal force {min:.2} … {max:.2} N");
+        assert!(
+            min > lo && max < hi,
+            "{name}: internal force {min:.2} … {max:.2} N"
+        );
+    }
+}

@@ -252,6 +252,9 @@ pub struct Controller {
     ref_p: Vec<Vector2<f64>>,
     ref_v: Vec<Vector2<f64>>,
     ref_a: Vec<Vector2<f64>>,
+    /// Each arm's Cartesian gravity `Ĝ_x,i = J_e⁻ᵀ Ĝ(q)` from the model, N (2-link arms).
+    g_x: Vec<Vector2<f64>>,
+    scratch: Vec<Vector2<f64>>,
 }
 
 impl Controller {
@@ -339,8 +342,15 @@ impl Controller {
             Some(a) => {
                 let (adm, w) = Admittance::new(a, h)?;
                 warnings.extend(w.into_iter().map(ControlWarning::Admittance));
-                // Internal force of about K_e δ (SPEC §3.1), commanded along the null space.
-                (Some(adm), a.k_e[0] * delta)
+                // Internal force of about K_e δ (SPEC §3.1), commanded along the null space in the
+                // object scheme. In the per-arm scheme the offsets δ_i already squeeze (SPEC
+                // §3.2), so nothing is added (it would squeeze twice).
+                let s = if p.scheme == Scheme::PerArm {
+                    0.0
+                } else {
+                    a.k_e[0] * delta
+                };
+                (Some(adm), s)
             }
             None => (None, 0.0),
         };
@@ -426,6 +436,8 @@ impl Controller {
                 ref_p: vec![Vector2::zeros(); m],
                 ref_v: vec![Vector2::zeros(); m],
                 ref_a: vec![Vector2::zeros(); m],
+                g_x: vec![Vector2::zeros(); m],
+                scratch: vec![Vector2::zeros(); m],
             },
             warnings,
         ))
@@ -514,6 +526,15 @@ impl Controller {
                 let qd = nalgebra::Vector2::new(meas.qd[off], meas.qd[off + 1]);
                 t.p_ee = tl.end_effector(&pose);
                 t.v_ee = pose.J * qd;
+                // Ĝ_x = J_e⁻ᵀ Ĝ(q) (3)–(4), for the internal-force feed-forward of step 5.
+                let g = tl.terms(&pose, [0.0, 0.0], self.kin.gravity()).G;
+                self.g_x[i] = pose
+                    .J
+                    .transpose()
+                    .lu()
+                    .solve(&g)
+                    .filter(|v| v.iter().all(|x| x.is_finite()))
+                    .unwrap_or_else(Vector2::zeros);
                 for r in 0..2 {
                     for c in 0..2 {
                         t.J[(r, c)] = pose.J[(r, c)];
@@ -604,6 +625,17 @@ impl Controller {
         if !per_arm {
             self.set
                 .distribute(&rot1, &w, self.squeeze, &mut self.tau_x);
+            // The arms' own gravity has an internal (null-space) part that no object wrench
+            // commands: without this feed-forward it adds to the squeeze (2–7 N on the paper's
+            // path) and the admittance yields to it. τ_x += P_N Ĝ_x, P_N Ĝ_x = Ĝ_x − (𝐉ᵀ)⁺𝐉ᵀĜ_x.
+            let mut jt_g = Vector3::zeros();
+            for (g, gx) in self.set.grasps().iter().zip(&self.g_x) {
+                jt_g += Grasp::jacobian_from_arm(rot1 * g.r).transpose() * gx;
+            }
+            self.set.distribute(&rot1, &jt_g, 0.0, &mut self.scratch);
+            for ((t, gx), r) in self.tau_x.iter_mut().zip(&self.g_x).zip(&self.scratch) {
+                *t += gx - r;
+            }
         }
         for (i, arm) in self.kin.arms().iter().enumerate() {
             let off = self.kin.offset(i);
