@@ -418,6 +418,57 @@ impl GraspSet {
         (Vector3::new(p.x, p.y, theta), rot)
     }
 
+    /// The pose fit and its exact first and second time derivatives, for points that need not
+    /// move rigidly (the arms' admittance references): with `b_i = x_i − x̄`, `c = Σ a_i·b_i`,
+    /// `s = Σ a_i×b_i` (`a_i` the centred grasp points), `θ = atan2(s, c)`,
+    /// `θ̇ = (c ṡ − s ċ)/(c² + s²)`, `θ̈ = (c s̈ − s c̈)/(c² + s²) − θ̇·2(c ċ + s ṡ)/(c² + s²)`,
+    /// `p = x̄ − R r̄`, `ṗ = x̄̇ − (R r̄)^⊥ θ̇`, `p̈ = x̄̈ − (R r̄)^⊥ θ̈ + R r̄ θ̇²`.
+    /// (The least-squares velocity fit [`GraspSet::fit_velocity`] is the same for a rigid set
+    /// but not for a deforming one.) Returns `(x, ẋ, ẍ, R(θ))`.
+    pub fn fit_pose_rates(
+        &self,
+        points: &[Vector2<f64>],
+        vels: &[Vector2<f64>],
+        accs: &[Vector2<f64>],
+        theta_hint: f64,
+    ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>, Rotation2<f64>) {
+        let (x, rot) = self.fit_pose(points, theta_hint);
+        let n = points.len() as f64;
+        let xbar = points.iter().sum::<Vector2<f64>>() / n;
+        let vbar = vels.iter().sum::<Vector2<f64>>() / n;
+        let abar = accs.iter().sum::<Vector2<f64>>() / n;
+        let (mut c, mut s, mut cd, mut sd, mut cdd, mut sdd) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for (((a, p), v), ac) in self.centred.iter().zip(points).zip(vels).zip(accs) {
+            let (b, bd, bdd) = (p - xbar, v - vbar, ac - abar);
+            c += a.dot(&b);
+            s += a.x * b.y - a.y * b.x;
+            cd += a.dot(&bd);
+            sd += a.x * bd.y - a.y * bd.x;
+            cdd += a.dot(&bdd);
+            sdd += a.x * bdd.y - a.y * bdd.x;
+        }
+        let nn = c * c + s * s;
+        let (th_d, th_dd) = if nn > 0.0 {
+            let th_d = (c * sd - s * cd) / nn;
+            (
+                th_d,
+                (c * sdd - s * cdd) / nn - th_d * 2.0 * (c * cd + s * sd) / nn,
+            )
+        } else {
+            (0.0, 0.0)
+        };
+        let rr = rot * self.r_bar;
+        let rp = perp(rr);
+        let pd = vbar - rp * th_d;
+        let pdd = abar - rp * th_dd + rr * (th_d * th_d);
+        (
+            x,
+            Vector3::new(pd.x, pd.y, th_d),
+            Vector3::new(pdd.x, pdd.y, th_dd),
+            rot,
+        )
+    }
+
     /// [`fit_velocity`] at the orientation `rot`.
     #[inline]
     pub fn fit_velocity(&self, rot: &Rotation2<f64>, vels: &[Vector2<f64>]) -> Vector3<f64> {
@@ -449,6 +500,47 @@ impl GraspSet {
 #[cfg(test)]
 mod grasp_set_tests {
     use super::*;
+
+    #[test]
+    fn pose_fit_rates_are_the_derivatives_of_the_pose_fit() {
+        // Points that translate, rotate and deform (the second point slides along the axis):
+        // central differences of the fitted pose (h = 1e-5 s; truncation ~h²·|x'''| ≈ 1e-10,
+        // round-off ~ε/h ≈ 1e-11) against the closed-form rates.
+        let set = GraspSet::new(vec![
+            Grasp {
+                r: Vector2::new(-0.045, 0.0),
+            },
+            Grasp {
+                r: Vector2::new(0.045, 0.0),
+            },
+        ])
+        .unwrap();
+        let pts = |t: f64| {
+            let th = 0.3 * (1.3 * t).sin();
+            let c = Vector2::new(0.1 * t.cos(), 0.2 * (0.7 * t).sin());
+            let half = 0.045 + 0.004 * (2.0 * t).sin();
+            let u = Vector2::new(th.cos(), th.sin());
+            [c - u * 0.045, c + u * half]
+        };
+        let h = 1e-5;
+        for k in 0..20 {
+            let t = 0.37 * k as f64;
+            let p0 = pts(t);
+            let (pp, pm) = (pts(t + h), pts(t - h));
+            let v: Vec<_> = (0..2).map(|i| (pp[i] - pm[i]) / (2.0 * h)).collect();
+            let a: Vec<_> = (0..2)
+                .map(|i| (pp[i] - 2.0 * p0[i] + pm[i]) / (h * h))
+                .collect();
+            let (x, xd, xdd, _) = set.fit_pose_rates(&p0, &v, &a, 0.0);
+            let fx = |q: [Vector2<f64>; 2]| set.fit_pose(&q, x.z).0;
+            let fd = (fx(pp) - fx(pm)) / (2.0 * h);
+            let fdd = (fx(pp) - 2.0 * x + fx(pm)) / (h * h);
+            assert!((xd - fd).norm() < 1e-7, "ẋ {xd} vs {fd}");
+            // The second difference of the fit and the input accelerations both carry ~ε/h²
+            // ≈ 1e-6 round-off.
+            assert!((xdd - fdd).norm() < 1e-4, "ẍ {xdd} vs {fdd}");
+        }
+    }
 
     #[test]
     fn precomputed_maps_equal_the_direct_solves_at_any_angle() {

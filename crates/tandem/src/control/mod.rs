@@ -740,14 +740,12 @@ impl Controller {
         if adm.is_none() {
             return (*x_d, *xd_d, *xdd_d);
         }
-        let (x_r, rot_r) = self.set_d.fit_pose(&self.pts, self.theta_r_hint);
+        // The object-level reference and its exact rates (SPEC §3.3 needs α̇ exact: ẋ_r, ẍ_r
+        // must be the derivatives of x_r, also while the reference points deform).
+        let (x_r, xd_r, xdd_r, _) =
+            self.set_d
+                .fit_pose_rates(&self.pts, &self.vels, &self.acc, self.theta_r_hint);
         self.theta_r_hint = x_r.z;
-        let xd_r = self.set_d.fit_velocity(&rot_r, &self.vels);
-        for (i, g) in self.set_d.grasps().iter().enumerate() {
-            // Remove the velocity-product term: ẍ_i − J̇_i ẋ_r = J_i ẍ_r.
-            self.acc[i] += (rot_r * g.r) * (xd_r.z * xd_r.z);
-        }
-        let xdd_r = self.set_d.fit_velocity(&rot_r, &self.acc);
         (x_r, xd_r, xdd_r)
     }
 
