@@ -51,6 +51,9 @@ impl LawParams {
     }
 }
 
+/// Joint damping of a redundant arm's self-motion (null space of `J_e`), N m s/rad.
+pub const NULL_SPACE_DAMPING: f64 = 2.0;
+
 /// Where the tracking law acts (SPEC §3.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -637,11 +640,37 @@ impl Controller {
                 *t += gx - r;
             }
         }
+        let g = self.kin.gravity();
         for (i, arm) in self.kin.arms().iter().enumerate() {
             let off = self.kin.offset(i);
-            let t = &self.ws.terms[i];
+            let t = &mut self.ws.terms[i];
+            // Redundant arms: τ_x fixes only the end-effector; their self-motion gets damping
+            // and gravity compensation in the null space of J_e:
+            // τ_null = (I − J_eᵀ(J_eJ_eᵀ)⁻¹J_e)(−K_N q̇ + Ĝ(q)).
+            let mut w_null = Vector2::zeros();
+            if arm.dof() > 2 {
+                arm.general_dynamics(g, t);
+                let (mut a, mut b, mut d) = (0.0, 0.0, 0.0);
+                let mut ju = Vector2::zeros();
+                for k in 0..arm.dof() {
+                    let (jx, jy) = (t.J[(0, k)], t.J[(1, k)]);
+                    a += jx * jx;
+                    b += jx * jy;
+                    d += jy * jy;
+                    let u = -NULL_SPACE_DAMPING * meas.qd[off + k] + t.G[k];
+                    ju += Vector2::new(jx, jy) * u;
+                }
+                let det = a * d - b * b;
+                if det.abs() > 1e-12 {
+                    w_null = Vector2::new(d * ju.x - b * ju.y, a * ju.y - b * ju.x) / det;
+                }
+            }
             for k in 0..arm.dof() {
-                let v = t.J[(0, k)] * self.tau_x[i].x + t.J[(1, k)] * self.tau_x[i].y;
+                let mut v = t.J[(0, k)] * self.tau_x[i].x + t.J[(1, k)] * self.tau_x[i].y;
+                if arm.dof() > 2 {
+                    let u = -NULL_SPACE_DAMPING * meas.qd[off + k] + t.G[k];
+                    v += u - (t.J[(0, k)] * w_null.x + t.J[(1, k)] * w_null.y);
+                }
                 let c = v.clamp(-self.torque_limit, self.torque_limit);
                 rec.torque_clipped |= c != v;
                 tau[off + k] = if c.is_finite() { c } else { 0.0 };
