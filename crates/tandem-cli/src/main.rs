@@ -334,6 +334,10 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
         let mut sc = base.clone();
         sc.controller.kind = kind;
         sc.controller.gains = gains.or(sc.controller.gains);
+        if kind == ControllerKind::Ctc && sc.controller.scheme == tandem::control::Scheme::PerArm {
+            // Computed torque exists for the object scheme only: compare it there.
+            sc.controller.scheme = tandem::control::Scheme::Object;
+        }
         let label = runner::label(&sc);
         let p = runner::prepare(sc, &src)?;
         print_warnings(&label, &p.ready.warnings);

@@ -1476,6 +1476,16 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
             }),
         }
     })?;
+    // A start far from the path's first pose means a large initial error: every law answers it
+    // with a large transient wrench (SPEC §4 starts 1 cm off).
+    let x0 = b.path.sample(0.0).p;
+    let gap = ((b.sim.start[0] - x0.x).powi(2) + (b.sim.start[1] - x0.y).powi(2)).sqrt();
+    if gap > 0.02 {
+        warnings.push(format!(
+            "run.start ({:.3}, {:.3}) is {:.0} mm from the path's start ({:.3}, {:.3}): expect a large initial error and wrench",
+            b.sim.start[0], b.sim.start[1], 1e3 * gap, x0.x, x0.y
+        ));
+    }
     Ok(Ready { sim, warnings })
 }
 

@@ -122,10 +122,9 @@ pub fn rows(runs: &[(&str, &Summary)]) -> Vec<(String, Vec<String>)> {
             }
             s.weight_settling_time
                 .iter()
-                .map(|t| t.map_or_else(|| "never".into(), |x| num(x, 3)))
+                .map(|t| t.map_or_else(|| "never".into(), |x| format!("{} s", num(x, 3))))
                 .collect::<Vec<_>>()
                 .join(", ")
-                + " s"
         });
     }
     row("barrier hits / torque clips (ticks)", &|s| {

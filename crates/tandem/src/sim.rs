@@ -102,6 +102,13 @@ impl SimParams {
                 Ok(n as usize)
             }
         };
+        if hl > d {
+            return Err(ModelError::invalid(
+                "log_period",
+                hl,
+                format!("must not exceed the duration ({d} s): the log would hold one row"),
+            ));
+        }
         let sub = ratio(hc, hp, "control_period", "plant_step")?;
         let per_log = ratio(hl, hc, "log_period", "control_period")?;
         let ticks = (d / hc).round() as usize;
