@@ -535,3 +535,27 @@ fn redundant_arms_carry_the_object_with_a_damped_self_motion() {
     println!("3-link PD: largest null-space joint speed after 5 s {worst:.2e} rad/s");
     assert!(worst < 0.01, "self-motion not damped: {worst} rad/s");
 }
+
+#[test]
+fn the_papers_nn_gains_are_allowed_but_warned() {
+    let (_, w) = Controller::new(
+        &params(LawParams::Nn(NnGains::paper())),
+        &fixtures::paper(),
+        Path::paper(),
+        90.0,
+    )
+    .unwrap();
+    for x in &w {
+        println!("{x}");
+    }
+    assert_eq!(w.len(), 3, "one warning per axis: {w:?}");
+    assert!(w[1].to_string().contains("gains.k2[1]") && w[1].to_string().contains("limit cycle"));
+    let (_, w) = Controller::new(
+        &params(LawParams::Nn(NnGains::tuned())),
+        &fixtures::paper(),
+        Path::paper(),
+        90.0,
+    )
+    .unwrap();
+    assert!(w.is_empty(), "{w:?}");
+}

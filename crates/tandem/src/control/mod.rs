@@ -206,12 +206,20 @@ pub struct ControlEvents {
 pub enum ControlWarning {
     /// From the admittance generator (the paper's first-order form).
     Admittance(AdmittanceWarning),
+    /// An NN gain allowed by the theory but below what the sampled loop needs.
+    Gain {
+        /// Parameter path, e.g. `gains.k2[1]`.
+        param: String,
+        /// Why it is risky.
+        reason: String,
+    },
 }
 
 impl std::fmt::Display for ControlWarning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             ControlWarning::Admittance(w) => write!(f, "{w}"),
+            ControlWarning::Gain { param, reason } => write!(f, "{param}: {reason}"),
         }
     }
 }
@@ -386,6 +394,21 @@ impl Controller {
                     ));
                 }
                 let fu = FuBound::from_model(&kin, k_c, p.disturbance_bound, g.fu_safety)?;
+                // SPEC §3.4: with the nearly constant basis the NN is an adaptive bias, and the
+                // linearised loop 𝓜s³ + K2 s² + (K2 K1 + γ)s + γK1 needs roughly K2 > 𝓜 K1.
+                // c_j/safety bounds the row norm of 𝓜 over the box (≥ 𝓜_jj).
+                for j in 0..3 {
+                    let m_j = fu.c[j] / g.fu_safety;
+                    if g.k2[j] < m_j * g.k1[j] {
+                        warnings.push(ControlWarning::Gain {
+                            param: format!("gains.k2[{j}]"),
+                            reason: format!(
+                                "K2 = {} is below 𝓜 K1 ≈ {:.0} (𝓜 up to {:.2} over the constraint box, K1 = {}): the linearised z2 loop needs roughly K2 > 𝓜 K1 (SPEC §3.4); expect a limit cycle (the paper's gains end in one)",
+                                g.k2[j], m_j * g.k1[j], m_j, g.k1[j]
+                            ),
+                        });
+                    }
+                }
                 Law::Nn(Box::new(AdaptiveNn::new(g, k_c, fu, h)?))
             }
             (LawParams::Nn(g), Scheme::PerArm) => {
