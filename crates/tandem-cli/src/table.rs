@@ -86,7 +86,9 @@ pub fn rows(runs: &[(&str, &Summary)]) -> Vec<(String, Vec<String>)> {
         opt_s(s.settling_time_1mm)
     });
     row("min constraint margin", &|s| num(s.min_margin, 3));
-    row("bound violations (log rows)", &|s| s.violations.to_string());
+    row("bound violations (control ticks)", &|s| {
+        s.violations.to_string()
+    });
     // A replay has no controller: no commanded wrench.
     let replay = |s: &Summary| s.controller == "replay";
     row("RMS / peak wrench ‖τ_xy‖", &|s| {

@@ -166,11 +166,13 @@ fn run_writes_every_output_and_they_agree() {
                 .fold(f64::INFINITY, |m, v| m.min(1.0 - v.abs() / 0.35))
         })
         .fold(f64::INFINITY, f64::min);
-    assert!(close(
-        margin,
-        s["min_margin"].as_f64().expect("min_margin"),
-        1e-12
-    ));
+    // The summary's margin is taken over every control tick, the CSV's over the logged rows:
+    // never larger, and close (the pose moves < 1 mm between rows here).
+    let sm = s["min_margin"].as_f64().expect("min_margin");
+    assert!(
+        sm <= margin + 1e-12 && margin - sm < 1e-2,
+        "summary {sm} vs CSV {margin}"
+    );
     let peak = (1..=4)
         .flat_map(|k| column(&h, &cols, &format!("tau_q{k} [N m]")).iter())
         .fold(0.0f64, |a, b| a.max(b.abs()));

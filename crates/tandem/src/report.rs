@@ -32,9 +32,11 @@ pub struct Summary {
     pub max_z1_theta_after: f64,
     /// First time after which `‖z1_xy‖ < 1 mm` for the rest of the run, s (`null` if never).
     pub settling_time_1mm: Option<f64>,
-    /// Smallest constraint margin `1 − max_j |x_1j|/k_cj` (true pose).
+    /// Smallest constraint margin `1 − max_j |x_1j|/k_cj` of the true pose, over every control
+    /// tick (over the logged rows for a replay).
     pub min_margin: f64,
-    /// Log samples with the true pose outside the bound.
+    /// Control ticks ending with the true pose on or outside the bound (logged rows for a
+    /// replay).
     pub violations: usize,
     /// RMS of `‖τ‖` (object wrench, force part), N.
     pub rms_wrench: f64,
@@ -166,8 +168,12 @@ pub fn summarize(
         max_z1_after: maxabs(&e[after..]),
         max_z1_theta_after: maxabs(&zt[after.min(zt.len())..]),
         settling_time_1mm: if n == 0 { None } else { settling },
-        min_margin,
-        violations,
+        min_margin: out.min_margin.map_or(min_margin, |m| m.min(min_margin)),
+        violations: if out.min_margin.is_some() {
+            out.violation_ticks as usize
+        } else {
+            violations
+        },
         rms_wrench: rms(&w),
         peak_wrench: maxabs(&w),
         wrench_roughness: rms(&dw),

@@ -367,6 +367,11 @@ pub struct Outcome {
     pub max_drift: f64,
     /// Evaluations that needed a regularised grasp-space solve.
     pub regularised: u64,
+    /// Smallest constraint margin `1 − max_j |x_o,j|/k_cj` of the true pose over every control
+    /// tick (not only logged rows); `None` for a replay (no bounds).
+    pub min_margin: Option<f64>,
+    /// Control ticks that ended with the true pose on or outside the bound.
+    pub violation_ticks: u64,
 }
 
 /// A simulation: plant, sensors, driver, state, scratch and the log.
@@ -390,6 +395,10 @@ pub struct Simulation {
     substeps: usize,
     per_log: usize,
     ticks: usize,
+    /// Output bounds of the controller (per-tick margin tracking), if any.
+    k_c: Option<Vector3<f64>>,
+    min_margin: f64,
+    violation_ticks: u64,
 }
 
 impl Simulation {
@@ -452,7 +461,13 @@ impl Simulation {
             substeps,
             per_log,
             ticks,
+            k_c: None,
+            min_margin: f64::INFINITY,
+            violation_ticks: 0,
         };
+        if let Driver::Controller(c) = &sim.driver {
+            sim.k_c = Some(c.k_c());
+        }
         // Initial forces with zero torque held (the object hanging in the arms' grasp).
         sim.eval_forces();
         let (q, _, qd, _) = sim.plant.split(&sim.y);
@@ -616,6 +631,17 @@ impl Simulation {
         if !self.y.iter().all(|v| v.is_finite()) {
             return Err(self.fault(t1, FaultKind::NonFinite));
         }
+        // The output bound on the true pose, every tick.
+        if let Some(k) = self.k_c {
+            let n = self.plant.n_q();
+            let m = (0..3)
+                .map(|j| 1.0 - self.y[n + j].abs() / k[j])
+                .fold(f64::INFINITY, f64::min);
+            self.min_margin = self.min_margin.min(m);
+            if m <= 0.0 {
+                self.violation_ticks += 1;
+            }
+        }
         Ok(())
     }
 
@@ -720,6 +746,8 @@ impl Simulation {
             wall_time,
             max_drift,
             regularised: self.ws.regularised,
+            min_margin: self.k_c.map(|_| self.min_margin),
+            violation_ticks: self.violation_ticks,
         };
         (out, self)
     }

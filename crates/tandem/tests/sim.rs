@@ -228,3 +228,40 @@ fn bad_periods_are_named() {
     let e = err(&|sp| sp.start = [0.6, 0.0, 0.0]);
     assert!(e.contains("arms[0]") && e.contains("reaches"), "{e}");
 }
+
+#[test]
+fn bound_violations_are_counted_every_tick_not_only_on_logged_rows() {
+    // PD without gravity compensation, with a bound just above the path's x reach: the object
+    // overshoots it. With a log row only every 0.5 s, the per-tick count must see more.
+    let cp = ControllerParams {
+        k_c: [0.201, 0.35, 0.35],
+        ..ControllerParams::paper(LawParams::Pd(PdGains::paper()))
+    };
+    let (c, _) = Controller::new(&cp, &fixtures::paper(), Path::paper(), 70.0).unwrap();
+    let mut sp = SimParams::paper();
+    sp.duration = 70.0;
+    sp.log_period = 0.5;
+    let sim = Simulation::new(
+        &fixtures::paper(),
+        &SensorParams::default(),
+        Driver::Controller(Box::new(c)),
+        Disturbance::paper(),
+        sp,
+        None,
+    )
+    .unwrap();
+    let (out, _) = sim.run(|_| {});
+    let s = summarize(&out, "pd", "", cp.k_c, 5.0, 70.0);
+    let x = out.log.get("x_o.x").unwrap();
+    let rows = x.iter().filter(|v| v.abs() >= 0.201).count();
+    println!(
+        "violations: {} ticks, {rows} logged rows; min margin {:.4}",
+        s.violations, s.min_margin
+    );
+    assert!(
+        s.violations > 10 * rows.max(1),
+        "{} ticks vs {rows} rows",
+        s.violations
+    );
+    assert!(s.min_margin < 0.0);
+}
