@@ -1433,8 +1433,11 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
             let file = b.replay.as_deref().unwrap_or(FsPath::new(""));
             let n_q: usize = b.plant.arms.iter().map(|a| a.links.len()).sum();
             let replay = crate::replay::load(file, n_q).map_err(|e| ScenarioError {
-                file: format!("replay file {}", file.display()),
-                message: format!("{e:#}"),
+                file: src.display.clone(),
+                message: format!(
+                    "controller.replay (or --replay) = {}: {e:#}",
+                    file.display()
+                ),
                 span: None,
                 text: String::new(),
             })?;
