@@ -7,11 +7,14 @@
 //! 2. `t → x_d, ẋ_d, ẍ_d`: the desired path ([`crate::trajectory`]).
 //! 3. `(F_i, x_d) → x_r,i → x_r`: per-arm admittance generators ([`crate::admittance`], SPEC §3.1)
 //!    around the desired end-effector points `x_d,i = p_d + R(θ_d)(r_i − δ_i)`, fed with the
-//!    unexpected force `LPF(F_i) − F_ref,i`; the object-level reference is their least-squares fit.
+//!    unexpected force `LPF(F_i) − F_ref,i`; the object-level reference is their least-squares
+//!    fit, with its exact rates ([`crate::grasp::GraspSet::fit_pose_rates`]).
 //! 4. `(x̂_o, ẋ̂_o, x_r, ẋ_r, ẍ_r) → τ`: the tracking law on the object (iBLF + adaptive NN
 //!    ([`crate::adaptive`]), PD ([`crate::pd`]) or computed torque ([`crate::ctc`])).
 //! 5. `τ → τ_x,i → τ_joint,i = J_e,iᵀ τ_x,i`: wrench distribution with the internal squeeze
-//!    ([`crate::grasp::distribute_wrench`]), then actuator limits.
+//!    ([`crate::grasp::GraspSet::distribute`]) plus the internal part of the arms' own gravity
+//!    (`P_N Ĝ_x`, so the squeeze is the commanded one); for redundant arms, damping and gravity
+//!    compensation in the null space of `J_e`; then actuator limits.
 //!
 //! A tick allocates nothing and never emits NaN or infinity: a barrier hit saturates and is
 //! counted, a non-finite law output is replaced by zero torque and counted.
