@@ -705,21 +705,11 @@ impl<const M: usize> RbfNetwork<M> {
         z2: &SVector<f64, M>,
         upd: &NnUpdate<M>,
     ) -> NnTick<M> {
-        assert_eq!(rbf.n_nodes(), self.n_nodes, "rbf_network: basis size");
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 && rbf.eval_factors(z, ws) && ws.b.len() % BLOCK == 0 {
-            let c = coefficients(q, z2, upd);
-            // SAFETY: `avx2` is true only if the CPU reported AVX2 (`detect_avx2`).
-            let (acc, n2) = unsafe {
-                avx2::tick_grid::<M, true>(&mut self.w, &ws.a, &ws.b, &mut ws.s, &upd.decay, &c)
-            };
-            return NnTick {
-                f_hat: SVector::from(acc),
-                w_norm: SVector::from(n2.map(f64::sqrt)),
-            };
+        let (acc, n2) = self.tick_at_impl::<true>(rbf, z, ws, q, z2, upd);
+        NnTick {
+            f_hat: SVector::from(acc),
+            w_norm: SVector::from(n2.map(f64::sqrt)),
         }
-        rbf.eval_into(z, ws);
-        self.tick(&ws.s, q, z2, upd)
     }
 
     /// As [`RbfNetwork::tick_at`] but returns only `f̂` (the norms are not accumulated: one
@@ -737,18 +727,32 @@ impl<const M: usize> RbfNetwork<M> {
         z2: &SVector<f64, M>,
         upd: &NnUpdate<M>,
     ) -> SVector<f64, M> {
+        SVector::from(self.tick_at_impl::<false>(rbf, z, ws, q, z2, upd).0)
+    }
+
+    /// The body of [`RbfNetwork::tick_at`] and [`RbfNetwork::tick_at_outputs`]: `(f̂, ‖Ŵ‖²)`,
+    /// the norms accumulated only if `NORM` (on the AVX2 grid path; the fallback always has them).
+    #[inline]
+    fn tick_at_impl<const NORM: bool>(
+        &mut self,
+        rbf: &Rbf,
+        z: &[f64],
+        ws: &mut RbfWorkspace,
+        q: f64,
+        z2: &SVector<f64, M>,
+        upd: &NnUpdate<M>,
+    ) -> ([f64; M], [f64; M]) {
         assert_eq!(rbf.n_nodes(), self.n_nodes, "rbf_network: basis size");
+        let c = coefficients(q, z2, upd);
         #[cfg(target_arch = "x86_64")]
         if self.avx2 && rbf.eval_factors(z, ws) && ws.b.len() % BLOCK == 0 {
-            let c = coefficients(q, z2, upd);
             // SAFETY: `avx2` is true only if the CPU reported AVX2 (`detect_avx2`).
-            let (acc, _) = unsafe {
-                avx2::tick_grid::<M, false>(&mut self.w, &ws.a, &ws.b, &mut ws.s, &upd.decay, &c)
+            return unsafe {
+                avx2::tick_grid::<M, NORM>(&mut self.w, &ws.a, &ws.b, &mut ws.s, &upd.decay, &c)
             };
-            return SVector::from(acc);
         }
         rbf.eval_into(z, ws);
-        self.tick(&ws.s, q, z2, upd).f_hat
+        self.dispatch_tick::<true>(&ws.s, &upd.decay, &c)
     }
 
     #[inline]
