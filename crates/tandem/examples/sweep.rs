@@ -7,21 +7,14 @@
 use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams};
 use tandem::disturbance::Disturbance;
-use tandem::fixtures;
+use tandem::fixtures::{self, splitmix64};
 use tandem::report::{Summary, summarize};
 use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, SimParams, Simulation};
 use tandem::trajectory::Path;
 
-/// SplitMix64 of the run index: the run's private random stream.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E3779B97F4A7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
-    z ^ (z >> 31)
-}
 fn unit(seed: u64, k: u64) -> f64 {
-    (mix(seed ^ mix(k)) >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    (splitmix64(seed ^ splitmix64(k)) >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
 }
 
 fn one(run: u64, duration: f64) -> Summary {
@@ -50,7 +43,7 @@ fn one(run: u64, duration: f64) -> Summary {
             std_dev: 0.05,
             ..noise
         },
-        seed: mix(run),
+        seed: splitmix64(run),
     };
     let mut sp = SimParams::paper();
     sp.duration = duration;

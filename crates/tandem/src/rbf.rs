@@ -1204,21 +1204,7 @@ mod tests {
     use nalgebra::{Vector2, Vector3};
     use proptest::prelude::*;
 
-    /// SplitMix64, for reproducible test data.
-    struct Rng(u64);
-    impl Rng {
-        fn next_f64(&mut self) -> f64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^= z >> 31;
-            (z >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-            lo + (hi - lo) * self.next_f64()
-        }
-    }
+    use crate::fixtures::SplitMix64 as Rng;
 
     fn uneven() -> Rbf {
         Rbf::grid(
@@ -1249,7 +1235,7 @@ mod tests {
         let mut rng = Rng(7);
         let mut worst = 0.0f64;
         for _ in 0..20 {
-            let z: Vec<f64> = (0..12).map(|_| rng.uniform(-3.0, 3.0)).collect();
+            let z: Vec<f64> = (0..12).map(|_| rng.range(-3.0, 3.0)).collect();
             rbf.eval_into(&z, &mut ws);
             general.eval_naive_into(&z, &mut naive);
             worst = worst.max(max_abs_diff(ws.s(), &naive));
@@ -1270,7 +1256,7 @@ mod tests {
         let mut naive = vec![0.0; 30];
         let mut rng = Rng(11);
         for _ in 0..50 {
-            let z: Vec<f64> = (0..3).map(|_| rng.uniform(-3.0, 3.0)).collect();
+            let z: Vec<f64> = (0..3).map(|_| rng.range(-3.0, 3.0)).collect();
             rbf.eval_into(&z, &mut ws);
             rbf.eval_naive_into(&z, &mut naive);
             assert!(max_abs_diff(ws.s(), &naive) <= 1e-12);
@@ -1356,7 +1342,7 @@ mod tests {
     fn random_network(n: usize, rng: &mut Rng) -> RbfNetwork<3> {
         let mut net = RbfNetwork::<3>::new(n).unwrap();
         for w in net.weights_mut() {
-            *w = rng.uniform(-2.0, 2.0);
+            *w = rng.range(-2.0, 2.0);
         }
         net
     }
@@ -1382,11 +1368,9 @@ mod tests {
             let mut grid_path = fused.clone();
             let mut reference = fused.weights_matrix();
             for step in 0..20 {
-                let z: Vec<f64> = (0..rbf.n_inputs())
-                    .map(|_| rng.uniform(-2.0, 2.0))
-                    .collect();
+                let z: Vec<f64> = (0..rbf.n_inputs()).map(|_| rng.range(-2.0, 2.0)).collect();
                 let q = if step % 3 == 0 { 1.0 } else { rng.next_f64() };
-                let z2 = Vector3::new(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), 0.1);
+                let z2 = Vector3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), 0.1);
                 // tick_at: the grid fast path where it applies.
                 let t_grid = grid_path.tick_at(&rbf, &z, &mut ws, q, &z2, &upd);
                 let s = ws.s().to_vec();
@@ -1423,7 +1407,7 @@ mod tests {
         .unwrap();
         let mut a = RbfNetwork::<M>::new(n).unwrap();
         for w in a.weights_mut() {
-            *w = rng.uniform(-1.0, 1.0);
+            *w = rng.range(-1.0, 1.0);
         }
         let mut b = a.clone();
         b.avx2 = false;
@@ -1431,7 +1415,7 @@ mod tests {
         let mut reference = a.weights_matrix();
         for _ in 0..5 {
             let s: Vec<f64> = (0..n).map(|_| rng.next_f64()).collect();
-            let z2 = SVector::<f64, M>::from_fn(|_, _| rng.uniform(-1.0, 1.0));
+            let z2 = SVector::<f64, M>::from_fn(|_, _| rng.range(-1.0, 1.0));
             let ta = a.tick(&s, 0.9, &z2, &upd);
             let tb = b.tick(&s, 0.9, &z2, &upd);
             let f = c.output(&s);
@@ -1482,7 +1466,7 @@ mod tests {
         rbf_portable.avx2 = false;
         let mut ws_b = rbf_portable.workspace();
         for _ in 0..5 {
-            let z: Vec<f64> = (0..12).map(|_| rng.uniform(-2.0, 2.0)).collect();
+            let z: Vec<f64> = (0..12).map(|_| rng.range(-2.0, 2.0)).collect();
             let z2 = Vector3::new(0.3, -0.2, 0.01);
             let ta = a.tick_at(&rbf, &z, &mut ws, 0.7, &z2, &upd);
             let tb = b.tick_at(&rbf_portable, &z, &mut ws_b, 0.7, &z2, &upd);
@@ -1511,7 +1495,7 @@ mod tests {
         let mut rng = Rng(9);
         let mut net = RbfNetwork::<2>::new(rbf.n_nodes()).unwrap();
         let w0: Vec<f64> = (0..rbf.n_nodes() * 2)
-            .map(|_| rng.uniform(-1.0, 1.0))
+            .map(|_| rng.range(-1.0, 1.0))
             .collect();
         net.set_weights(&w0).unwrap();
         let n = 5000;

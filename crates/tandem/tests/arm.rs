@@ -7,23 +7,7 @@ use proptest::prelude::*;
 use tandem::arm::{Arm, ArmParams, Elbow, LinkParams};
 use tandem::error::ModelError;
 
-/// SplitMix64: a tiny seeded generator for reproducible random states.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.next()
-    }
-    fn vec(&mut self, n: usize, a: f64) -> Vec<f64> {
-        (0..n).map(|_| self.range(-a, a)).collect()
-    }
-}
+use tandem::fixtures::SplitMix64 as Rng;
 
 fn paper_arm() -> Arm {
     Arm::new("arm", &ArmParams::paper([-0.38, 0.0], Elbow::Negative)).unwrap()
