@@ -61,33 +61,50 @@ pub fn fit_pose_rot(
     points: &[Vector2<f64>],
     theta_hint: f64,
 ) -> (Vector3<f64>, Rotation2<f64>) {
-    let m = grasps.len() as f64;
-    let mut rbar = Vector2::zeros();
-    let mut xbar = Vector2::zeros();
-    for (g, x) in grasps.iter().zip(points) {
-        rbar += g.r;
-        xbar += x;
-    }
-    rbar /= m;
-    xbar /= m;
+    let r_bar = grasps.iter().map(|g| g.r).sum::<Vector2<f64>>() / grasps.len() as f64;
+    procrustes(
+        grasps.iter().map(|g| g.r - r_bar),
+        r_bar,
+        points,
+        theta_hint,
+    )
+}
+
+/// The 2-D Procrustes fit behind [`fit_pose_rot`] and [`GraspSet::fit_pose`], from the centred
+/// grasp points `a_i = r_i − r̄`: with `b_i = x_i − x̄`, `θ = atan2(Σ a_i×b_i, Σ a_i·b_i)` on the
+/// branch nearest `theta_hint`, `R(θ)` from the same cosine and sine (no trigonometry),
+/// `p = x̄ − R r̄`.
+#[inline]
+fn procrustes(
+    centred: impl Iterator<Item = Vector2<f64>>,
+    r_bar: Vector2<f64>,
+    points: &[Vector2<f64>],
+    theta_hint: f64,
+) -> (Vector3<f64>, Rotation2<f64>) {
+    let xbar = points.iter().sum::<Vector2<f64>>() / points.len() as f64;
     let (mut s, mut c) = (0.0, 0.0);
-    for (g, x) in grasps.iter().zip(points) {
-        let a = g.r - rbar;
+    for (a, x) in centred.zip(points) {
         let b = x - xbar;
         c += a.dot(&b);
         s += a.x * b.y - a.y * b.x;
     }
     let mut theta = s.atan2(c);
-    // Unwrap toward the hint.
-    let two_pi = std::f64::consts::TAU;
-    theta += ((theta_hint - theta) / two_pi).round() * two_pi;
-    let h = s.hypot(c);
-    let rot = if h > 0.0 {
-        Rotation2::from_matrix_unchecked(nalgebra::Matrix2::new(c / h, -s / h, s / h, c / h))
+    // Unwrap toward the hint (a run moves far less than π between calls).
+    let (pi, tau) = (std::f64::consts::PI, std::f64::consts::TAU);
+    while theta - theta_hint > pi {
+        theta -= tau;
+    }
+    while theta_hint - theta > pi {
+        theta += tau;
+    }
+    let h2 = s * s + c * c;
+    let rot = if h2 > 0.0 {
+        let k = 1.0 / h2.sqrt();
+        Rotation2::from_matrix_unchecked(nalgebra::Matrix2::new(c * k, -s * k, s * k, c * k))
     } else {
         Rotation2::identity()
     };
-    let p = xbar - rot * rbar;
+    let p = xbar - rot * r_bar;
     (Vector3::new(p.x, p.y, theta), rot)
 }
 
@@ -270,33 +287,25 @@ pub fn distribute_wrench_rot(
     true
 }
 
+/// Two symmetric grasps (the paper's) and three uneven ones, for the tests below.
+#[cfg(test)]
+fn test_grasp_sets() -> [Vec<Grasp>; 2] {
+    let g = |x, y| Grasp {
+        r: Vector2::new(x, y),
+    };
+    [
+        vec![g(-0.05, 0.0), g(0.05, 0.0)],
+        vec![g(-0.05, 0.0), g(0.05, 0.01), g(0.0, -0.025)],
+    ]
+}
+
 #[cfg(test)]
 mod distribution_tests {
     use super::*;
 
     #[test]
     fn distributed_wrench_reproduces_tau_and_squeeze_is_internal() {
-        for grasps in [
-            vec![
-                Grasp {
-                    r: Vector2::new(-0.05, 0.0),
-                },
-                Grasp {
-                    r: Vector2::new(0.05, 0.0),
-                },
-            ],
-            vec![
-                Grasp {
-                    r: Vector2::new(-0.05, 0.0),
-                },
-                Grasp {
-                    r: Vector2::new(0.05, 0.01),
-                },
-                Grasp {
-                    r: Vector2::new(0.0, -0.025),
-                },
-            ],
-        ] {
+        for grasps in test_grasp_sets() {
             let tau = Vector3::new(1.5, 9.8, -0.3);
             let mut out = vec![Vector2::zeros(); grasps.len()];
             let mut sq = vec![Vector2::zeros(); grasps.len()];
@@ -391,31 +400,7 @@ impl GraspSet {
         points: &[Vector2<f64>],
         theta_hint: f64,
     ) -> (Vector3<f64>, Rotation2<f64>) {
-        let xbar = points.iter().sum::<Vector2<f64>>() / points.len() as f64;
-        let (mut s, mut c) = (0.0, 0.0);
-        for (a, x) in self.centred.iter().zip(points) {
-            let b = x - xbar;
-            c += a.dot(&b);
-            s += a.x * b.y - a.y * b.x;
-        }
-        let mut theta = s.atan2(c);
-        // Unwrap toward the hint (a run moves far less than π between ticks).
-        let (pi, tau) = (std::f64::consts::PI, std::f64::consts::TAU);
-        while theta - theta_hint > pi {
-            theta -= tau;
-        }
-        while theta_hint - theta > pi {
-            theta += tau;
-        }
-        let h2 = s * s + c * c;
-        let rot = if h2 > 0.0 {
-            let k = 1.0 / h2.sqrt();
-            Rotation2::from_matrix_unchecked(nalgebra::Matrix2::new(c * k, -s * k, s * k, c * k))
-        } else {
-            Rotation2::identity()
-        };
-        let p = xbar - rot * self.r_bar;
-        (Vector3::new(p.x, p.y, theta), rot)
+        procrustes(self.centred.iter().copied(), self.r_bar, points, theta_hint)
     }
 
     /// The pose fit and its exact first and second time derivatives, for points that need not
@@ -544,27 +529,7 @@ mod grasp_set_tests {
 
     #[test]
     fn precomputed_maps_equal_the_direct_solves_at_any_angle() {
-        for grasps in [
-            vec![
-                Grasp {
-                    r: Vector2::new(-0.05, 0.0),
-                },
-                Grasp {
-                    r: Vector2::new(0.05, 0.0),
-                },
-            ],
-            vec![
-                Grasp {
-                    r: Vector2::new(-0.05, 0.0),
-                },
-                Grasp {
-                    r: Vector2::new(0.05, 0.01),
-                },
-                Grasp {
-                    r: Vector2::new(0.0, -0.025),
-                },
-            ],
-        ] {
+        for grasps in test_grasp_sets() {
             let set = GraspSet::new(grasps.clone()).unwrap();
             let m = grasps.len();
             for k in 0..50 {
