@@ -2,29 +2,20 @@
 //! constrained plant (the default) and on the reduced plant, and PD for comparison.
 use criterion::{Criterion, criterion_group, criterion_main};
 use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams};
+use tandem::control::{ControllerParams, LawParams};
 use tandem::disturbance::Disturbance;
 use tandem::fixtures;
 use tandem::pd::PdGains;
-use tandem::sensors::SensorParams;
-use tandem::sim::{Driver, Formulation, SimParams, Simulation};
-use tandem::trajectory::Path;
+use tandem::sim::{Formulation, SimParams, Simulation};
 
 fn build(law: LawParams, formulation: Formulation) -> Simulation {
-    let plant = fixtures::paper();
-    let cp = ControllerParams::paper(law);
-    let (c, _) = Controller::new(&cp, &plant, Path::paper(), 90.0).unwrap();
-    let mut sp = SimParams::paper();
-    sp.formulation = formulation;
-    Simulation::new(
-        &plant,
-        &SensorParams::default(),
-        Driver::Controller(Box::new(c)),
-        Disturbance::paper(),
-        sp,
-        None,
-    )
-    .unwrap()
+    let sp = SimParams {
+        formulation,
+        ..SimParams::paper()
+    };
+    fixtures::paper_simulation(&ControllerParams::paper(law), sp, Disturbance::paper())
+        .unwrap()
+        .0
 }
 
 fn bench(c: &mut Criterion) {

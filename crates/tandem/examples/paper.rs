@@ -1,12 +1,10 @@
 //! The paper scenario with one law, summary printed: `cargo run --release -p tandem --example paper -- [nn|paper|pd|ctc] [seconds]`
 //! (`SCHEME=arm` for the per-arm scheme).
 use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams};
+use tandem::control::{ControllerParams, LawParams};
 use tandem::disturbance::Disturbance;
 use tandem::pd::PdGains;
-use tandem::sensors::SensorParams;
-use tandem::sim::{Driver, SimParams, Simulation};
-use tandem::trajectory::Path;
+use tandem::sim::SimParams;
 use tandem::{fixtures, report};
 
 fn main() {
@@ -21,7 +19,6 @@ fn main() {
         "ctc" => LawParams::Ctc(Default::default()),
         _ => LawParams::Nn(NnGains::tuned()),
     };
-    let plant = fixtures::paper();
     let cp = ControllerParams {
         scheme: std::env::var("SCHEME")
             .map(|s| {
@@ -34,21 +31,14 @@ fn main() {
             .unwrap_or_default(),
         ..ControllerParams::paper(law)
     };
-    let (c, w) = Controller::new(&cp, &plant, Path::paper(), dur).unwrap();
+    let sp = SimParams {
+        duration: dur,
+        ..SimParams::paper()
+    };
+    let (sim, w) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
     for w in w {
         println!("warning: {w}");
     }
-    let mut sp = SimParams::paper();
-    sp.duration = dur;
-    let sim = Simulation::new(
-        &plant,
-        &SensorParams::default(),
-        Driver::Controller(Box::new(c)),
-        Disturbance::paper(),
-        sp,
-        None,
-    )
-    .unwrap();
     let (out, _) = sim.run(|_| {});
     let s = report::summarize(&out, &which, "", [0.35; 3], 5.0, dur);
     println!("{}", serde_json_like(&s));

@@ -3,8 +3,14 @@
 use nalgebra::Vector3;
 
 use crate::arm::{ArmParams, Elbow, LinkParams};
+use crate::control::{ControlWarning, Controller, ControllerParams};
+use crate::disturbance::Disturbance;
+use crate::error::ModelError;
 use crate::object::ObjectParams;
 use crate::plant::PlantParams;
+use crate::sensors::SensorParams;
+use crate::sim::{Driver, SimParams, Simulation};
+use crate::trajectory::Path;
 
 /// The paper's two-arm set-up (SPEC §4); see [`PlantParams::paper`].
 pub fn paper() -> PlantParams {
@@ -85,4 +91,25 @@ impl SplitMix64 {
     pub fn vec(&mut self, n: usize, a: f64) -> Vec<f64> {
         (0..n).map(|_| self.range(-a, a)).collect()
     }
+}
+
+/// The paper scenario (plant, path, ideal sensors) driven by a controller built from `cp`, with
+/// the run settings `sp` (its duration also bounds the path checks) and the disturbance `dist`.
+/// Returns the simulation and the controller's set-up warnings.
+pub fn paper_simulation(
+    cp: &ControllerParams,
+    sp: SimParams,
+    dist: Disturbance,
+) -> Result<(Simulation, Vec<ControlWarning>), ModelError> {
+    let plant = paper();
+    let (c, warnings) = Controller::new(cp, &plant, Path::paper(), sp.duration)?;
+    let sim = Simulation::new(
+        &plant,
+        &SensorParams::default(),
+        Driver::Controller(Box::new(c)),
+        dist,
+        sp,
+        None,
+    )?;
+    Ok((sim, warnings))
 }

@@ -20,21 +20,13 @@ fn params(law: LawParams) -> ControllerParams {
 }
 
 fn run(cp: ControllerParams, dist: Disturbance, duration: f64, log_period: f64) -> (Summary, Log) {
-    let plant = fixtures::paper();
-    let (c, _) = Controller::new(&cp, &plant, Path::paper(), duration).unwrap();
-    let mut sp = SimParams::paper();
-    sp.duration = duration;
-    sp.log_period = log_period;
+    let sp = SimParams {
+        duration,
+        log_period,
+        ..SimParams::paper()
+    };
     let name = cp.law.name();
-    let sim = Simulation::new(
-        &plant,
-        &SensorParams::default(),
-        Driver::Controller(Box::new(c)),
-        dist,
-        sp,
-        None,
-    )
-    .unwrap();
+    let (sim, _) = fixtures::paper_simulation(&cp, sp, dist).unwrap();
     let (out, _) = sim.run(|_| {});
     let s = summarize(&out, name, "", [0.35; 3], 2.0, duration);
     assert!(s.completed, "{name}: run stopped: {:?}", s.fault);

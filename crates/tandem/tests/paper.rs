@@ -2,29 +2,18 @@
 //! `cargo test --release -- --ignored` (CI does).
 
 use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams};
+use tandem::control::{ControllerParams, LawParams};
 use tandem::disturbance::Disturbance;
 use tandem::fixtures;
 use tandem::pd::PdGains;
 use tandem::report::{Summary, summarize};
-use tandem::sensors::SensorParams;
-use tandem::sim::{Driver, Log, SimParams, Simulation};
-use tandem::trajectory::Path;
+use tandem::sim::{Log, SimParams};
 
 fn paper_run(law: LawParams) -> (Summary, Log) {
-    let plant = fixtures::paper();
     let name = law.name();
     let cp = ControllerParams::paper(law);
-    let (c, _) = Controller::new(&cp, &plant, Path::paper(), 90.0).unwrap();
-    let sim = Simulation::new(
-        &plant,
-        &SensorParams::default(),
-        Driver::Controller(Box::new(c)),
-        Disturbance::paper(),
-        SimParams::paper(),
-        None,
-    )
-    .unwrap();
+    let (sim, _) =
+        fixtures::paper_simulation(&cp, SimParams::paper(), Disturbance::paper()).unwrap();
     let (out, _) = sim.run(|_| {});
     let s = summarize(&out, name, "", [0.35; 3], 5.0, 90.0);
     println!("{name}: {s:#?}");
