@@ -9,6 +9,10 @@ pub mod error;
 pub mod linalg;
 pub mod notation;
 
+pub mod dynamics;
+pub mod model;
+pub mod spatial;
+
 pub mod arm;
 pub mod grasp;
 pub mod object;

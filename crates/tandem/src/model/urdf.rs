@@ -1,0 +1,1 @@
+//! URDF reading (SPEC-spatial S2). Filled in by the URDF work.
