@@ -1240,6 +1240,7 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
         encoder_q: sc.sensors.encoder_q,
         encoder_qd: sc.sensors.encoder_qd,
         force: sc.sensors.force,
+        torque: Default::default(),
         seed: sc.run.seed,
     };
     sensors

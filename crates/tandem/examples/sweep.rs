@@ -44,6 +44,7 @@ fn one(run: u64, duration: f64) -> Summary {
             ..noise
         },
         seed: splitmix64(run),
+        ..Default::default()
     };
     let mut sp = SimParams::paper();
     sp.duration = duration;

@@ -176,6 +176,7 @@ fn simulation_ticks_allocate_nothing() {
         encoder_qd: noisy,
         force: noisy,
         seed: 7,
+        ..Default::default()
     };
     let mut sp = SimParams::paper();
     sp.duration = 1.0;

@@ -59,6 +59,7 @@ fn noisy() -> SensorParams {
             ..n
         },
         seed: 42,
+        ..Default::default()
     }
 }
 

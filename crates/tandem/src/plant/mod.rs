@@ -21,6 +21,7 @@
 
 pub mod constrained;
 pub mod reduced;
+pub mod spatial;
 
 use nalgebra::{DMatrix, Matrix2, Matrix2x3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
