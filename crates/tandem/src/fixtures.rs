@@ -113,3 +113,135 @@ pub fn paper_simulation(
     )?;
     Ok((sim, warnings))
 }
+
+/// A spatial closed chain ready to start: plant parameters, the object's start pose and a
+/// joint-angle guess for the inverse kinematics (stacked, arm order).
+#[derive(Clone, Debug)]
+pub struct SpatialSetup {
+    /// Plant parameters (arms with base placements, grasps, object, gravity).
+    pub params: crate::plant::spatial::SpatialPlantParams,
+    /// `X_WO` at the start.
+    pub x_wo: nalgebra::Isometry3<f64>,
+    /// Joint-angle guess for [`SpatialPlant::initial_state`](crate::plant::spatial::SpatialPlant::initial_state), rad.
+    pub q_guess: Vec<f64>,
+}
+
+/// The embedded UR5-class arm, `base_link` → `tool0`, placed at `(x, y, 0)` with yaw `yaw`.
+pub fn ur5_arm(x: f64, y: f64, yaw: f64) -> crate::model::SpatialArm {
+    let (chain, _) = crate::model::urdf::load_chain(crate::model::urdf::UR5_URDF, "base_link", "tool0")
+        .expect("the embedded UR5 model loads");
+    crate::model::SpatialArm {
+        chain,
+        base: nalgebra::Isometry3::new(
+            nalgebra::Vector3::new(x, y, 0.0),
+            nalgebra::Vector3::new(0.0, 0.0, yaw),
+        ),
+    }
+}
+
+/// The embedded Franka-class arm, `panda_link0` → `panda_hand_tcp`, at `(x, y, 0)`, yaw `yaw`.
+pub fn franka_arm(x: f64, y: f64, yaw: f64) -> crate::model::SpatialArm {
+    let (chain, _) = crate::model::urdf::load_chain(
+        crate::model::urdf::FRANKA_URDF,
+        "panda_link0",
+        "panda_hand_tcp",
+    )
+    .expect("the embedded Franka model loads");
+    crate::model::SpatialArm {
+        chain,
+        base: nalgebra::Isometry3::new(
+            nalgebra::Vector3::new(x, y, 0.0),
+            nalgebra::Vector3::new(0.0, 0.0, yaw),
+        ),
+    }
+}
+
+/// A grasp frame at `p_OG` whose axes are the given columns (tool x, y, z in object axes).
+fn grasp_frame(p: [f64; 3], x: [f64; 3], y: [f64; 3], z: [f64; 3]) -> nalgebra::Isometry3<f64> {
+    use nalgebra::{Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+    let r = Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[
+        Vector3::from(x),
+        Vector3::from(y),
+        Vector3::from(z),
+    ]));
+    nalgebra::Isometry3::from_parts(
+        Translation3::new(p[0], p[1], p[2]),
+        UnitQuaternion::from_rotation_matrix(&r),
+    )
+}
+
+/// SPEC-spatial S6: two UR5-class arms facing each other (bases `(∓0.70, 0, 0)`, yaw 0 and π)
+/// holding the 0.4 × 0.2 × 0.2 m, 3 kg box by its end faces, box at `(0.1, 0, 0.3)` with
+/// `R_WO = I`; the S6 start angles as the guess. Gravity `(0, 0, −9.81)`, Baumgarte 20 rad/s.
+pub fn dual_ur5() -> SpatialSetup {
+    use crate::plant::spatial::{GraspModel, SpatialObjectParams, SpatialPlantParams};
+    let params = SpatialPlantParams {
+        arms: vec![
+            ur5_arm(-0.70, 0.0, 0.0),
+            ur5_arm(0.70, 0.0, std::f64::consts::PI),
+        ],
+        grasps: vec![
+            grasp_frame([-0.2, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]),
+            grasp_frame([0.2, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, -1.0, 0.0], [-1.0, 0.0, 0.0]),
+        ],
+        object: SpatialObjectParams::spec_box(),
+        gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),
+        baumgarte: 20.0,
+        grasp_model: GraspModel::Weld,
+    };
+    SpatialSetup {
+        params,
+        x_wo: nalgebra::Isometry3::translation(0.1, 0.0, 0.3),
+        q_guess: vec![
+            -0.212431, -1.267797, 1.525974, -0.258177, 1.358366, -1.570796, //
+            -0.350708, -1.754035, 2.044645, -0.290610, 1.220088, -1.570796,
+        ],
+    }
+}
+
+/// [`dual_ur5`] plus a third UR5-class arm at `(0, −0.70, 0)` facing +y, holding the middle of
+/// the box's −y face (tool z into the box, tool x down).
+pub fn three_ur5() -> SpatialSetup {
+    let mut s = dual_ur5();
+    s.params
+        .arms
+        .push(ur5_arm(0.0, -0.70, std::f64::consts::FRAC_PI_2));
+    s.params.grasps.push(grasp_frame(
+        [0.0, -0.1, 0.0],
+        [0.0, 0.0, -1.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ));
+    s.q_guess
+        .extend_from_slice(&[-0.212431, -1.267797, 1.525974, -0.258177, 1.358366, -1.570796]);
+    s
+}
+
+/// Two Franka-class (7-DOF) arms facing each other, grasping the box from above (tool z down,
+/// SPEC-spatial S6's remark): bases `(∓0.55, 0, 0)`, box at `(0, 0, 0.35)`, grasps on the top
+/// face at `(∓0.12, 0, 0.1)`.
+pub fn dual_franka() -> SpatialSetup {
+    use crate::plant::spatial::{GraspModel, SpatialObjectParams, SpatialPlantParams};
+    let params = SpatialPlantParams {
+        arms: vec![
+            franka_arm(-0.55, 0.0, 0.0),
+            franka_arm(0.55, 0.0, std::f64::consts::PI),
+        ],
+        grasps: vec![
+            grasp_frame([-0.12, 0.0, 0.1], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]),
+            grasp_frame([0.12, 0.0, 0.1], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]),
+        ],
+        object: SpatialObjectParams::spec_box(),
+        gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),
+        baumgarte: 20.0,
+        grasp_model: GraspModel::Weld,
+    };
+    let ready = [0.0, 0.3, 0.0, -2.0, 0.0, 2.3, 0.785];
+    let mut q_guess = ready.to_vec();
+    q_guess.extend_from_slice(&ready);
+    SpatialSetup {
+        params,
+        x_wo: nalgebra::Isometry3::translation(0.0, 0.0, 0.35),
+        q_guess,
+    }
+}

@@ -3,6 +3,41 @@
 //! This crate holds the model, the plant, the controllers and the simulation loop; it does no I/O
 //! and no plotting (the `tandem-cli` crate does). See [`notation`] for the symbol table. SI units
 //! everywhere.
+//!
+//! # Architecture
+//!
+//! The paper's blocks, bottom to top (a module imports only from its own level or below):
+//!
+//! | block | planar | spatial | shared |
+//! |---|---|---|---|
+//! | algebra | — | [`spatial`] (SE(3), SO(3) exp/log and Jacobians, spatial inertia) | [`linalg`] |
+//! | model | [`arm`], [`object`], [`grasp`] | [`model`] (chains, URDF), [`plant::spatial::object`] | [`error`] |
+//! | arm dynamics (1)–(4) | [`arm`] (closed forms + general n-link) | [`dynamics`] (FK, J, J̇q̇, CRBA, RNEA, ABA) | |
+//! | closed chain (10)–(14) | [`plant`] (constrained, reduced) | [`plant::spatial`] (welds, compliant grasps) | [`plant::ClosedChain`] |
+//! | reference generation (15)–(21) | [`trajectory`], [`admittance`] | | |
+//! | control laws (22)–(44) | [`iblf`], [`rbf`], [`switching`], [`adaptive`], [`pd`], [`ctc`], [`control`] | | |
+//! | simulation | [`sim`], [`report`] | | [`integrate`], [`sensors`], [`disturbance`] |
+//!
+//! **How planar and spatial share one loop: one trait, two implementations.** The two plants
+//! differ in more than a dimension: the spatial state lives on a manifold (a unit quaternion,
+//! renormalised after every step), its grasp wrenches are read in the sensors' rotating tool
+//! axes, and its arms come from URDF with any joint layout, while the planar plant keeps its
+//! closed-form fast paths (SPEC §2.1, a 4 × 4 grasp-space solve) and its reduced formulation
+//! (14). A const-generic task dimension would drag each plant's special structure into the
+//! other; a trait lets each keep its fast path. So:
+//! * [`plant::ClosedChain`] is what the loop needs from a plant: a flat state for the
+//!   integrators, the held input, `advance` (RK4 with the input held, plus the plant's own
+//!   projection), the grasp wrenches as the wrist sensors read them (`WRENCH_DIM` = 2 or 6
+//!   channels per arm), constraint residual, conditioning and energy. [`plant::Plant`] and
+//!   [`plant::spatial::SpatialPlant`] implement it.
+//! * [`sensors::Sensors`] is one sensor model for both: encoders plus one wrist sensor per arm
+//!   of 2 (planar force) or 6 (spatial force/torque) channels, same channel model, same
+//!   seeding.
+//! * [`integrate`] works on flat slices ([`integrate::OdeSystem`]) and serves both.
+//! * The loop ([`sim`]) talks to a plant through [`plant::ClosedChain`] and to a controller
+//!   through the driver interface (time, encoders, flat wrench readings → joint torques and a
+//!   record). The spatial controller (SPEC-spatial S5) plugs in as another driver, not as a
+//!   second loop.
 #![warn(missing_docs)]
 
 pub mod error;

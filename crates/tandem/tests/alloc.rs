@@ -198,3 +198,40 @@ fn simulation_ticks_allocate_nothing() {
     });
     assert_eq!(n, 0, "simulation ticks allocated {n} times");
 }
+
+#[test]
+fn spatial_plant_steps_allocate_nothing() {
+    use tandem::plant::spatial::{GraspModel, SpatialPlant};
+    for s in [
+        fixtures::dual_ur5(),
+        fixtures::dual_franka(),
+        fixtures::three_ur5(),
+    ] {
+        for compliant in [false, true] {
+            let mut p = s.params.clone();
+            if compliant {
+                p.grasp_model = GraspModel::Compliant {
+                    stiffness: nalgebra::Vector6::from_element(1e5),
+                    damping: nalgebra::Vector6::from_element(600.0),
+                };
+            }
+            let plant = SpatialPlant::new(&p).unwrap();
+            let y0 = plant
+                .initial_state(&s.x_wo, &nalgebra::Vector6::zeros(), &s.q_guess)
+                .unwrap();
+            let mut y = y0.clone();
+            let mut ws = plant.workspace();
+            let mut rk = Rk4::new(plant.state_dim());
+            let input = plant.zero_input();
+            let mut dy = vec![0.0; plant.state_dim()];
+            plant.step(&mut rk, 0.0, &mut y, &input, &mut ws, 1e-4, 2);
+            let n = count(|| {
+                for k in 0..20 {
+                    plant.step(&mut rk, k as f64 * 1e-4, &mut y, &input, &mut ws, 1e-4, 1);
+                    assert!(plant.derivative(&y, &input, &mut ws, &mut dy));
+                }
+            });
+            assert_eq!(n, 0, "spatial plant step allocated (compliant: {compliant})");
+        }
+    }
+}

@@ -19,12 +19,15 @@
 //! per-arm terms ([`TwoLinkArm`]), with the inverse kinematics as link directions (no
 //! transcendental calls).
 
+pub mod chain;
 pub mod constrained;
 pub mod reduced;
 pub mod spatial;
 
 use nalgebra::{DMatrix, Matrix2, Matrix2x3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
+
+pub use chain::ClosedChain;
 
 use crate::arm::{Arm, ArmParams, ArmTerms, Cartesian, IkFailure, TwoLinkArm};
 use crate::error::{ModelError, non_negative};

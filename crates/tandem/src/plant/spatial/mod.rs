@@ -73,6 +73,7 @@ use crate::dynamics::{self, ChainData};
 use crate::error::{ModelError, non_negative};
 use crate::integrate::{OdeSystem, Rk4};
 use crate::model::SpatialArm;
+use crate::plant::Energy;
 pub use object::{RigidObject, SpatialObjectParams};
 
 /// How the grasps hold the object.
@@ -157,6 +158,20 @@ pub struct SpatialWorkspace {
     r: Vec<Vector3<f64>>,
     /// Scratch of the largest arm's dof.
     tmp: Vec<f64>,
+}
+
+impl SpatialWorkspace {
+    /// Grasp wrench `i` of the last evaluation in tool axes, as arm `i`'s wrist force/torque
+    /// sensor reads it: `blkdiag(R_WTᵀ, R_WTᵀ) F_i` (needs the arm's kinematics of the same
+    /// evaluation, which [`SpatialPlant::derivative`] leaves in `data`).
+    pub fn tool_wrench(&self, i: usize) -> Vector6<f64> {
+        let r = &self.data[i].X_WT.rotation;
+        let f = &self.wrenches[i];
+        v6(
+            &r.inverse_transform_vector(&f.fixed_rows::<3>(0).into_owned()),
+            &r.inverse_transform_vector(&f.fixed_rows::<3>(3).into_owned()),
+        )
+    }
 }
 
 /// The object part of a state.
@@ -479,7 +494,7 @@ impl SpatialPlant {
 
     /// Kinetic and potential energy `(T, V)` of the whole chain (arms + object; plus the grasp
     /// springs' potential for compliant grasps), J. Runs the arms' dynamics into `ws.data`.
-    pub fn energy(&self, y: &[f64], ws: &mut SpatialWorkspace) -> (f64, f64) {
+    pub fn energy(&self, y: &[f64], ws: &mut SpatialWorkspace) -> Energy {
         let (q, o, qd) = self.split(y);
         let mut t = 0.0;
         let mut v = 0.0;
@@ -512,7 +527,10 @@ impl SpatialPlant {
                 }
             }
         }
-        (t, v)
+        Energy {
+            kinetic: t,
+            potential: v,
+        }
     }
 
     /// Compliant-grasp error in `G_i` axes: `[R_WGᵀ(p_T − p_G); Log(R_WGᵀ R_WT)]`.

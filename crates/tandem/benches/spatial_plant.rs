@@ -1,0 +1,40 @@
+//! Spatial closed-chain derivative and RK4 step (SPEC-spatial S4): two UR5-class arms + box
+//! (welds), two Franka-class arms + box, three UR5-class arms + box.
+use criterion::{Criterion, criterion_group, criterion_main};
+use nalgebra::Vector6;
+use std::hint::black_box;
+use tandem::fixtures;
+use tandem::integrate::Rk4;
+use tandem::plant::spatial::SpatialPlant;
+
+fn bench(c: &mut Criterion) {
+    for (name, s) in [
+        ("dual_ur5", fixtures::dual_ur5()),
+        ("dual_franka", fixtures::dual_franka()),
+        ("three_ur5", fixtures::three_ur5()),
+    ] {
+        let plant = SpatialPlant::new(&s.params).unwrap();
+        let twist = Vector6::new(0.02, -0.01, 0.03, 0.1, -0.05, 0.2);
+        let y = plant.initial_state(&s.x_wo, &twist, &s.q_guess).unwrap();
+        let mut ws = plant.workspace();
+        let mut input = plant.zero_input();
+        for (k, t) in input.tau.iter_mut().enumerate() {
+            *t = (k as f64 * 0.9).sin() * 10.0;
+        }
+        let mut dy = vec![0.0; plant.state_dim()];
+        c.bench_function(&format!("spatial_plant/{name}/derivative"), |b| {
+            b.iter(|| plant.derivative(black_box(&y), &input, &mut ws, &mut dy))
+        });
+        let mut rk = Rk4::new(plant.state_dim());
+        let mut yy = y.clone();
+        c.bench_function(&format!("spatial_plant/{name}/rk4_step_1ms"), |b| {
+            b.iter(|| {
+                yy.copy_from_slice(&y);
+                plant.step(&mut rk, 0.0, black_box(&mut yy), &input, &mut ws, 1e-3, 1);
+            })
+        });
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,405 @@
+//! The spatial closed chain (SPEC-spatial S3–S4): invariants and cross-checks on two UR5-class
+//! arms + box, two Franka-class arms + box, and three UR5-class arms + box.
+
+use nalgebra::{DVector, Isometry3, Vector3, Vector6};
+use tandem::dynamics::{self, ChainData};
+use tandem::fixtures::{self, SpatialSetup};
+use tandem::integrate::{DormandPrince, Rk4};
+use tandem::plant::spatial::{GraspModel, SpatialInput, SpatialOde, SpatialPlant};
+
+fn build(s: &SpatialSetup) -> (SpatialPlant, Vec<f64>) {
+    let plant = SpatialPlant::new(&s.params).expect("valid plant");
+    let y = plant
+        .initial_state(&s.x_wo, &Vector6::zeros(), &s.q_guess)
+        .expect("start pose reachable");
+    (plant, y)
+}
+
+/// Gravity-compensating torques at the start (so the chain moves mildly, not in free fall).
+fn hold_torques(plant: &SpatialPlant, y: &[f64]) -> Vec<f64> {
+    let (q, _, _) = plant.split(y);
+    let mut tau = vec![0.0; plant.n_q()];
+    let g = plant.gravity();
+    for (i, arm) in plant.arms().iter().enumerate() {
+        let n = arm.chain.dof();
+        let s = plant.offset(i);
+        let mut d = ChainData::new(arm);
+        let z = vec![0.0; n];
+        dynamics::rnea(arm, &q[s..s + n], &z, &z, &g, None, &mut tau[s..s + n], &mut d);
+    }
+    tau
+}
+
+fn integrate(
+    plant: &SpatialPlant,
+    y: &mut [f64],
+    input: &SpatialInput,
+    h: f64,
+    steps: usize,
+    mut each: impl FnMut(usize, &[f64]),
+) {
+    let mut ws = plant.workspace();
+    let mut rk = Rk4::new(plant.state_dim());
+    for k in 0..steps {
+        plant.step(&mut rk, k as f64 * h, y, input, &mut ws, h, 1);
+        each(k + 1, y);
+    }
+}
+
+fn setups() -> Vec<(&'static str, SpatialSetup)> {
+    vec![
+        ("dual UR5", fixtures::dual_ur5()),
+        ("dual Franka", fixtures::dual_franka()),
+        ("three UR5", fixtures::three_ur5()),
+    ]
+}
+
+fn undamped(mut s: SpatialSetup) -> SpatialSetup {
+    s.params.object.damping = Vector6::zeros();
+    for a in &mut s.params.arms {
+        for j in &mut a.chain.joints {
+            j.damping = 0.0;
+        }
+    }
+    s
+}
+
+/// The start state satisfies every weld to round-off, and the object rests.
+#[test]
+fn start_state_satisfies_the_welds() {
+    for (name, s) in setups() {
+        let (plant, y) = build(&s);
+        let mut ws = plant.workspace();
+        let (lin, ang) = plant.constraint_residual(&y, &mut ws);
+        assert!(lin < 1e-12 && ang < 1e-12, "{name}: {lin:e} m, {ang:e} rad");
+        let (vl, va) = plant.velocity_residual(&y, &mut ws);
+        assert!(vl < 1e-12 && va < 1e-12, "{name}");
+    }
+}
+
+/// Undamped and uncontrolled (zero torque, gravity on), total energy is conserved to RK4's
+/// order: relative drift < 1e-6 over 10 s at the 1 ms step (scale: the largest kinetic energy
+/// reached, or 1 J if larger).
+#[test]
+fn energy_is_conserved_without_damping_or_control() {
+    for (name, s) in setups() {
+        let (plant, mut y) = build(&undamped(s));
+        let mut ws = plant.workspace();
+        let e = plant.energy(&y, &mut ws);
+        let (t0, v0) = (e.kinetic, e.potential);
+        let e0 = t0 + v0;
+        let input = plant.zero_input();
+        let (mut worst, mut t_max) = (0.0f64, 0.0f64);
+        integrate(&plant, &mut y, &input, 1e-3, 10_000, |k, y| {
+            if k % 10 == 0 {
+                let e = plant.energy(y, &mut ws);
+                let (t, v) = (e.kinetic, e.potential);
+                worst = worst.max((t + v - e0).abs());
+                t_max = t_max.max(t);
+            }
+        });
+        let rel = worst / t_max.max(1.0);
+        println!("{name}: energy drift {worst:.3e} J, peak kinetic {t_max:.3} J, relative {rel:.3e}");
+        assert!(rel < 1e-6, "{name}: relative energy drift {rel:e}");
+    }
+}
+
+/// With joint and object damping, energy never rises (beyond round-off).
+#[test]
+fn energy_never_rises_with_damping() {
+    for (name, mut s) in setups() {
+        s.params.object.damping = Vector6::new(2.0, 2.0, 2.0, 0.2, 0.2, 0.2);
+        for a in &mut s.params.arms {
+            for j in &mut a.chain.joints {
+                j.damping = 0.5;
+            }
+        }
+        let (plant, mut y) = build(&s);
+        let mut ws = plant.workspace();
+        let input = plant.zero_input();
+        let e = plant.energy(&y, &mut ws);
+        let (t0, v0) = (e.kinetic, e.potential);
+        let mut prev = t0 + v0;
+        let mut rises = 0.0f64;
+        integrate(&plant, &mut y, &input, 1e-3, 3000, |_, y| {
+            let e = plant.energy(y, &mut ws);
+                let (t, v) = (e.kinetic, e.potential);
+            rises = rises.max(t + v - prev);
+            prev = t + v;
+        });
+        assert!(prev < t0 + v0, "{name}: energy did not fall");
+        assert!(rises < 1e-9, "{name}: energy rose by {rises:e} J in one step");
+    }
+}
+
+/// Constraint drift stays below 1e-9 m and 1e-9 rad over 60 s (Baumgarte with the log map),
+/// holding the start's gravity torques (the chain sags and swings).
+#[test]
+#[ignore = "60 s of three closed chains; run by .ci/run"]
+fn drift_stays_below_1e_9_over_60_s() {
+    for (name, s) in setups() {
+        let (plant, mut y) = build(&s);
+        let mut input = plant.zero_input();
+        input.tau = hold_torques(&plant, &y);
+        let mut ws = plant.workspace();
+        let (mut lin, mut ang) = (0.0f64, 0.0f64);
+        integrate(&plant, &mut y, &input, 1e-3, 60_000, |k, y| {
+            if k % 20 == 0 {
+                let (l, a) = plant.constraint_residual(y, &mut ws);
+                lin = lin.max(l);
+                ang = ang.max(a);
+            }
+        });
+        println!("{name}: drift {lin:.3e} m, {ang:.3e} rad over 60 s");
+        assert!(lin < 1e-9 && ang < 1e-9, "{name}: {lin:e} m, {ang:e} rad");
+    }
+}
+
+/// The same over 5 s, in the normal suite.
+#[test]
+fn drift_stays_below_1e_9_over_5_s() {
+    for (name, s) in setups() {
+        let (plant, mut y) = build(&s);
+        let input = plant.zero_input();
+        let mut ws = plant.workspace();
+        let (mut lin, mut ang) = (0.0f64, 0.0f64);
+        integrate(&plant, &mut y, &input, 1e-3, 5_000, |k, y| {
+            if k % 10 == 0 {
+                let (l, a) = plant.constraint_residual(y, &mut ws);
+                lin = lin.max(l);
+                ang = ang.max(a);
+            }
+        });
+        println!("{name}: drift {lin:.3e} m, {ang:.3e} rad over 5 s (free fall)");
+        assert!(lin < 1e-9 && ang < 1e-9, "{name}: {lin:e} m, {ang:e} rad");
+    }
+}
+
+/// RK4 is 4th order on the closed chain: halving the step divides the error (against
+/// Dormand–Prince at 1e-12) by about 16.
+#[test]
+fn rk4_error_ratio_is_about_16() {
+    let s = undamped(fixtures::dual_ur5());
+    let (plant, y0) = build(&s);
+    let input = plant.zero_input();
+    let t_end = 0.4;
+    // Reference: adaptive DP5(4) at rtol = atol = 1e-12.
+    let mut ws = plant.workspace();
+    let mut yr = y0.clone();
+    let mut dp = DormandPrince::new(plant.state_dim(), 1e-12, 1e-12).unwrap();
+    {
+        let mut sys = SpatialOde {
+            plant: &plant,
+            ws: &mut ws,
+            input: &input,
+        };
+        dp.integrate(&mut sys, 0.0, t_end, &mut yr).expect("reference run");
+    }
+    plant.normalize(&mut yr);
+    let err = |n: usize| {
+        let mut y = y0.clone();
+        let h = t_end / n as f64;
+        integrate(&plant, &mut y, &input, h, n, |_, _| {});
+        y.iter()
+            .zip(&yr)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+    };
+    let e: Vec<f64> = [50, 100, 200].iter().map(|&n| err(n)).collect();
+    let r1 = e[0] / e[1];
+    let r2 = e[1] / e[2];
+    println!("RK4 errors {e:.3e?}, ratios {r1:.2}, {r2:.2}");
+    assert!((13.0..19.0).contains(&r1) && (13.0..19.0).contains(&r2), "{r1} {r2}");
+}
+
+/// The grasp wrenches (the KKT multipliers) equal those recovered from each arm's own
+/// dynamics, `RNEA(q, q̇, q̈, F_i) = τ_i − D_i q̇_i`, and the object's Newton–Euler equation
+/// closes with `−F_i`.
+#[test]
+fn grasp_wrenches_match_each_arms_own_dynamics() {
+    for (name, s) in setups() {
+        let (plant, mut y) = build(&s);
+        let mut input = plant.zero_input();
+        input.tau = hold_torques(&plant, &y);
+        for (k, t) in input.tau.iter_mut().enumerate() {
+            *t += 3.0 * ((k as f64) * 0.7).sin();
+        }
+        input.f_d = Vector6::new(0.5, -0.3, 0.2, 0.05, 0.02, -0.04);
+        // Move away from rest so the velocity terms count.
+        integrate(&plant, &mut y, &input, 1e-3, 200, |_, _| {});
+        let mut ws = plant.workspace();
+        let mut dy = vec![0.0; plant.state_dim()];
+        assert!(plant.derivative(&y, &input, &mut ws, &mut dy));
+        let n_q = plant.n_q();
+        let (q, o, qd) = plant.split(&y);
+        let qdd = &dy[n_q + 7..2 * n_q + 7];
+        let mut worst = 0.0f64;
+        let mut scale = 1.0f64;
+        for (i, arm) in plant.arms().iter().enumerate() {
+            let n = arm.chain.dof();
+            let s0 = plant.offset(i);
+            let mut d = ChainData::new(arm);
+            let mut tau = vec![0.0; n];
+            let f = ws.wrenches[i];
+            dynamics::rnea(
+                arm,
+                &q[s0..s0 + n],
+                &qd[s0..s0 + n],
+                &qdd[s0..s0 + n],
+                &plant.gravity(),
+                Some(&f),
+                &mut tau,
+                &mut d,
+            );
+            for k in 0..n {
+                let want = input.tau[s0 + k] - arm.chain.joints[k].damping * qd[s0 + k];
+                worst = worst.max((tau[k] - want).abs());
+                scale = scale.max(want.abs());
+            }
+        }
+        println!("{name}: arm residual {worst:.3e} N m (scale {scale:.1})");
+        assert!(worst < 1e-9 * scale, "{name}: {worst:e}");
+        // Object: m v̇ = m g − Σ f_i − f_d − c v, I ω̇ + ω × I ω = −Σ(τ_i + r_i × f_i) − τ_d − c ω.
+        let a = &dy[2 * n_q + 7..2 * n_q + 13];
+        let obj = plant.object();
+        let r = o.q.to_rotation_matrix();
+        let i_w = r.matrix() * obj.inertia * r.matrix().transpose();
+        let mut f_sum = Vector3::zeros();
+        let mut t_sum = Vector3::zeros();
+        for i in 0..plant.arms().len() {
+            let f = ws.wrenches[i];
+            let fl = Vector3::new(f[0], f[1], f[2]);
+            let ri = r * plant.grasps()[i].translation.vector;
+            f_sum += fl;
+            t_sum += Vector3::new(f[3], f[4], f[5]) + ri.cross(&fl);
+        }
+        let c = obj.damping;
+        let dv = Vector3::new(a[0], a[1], a[2]);
+        let dw = Vector3::new(a[3], a[4], a[5]);
+        let lin = obj.mass * dv - obj.mass * plant.gravity()
+            + f_sum
+            + input.f_d.fixed_rows::<3>(0)
+            + Vector3::new(c[0] * o.v.x, c[1] * o.v.y, c[2] * o.v.z);
+        let ang = i_w * dw
+            + o.w.cross(&(i_w * o.w))
+            + t_sum
+            + input.f_d.fixed_rows::<3>(3)
+            + Vector3::new(c[3] * o.w.x, c[4] * o.w.y, c[5] * o.w.z);
+        assert!(lin.norm() < 1e-9 * scale && ang.norm() < 1e-9 * scale, "{name}: {lin} {ang}");
+    }
+}
+
+/// The compliant grasp converges to the weld as its stiffness grows: the difference in object
+/// motion after 0.2 s falls roughly as 1/k.
+#[test]
+fn compliant_grasp_converges_to_the_weld() {
+    let s = fixtures::dual_ur5();
+    let (rigid, y0) = build(&s);
+    let mut input = rigid.zero_input();
+    input.tau = hold_torques(&rigid, &y0);
+    input.f_d = Vector6::new(2.0, 0.0, -1.0, 0.0, 0.3, 0.0);
+    let h = 1e-4;
+    let steps = 2000;
+    let mut yr = y0.clone();
+    integrate(&rigid, &mut yr, &input, h, steps, |_, _| {});
+    let n_q = rigid.n_q();
+    let mut errs = Vec::new();
+    for k in [1e4, 1e5, 1e6] {
+        let mut p = s.params.clone();
+        // Critically damped against ~1 kg: d = 2√k.
+        p.grasp_model = GraspModel::Compliant {
+            stiffness: Vector6::new(k, k, k, k / 10.0, k / 10.0, k / 10.0),
+            damping: Vector6::from_element(2.0 * k.sqrt()),
+        };
+        let plant = SpatialPlant::new(&p).unwrap();
+        let mut y = y0.clone();
+        integrate(&plant, &mut y, &input, h, steps, |_, _| {});
+        let e = (0..3)
+            .map(|j| (y[n_q + j] - yr[n_q + j]).abs())
+            .fold(0.0, f64::max);
+        errs.push(e);
+    }
+    println!("compliant vs weld, object position after 0.2 s: {errs:.3e?} m");
+    assert!(errs[1] < errs[0] / 4.0 && errs[2] < errs[1] / 4.0, "{errs:?}");
+    assert!(errs[2] < 1e-5, "{errs:?}");
+}
+
+/// An unreachable grasp and a grasp past the joint limits are set-up errors naming the arm.
+#[test]
+fn unreachable_grasps_are_errors_naming_the_arm() {
+    let s = fixtures::dual_ur5();
+    let plant = SpatialPlant::new(&s.params).unwrap();
+    let mut far = s.x_wo;
+    far.translation.vector += Vector3::new(0.0, 0.0, 2.0);
+    let e = plant
+        .initial_state(&far, &Vector6::zeros(), &s.q_guess)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("arms[0]") && e.contains("cannot reach"), "{e}");
+    let e = plant
+        .initial_state(&s.x_wo, &Vector6::zeros(), &s.q_guess[..5])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("q_guess"), "{e}");
+    let mut bad = s.q_guess.clone();
+    bad[3] = f64::NAN;
+    let e = plant
+        .initial_state(&s.x_wo, &Vector6::zeros(), &bad)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("q_guess[3]"), "{e}");
+}
+
+/// Bad plant parameters are errors naming the field.
+#[test]
+fn bad_plant_parameters_name_the_field() {
+    let base = fixtures::dual_ur5().params;
+    let check = |f: &dyn Fn(&mut tandem::plant::spatial::SpatialPlantParams), want: &str| {
+        let mut p = base.clone();
+        f(&mut p);
+        let e = SpatialPlant::new(&p).unwrap_err().to_string();
+        assert!(e.contains(want), "wanted {want}: {e}");
+    };
+    check(&|p| p.object.mass = 0.0, "object.mass");
+    check(&|p| p.object.mass = f64::NAN, "object.mass");
+    check(&|p| p.object.inertia[(0, 0)] = -1.0, "object.inertia");
+    check(&|p| p.object.inertia[(0, 0)] = 1.0, "triangle");
+    check(&|p| p.object.damping[4] = -1.0, "object.damping[4]");
+    check(&|p| p.gravity = Vector3::new(0.0, 0.0, 1e308), "gravity");
+    check(&|p| p.baumgarte = -1.0, "baumgarte");
+    check(&|p| p.grasps.pop().map(|_| ()).unwrap_or(()), "grasps");
+    check(&|p| p.grasps[1] = p.grasps[0], "coincides");
+    check(&|p| p.arms[1].chain.bodies[2].mass = 0.0, "arms[1]");
+    check(
+        &|p| {
+            p.grasp_model = GraspModel::Compliant {
+                stiffness: Vector6::zeros(),
+                damping: Vector6::zeros(),
+            }
+        },
+        "grasp_model.stiffness[0]",
+    );
+    check(
+        &|p| p.arms[0].base = Isometry3::translation(f64::INFINITY, 0.0, 0.0),
+        "arms[0].base",
+    );
+}
+
+/// The tool Jacobian rows used by the plant: `J q̇` equals the finite difference of the tool
+/// pose along a trajectory segment (guards the plant's use of the kinematics contract).
+#[test]
+fn velocity_constraint_holds_along_the_motion() {
+    let s = fixtures::dual_ur5();
+    let (plant, mut y) = build(&s);
+    let input = plant.zero_input();
+    let mut ws = plant.workspace();
+    let mut worst = (0.0f64, 0.0f64);
+    integrate(&plant, &mut y, &input, 1e-3, 500, |k, y| {
+        if k % 50 == 0 {
+            let (a, b) = plant.velocity_residual(y, &mut ws);
+            worst = (worst.0.max(a), worst.1.max(b));
+        }
+    });
+    assert!(worst.0 < 1e-9 && worst.1 < 1e-9, "{worst:?}");
+    let _ = DVector::<f64>::zeros(1);
+}
