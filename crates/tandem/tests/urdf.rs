@@ -1,0 +1,752 @@
+//! URDF loader (`model::urdf`, SPEC-spatial S2): typed errors with lines, fixed-joint merging,
+//! conventions, and the embedded models.
+
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use tandem::model::urdf::{Urdf, UrdfError, load_chain};
+use tandem::model::{Chain, JointKind};
+
+/// 1-based line of the first occurrence of `needle` in `text`.
+fn line_of(text: &str, needle: &str) -> u32 {
+    let at = text
+        .find(needle)
+        .unwrap_or_else(|| panic!("`{needle}` not in text"));
+    1 + text[..at].matches('\n').count() as u32
+}
+
+/// A small two-link arm, one element per line, with `extra` spliced in before `</robot>`.
+fn two_link(extra: &str) -> String {
+    format!(
+        r#"<?xml version="1.0"?>
+<robot name="two">
+  <link name="base"/>
+  <link name="link1">
+    <inertial>
+      <origin xyz="0.15 0 0" rpy="0 0 0"/>
+      <mass value="2.0"/>
+      <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.045" iyz="0" izz="0.045"/>
+    </inertial>
+  </link>
+  <link name="link2">
+    <inertial>
+      <origin xyz="0.15 0 0"/>
+      <mass value="0.85"/>
+      <inertia ixx="0.001" iyy="0.019" izz="0.019"/>
+    </inertial>
+  </link>
+  <link name="tool0"/>
+  <joint name="j1" type="revolute">
+    <parent link="base"/>
+    <child link="link1"/>
+    <axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="10" velocity="2"/>
+  </joint>
+  <joint name="j2" type="continuous">
+    <parent link="link1"/>
+    <child link="link2"/>
+    <origin xyz="0.3 0 0"/>
+    <axis xyz="0 0 2"/>
+    <dynamics damping="0.5" friction="0.1"/>
+  </joint>
+  <joint name="tool_joint" type="fixed">
+    <parent link="link2"/>
+    <child link="tool0"/>
+    <origin xyz="0.3 0 0" rpy="0 0 0"/>
+  </joint>
+{extra}
+</robot>
+"#
+    )
+}
+
+fn rel_close(a: &Matrix3<f64>, b: &Matrix3<f64>, tol: f64) -> bool {
+    (a - b).abs().max() <= tol * b.abs().max().max(1e-300)
+}
+
+#[test]
+fn two_link_loads_with_expected_fields() {
+    let text = two_link("");
+    let (c, w) = load_chain(&text, "base", "tool0").unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    assert_eq!(c.name, "two");
+    assert_eq!(c.dof(), 2);
+    assert_eq!(c.joints[0].name, "j1");
+    assert_eq!(c.joints[0].kind, JointKind::Revolute);
+    assert_eq!(c.joints[0].limits.lower, -3.0);
+    assert_eq!(c.joints[0].limits.effort, 10.0);
+    assert_eq!(c.joints[1].limits.lower, f64::NEG_INFINITY);
+    assert_eq!(c.joints[1].limits.upper, f64::INFINITY);
+    assert_eq!(c.joints[1].limits.effort, f64::INFINITY);
+    assert_eq!(c.joints[1].damping, 0.5);
+    // Axis normalised.
+    assert_eq!(c.joints[1].axis.into_inner(), Vector3::z());
+    assert_eq!(
+        c.joints[1].placement.translation.vector,
+        Vector3::new(0.3, 0.0, 0.0)
+    );
+    assert_eq!(c.tool.translation.vector, Vector3::new(0.3, 0.0, 0.0));
+    assert_eq!(c.bodies[0].name, "link1");
+    assert_eq!(c.bodies[1].mass, 0.85);
+    let u = Urdf::parse(&text).unwrap();
+    assert_eq!(u.name(), "two");
+    assert_eq!(
+        u.links().collect::<Vec<_>>(),
+        ["base", "link1", "link2", "tool0"]
+    );
+    assert_eq!(u.joints().collect::<Vec<_>>(), ["j1", "j2", "tool_joint"]);
+    // A sub-chain ending at a moving link.
+    let (c1, _) = u.chain("base", "link1").unwrap();
+    assert_eq!(c1.dof(), 1);
+    assert_eq!(c1.tool, Isometry3::identity());
+    // The massless tool0 hanging off link2 when the tool is link2 is merged harmlessly.
+    let (c2, _) = u.chain("base", "link2").unwrap();
+    assert_eq!(c2.bodies[1], c.bodies[1]);
+}
+
+#[test]
+fn mimic_joint_on_the_chain_is_an_error_naming_it() {
+    let text = two_link("").replace(
+        r#"<dynamics damping="0.5" friction="0.1"/>"#,
+        r#"<dynamics damping="0.5"/>
+    <mimic joint="j1" multiplier="1"/>"#,
+    );
+    let e = load_chain(&text, "base", "tool0").unwrap_err();
+    assert_eq!(
+        e,
+        UrdfError::Mimic {
+            joint: "j2".into(),
+            line: line_of(&text, "<mimic")
+        }
+    );
+    assert!(e.to_string().contains("j2"), "{e}");
+    // Off the chain it does not matter.
+    assert!(load_chain(&text, "base", "link1").is_ok());
+}
+
+#[test]
+fn missing_link_suggests_the_nearest_name() {
+    let text = two_link("");
+    let e = load_chain(&text, "base", "tool").unwrap_err();
+    assert_eq!(
+        e,
+        UrdfError::MissingLink {
+            name: "tool".into(),
+            suggestion: Some("tool0".into())
+        }
+    );
+    assert!(e.to_string().contains("did you mean `tool0`"), "{e}");
+    let e = load_chain(&text, "Base_link", "tool0").unwrap_err();
+    assert!(
+        matches!(&e, UrdfError::MissingLink { suggestion: Some(s), .. } if s == "base"),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn a_joint_naming_an_unknown_link_is_an_error_with_its_line() {
+    let text = two_link("").replace(r#"<child link="tool0"/>"#, r#"<child link="tool_0"/>"#);
+    let e = Urdf::parse(&text).unwrap_err();
+    assert_eq!(
+        e,
+        UrdfError::UnknownLink {
+            joint: "tool_joint".into(),
+            role: "child".into(),
+            link: "tool_0".into(),
+            line: line_of(&text, r#"<child link="tool_0"/>"#),
+            suggestion: Some("tool0".into()),
+        }
+    );
+}
+
+#[test]
+fn base_not_an_ancestor_of_tool_names_both() {
+    let text = two_link(
+        r#"  <link name="camera"/>
+  <joint name="cam_joint" type="fixed">
+    <parent link="base"/>
+    <child link="camera"/>
+  </joint>"#,
+    );
+    for (base, tool) in [("link2", "link1"), ("camera", "tool0"), ("tool0", "base")] {
+        match load_chain(&text, base, tool).unwrap_err() {
+            UrdfError::NotAChain {
+                base: b,
+                tool: t,
+                reason,
+            } => {
+                assert_eq!((b.as_str(), t.as_str()), (base, tool));
+                assert!(reason.contains("not an ancestor"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    let e = load_chain(&text, "base", "camera").unwrap_err();
+    assert!(
+        matches!(&e, UrdfError::NotAChain { reason, .. } if reason.contains("no movable joint")),
+        "{e:?}"
+    );
+    let e = load_chain(&text, "link1", "link1").unwrap_err();
+    assert!(matches!(e, UrdfError::NotAChain { .. }), "{e:?}");
+}
+
+#[test]
+fn two_parents_is_a_closed_loop_error() {
+    let text = two_link(
+        r#"  <joint name="loop_joint" type="fixed">
+    <parent link="base"/>
+    <child link="link2"/>
+  </joint>"#,
+    );
+    let e = Urdf::parse(&text).unwrap_err();
+    assert_eq!(
+        e,
+        UrdfError::TwoParents {
+            link: "link2".into(),
+            first: "j2".into(),
+            first_line: line_of(&text, r#"<joint name="j2""#),
+            second: "loop_joint".into(),
+            line: line_of(&text, r#"<joint name="loop_joint""#),
+        }
+    );
+}
+
+#[test]
+fn a_cycle_of_joints_is_an_error() {
+    let text = r#"<robot name="c">
+  <link name="a"/>
+  <link name="b"/>
+  <joint name="ab" type="fixed"><parent link="a"/><child link="b"/></joint>
+  <joint name="ba" type="fixed"><parent link="b"/><child link="a"/></joint>
+</robot>"#;
+    let e = Urdf::parse(text).unwrap_err();
+    assert!(matches!(e, UrdfError::Cycle { .. }), "{e:?}");
+}
+
+#[test]
+fn moving_link_with_mass_le_zero_is_an_error_naming_it() {
+    // Zero mass on a moving link.
+    let text = two_link("").replace(r#"<mass value="0.85"/>"#, r#"<mass value="0"/>"#);
+    let e = load_chain(&text, "base", "tool0").unwrap_err();
+    match &e {
+        UrdfError::BadMass {
+            link, value, line, ..
+        } => {
+            assert_eq!(link, "link2");
+            assert_eq!(*value, 0.0);
+            assert_eq!(*line, line_of(&text, r#"<mass value="0"/>"#));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(e.to_string().contains("link2"));
+    // A moving link with no <inertial> at all: the <link> line.
+    let text = two_link("").replace(
+        r#"<link name="link2">
+    <inertial>
+      <origin xyz="0.15 0 0"/>
+      <mass value="0.85"/>
+      <inertia ixx="0.001" iyy="0.019" izz="0.019"/>
+    </inertial>
+  </link>"#,
+        r#"<link name="link2"/>"#,
+    );
+    let e = load_chain(&text, "base", "tool0").unwrap_err();
+    assert!(
+        matches!(&e, UrdfError::BadMass { link, line, .. }
+            if link == "link2" && *line == line_of(&text, r#"<link name="link2"/>"#)),
+        "{e:?}"
+    );
+    // A negative mass anywhere is an error at parse time.
+    let text = two_link(r#"  <link name="junk"><inertial><mass value="-1"/></inertial></link>"#);
+    let e = Urdf::parse(&text).unwrap_err();
+    assert!(
+        matches!(&e, UrdfError::BadMass { link, value, line, .. }
+            if link == "junk" && *value == -1.0 && *line == line_of(&text, "junk")),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn non_positive_definite_inertia_is_an_error_naming_the_link() {
+    let text = two_link("").replace(
+        r#"<inertia ixx="0.001" iyy="0.019" izz="0.019"/>"#,
+        r#"<inertia ixx="0.001" ixy="0.01" iyy="0.019" izz="0.019"/>"#,
+    );
+    let e = load_chain(&text, "base", "tool0").unwrap_err();
+    match &e {
+        UrdfError::BadInertia { link, line, reason } => {
+            assert_eq!(link, "link2");
+            assert_eq!(*line, line_of(&text, r#"ixy="0.01""#));
+            assert!(reason.contains("positive definite"), "{reason}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // A zero inertia on a moving link with mass (a point mass) is not PD either.
+    let text = two_link("").replace(
+        r#"<inertia ixx="0.001" iyy="0.019" izz="0.019"/>"#,
+        r#"<inertia ixx="0" iyy="0" izz="0"/>"#,
+    );
+    assert!(matches!(
+        load_chain(&text, "base", "tool0").unwrap_err(),
+        UrdfError::BadInertia { .. }
+    ));
+}
+
+#[test]
+fn bad_numbers_name_element_attribute_and_line() {
+    let cases = [
+        (
+            r#"<origin xyz="0.3 0 0"/>"#,
+            r#"<origin xyz="0.3 zero 0"/>"#,
+            "origin",
+            "xyz",
+        ),
+        (
+            r#"<origin xyz="0.3 0 0"/>"#,
+            r#"<origin xyz="0.3 0"/>"#,
+            "origin",
+            "xyz",
+        ),
+        (
+            r#"<origin xyz="0.3 0 0"/>"#,
+            r#"<origin rpy="0 NaN 0"/>"#,
+            "origin",
+            "rpy",
+        ),
+        (
+            r#"<mass value="0.85"/>"#,
+            r#"<mass value="0.85kg"/>"#,
+            "mass",
+            "value",
+        ),
+        (
+            r#"<mass value="0.85"/>"#,
+            r#"<mass value="inf"/>"#,
+            "mass",
+            "value",
+        ),
+        (r#"iyy="0.019" izz"#, r#"iyy="1e400" izz"#, "inertia", "iyy"),
+        (r#"effort="10""#, r#"effort="ten""#, "limit", "effort"),
+        (r#"damping="0.5""#, r#"damping="""#, "dynamics", "damping"),
+        (
+            r#"<axis xyz="0 0 2"/>"#,
+            r#"<axis xyz="0 0 1 0"/>"#,
+            "axis",
+            "xyz",
+        ),
+    ];
+    for (from, to, element, attr) in cases {
+        let text = two_link("").replacen(from, to, 1);
+        assert_ne!(text, two_link(""), "{from}");
+        match Urdf::parse(&text).unwrap_err() {
+            UrdfError::BadAttribute {
+                element: e,
+                attr: a,
+                line,
+                owner,
+                ..
+            } => {
+                assert_eq!((e.as_str(), a.as_str()), (element, attr), "{to}");
+                assert_eq!(line, line_of(&text, to), "{to}");
+                assert!(
+                    owner.starts_with("joint ") || owner.starts_with("link "),
+                    "{owner}"
+                );
+            }
+            other => panic!("{to}: {other:?}"),
+        }
+    }
+    // Unknown joint type.
+    let text = two_link("").replace(r#"type="continuous""#, r#"type="spherical""#);
+    assert!(matches!(
+        Urdf::parse(&text).unwrap_err(),
+        UrdfError::BadAttribute { attr, .. } if attr == "type"
+    ));
+}
+
+#[test]
+fn limits_axis_and_required_elements() {
+    // A zero axis on a movable joint.
+    let text = two_link("").replace(r#"<axis xyz="0 0 2"/>"#, r#"<axis xyz="0 0 0"/>"#);
+    assert_eq!(
+        Urdf::parse(&text).unwrap_err(),
+        UrdfError::ZeroAxis {
+            joint: "j2".into(),
+            line: line_of(&text, r#"<axis xyz="0 0 0"/>"#)
+        }
+    );
+    // A revolute joint needs <limit> (URDF spec).
+    let text = two_link("").replace(
+        r#"<limit lower="-3" upper="3" effort="10" velocity="2"/>"#,
+        "",
+    );
+    assert!(matches!(
+        Urdf::parse(&text).unwrap_err(),
+        UrdfError::MissingElement { owner, element, .. } if owner == "joint j1" && element == "limit"
+    ));
+    // lower > upper on the chain.
+    let text = two_link("").replace(r#"lower="-3" upper="3""#, r#"lower="3" upper="-3""#);
+    let e = load_chain(&text, "base", "tool0").unwrap_err();
+    assert!(
+        matches!(&e, UrdfError::BadAttribute { owner, element, line, .. }
+            if owner == "joint j1" && element == "limit" && *line == line_of(&text, "<limit")),
+        "{e:?}"
+    );
+    // A joint without <parent>.
+    let text = two_link("").replace(r#"<parent link="link1"/>"#, "");
+    assert!(matches!(
+        Urdf::parse(&text).unwrap_err(),
+        UrdfError::MissingElement { owner, element, .. } if owner == "joint j2" && element == "parent"
+    ));
+    // Duplicate names.
+    let text = two_link(r#"  <link name="link1"/>"#);
+    assert!(matches!(
+        Urdf::parse(&text).unwrap_err(),
+        UrdfError::Duplicate { kind, name, first_line, .. } if kind == "link" && name == "link1" && first_line == 4
+    ));
+    // A floating joint on the chain.
+    let text = two_link("").replace(r#"type="continuous""#, r#"type="floating""#);
+    assert!(matches!(
+        load_chain(&text, "base", "tool0").unwrap_err(),
+        UrdfError::UnsupportedJoint { joint, kind, .. } if joint == "j2" && kind == "floating"
+    ));
+}
+
+#[test]
+fn malformed_xml_gives_line_and_column() {
+    let text = "<robot name=\"x\">\n  <link name=\"a\">\n  </lnk>\n</robot>\n";
+    match Urdf::parse(text).unwrap_err() {
+        UrdfError::Xml { line, col, msg } => {
+            assert_eq!(line, 3, "{msg}");
+            assert!(col >= 3, "{col}");
+        }
+        other => panic!("{other:?}"),
+    }
+    let e = Urdf::parse("").unwrap_err();
+    assert!(matches!(e, UrdfError::Xml { .. }), "{e:?}");
+    let e = Urdf::parse("<sdf version=\"1.6\"/>").unwrap_err();
+    assert!(
+        matches!(&e, UrdfError::NotARobot { found, line: 1 } if found == "sdf"),
+        "{e:?}"
+    );
+    assert_eq!(e.line(), Some(1));
+}
+
+#[test]
+fn triangle_inequality_break_is_a_warning_naming_the_link() {
+    // izz > ixx + iyy: no rigid body has it.
+    let text = two_link("").replace(
+        r#"<inertia ixx="0.001" iyy="0.019" izz="0.019"/>"#,
+        r#"<inertia ixx="0.001" iyy="0.002" izz="0.019"/>"#,
+    );
+    let (_, w) = load_chain(&text, "base", "tool0").unwrap();
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("link2") && w[0].contains("triangle"),
+        "{}",
+        w[0]
+    );
+}
+
+#[test]
+fn urdf_rpy_is_rz_ry_rx() {
+    let (r, p, y) = (0.4_f64, -1.2_f64, 2.5_f64);
+    let text = two_link("").replace(
+        r#"<origin xyz="0.3 0 0"/>"#,
+        &format!(r#"<origin xyz="0.3 0 0" rpy="{r} {p} {y}"/>"#),
+    );
+    let (c, _) = load_chain(&text, "base", "tool0").unwrap();
+    let rx = Matrix3::new(1.0, 0.0, 0.0, 0.0, r.cos(), -r.sin(), 0.0, r.sin(), r.cos());
+    let ry = Matrix3::new(p.cos(), 0.0, p.sin(), 0.0, 1.0, 0.0, -p.sin(), 0.0, p.cos());
+    let rz = Matrix3::new(y.cos(), -y.sin(), 0.0, y.sin(), y.cos(), 0.0, 0.0, 0.0, 1.0);
+    let got = c.joints[1]
+        .placement
+        .rotation
+        .to_rotation_matrix()
+        .into_inner();
+    assert!((got - rz * ry * rx).abs().max() < 1e-15);
+}
+
+#[test]
+fn inertial_origin_rotation_rotates_the_inertia_into_the_link_frame() {
+    // A diagonal inertia given in a frame yawed by 90°: x and y moments swap in the link frame.
+    let text = two_link("").replace(
+        r#"<origin xyz="0.15 0 0"/>
+      <mass value="0.85"/>
+      <inertia ixx="0.001" iyy="0.019" izz="0.019"/>"#,
+        r#"<origin xyz="0.15 0 0" rpy="0 0 1.5707963267948966"/>
+      <mass value="0.85"/>
+      <inertia ixx="0.019" iyy="0.001" izz="0.019"/>"#,
+    );
+    let (c, _) = load_chain(&text, "base", "tool0").unwrap();
+    let want = Matrix3::from_diagonal(&Vector3::new(0.001, 0.019, 0.019));
+    assert!((c.bodies[1].inertia - want).abs().max() < 1e-17);
+}
+
+/// Format a float so that it parses back to the same bits.
+fn f(x: f64) -> String {
+    format!("{x:e}")
+}
+
+fn inertia_attrs(i: &Matrix3<f64>) -> String {
+    format!(
+        r#"ixx="{}" ixy="{}" ixz="{}" iyy="{}" iyz="{}" izz="{}""#,
+        f(i[(0, 0)]),
+        f(i[(0, 1)]),
+        f(i[(0, 2)]),
+        f(i[(1, 1)]),
+        f(i[(1, 2)]),
+        f(i[(2, 2)])
+    )
+}
+
+fn rpy_of(r: &UnitQuaternion<f64>) -> (f64, f64, f64) {
+    r.euler_angles()
+}
+
+/// A one-joint arm whose moving link is described by `links` (link elements for `link1` and any
+/// welded links) and `welds` (fixed joints).
+fn one_joint(links: &str, welds: &str) -> String {
+    format!(
+        r#"<robot name="split">
+  <link name="base"/>
+{links}
+  <joint name="j1" type="revolute">
+    <parent link="base"/>
+    <child link="link1"/>
+    <origin xyz="0.1 0.2 0.3" rpy="0.1 0.2 0.3"/>
+    <axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="5" velocity="1"/>
+  </joint>
+{welds}
+</robot>"#
+    )
+}
+
+#[test]
+fn fixed_joint_merging_is_exact() {
+    // One rigid body: mass m, COM c and inertia I (about c) in the link1 frame.
+    let m = 3.25;
+    let c = Vector3::new(0.12, -0.034, 0.27);
+    let i_c = Matrix3::new(
+        0.031, 0.0021, -0.0013, 0.0021, 0.027, 0.0017, -0.0013, 0.0017, 0.019,
+    );
+    let single = one_joint(
+        &format!(
+            r#"  <link name="link1"><inertial><origin xyz="{} {} {}"/><mass value="{}"/><inertia {}/></inertial></link>"#,
+            f(c.x),
+            f(c.y),
+            f(c.z),
+            f(m),
+            inertia_attrs(&i_c)
+        ),
+        "",
+    );
+    let (one, w) = load_chain(&single, "base", "link1").unwrap();
+    assert!(w.is_empty());
+    assert_eq!(one.bodies[0].mass, m);
+    assert_eq!(one.bodies[0].com, c);
+    assert_eq!(one.bodies[0].inertia, i_c);
+
+    // Split: link1 keeps part A (m_a at c_a, I_a); part B (m_b at c_b, I_b, in link1 axes) moves
+    // to link1b welded to link1 by a fixed joint X_1b (offset and rotation), written in link1b's
+    // frame with its own inertial rotation. Parts chosen so that A + B is the body above.
+    let (m_a, m_b) = (1.25, 2.0);
+    let d = Vector3::new(0.05, -0.02, 0.04); // c_a = c + d·m_b/m, c_b = c − d·m_a/m
+    let c_a = c + d * (m_b / m);
+    let c_b = c - d * (m_a / m);
+    let pa = |p: &Vector3<f64>, mm: f64| {
+        (Matrix3::identity() * p.norm_squared() - p * p.transpose()) * mm
+    };
+    let i_b = Matrix3::new(
+        0.011, 0.001, 0.0005, 0.001, 0.009, -0.0007, 0.0005, -0.0007, 0.008,
+    );
+    // I_c = I_a + I_b + m_a |c_a − c|²… + m_b …  ⇒  I_a = I_c − I_b − pa(c_a − c) − pa(c_b − c).
+    let i_a = i_c - i_b - pa(&(c_a - c), m_a) - pa(&(c_b - c), m_b);
+    assert!(i_a.symmetric_eigenvalues().min() > 0.0);
+    let x_1b = Isometry3::from_parts(
+        Translation3::new(0.2, -0.1, 0.05),
+        UnitQuaternion::from_euler_angles(0.3, -0.5, 0.9),
+    );
+    // Part B in link1b's frame: COM x_1b⁻¹ c_b, inertia frame rotated by R_b1 · R_inertial where
+    // the inertial frame is chosen with its own rotation R_c.
+    let r_c = UnitQuaternion::from_euler_angles(-0.2, 0.4, 0.7);
+    let c_b_in_b = x_1b.inverse_transform_point(&c_b.into()).coords;
+    // Inertial frame orientation in link1b: R_bC = R_1b⁻¹ · R_c; tensor in C axes: R_cᵀ I_b R_c.
+    let r_bc = x_1b.rotation.inverse() * r_c;
+    let i_b_in_c =
+        r_c.to_rotation_matrix().matrix().transpose() * i_b * r_c.to_rotation_matrix().matrix();
+    let (rr, pp, yy) = rpy_of(&r_bc);
+    let (xr, xp, xy) = rpy_of(&x_1b.rotation);
+    let split = one_joint(
+        &format!(
+            r#"  <link name="link1"><inertial><origin xyz="{} {} {}"/><mass value="{}"/><inertia {}/></inertial></link>
+  <link name="link1b"><inertial><origin xyz="{} {} {}" rpy="{} {} {}"/><mass value="{}"/><inertia {}/></inertial></link>"#,
+            f(c_a.x),
+            f(c_a.y),
+            f(c_a.z),
+            f(m_a),
+            inertia_attrs(&i_a),
+            f(c_b_in_b.x),
+            f(c_b_in_b.y),
+            f(c_b_in_b.z),
+            f(rr),
+            f(pp),
+            f(yy),
+            f(m_b),
+            inertia_attrs(&((i_b_in_c + i_b_in_c.transpose()) * 0.5)),
+        ),
+        &format!(
+            r#"  <joint name="weld" type="fixed"><parent link="link1"/><child link="link1b"/><origin xyz="{} {} {}" rpy="{} {} {}"/></joint>"#,
+            f(x_1b.translation.x),
+            f(x_1b.translation.y),
+            f(x_1b.translation.z),
+            f(xr),
+            f(xp),
+            f(xy)
+        ),
+    );
+    for tool in ["link1", "link1b"] {
+        let (two, _) = load_chain(&split, "base", tool).unwrap();
+        let (a, b) = (&two.bodies[0], &one.bodies[0]);
+        assert!((a.mass - b.mass).abs() <= 1e-14 * b.mass);
+        assert!(
+            (a.com - b.com).abs().max() <= 1e-14 * b.com.abs().max(),
+            "{} vs {}",
+            a.com,
+            b.com
+        );
+        assert!(
+            rel_close(&a.inertia, &b.inertia, 1e-14),
+            "{} vs {}",
+            a.inertia,
+            b.inertia
+        );
+        assert_eq!(two.joints, one.joints);
+    }
+    let (two, _) = load_chain(&split, "base", "link1b").unwrap();
+    let t = two.tool;
+    assert!((t.translation.vector - x_1b.translation.vector).abs().max() < 1e-15);
+    assert!(t.rotation.angle_to(&x_1b.rotation) < 1e-15);
+}
+
+#[test]
+fn fixed_links_before_and_after_compose_into_placement_and_tool() {
+    // base ─fixed A─ mount ─j1─ link1 ─fixed B─ (mass) ─j2─ link2 ─fixed C─ flange ─fixed D─ tool.
+    let xa = Isometry3::from_parts(
+        Translation3::new(0.0, 0.0, 0.5),
+        UnitQuaternion::from_euler_angles(0.0, 0.0, 1.0),
+    );
+    let xj1 = Isometry3::from_parts(
+        Translation3::new(0.1, 0.0, 0.0),
+        UnitQuaternion::from_euler_angles(0.5, 0.0, 0.0),
+    );
+    let xb = Isometry3::from_parts(
+        Translation3::new(0.0, 0.3, 0.0),
+        UnitQuaternion::from_euler_angles(0.0, 0.7, 0.0),
+    );
+    let xj2 = Isometry3::from_parts(
+        Translation3::new(0.0, 0.0, 0.2),
+        UnitQuaternion::from_euler_angles(0.0, 0.0, -0.4),
+    );
+    let xc = Isometry3::from_parts(
+        Translation3::new(0.05, 0.0, 0.0),
+        UnitQuaternion::from_euler_angles(0.2, 0.3, 0.4),
+    );
+    let xd = Isometry3::from_parts(
+        Translation3::new(0.0, 0.0, 0.1),
+        UnitQuaternion::from_euler_angles(-1.0, 0.0, 0.5),
+    );
+    let o = |x: &Isometry3<f64>| {
+        let (r, p, y) = x.rotation.euler_angles();
+        let t = x.translation.vector;
+        format!(
+            r#"<origin xyz="{} {} {}" rpy="{} {} {}"/>"#,
+            f(t.x),
+            f(t.y),
+            f(t.z),
+            f(r),
+            f(p),
+            f(y)
+        )
+    };
+    let inert =
+        r#"<inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01"/></inertial>"#;
+    let text = format!(
+        r#"<robot name="c">
+  <link name="world"/><link name="base"/><link name="mount">{inert}</link>
+  <link name="link1">{inert}</link><link name="mid">{inert}</link><link name="link2">{inert}</link>
+  <link name="flange"/><link name="tool"/>
+  <joint name="w" type="fixed"><parent link="world"/><child link="base"/></joint>
+  <joint name="A" type="fixed"><parent link="base"/><child link="mount"/>{}</joint>
+  <joint name="j1" type="continuous"><parent link="mount"/><child link="link1"/>{}<axis xyz="0 0 1"/></joint>
+  <joint name="B" type="fixed"><parent link="link1"/><child link="mid"/>{}</joint>
+  <joint name="j2" type="prismatic"><parent link="mid"/><child link="link2"/>{}<axis xyz="1 0 0"/><limit lower="0" upper="0.5" effort="100" velocity="0.5"/></joint>
+  <joint name="C" type="fixed"><parent link="link2"/><child link="flange"/>{}</joint>
+  <joint name="D" type="fixed"><parent link="flange"/><child link="tool"/>{}</joint>
+</robot>"#,
+        o(&xa),
+        o(&xj1),
+        o(&xb),
+        o(&xj2),
+        o(&xc),
+        o(&xd)
+    );
+    let (c, w) = load_chain(&text, "base", "tool").unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    assert_eq!(c.dof(), 2);
+    assert_eq!(c.joints[1].kind, JointKind::Prismatic);
+    let close = |a: &Isometry3<f64>, b: &Isometry3<f64>| {
+        (a.translation.vector - b.translation.vector).abs().max() < 1e-15
+            && a.rotation.angle_to(&b.rotation) < 1e-14
+    };
+    assert!(close(&c.joints[0].placement, &(xa * xj1)));
+    assert!(close(&c.joints[1].placement, &(xb * xj2)));
+    assert!(close(&c.tool, &(xc * xd)));
+    // Body 0 = link1 + mid (two unit masses): mass 2, COM halfway to mid's origin.
+    assert_eq!(c.bodies[0].mass, 2.0);
+    assert!((c.bodies[0].com - xb.translation.vector * 0.5).abs().max() < 1e-16);
+    // Body 1 = link2 alone; mount's mass stays with the base.
+    assert_eq!(c.bodies[1].mass, 1.0);
+    // From the world link the chain is the same.
+    let (cw, _) = load_chain(&text, "world", "tool").unwrap();
+    assert_eq!(cw.joints, c.joints);
+}
+
+#[test]
+fn branches_fixed_merge_and_movable_weld_with_warning() {
+    let text = two_link(
+        r#"  <link name="camera"><inertial><origin xyz="0 0 0.05"/><mass value="0.2"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
+  <joint name="camera_joint" type="fixed"><parent link="link2"/><child link="camera"/><origin xyz="0.1 0 0"/></joint>
+  <link name="finger"><inertial><mass value="0.05"/><inertia ixx="1e-5" iyy="1e-5" izz="1e-5"/></inertial></link>
+  <joint name="finger_joint" type="prismatic"><parent link="tool0"/><child link="finger"/><limit lower="0" upper="0.04" effort="20" velocity="0.2"/></joint>
+  <link name="side"/>
+  <joint name="side_joint" type="revolute"><parent link="base"/><child link="side"/><limit lower="0" upper="1" effort="1" velocity="1"/></joint>"#,
+    );
+    let (c, w) = load_chain(&text, "base", "tool0").unwrap();
+    // The finger (off the chain, beyond the tool) is welded, with a warning; the base-side
+    // branch is ignored silently.
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("finger_joint") && w[0].contains("welded"),
+        "{}",
+        w[0]
+    );
+    assert!((c.bodies[1].mass - (0.85 + 0.2 + 0.05)).abs() < 1e-15);
+    let want_com = (Vector3::new(0.15, 0.0, 0.0) * 0.85
+        + Vector3::new(0.1, 0.0, 0.05) * 0.2
+        + Vector3::new(0.3, 0.0, 0.0) * 0.05)
+        / 1.1;
+    assert!((c.bodies[1].com - want_com).abs().max() < 1e-15);
+}
+
+#[test]
+fn urdf_errors_map_to_model_errors() {
+    let e: tandem::ModelError = UrdfError::MissingLink {
+        name: "x".into(),
+        suggestion: None,
+    }
+    .into();
+    assert!(e.to_string().contains("no link named `x`"), "{e}");
+}
+
+#[allow(dead_code)]
+fn _types(_: &Chain, _: Rotation3<f64>) {}
