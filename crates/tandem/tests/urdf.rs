@@ -1,7 +1,7 @@
 //! URDF loader (`model::urdf`, SPEC-spatial S2): typed errors with lines, fixed-joint merging,
 //! conventions, and the embedded models.
 
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use tandem::model::urdf::{Urdf, UrdfError, load_chain};
 use tandem::model::{Chain, JointKind};
 
@@ -748,5 +748,306 @@ fn urdf_errors_map_to_model_errors() {
     assert!(e.to_string().contains("no link named `x`"), "{e}");
 }
 
-#[allow(dead_code)]
-fn _types(_: &Chain, _: Rotation3<f64>) {}
+// ---------------------------------------------------------------------------------------------
+// Embedded models: pure kinematics composed by hand (the dynamics module is not used here).
+
+/// `X_BT(q)` and every `X_BLk(q)` from the chain's placements and joint motions (chain.rs doc).
+fn fk(c: &Chain, q: &[f64]) -> (Vec<Isometry3<f64>>, Isometry3<f64>) {
+    let mut x = Isometry3::identity();
+    let mut links = Vec::new();
+    for (j, &qj) in c.joints.iter().zip(q) {
+        let motion = match j.kind {
+            JointKind::Revolute => Isometry3::from_parts(
+                Translation3::identity(),
+                UnitQuaternion::from_axis_angle(&j.axis, qj),
+            ),
+            JointKind::Prismatic => Isometry3::from_parts(
+                Translation3::from(j.axis.into_inner() * qj),
+                UnitQuaternion::identity(),
+            ),
+        };
+        x = x * j.placement * motion;
+        links.push(x);
+    }
+    (links, x * c.tool)
+}
+
+fn rot_x(a: f64) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::identity(),
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), a),
+    )
+}
+fn rot_z(a: f64) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::identity(),
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), a),
+    )
+}
+fn trans(x: f64, y: f64, z: f64) -> Isometry3<f64> {
+    Isometry3::from_parts(Translation3::new(x, y, z), UnitQuaternion::identity())
+}
+
+fn assert_pose_close(a: &Isometry3<f64>, b: &Isometry3<f64>, tol: f64, what: &str) {
+    let dp = (a.translation.vector - b.translation.vector).abs().max();
+    let dr = (a.rotation.to_rotation_matrix().into_inner()
+        - b.rotation.to_rotation_matrix().into_inner())
+    .abs()
+    .max();
+    assert!(
+        dp < tol && dr < tol,
+        "{what}: Δp = {dp:e}, ΔR = {dr:e}\n{a}\n{b}"
+    );
+}
+
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// UR5 standard DH (Universal Robots): d, a, α.
+const UR5_D: [f64; 6] = [0.089159, 0.0, 0.0, 0.10915, 0.09465, 0.0823];
+const UR5_A: [f64; 6] = [0.0, -0.425, -0.39225, 0.0, 0.0, 0.0];
+const UR5_ALPHA: [f64; 6] = [FRAC_PI_2, 0.0, 0.0, FRAC_PI_2, -FRAC_PI_2, 0.0];
+
+/// Standard DH forward kinematics of the UR5 in `base_link` (= the DH base turned by π about z,
+/// ur_description's convention): returns DH frames 1..6.
+fn ur5_dh(q: &[f64]) -> Vec<Isometry3<f64>> {
+    let mut x = rot_z(PI);
+    let mut out = Vec::new();
+    for k in 0..6 {
+        x = x
+            * rot_z(q[k])
+            * trans(0.0, 0.0, UR5_D[k])
+            * trans(UR5_A[k], 0.0, 0.0)
+            * rot_x(UR5_ALPHA[k]);
+        out.push(x);
+    }
+    out
+}
+
+#[test]
+fn ur5_loads_with_expected_joints_limits_and_masses() {
+    use tandem::model::urdf::{UR5_BASE, UR5_TOOL, UR5_URDF, ur5};
+    let (c, w) = load_chain(UR5_URDF, UR5_BASE, UR5_TOOL).unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    assert_eq!(c, ur5());
+    let names: Vec<_> = c.joints.iter().map(|j| j.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "shoulder_pan_joint",
+            "shoulder_lift_joint",
+            "elbow_joint",
+            "wrist_1_joint",
+            "wrist_2_joint",
+            "wrist_3_joint"
+        ]
+    );
+    let bodies: Vec<_> = c.bodies.iter().map(|b| b.name.as_str()).collect();
+    assert_eq!(
+        bodies,
+        [
+            "shoulder_link",
+            "upper_arm_link",
+            "forearm_link",
+            "wrist_1_link",
+            "wrist_2_link",
+            "wrist_3_link"
+        ]
+    );
+    let effort = [150.0, 150.0, 150.0, 28.0, 28.0, 28.0];
+    for (j, e) in c.joints.iter().zip(effort) {
+        assert_eq!(j.kind, JointKind::Revolute);
+        assert_eq!(j.limits.effort, e, "{}", j.name);
+        assert_eq!(j.limits.velocity, PI);
+        assert_eq!((j.limits.lower, j.limits.upper), (-2.0 * PI, 2.0 * PI));
+    }
+    // Published masses; their sum is the moving mass (the 4 kg base is not part of the chain).
+    let masses = [3.7, 8.393, 2.275, 1.219, 1.219, 0.1879];
+    for (b, m) in c.bodies.iter().zip(masses) {
+        assert_eq!(b.mass, m, "{}", b.name);
+    }
+    let total: f64 = c.bodies.iter().map(|b| b.mass).sum();
+    assert!((total - 16.9939).abs() < 1e-12, "{total}");
+    // Centres of mass back in DH frame k equal UR's table.
+    let com_dh = [
+        [0.0, -0.02561, 0.00193],
+        [0.2125, 0.0, 0.11336],
+        [0.15, 0.0, 0.0265],
+        [0.0, -0.0018, 0.01634],
+        [0.0, 0.0018, 0.01634],
+        [0.0, 0.0, -0.001159],
+    ];
+    for k in 0..6 {
+        let x_l_dh = trans(UR5_A[k], 0.0, 0.0) * rot_x(UR5_ALPHA[k]);
+        let c_dh = x_l_dh
+            .inverse_transform_point(&c.bodies[k].com.into())
+            .coords;
+        assert!(
+            (c_dh - Vector3::from(com_dh[k])).abs().max() < 1e-15,
+            "link {k}: {c_dh}"
+        );
+        // Cylinder inertias: diagonal in DH axes.
+        let r = x_l_dh.rotation.to_rotation_matrix().into_inner();
+        let i_dh = r.transpose() * c.bodies[k].inertia * r;
+        assert!(
+            (i_dh - Matrix3::from_diagonal(&i_dh.diagonal()))
+                .abs()
+                .max()
+                < 1e-16
+        );
+    }
+}
+
+#[test]
+fn ur5_tool0_pose_equals_dh_forward_kinematics() {
+    let c = tandem::model::urdf::ur5();
+    // q = 0, then a few fixed configurations.
+    let qs: [[f64; 6]; 4] = [
+        [0.0; 6],
+        [0.3, -1.1, 1.4, -0.5, 1.2, 0.7],
+        [-2.0, 0.4, -2.2, 2.9, -0.8, -3.0],
+        [1.0, 1.0, 1.0, 1.0, 1.0, 1.0],
+    ];
+    for q in qs {
+        let (links, tool) = fk(&c, &q);
+        let dh = ur5_dh(&q);
+        assert_pose_close(&tool, &dh[5], 1e-14, "tool0");
+        // Link frame k = DH frame k-1 turned by q_k and shifted by d_k.
+        for k in 0..6 {
+            let prev = if k == 0 { rot_z(PI) } else { dh[k - 1] };
+            assert_pose_close(
+                &links[k],
+                &(prev * rot_z(q[k]) * trans(0.0, 0.0, UR5_D[k])),
+                1e-14,
+                "link",
+            );
+        }
+    }
+    // q = 0 by hand: the arm stretched along +x of base_link (a2 + a3), offset by d4 + d6 in y.
+    let (_, tool) = fk(&c, &[0.0; 6]);
+    let p = tool.translation.vector;
+    let want = Vector3::new(0.425 + 0.39225, 0.10915 + 0.0823, 0.089159 - 0.09465);
+    assert!((p - want).abs().max() < 1e-15, "{p}");
+}
+
+#[test]
+#[allow(clippy::approx_constant)] // the SPEC prints the start angles to 1e-6 rad
+fn ur5_spec_s6_start_puts_the_tools_on_the_grasps() {
+    // SPEC-spatial S6: bases (∓0.70, 0, 0) with yaw 0 and π, box at (0.1, 0, 0.3), R_WO = I,
+    // grasps r = (∓0.2, 0, 0) with R_OG1 = [(0,0,−1) (0,1,0) (1,0,0)], R_OG2 = [(0,0,−1) (0,−1,0) (−1,0,0)].
+    let c = tandem::model::urdf::ur5();
+    let q1 = [
+        -0.212431, -1.267797, 1.525974, -0.258177, 1.358366, -1.570796,
+    ];
+    let q2 = [
+        -0.350708, -1.754035, 2.044645, -0.290610, 1.220088, -1.570796,
+    ];
+    let x_wb1 = trans(-0.7, 0.0, 0.0);
+    let x_wb2 = trans(0.7, 0.0, 0.0) * rot_z(PI);
+    let r1 = Matrix3::new(0.0, 0.0, 1.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0);
+    let r2 = Matrix3::new(0.0, 0.0, -1.0, 0.0, -1.0, 0.0, -1.0, 0.0, 0.0);
+    for (x_wb, q, p, r) in [
+        (x_wb1, q1, Vector3::new(-0.1, 0.0, 0.3), r1),
+        (x_wb2, q2, Vector3::new(0.3, 0.0, 0.3), r2),
+    ] {
+        let x_wt = x_wb * fk(&c, &q).1;
+        let dp = (x_wt.translation.vector - p).abs().max();
+        let dr = (x_wt.rotation.to_rotation_matrix().into_inner() - r)
+            .abs()
+            .max();
+        // The start angles are printed to 1e-6 rad.
+        assert!(dp < 5e-6 && dr < 5e-6, "Δp = {dp:e}, ΔR = {dr:e}");
+    }
+}
+
+/// Franka modified DH (Craig): a_{i−1}, d_i, α_{i−1} for joints 1..7 and the flange.
+const PANDA_MDH: [(f64, f64, f64); 8] = [
+    (0.0, 0.333, 0.0),
+    (0.0, 0.0, -FRAC_PI_2),
+    (0.0, 0.316, FRAC_PI_2),
+    (0.0825, 0.0, FRAC_PI_2),
+    (-0.0825, 0.384, -FRAC_PI_2),
+    (0.0, 0.0, FRAC_PI_2),
+    (0.088, 0.0, FRAC_PI_2),
+    (0.0, 0.107, 0.0),
+];
+
+#[test]
+fn franka_loads_with_expected_joints_limits_masses_and_kinematics() {
+    use tandem::model::urdf::{FRANKA_BASE, FRANKA_TOOL, FRANKA_URDF, franka};
+    let (c, w) = load_chain(FRANKA_URDF, FRANKA_BASE, FRANKA_TOOL).unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    assert_eq!(c, franka());
+    assert_eq!(c.dof(), 7);
+    for (k, j) in c.joints.iter().enumerate() {
+        assert_eq!(j.name, format!("panda_joint{}", k + 1));
+        assert_eq!(c.bodies[k].name, format!("panda_link{}", k + 1));
+    }
+    let lower = [
+        -2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973,
+    ];
+    let upper = [2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973];
+    let vel = [2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61];
+    let eff = [87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0];
+    for k in 0..7 {
+        let l = c.joints[k].limits;
+        assert_eq!(
+            (l.lower, l.upper, l.velocity, l.effort),
+            (lower[k], upper[k], vel[k], eff[k])
+        );
+    }
+    // Gaz et al. (2019) masses, link 7 without the hand.
+    let masses = [
+        4.970684, 0.646926, 3.228604, 3.587895, 1.225946, 1.666555, 0.735522,
+    ];
+    for (b, m) in c.bodies.iter().zip(masses) {
+        assert_eq!(b.mass, m);
+    }
+    let total: f64 = c.bodies.iter().map(|b| b.mass).sum();
+    assert!((total - 16.062132).abs() < 1e-12, "{total}");
+    // Forward kinematics against the modified-DH product at a few configurations.
+    let qs: [[f64; 7]; 3] = [
+        [0.0; 7],
+        [0.1, -0.785, 0.2, -2.356, 0.3, 1.571, 0.785],
+        [1.0, 0.5, -1.5, -1.0, 2.0, 3.0, -2.5],
+    ];
+    for q in qs {
+        let (links, tool) = fk(&c, &q);
+        let mut x = Isometry3::identity();
+        for k in 0..8 {
+            let (a, d, al) = PANDA_MDH[k];
+            x = x
+                * rot_x(al)
+                * trans(a, 0.0, 0.0)
+                * rot_z(if k < 7 { q[k] } else { 0.0 })
+                * trans(0.0, 0.0, d);
+            if k < 7 {
+                assert_pose_close(&links[k], &x, 1e-14, "panda link");
+            }
+        }
+        assert_pose_close(&tool, &x, 1e-14, "panda flange");
+    }
+    // At q = 0 the flange is at (0.088, 0, 0.926) pointing down.
+    let (_, tool) = fk(&c, &[0.0; 7]);
+    assert!(
+        (tool.translation.vector - Vector3::new(0.088, 0.0, 0.926))
+            .abs()
+            .max()
+            < 1e-15
+    );
+    let r = tool.rotation.to_rotation_matrix().into_inner();
+    assert!(
+        (r - Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0)))
+            .abs()
+            .max()
+            < 1e-15
+    );
+    // The hand TCP frame, 0.1034 m further, turned by −π/4.
+    let (ct, _) = load_chain(FRANKA_URDF, FRANKA_BASE, "panda_hand_tcp").unwrap();
+    assert_eq!(ct.bodies, c.bodies);
+    assert_pose_close(
+        &ct.tool,
+        &(c.tool * trans(0.0, 0.0, 0.1034) * rot_z(-PI / 4.0)),
+        1e-15,
+        "tcp",
+    );
+}

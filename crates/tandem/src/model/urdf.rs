@@ -64,6 +64,40 @@ use thiserror::Error;
 use super::chain::{Chain, ChainJoint, JointKind, JointLimits, RigidBody};
 use crate::error::ModelError;
 
+/// The embedded UR5-class model (`models/ur5.urdf`, sources cited in the file): Universal
+/// Robots' DH kinematics, published masses and centres of mass, cylinder inertias. Base
+/// [`UR5_BASE`], tool [`UR5_TOOL`].
+pub const UR5_URDF: &str = include_str!("../../models/ur5.urdf");
+/// Base link of [`UR5_URDF`] (ur_description's `base_link`: the DH base frame turned by π about z).
+pub const UR5_BASE: &str = "base_link";
+/// Tool link of [`UR5_URDF`] (`tool0`: DH frame 6, z out of the flange).
+pub const UR5_TOOL: &str = "tool0";
+
+/// The embedded Franka-class (Panda, no hand) model (`models/franka.urdf`, sources cited in the
+/// file): Franka's modified-DH kinematics and limits, Gaz et al. (2019) inertial parameters. Base
+/// [`FRANKA_BASE`], tool [`FRANKA_TOOL`]; a massless `panda_hand_tcp` frame is also there.
+pub const FRANKA_URDF: &str = include_str!("../../models/franka.urdf");
+/// Base link of [`FRANKA_URDF`].
+pub const FRANKA_BASE: &str = "panda_link0";
+/// Tool link of [`FRANKA_URDF`] (`panda_link8`: the flange, Craig frame 8).
+pub const FRANKA_TOOL: &str = "panda_link8";
+
+/// The UR5-class chain [`UR5_BASE`] → [`UR5_TOOL`] from [`UR5_URDF`] (6 revolute joints; no
+/// warnings).
+pub fn ur5() -> Chain {
+    load_chain(UR5_URDF, UR5_BASE, UR5_TOOL)
+        .expect("the embedded UR5 model loads (tested)")
+        .0
+}
+
+/// The Franka-class chain [`FRANKA_BASE`] → [`FRANKA_TOOL`] from [`FRANKA_URDF`] (7 revolute
+/// joints; its warnings are listed in the tests).
+pub fn franka() -> Chain {
+    load_chain(FRANKA_URDF, FRANKA_BASE, FRANKA_TOOL)
+        .expect("the embedded Franka model loads (tested)")
+        .0
+}
+
 /// An error while reading URDF text or extracting a chain from it. Each variant names the element
 /// (link, joint, attribute) and, where it comes from the text, its 1-based URDF line.
 #[derive(Debug, Clone, PartialEq, Error)]
