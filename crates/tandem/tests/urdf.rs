@@ -1051,3 +1051,241 @@ fn franka_loads_with_expected_joints_limits_masses_and_kinematics() {
         "tcp",
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// Real-world file, the planar Table I arm, and robustness.
+
+const XACRO_UR5: &str = include_str!("data/ur5_xacro_output.urdf");
+const PLANAR2: &str = include_str!("data/planar2.urdf");
+
+#[test]
+fn xacro_style_ur5_loads_and_matches_the_embedded_model() {
+    let u = Urdf::parse(XACRO_UR5).unwrap();
+    assert_eq!(u.name(), "ur5_robot");
+    // The <joint> elements nested in <transmission> and <ros2_control> are not joints.
+    assert_eq!(u.joints().count(), 13);
+    let want = tandem::model::urdf::ur5();
+    for base in ["world", "base_link"] {
+        let (c, w) = u.chain(base, "tool0").unwrap();
+        assert!(w.is_empty(), "{w:?}");
+        assert_eq!(c.dof(), 6);
+        for (k, (j, e)) in c.joints.iter().zip(&want.joints).enumerate() {
+            assert_eq!(j.name, e.name);
+            assert_eq!(j.kind, e.kind);
+            assert_eq!(j.axis, e.axis);
+            assert_pose_close(&j.placement, &e.placement, 1e-15, &j.name);
+            let (lo, hi) = match k {
+                2 => (-PI, PI),                              // elbow ±π here
+                3..=5 => (f64::NEG_INFINITY, f64::INFINITY), // continuous wrists
+                _ => (-2.0 * PI, 2.0 * PI),
+            };
+            assert_eq!((j.limits.lower, j.limits.upper), (lo, hi), "{}", j.name);
+            assert_eq!(j.limits.effort, e.limits.effort);
+            assert_eq!(j.limits.velocity, e.limits.velocity);
+        }
+        // flange ∘ tool0 = identity up to rounding of π/2.
+        assert_pose_close(&c.tool, &want.tool, 1e-15, "tool0");
+        for k in [0, 1, 3, 4, 5] {
+            let (a, b) = (&c.bodies[k], &want.bodies[k]);
+            assert_eq!(a.name, b.name);
+            assert_eq!(a.mass, b.mass);
+            assert!((a.com - b.com).abs().max() < 1e-16, "{}", a.name);
+            assert!(
+                rel_close(&a.inertia, &b.inertia, 1e-14),
+                "{}: {} vs {}",
+                a.name,
+                a.inertia,
+                b.inertia
+            );
+        }
+        // The forearm carries the camera: merge it by hand (parallel-axis theorem).
+        let x_fc = Isometry3::from_parts(
+            Translation3::new(-0.2, 0.05, 0.06),
+            tandem::model::urdf::rpy_to_rotation([0.2, -0.4, 1.0]),
+        );
+        let x_ci = Isometry3::from_parts(
+            Translation3::new(0.01, 0.0, 0.005),
+            tandem::model::urdf::rpy_to_rotation([0.0, 0.0, 0.3]),
+        );
+        let x_fi = x_fc * x_ci;
+        let (m_c, c_c) = (0.072, x_fi.translation.vector);
+        let r = x_fi.rotation.to_rotation_matrix().into_inner();
+        let i_c = r * Matrix3::from_diagonal(&Vector3::new(5.3e-5, 1.2e-5, 5.6e-5)) * r.transpose();
+        let f = &want.bodies[2];
+        let m = f.mass + m_c;
+        let com = (f.com * f.mass + c_c * m_c) / m;
+        let pa = |d: Vector3<f64>, mm: f64| {
+            (Matrix3::identity() * d.norm_squared() - d * d.transpose()) * mm
+        };
+        let inertia = f.inertia + pa(f.com - com, f.mass) + i_c + pa(c_c - com, m_c);
+        let got = &c.bodies[2];
+        assert!((got.mass - m).abs() < 1e-15);
+        assert!((got.com - com).abs().max() < 1e-15, "{} vs {com}", got.com);
+        assert!(
+            rel_close(&got.inertia, &inertia, 1e-13),
+            "{} vs {inertia}",
+            got.inertia
+        );
+    }
+}
+
+#[test]
+fn planar2_matches_table_one() {
+    use tandem::arm::{ArmParams, Elbow};
+    let table = ArmParams::paper([0.0, 0.0], Elbow::Positive);
+    let (c, w) = load_chain(PLANAR2, "base", "tool").unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    assert_eq!(c.dof(), 2);
+    let mut x_along = 0.0;
+    for (k, lp) in table.links.iter().enumerate() {
+        let (j, b) = (&c.joints[k], &c.bodies[k]);
+        assert_eq!(j.kind, JointKind::Revolute);
+        assert_eq!(j.axis.into_inner(), Vector3::z());
+        assert_eq!(j.limits.lower, f64::NEG_INFINITY);
+        // Joint k sits at the end of link k−1, along x, unrotated.
+        assert_eq!(
+            j.placement.translation.vector,
+            Vector3::new(x_along, 0.0, 0.0)
+        );
+        assert_eq!(j.placement.rotation, UnitQuaternion::identity());
+        assert_eq!(b.mass, lp.mass);
+        assert_eq!(b.com, Vector3::new(lp.com, 0.0, 0.0));
+        assert_eq!(lp.com, lp.length / 2.0);
+        assert_eq!(b.inertia[(2, 2)], lp.inertia);
+        assert_eq!(b.inertia[(1, 1)], lp.inertia);
+        assert_eq!(b.inertia[(0, 0)], 1e-4);
+        assert_eq!(b.inertia[(0, 1)], 0.0);
+        x_along = lp.length;
+    }
+    assert_eq!(
+        c.tool.translation.vector,
+        Vector3::new(table.links[1].length, 0.0, 0.0)
+    );
+    // Tip at q = (q1, q2): the planar forward kinematics.
+    let q = [0.7, -1.3];
+    let (_, tip) = fk(&c, &q);
+    let want = Vector3::new(
+        0.3 * q[0].cos() + 0.3 * (q[0] + q[1]).cos(),
+        0.3 * q[0].sin() + 0.3 * (q[0] + q[1]).sin(),
+        0.0,
+    );
+    assert!((tip.translation.vector - want).abs().max() < 1e-15);
+}
+
+mod robustness {
+    use super::*;
+    use proptest::prelude::*;
+
+    const TOOLS: [(&str, &str); 5] = [
+        ("base_link", "tool0"),
+        ("world", "tool0"),
+        ("base_link", "forearm_link"),
+        ("base", "tool"),
+        ("base", "link2"),
+    ];
+
+    /// Parse and (when it parses) extract every chain; only `Result`s, never a panic.
+    fn exercise(text: &str) {
+        if let Ok(u) = Urdf::parse(text) {
+            for (b, t) in TOOLS {
+                let _ = u.chain(b, t).map(|(c, _)| c.validate());
+            }
+            let names: Vec<String> = u.links().map(String::from).collect();
+            if let (Some(b), Some(t)) = (names.first(), names.last()) {
+                let _ = u.chain(b, t);
+                let _ = u.chain(t, b);
+            }
+        }
+    }
+
+    const BYTES: &[u8] = b"<>/\"'= -+.e0123456789xyzabc\n&;!?[]";
+
+    fn mutate(base: &str, ops: &[(u8, usize, usize, u8)]) -> String {
+        let mut s = base.as_bytes().to_vec();
+        for &(op, a, b, c) in ops {
+            if s.is_empty() {
+                break;
+            }
+            let i = a % s.len();
+            let j = (i + b % 64).min(s.len());
+            match op % 5 {
+                0 => s.truncate(i),
+                1 => s[i] = BYTES[c as usize % BYTES.len()],
+                2 => {
+                    s.drain(i..j);
+                }
+                3 => {
+                    let piece: Vec<u8> = s[i..j].to_vec();
+                    s.splice(i..i, piece);
+                }
+                _ => s.insert(i, BYTES[c as usize % BYTES.len()]),
+            }
+        }
+        // Byte edits can split a UTF-8 character: keep it valid text, lossily.
+        String::from_utf8_lossy(&s).into_owned()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig {
+            cases: 512,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(2026),
+            ..ProptestConfig::default()
+        })]
+
+        #[test]
+        fn mutated_urdf_never_panics(
+            which in 0usize..3,
+            ops in proptest::collection::vec((any::<u8>(), any::<usize>(), any::<usize>(), any::<u8>()), 1..6),
+        ) {
+            let base = [XACRO_UR5, PLANAR2, tandem::model::urdf::FRANKA_URDF][which];
+            exercise(&mutate(base, &ops));
+        }
+
+        #[test]
+        fn numbers_in_attributes_never_panic(v in "[-+0-9.eEinfaNxX ]{0,24}") {
+            let text = PLANAR2.replace(r#"xyz="0.3 0 0""#, &format!(r#"xyz="{v}""#))
+                .replace(r#"<mass value="0.85"/>"#, &format!(r#"<mass value="{v}"/>"#));
+            exercise(&text);
+        }
+    }
+
+    #[test]
+    fn every_truncation_of_a_small_file_is_handled() {
+        for n in 0..=PLANAR2.len() {
+            if PLANAR2.is_char_boundary(n) {
+                exercise(&PLANAR2[..n]);
+            }
+        }
+    }
+}
+
+#[test]
+fn long_and_deep_inputs_do_not_overflow() {
+    // A 20 000-link fixed branch hanging off a moving link, and deeply nested unknown XML.
+    let n = 20_000;
+    let mut extra = String::new();
+    let mut parent = "link2".to_string();
+    for k in 0..n {
+        extra.push_str(&format!(
+            "  <link name=\"b{k}\"><inertial><mass value=\"1e-3\"/><inertia ixx=\"1e-6\" iyy=\"1e-6\" izz=\"1e-6\"/></inertial></link>\n  <joint name=\"bj{k}\" type=\"fixed\"><parent link=\"{parent}\"/><child link=\"b{k}\"/><origin xyz=\"0 0 0.001\"/></joint>\n"
+        ));
+        parent = format!("b{k}");
+    }
+    let (c, _) = load_chain(&two_link(&extra), "base", "tool0").unwrap();
+    assert!((c.bodies[1].mass - (0.85 + n as f64 * 1e-3)).abs() < 1e-9);
+    let deep = format!("{}{}", "<gazebo>".repeat(5000), "</gazebo>".repeat(5000));
+    let _ = Urdf::parse(&two_link(&deep));
+}
+
+#[test]
+fn lines_are_right_with_crlf_line_ends() {
+    let text = two_link("")
+        .replace(r#"<mass value="0.85"/>"#, r#"<mass value="-0.85"/>"#)
+        .replace('\n', "\r\n");
+    let e = Urdf::parse(&text).unwrap_err();
+    assert_eq!(
+        e.line(),
+        Some(line_of(&text, r#"<mass value="-0.85"/>"#)),
+        "{e}"
+    );
+}

@@ -412,24 +412,37 @@ pub fn load_chain(text: &str, base: &str, tool: &str) -> Result<(Chain, Vec<Stri
     Urdf::parse(text)?.chain(base, tool)
 }
 
-/// Reading context: the document, for line numbers.
-struct Ctx<'a, 'i> {
-    doc: &'a Document<'i>,
+/// Reading context: byte offsets of the line starts, for line numbers in O(log n) (roxmltree's
+/// `text_pos_at` scans from the start of the text on every call).
+struct Ctx {
+    line_starts: Vec<usize>,
 }
 
-impl<'a, 'i> Ctx<'a, 'i> {
+impl Ctx {
+    fn new(text: &str) -> Self {
+        let mut line_starts = vec![0];
+        line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
+        Ctx { line_starts }
+    }
+
+    /// 1-based line of byte offset `pos`.
+    fn line_at(&self, pos: usize) -> u32 {
+        let k = self.line_starts.partition_point(|&s| s <= pos);
+        u32::try_from(k).unwrap_or(u32::MAX)
+    }
+
     fn line(&self, node: Node) -> u32 {
-        self.doc.text_pos_at(node.range().start).row
+        self.line_at(node.range().start)
     }
 
     fn attr_line(&self, node: Node, attr: &str) -> u32 {
         match node.attribute_node(attr) {
-            Some(a) => self.doc.text_pos_at(a.range().start).row,
+            Some(a) => self.line_at(a.range().start),
             None => self.line(node),
         }
     }
 
-    fn required_attr<'n>(
+    fn required_attr<'n, 'i>(
         &self,
         node: Node<'n, 'i>,
         attr: &str,
@@ -578,7 +591,7 @@ impl Urdf {
                 msg: e.to_string(),
             }
         })?;
-        let cx = Ctx { doc: &doc };
+        let cx = Ctx::new(text);
         let robot = doc.root_element();
         if robot.tag_name().name() != "robot" {
             return Err(UrdfError::NotARobot {
@@ -752,18 +765,28 @@ impl Urdf {
             parent_joint[j.child] = Some(k);
             child_joints[j.parent].push(k);
         }
+        // Cycle check in O(n): 0 = unknown, 1 = on the current walk, 2 = reaches a root.
+        let mut state = vec![0u8; links.len()];
+        let mut walk = Vec::new();
         for start in 0..links.len() {
             let mut at = start;
-            let mut steps = 0;
-            while let Some(j) = parent_joint[at] {
-                at = joints[j].parent;
-                steps += 1;
-                if steps > links.len() {
-                    return Err(UrdfError::Cycle {
-                        link: links[start].name.clone(),
-                        line: links[start].line,
-                    });
+            walk.clear();
+            while state[at] == 0 {
+                state[at] = 1;
+                walk.push(at);
+                match parent_joint[at] {
+                    Some(j) => at = joints[j].parent,
+                    None => break,
                 }
+            }
+            if state[at] == 1 && parent_joint[at].is_some() {
+                return Err(UrdfError::Cycle {
+                    link: links[at].name.clone(),
+                    line: links[at].line,
+                });
+            }
+            for &l in &walk {
+                state[l] = 2;
             }
         }
         Ok(Urdf {
@@ -958,39 +981,42 @@ impl Urdf {
         body: &mut BodyBuild,
         warnings: &mut Vec<String>,
     ) {
-        body.add(&self.links[link], x_bl);
-        if link != body.link && self.links[link].inertial.is_some() {
-            body.merged.push(self.links[link].name.clone());
-        }
-        for &j in &self.child_joints[link] {
-            if Some(j) == next {
-                continue;
+        // Depth-first with an explicit stack (no recursion: a long branch cannot overflow it).
+        let mut stack = vec![(link, *x_bl)];
+        while let Some((l, x)) = stack.pop() {
+            body.add(&self.links[l], &x);
+            if l != body.link && self.links[l].inertial.is_some() {
+                body.merged.push(self.links[l].name.clone());
             }
-            let jt = &self.joints[j];
-            if jt.kind != UrdfKind::Fixed {
-                let (n, m) = self.subtree_mass(jt.child);
-                warnings.push(format!(
-                    "joint {} ({}) branches off the chain at link {}: its subtree ({n} link{}, {m} kg) is welded to the body of link {} at q = 0",
-                    jt.name,
-                    jt.kind.name(),
-                    self.links[link].name,
-                    if n == 1 { "" } else { "s" },
-                    self.links[body.link].name,
-                ));
+            for &j in self.child_joints[l].iter().rev() {
+                if l == link && Some(j) == next {
+                    continue;
+                }
+                let jt = &self.joints[j];
+                if jt.kind != UrdfKind::Fixed {
+                    let (n, m) = self.subtree_mass(jt.child);
+                    warnings.push(format!(
+                        "joint {} ({}) branches off the chain at link {}: its subtree ({n} link{}, {m} kg) is welded to the body of link {} at q = 0",
+                        jt.name,
+                        jt.kind.name(),
+                        self.links[l].name,
+                        if n == 1 { "" } else { "s" },
+                        self.links[body.link].name,
+                    ));
+                }
+                stack.push((jt.child, x * jt.origin));
             }
-            let x = x_bl * jt.origin;
-            self.attach(jt.child, &x, None, body, warnings);
         }
     }
 
     /// Number of links and total mass of the subtree rooted at `link`.
     fn subtree_mass(&self, link: usize) -> (usize, f64) {
-        let mut n = 1;
-        let mut m = self.links[link].inertial.as_ref().map_or(0.0, |i| i.mass);
-        for &j in &self.child_joints[link] {
-            let (n2, m2) = self.subtree_mass(self.joints[j].child);
-            n += n2;
-            m += m2;
+        let (mut n, mut m) = (0, 0.0);
+        let mut stack = vec![link];
+        while let Some(l) = stack.pop() {
+            n += 1;
+            m += self.links[l].inertial.as_ref().map_or(0.0, |i| i.mass);
+            stack.extend(self.child_joints[l].iter().map(|&j| self.joints[j].child));
         }
         (n, m)
     }
