@@ -5,7 +5,7 @@
 //! text ──Urdf::parse──▶ Urdf (links, joints, tree) ──Urdf::chain(base, tool)──▶ (Chain, warnings)
 //! ```
 //!
-//! # What is read (ROS URDF XML specification, `wiki.ros.org/urdf/XML`)
+//! # What is read (the URDF XML specification, ref. 1)
 //!
 //! - `<robot name>` and its direct `<link>` and `<joint>` children. Everything else — `<visual>`,
 //!   `<collision>`, `<material>`, `<transmission>` (whose nested `<joint>` elements are not
@@ -54,6 +54,22 @@
 //!   inequality) are returned.
 //! - A link with two parent joints (a closed loop, which URDF cannot express) and a cycle of
 //!   joints are errors when the text is parsed, wherever they are.
+//!
+//! # Embedded models
+//!
+//! [`UR5_URDF`] ([`ur5`]: `base_link` → `tool0`, 6 DOF) and [`FRANKA_URDF`] ([`franka`]:
+//! `panda_link0` → `panda_link8`, 7 DOF) are written from the manufacturers' published kinematic
+//! tables and published inertial parameters (refs. 2–4); each file's header comment cites the source of
+//! every block. Both load without warnings.
+//!
+//! # References
+//!
+//! 1. ROS, "urdf/XML" (the URDF XML specification: `link`, `joint`, `inertial`, `origin`).
+//! 2. Universal Robots, "DH parameters for calculations of kinematics and dynamics" (UR5).
+//! 3. Franka Emika, "Robot and interface specifications: control parameters" (Panda DH, limits).
+//! 4. C. Gaz, M. Cognetti, A. Oliva, P. Robuffo Giordano, A. De Luca, "Dynamic Identification of
+//!    the Franka Emika Panda Robot With Retrieval of Feasible Parameters Using Penalty-Based
+//!    Optimization", IEEE RA-L 4(4), 2019.
 
 use std::collections::HashMap;
 
@@ -91,7 +107,7 @@ pub fn ur5() -> Chain {
 }
 
 /// The Franka-class chain [`FRANKA_BASE`] → [`FRANKA_TOOL`] from [`FRANKA_URDF`] (7 revolute
-/// joints; its warnings are listed in the tests).
+/// joints; no warnings: the Gaz et al. inertias satisfy the triangle inequality).
 pub fn franka() -> Chain {
     load_chain(FRANKA_URDF, FRANKA_BASE, FRANKA_TOOL)
         .expect("the embedded Franka model loads (tested)")
