@@ -128,8 +128,7 @@ pub struct SpatialSetup {
 
 /// The embedded UR5-class arm, `base_link` → `tool0`, placed at `(x, y, 0)` with yaw `yaw`.
 pub fn ur5_arm(x: f64, y: f64, yaw: f64) -> crate::model::SpatialArm {
-    let (chain, _) = crate::model::urdf::load_chain(crate::model::urdf::UR5_URDF, "base_link", "tool0")
-        .expect("the embedded UR5 model loads");
+    let chain = crate::model::urdf::ur5();
     crate::model::SpatialArm {
         chain,
         base: nalgebra::Isometry3::new(
