@@ -824,3 +824,362 @@ fn planar_arm_reproduces_the_closed_forms() {
     }
     println!("planar closed forms: max relative error {worst:.2e}");
 }
+
+// ---------------------------------------------------------------------------------------------
+// Against dynibo
+// ---------------------------------------------------------------------------------------------
+//
+// dynibo 0.5.3 (a dev-dependency only: it pins nalgebra 0.34, so every value crosses through
+// plain `f64` slices, arrays and component indexing) loads URDF from a file, fixes gravity at
+// 9.80665 m/s² along world −z, and uses its own conventions, converted here:
+// * twists and Jacobian columns are **angular first** (`[ω; v]`) and Jacobians are taken at the
+//   target link's origin: the URDF carries the tool frame as a massless link `tool` on a fixed
+//   joint, so its origin is our tool point; rows 3..6 of dynibo's `J` are our rows 0..3;
+// * `jacobian_derivative` is `J̇` at the same point (the classical `J̇ q̇ = p̈ − J q̈`): we
+//   compare `J̇ q̇` after the same row swap;
+// * external loads are **resisting** wrenches `[τ; f]` in the link's own axes at its origin, added
+//   to the inverse-dynamics torques: our `F_T` (applied to the tool, world axes, about the tool
+//   origin) becomes `−R_WTᵀ F_T` on link `tool`;
+// * matrices are column-major flat slices; generalized order is dynibo's joint order, mapped to
+//   ours by joint name (other dynibo joints, if any, are held at zero).
+
+/// `X_AB` → URDF `<origin xyz rpy>`; URDF rpy is `R = Rz(yaw) Ry(pitch) Rx(roll)`, nalgebra's
+/// `euler_angles` convention. Numbers are written in Rust's shortest round-trip form.
+fn urdf_origin(x: &Isometry3<f64>) -> String {
+    let t = x.translation.vector;
+    let (r, p, y) = x.rotation.euler_angles();
+    format!(
+        "<origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/>",
+        t.x, t.y, t.z, r, p, y
+    )
+}
+
+/// A chain as URDF text (test-only writer): links `base`, the bodies, and a massless `tool`
+/// link on a fixed joint. The base pose is **not** written (dynibo's root is at its base frame):
+/// pass `absorb_base(arm)` or set dynibo's base frame.
+fn chain_to_urdf(chain: &Chain) -> String {
+    let mut s = format!(
+        "<?xml version=\"1.0\"?>\n<robot name=\"{}\">\n  <link name=\"{}\"/>\n",
+        chain.name, chain.base_link
+    );
+    let mut parent = chain.base_link.clone();
+    for (j, b) in chain.joints.iter().zip(&chain.bodies) {
+        let kind = match j.kind {
+            JointKind::Revolute => "revolute",
+            JointKind::Prismatic => "prismatic",
+        };
+        let a = j.axis.into_inner();
+        let i = &b.inertia;
+        s += &format!(
+            "  <joint name=\"{}\" type=\"{kind}\">\n    <parent link=\"{parent}\"/>\n    <child link=\"{}\"/>\n    {}\n    <axis xyz=\"{} {} {}\"/>\n    <limit lower=\"-100\" upper=\"100\" effort=\"1000\" velocity=\"100\"/>\n  </joint>\n",
+            j.name,
+            b.name,
+            urdf_origin(&j.placement),
+            a.x,
+            a.y,
+            a.z
+        );
+        s += &format!(
+            "  <link name=\"{}\">\n    <inertial>\n      <origin xyz=\"{} {} {}\" rpy=\"0 0 0\"/>\n      <mass value=\"{}\"/>\n      <inertia ixx=\"{}\" ixy=\"{}\" ixz=\"{}\" iyy=\"{}\" iyz=\"{}\" izz=\"{}\"/>\n    </inertial>\n  </link>\n",
+            b.name,
+            b.com.x,
+            b.com.y,
+            b.com.z,
+            b.mass,
+            i[(0, 0)],
+            i[(0, 1)],
+            i[(0, 2)],
+            i[(1, 1)],
+            i[(1, 2)],
+            i[(2, 2)]
+        );
+        parent = b.name.clone();
+    }
+    s += &format!(
+        "  <joint name=\"tool_fixed\" type=\"fixed\">\n    <parent link=\"{parent}\"/>\n    <child link=\"{}\"/>\n    {}\n  </joint>\n  <link name=\"{}\"/>\n</robot>\n",
+        chain.tool_link,
+        urdf_origin(&chain.tool),
+        chain.tool_link
+    );
+    s
+}
+
+/// Write `chain` (base absorbed, see [`chain_to_urdf`]) to a fresh temp file.
+fn write_urdf(chain: &Chain, tag: &str) -> std::path::PathBuf {
+    let path = std::env::temp_dir().join(format!("tandem-dyn-{}-{tag}.urdf", std::process::id()));
+    std::fs::write(&path, chain_to_urdf(chain)).unwrap();
+    path
+}
+
+/// dynibo's frame type from ours (nalgebra 0.34 values built from components).
+fn to_dynibo_frame(x: &Isometry3<f64>) -> dynibo::Frame {
+    let mut t = dynibo::Frame::identity().translation.vector;
+    let mut aa = t;
+    let v = x.translation.vector;
+    let w = x.rotation.scaled_axis();
+    for k in 0..3 {
+        t[k] = v[k];
+        aa[k] = w[k];
+    }
+    dynibo::Frame::new(t, aa)
+}
+
+/// Largest relative errors of one comparison run, per quantity.
+#[derive(Debug, Default)]
+struct DyniboErrors {
+    pose: f64,
+    m: f64,
+    rnea: f64,
+    rnea_wrench: f64,
+    gravity: f64,
+    cqd: f64,
+    aba: f64,
+    jacobian: f64,
+    jdqd: f64,
+}
+
+impl std::fmt::Display for DyniboErrors {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "pose {:.1e}, M {:.1e}, RNEA {:.1e}, RNEA+F_T {:.1e}, g {:.1e}, C q̇ {:.1e}, ABA {:.1e}, J {:.1e}, J̇ q̇ {:.1e}",
+            self.pose,
+            self.m,
+            self.rnea,
+            self.rnea_wrench,
+            self.gravity,
+            self.cqd,
+            self.aba,
+            self.jacobian,
+            self.jdqd
+        )
+    }
+}
+
+impl DyniboErrors {
+    fn max(&self) -> f64 {
+        [
+            self.pose,
+            self.m,
+            self.rnea,
+            self.rnea_wrench,
+            self.gravity,
+            self.cqd,
+            self.aba,
+            self.jacobian,
+            self.jdqd,
+        ]
+        .into_iter()
+        .fold(0.0, f64::max)
+    }
+}
+
+/// Compare `arm` with dynibo loaded from `urdf` at `cases` random states: `M`, RNEA (with and
+/// without a tool wrench), `g`, `C q̇`, ABA, the tool pose, `J` and `J̇ q̇`, all relative to the
+/// quantity's scale (max |·|, floor 1). `tool_link` names the URDF link whose origin is the
+/// arm's tool frame; the arm's joint names must be dynibo's; dynibo's root link is placed at
+/// `dynibo_base` (usually `arm.base`). This is the entry point for file cases, e.g. once the
+/// URDF loader lands:
+///
+/// ```ignore
+/// let arm = SpatialArm { chain: /* loaded from models/ur5.urdf, base → tool0 */, base };
+/// let e = dynibo_check_file(&arm, Path::new("models/ur5.urdf"), "tool0", &arm.base, 7, 50);
+/// assert!(e.max() < 1e-10, "{e:?}");
+/// ```
+fn dynibo_check_file(
+    arm: &SpatialArm,
+    urdf: &std::path::Path,
+    tool_link: &str,
+    dynibo_base: &Isometry3<f64>,
+    seed: u64,
+    cases: usize,
+) -> DyniboErrors {
+    let mut robot = dynibo::Robot::from_urdf(urdf).expect("dynibo loads the URDF");
+    robot.set_base_frame(to_dynibo_frame(dynibo_base)).unwrap();
+    let tool = robot.link_id(tool_link).unwrap();
+    let n = arm.chain.dof();
+    let gn = robot.joint_count();
+    let idx: Vec<usize> = arm
+        .chain
+        .joints
+        .iter()
+        .map(|j| {
+            (0..gn)
+                .find(|&i| robot.joint_name(i).unwrap() == j.name)
+                .unwrap_or_else(|| panic!("dynibo has no joint {}", j.name))
+        })
+        .collect();
+    let to_g = |x: &[f64]| {
+        let mut y = vec![0.0; gn];
+        for k in 0..n {
+            y[idx[k]] = x[k];
+        }
+        y
+    };
+    let from_g = |y: &[f64]| -> Vec<f64> { (0..n).map(|k| y[idx[k]]).collect() };
+
+    let g = g_down();
+    let mut d = ChainData::new(arm);
+    let mut rng = SplitMix64(seed);
+    let mut e = DyniboErrors::default();
+    let mut out = vec![0.0; gn];
+    let mut mass = vec![0.0; gn * gn];
+    let mut jac = vec![0.0; 6 * gn];
+    let mut jdot = vec![0.0; 6 * gn];
+    for _ in 0..cases {
+        let s = random_state(&mut rng, n);
+        let (q, qd, qdd, tau) = (to_g(&s.q), to_g(&s.qd), to_g(&s.qdd), to_g(&s.tau));
+
+        // Poses.
+        dynamics::terms(arm, &s.q, &s.qd, &g, &mut d);
+        let x = robot.forward_kinematics(&q, tool).unwrap().to_homogeneous();
+        let ours = d.X_WT.to_homogeneous();
+        let xs: Vec<f64> = (0..12).map(|i| x[(i % 3, i / 3)]).collect();
+        let os: Vec<f64> = (0..12).map(|i| ours[(i % 3, i / 3)]).collect();
+        e.pose = e.pose.max(rel_err(&os, &xs, 1.0));
+
+        // M.
+        robot.mass_matrix(&q, &mut mass).unwrap();
+        let m_ref: Vec<f64> = (0..n * n)
+            .map(|c| mass[idx[c / n] * gn + idx[c % n]])
+            .collect();
+        e.m = e.m.max(rel_err(d.M.as_slice(), &m_ref, 1.0));
+
+        // C q̇ and g.
+        robot.velocity_product_forces(&q, &qd, &mut out).unwrap();
+        let cqd_ref = from_g(&out);
+        robot.gravity(&q, &[], &mut out).unwrap();
+        let g_ref = from_g(&out);
+        let mut gv = vec![0.0; n];
+        dynamics::gravity(arm, &s.q, &g, &mut gv, &mut d);
+        e.gravity = e.gravity.max(rel_err(&gv, &g_ref, 1.0));
+        dynamics::terms(arm, &s.q, &s.qd, &g, &mut d);
+        let cqd: Vec<f64> = (0..n).map(|k| d.bias[k] - gv[k]).collect();
+        e.cqd = e.cqd.max(rel_err(&cqd, &cqd_ref, 1.0));
+
+        // Jacobian and J̇ q̇ at the tool, angular-first rows swapped.
+        robot.jacobian(&q, tool, &mut jac).unwrap();
+        robot.jacobian_derivative(&q, &qd, tool, &mut jdot).unwrap();
+        let mut j_ref = vec![0.0; 6 * n];
+        let mut jdqd_ref = [0.0; 6];
+        for k in 0..n {
+            for r in 0..6 {
+                let rr = (r + 3) % 6;
+                j_ref[6 * k + r] = jac[6 * idx[k] + rr];
+            }
+        }
+        for r in 0..6 {
+            let rr = (r + 3) % 6;
+            jdqd_ref[r] = (0..gn).map(|c| jdot[6 * c + rr] * qd[c]).sum();
+        }
+        e.jacobian = e.jacobian.max(rel_err(d.J.as_slice(), &j_ref, 1.0));
+        e.jdqd = e.jdqd.max(rel_err(d.jdqd.as_slice(), &jdqd_ref, 1.0));
+
+        // RNEA, without and with a tool wrench.
+        robot
+            .inverse_dynamics(&q, &qd, &qdd, &[], &mut out)
+            .unwrap();
+        let t_ours = rnea_vec(arm, &s.q, &s.qd, &s.qdd, &g, None, &mut d);
+        e.rnea = e.rnea.max(rel_err(&t_ours, &from_g(&out), 1.0));
+        let r_wt = d.X_WT.rotation;
+        let f_loc = r_wt.inverse() * Vector3::new(s.f_t[0], s.f_t[1], s.f_t[2]);
+        let t_loc = r_wt.inverse() * Vector3::new(s.f_t[3], s.f_t[4], s.f_t[5]);
+        let mut w = dynibo::Wrench::zeros();
+        for k in 0..3 {
+            w.force[k] = -f_loc[k];
+            w.torque[k] = -t_loc[k];
+        }
+        let loads = [dynibo::IndexedLoad {
+            link: tool,
+            wrench: w,
+        }];
+        robot
+            .inverse_dynamics(&q, &qd, &qdd, &loads, &mut out)
+            .unwrap();
+        let t_ours = rnea_vec(arm, &s.q, &s.qd, &s.qdd, &g, Some(&s.f_t), &mut d);
+        e.rnea_wrench = e.rnea_wrench.max(rel_err(&t_ours, &from_g(&out), 1.0));
+
+        // ABA, with the tool wrench.
+        robot
+            .forward_dynamics(&q, &qd, &tau, &loads, &mut out)
+            .unwrap();
+        let mut a = vec![0.0; n];
+        dynamics::aba(arm, &s.q, &s.qd, &s.tau, &g, Some(&s.f_t), &mut a, &mut d);
+        e.aba = e.aba.max(rel_err(&a, &from_g(&out), 1.0));
+    }
+    e
+}
+
+#[test]
+fn dynibo_agrees_on_random_6_and_7_dof_chains() {
+    // Random chains (rpy origins, oblique axes, prismatic joints, random inertias), written as
+    // URDF with the base absorbed into the first joint; each compared on 20 states. Both
+    // libraries round differently (quaternions vs matrices, world vs local recursions):
+    // agreement is rounding-limited; tolerance 1e-10 relative to each quantity's scale.
+    let mut rng = SplitMix64(401);
+    let mut worst = DyniboErrors::default();
+    for (c, &(n, prismatic)) in [(6, false), (7, false), (6, true), (7, true), (7, false)]
+        .iter()
+        .enumerate()
+    {
+        let arm = SpatialArm {
+            chain: random_chain(&mut rng, n, prismatic),
+            base: random_base(&mut rng),
+        };
+        // (1) base at identity: the absorbing chain against its own URDF;
+        // (2) our base pose X_WB against dynibo's root at identity with the base absorbed into
+        //     the first joint (brief: the base placement must equal an absorbing chain);
+        // (3) our base pose against dynibo's own base frame set to X_WB.
+        let abs = absorb_base(&arm);
+        let path = write_urdf(&abs.chain, &format!("random{c}"));
+        let e1 = dynibo_check_file(
+            &abs,
+            &path,
+            "tool",
+            &Isometry3::identity(),
+            10 + c as u64,
+            20,
+        );
+        let e2 = dynibo_check_file(
+            &arm,
+            &path,
+            "tool",
+            &Isometry3::identity(),
+            20 + c as u64,
+            20,
+        );
+        let path_b = write_urdf(&arm.chain, &format!("random{c}-base"));
+        let e3 = dynibo_check_file(&arm, &path_b, "tool", &arm.base, 30 + c as u64, 20);
+        std::fs::remove_file(&path).ok();
+        std::fs::remove_file(&path_b).ok();
+        for e in [&e1, &e2, &e3] {
+            assert!(e.max() < 1e-10, "chain {c} (n = {n}): {e}");
+            worst.pose = worst.pose.max(e.pose);
+            worst.m = worst.m.max(e.m);
+            worst.rnea = worst.rnea.max(e.rnea);
+            worst.rnea_wrench = worst.rnea_wrench.max(e.rnea_wrench);
+            worst.gravity = worst.gravity.max(e.gravity);
+            worst.cqd = worst.cqd.max(e.cqd);
+            worst.aba = worst.aba.max(e.aba);
+            worst.jacobian = worst.jacobian.max(e.jacobian);
+            worst.jdqd = worst.jdqd.max(e.jdqd);
+        }
+    }
+    println!("dynibo, random chains: {worst}");
+}
+
+#[test]
+fn dynibo_agrees_on_the_panda_like_arm() {
+    // The benchmark's 7-DOF model (modified-DH placements, axis z), at a non-identity base set
+    // in dynibo as its base frame.
+    let mut rng = SplitMix64(402);
+    let arm = SpatialArm {
+        chain: panda_like(),
+        base: random_base(&mut rng),
+    };
+    let path = write_urdf(&arm.chain, "panda");
+    let e = dynibo_check_file(&arm, &path, "tool", &arm.base, 5, 50);
+    std::fs::remove_file(&path).ok();
+    println!("dynibo, panda-like: {e}");
+    assert!(e.max() < 1e-10, "{e}");
+}
