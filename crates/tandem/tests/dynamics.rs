@@ -15,30 +15,22 @@
 //! with the reason.
 
 use nalgebra::{
-    DMatrix, DVector, Isometry3, Matrix3, Translation3, Unit, UnitQuaternion, Vector3, Vector4,
-    Vector6,
+    DMatrix, DVector, Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3, Vector4, Vector6,
 };
 use proptest::prelude::*;
 use tandem::arm::{Arm, ArmParams, Elbow, LinkParams};
 use tandem::dynamics::{self, ChainData};
 use tandem::fixtures::SplitMix64;
-use tandem::model::{Chain, ChainJoint, JointKind, JointLimits, RigidBody, SpatialArm};
+use tandem::model::{Chain, JointKind, RigidBody, SpatialArm};
 use tandem::spatial::so3;
+
+#[path = "support/chains.rs"]
+mod chains;
+use chains::{chain_to_urdf, joint, panda_like, ur5_like};
 
 // ---------------------------------------------------------------------------------------------
 // Model builders
 // ---------------------------------------------------------------------------------------------
-
-fn joint(name: &str, kind: JointKind, placement: Isometry3<f64>, axis: Vector3<f64>) -> ChainJoint {
-    ChainJoint {
-        name: name.to_string(),
-        kind,
-        placement,
-        axis: Unit::new_normalize(axis),
-        limits: JointLimits::UNLIMITED,
-        damping: 0.0,
-    }
-}
 
 /// A random unit vector: an axis-aligned one (either sign) one time in three, else uniform.
 fn random_axis(rng: &mut SplitMix64) -> Vector3<f64> {
@@ -119,94 +111,6 @@ fn random_chain(rng: &mut SplitMix64, n: usize, prismatic: bool) -> Chain {
     chain
 }
 
-/// A Franka-Panda-like 7-DOF chain (modified-DH offsets and rounded link inertias in the style
-/// of the published Panda parameter tables; exact values do not matter for the checks).
-fn panda_like() -> Chain {
-    use std::f64::consts::FRAC_PI_2 as H;
-    // (a, d, alpha) of the modified DH convention: X_PJ = RotX(alpha) TransX(a) TransZ(d).
-    let dh = [
-        (0.0, 0.333, 0.0),
-        (0.0, 0.0, -H),
-        (0.0, 0.316, H),
-        (0.0825, 0.0, H),
-        (-0.0825, 0.384, -H),
-        (0.0, 0.0, H),
-        (0.088, 0.0, H),
-    ];
-    let bodies = [
-        (
-            4.97,
-            [0.0039, 0.0021, -0.0476],
-            [0.7034, 0.7066, 0.0091, -0.0001, 0.0068, 0.0192],
-        ),
-        (
-            0.65,
-            [-0.0031, -0.0287, 0.0035],
-            [0.0080, 0.0281, 0.0260, -0.0040, 0.0001, 0.0007],
-        ),
-        (
-            3.23,
-            [0.0275, 0.0392, -0.0665],
-            [0.0372, 0.0361, 0.0108, -0.0048, -0.0114, -0.0128],
-        ),
-        (
-            3.59,
-            [-0.0532, 0.1043, 0.0274],
-            [0.0259, 0.0196, 0.0286, 0.0078, -0.0013, 0.0086],
-        ),
-        (
-            1.23,
-            [-0.0120, 0.0410, -0.0380],
-            [0.0355, 0.0295, 0.0086, -0.0021, 0.0002, 0.0002],
-        ),
-        (
-            1.67,
-            [0.0601, -0.0141, -0.0105],
-            [0.0020, 0.0043, 0.0054, 0.0001, -0.0012, -0.0003],
-        ),
-        (
-            0.74,
-            [0.0105, -0.0043, 0.0617],
-            [0.0126, 0.0101, 0.0048, -0.0004, -0.0012, 0.0010],
-        ),
-    ];
-    let mut joints = Vec::new();
-    let mut bs = Vec::new();
-    for (k, (&(a, d, alpha), &(m, c, i))) in dh.iter().zip(bodies.iter()).enumerate() {
-        let rx = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), alpha);
-        let placement = Isometry3::from_parts(
-            Translation3::from(Vector3::new(a, 0.0, 0.0) + rx * Vector3::new(0.0, 0.0, d)),
-            rx,
-        );
-        joints.push(joint(
-            &format!("panda_joint{}", k + 1),
-            JointKind::Revolute,
-            placement,
-            Vector3::z(),
-        ));
-        let [ixx, iyy, izz, ixy, ixz, iyz] = i;
-        bs.push(RigidBody {
-            name: format!("panda_link{}", k + 1),
-            mass: m,
-            com: Vector3::from(c),
-            inertia: Matrix3::new(ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz),
-        });
-    }
-    let chain = Chain {
-        name: "panda_like".to_string(),
-        base_link: "panda_link0".to_string(),
-        tool_link: "tool".to_string(),
-        joints,
-        bodies: bs,
-        tool: Isometry3::from_parts(
-            Translation3::new(0.0, 0.0, 0.107 + 0.1034),
-            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), -std::f64::consts::FRAC_PI_4),
-        ),
-    };
-    chain.validate().expect("panda-like chain is valid");
-    chain
-}
-
 fn at_identity(chain: Chain) -> SpatialArm {
     SpatialArm {
         chain,
@@ -282,7 +186,7 @@ fn rnea_vec(
 
 fn test_arms(seed: u64) -> Vec<SpatialArm> {
     let mut rng = SplitMix64(seed);
-    let mut arms = vec![at_identity(panda_like())];
+    let mut arms = vec![at_identity(panda_like()), at_identity(ur5_like())];
     for &n in &[1, 2, 3, 6, 7, 7] {
         let chain = random_chain(&mut rng, n, true);
         arms.push(SpatialArm {
@@ -843,67 +747,6 @@ fn planar_arm_reproduces_the_closed_forms() {
 // * matrices are column-major flat slices; generalized order is dynibo's joint order, mapped to
 //   ours by joint name (other dynibo joints, if any, are held at zero).
 
-/// `X_AB` → URDF `<origin xyz rpy>`; URDF rpy is `R = Rz(yaw) Ry(pitch) Rx(roll)`, nalgebra's
-/// `euler_angles` convention. Numbers are written in Rust's shortest round-trip form.
-fn urdf_origin(x: &Isometry3<f64>) -> String {
-    let t = x.translation.vector;
-    let (r, p, y) = x.rotation.euler_angles();
-    format!(
-        "<origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/>",
-        t.x, t.y, t.z, r, p, y
-    )
-}
-
-/// A chain as URDF text (test-only writer): links `base`, the bodies, and a massless `tool`
-/// link on a fixed joint. The base pose is **not** written (dynibo's root is at its base frame):
-/// pass `absorb_base(arm)` or set dynibo's base frame.
-fn chain_to_urdf(chain: &Chain) -> String {
-    let mut s = format!(
-        "<?xml version=\"1.0\"?>\n<robot name=\"{}\">\n  <link name=\"{}\"/>\n",
-        chain.name, chain.base_link
-    );
-    let mut parent = chain.base_link.clone();
-    for (j, b) in chain.joints.iter().zip(&chain.bodies) {
-        let kind = match j.kind {
-            JointKind::Revolute => "revolute",
-            JointKind::Prismatic => "prismatic",
-        };
-        let a = j.axis.into_inner();
-        let i = &b.inertia;
-        s += &format!(
-            "  <joint name=\"{}\" type=\"{kind}\">\n    <parent link=\"{parent}\"/>\n    <child link=\"{}\"/>\n    {}\n    <axis xyz=\"{} {} {}\"/>\n    <limit lower=\"-100\" upper=\"100\" effort=\"1000\" velocity=\"100\"/>\n  </joint>\n",
-            j.name,
-            b.name,
-            urdf_origin(&j.placement),
-            a.x,
-            a.y,
-            a.z
-        );
-        s += &format!(
-            "  <link name=\"{}\">\n    <inertial>\n      <origin xyz=\"{} {} {}\" rpy=\"0 0 0\"/>\n      <mass value=\"{}\"/>\n      <inertia ixx=\"{}\" ixy=\"{}\" ixz=\"{}\" iyy=\"{}\" iyz=\"{}\" izz=\"{}\"/>\n    </inertial>\n  </link>\n",
-            b.name,
-            b.com.x,
-            b.com.y,
-            b.com.z,
-            b.mass,
-            i[(0, 0)],
-            i[(0, 1)],
-            i[(0, 2)],
-            i[(1, 1)],
-            i[(1, 2)],
-            i[(2, 2)]
-        );
-        parent = b.name.clone();
-    }
-    s += &format!(
-        "  <joint name=\"tool_fixed\" type=\"fixed\">\n    <parent link=\"{parent}\"/>\n    <child link=\"{}\"/>\n    {}\n  </joint>\n  <link name=\"{}\"/>\n</robot>\n",
-        chain.tool_link,
-        urdf_origin(&chain.tool),
-        chain.tool_link
-    );
-    s
-}
-
 /// Write `chain` (base absorbed, see [`chain_to_urdf`]) to a fresh temp file.
 fn write_urdf(chain: &Chain, tag: &str) -> std::path::PathBuf {
     let path = std::env::temp_dir().join(format!("tandem-dyn-{}-{tag}.urdf", std::process::id()));
@@ -1169,17 +1012,19 @@ fn dynibo_agrees_on_random_6_and_7_dof_chains() {
 }
 
 #[test]
-fn dynibo_agrees_on_the_panda_like_arm() {
-    // The benchmark's 7-DOF model (modified-DH placements, axis z), at a non-identity base set
-    // in dynibo as its base frame.
+fn dynibo_agrees_on_the_panda_and_ur5_like_arms() {
+    // The benchmark's 7- and 6-DOF models (modified-DH placements, axis z), at a non-identity
+    // base set in dynibo as its base frame.
     let mut rng = SplitMix64(402);
-    let arm = SpatialArm {
-        chain: panda_like(),
-        base: random_base(&mut rng),
-    };
-    let path = write_urdf(&arm.chain, "panda");
-    let e = dynibo_check_file(&arm, &path, "tool", &arm.base, 5, 50);
-    std::fs::remove_file(&path).ok();
-    println!("dynibo, panda-like: {e}");
-    assert!(e.max() < 1e-10, "{e}");
+    for chain in [panda_like(), ur5_like()] {
+        let arm = SpatialArm {
+            chain,
+            base: random_base(&mut rng),
+        };
+        let path = write_urdf(&arm.chain, &arm.chain.name);
+        let e = dynibo_check_file(&arm, &path, "tool", &arm.base, 5, 50);
+        std::fs::remove_file(&path).ok();
+        println!("dynibo, {}: {e}", arm.chain.name);
+        assert!(e.max() < 1e-10, "{e}");
+    }
 }
