@@ -1,11 +1,14 @@
 //! Rigid-body algorithms for one spatial arm ([`crate::model::SpatialArm`]), written by hand,
 //! allocation-free on a preallocated [`ChainData`] (SPEC-spatial S2).
 //!
+//! # Conventions
 //! Every quantity is in world axes unless said otherwise; twists `[v; ω]` and wrenches `[f; τ]`
 //! are ordered linear first (SPEC-spatial S1). `g_W` is the gravity acceleration vector in world
-//! axes (e.g. `(0, 0, −9.81)`).
+//! axes (e.g. `(0, 0, −9.81)` m/s²). The arm's base pose `X_WB` is `arm.base`; body `k` is moved
+//! by joint `k` and carries frame `L_k` ([`crate::model::chain`]). Joint coordinates are rad
+//! (revolute) or m (prismatic); torques N m or N.
 //!
-//! Contract (the skeleton; the algorithms fill it):
+//! # Contract
 //! * [`ChainData::new`] sizes every buffer from the chain.
 //! * [`kinematics`]`(arm, q, qd, d)`: body poses `d.X_WL`, tool pose `d.X_WT`, tool Jacobian
 //!   `d.J` (6 × n, rows `[ṗ_T; ω_T]`, world axes, about the tool origin) and `d.jdqd` = `J̇ q̇`
@@ -16,13 +19,76 @@
 //! * [`aba`] / [`forward_dynamics`] (Cholesky of `M`): `q̈` from `τ` and `F_T`.
 //! * [`terms`]`(arm, q, qd, g_W, d)`: one fused pass for the plant: [`kinematics`], `d.M`, and
 //!   `d.bias = C q̇ + g`.
+//! * Also: [`coriolis_matrix`] (Christoffel-consistent `C(q, q̇)`), [`gravity`] (`g(q)`),
+//!   [`energy`] (kinetic and potential).
+//!
+//! # How: spatial quantities in world axes about the base origin
+//! All recursions run on spatial vectors in **world axes about the base origin `p_WB`**
+//! (Featherstone 2008, §4.1 and the "base coordinates" forms of §5.3, §6.2 and §7.3), not in
+//! body coordinates. With `S_k` the joint's motion subspace (`[p_k × z_k; z_k]` for a revolute
+//! joint with world axis `z_k` through the body origin `p_k = p_WL_k − p_WB`, `[z_k; 0]` for a
+//! prismatic one), the velocity recursion `V_k = V_{k−1} + S_k q̇_k`, the bias
+//! `Ṡ_k q̇_k = V_k × S_k q̇_k` and the force recursion `f_{k−1} += f_k` need no change of frame
+//! at all; each body's inertia is put into these coordinates once per call (`R I_c Rᵀ` and a
+//! parallel-axis term, 45 + 15 multiplications), and the composite inertias of CRBA and the
+//! articulated inertias of ABA are then plain sums. `M_ik = S_i · (𝕀ᶜ_k S_k)` costs 6
+//! multiplications per entry and the tool Jacobian is `S_k` moved to the tool point. The
+//! shared forward pass ([`kinematics`]) composes `X_WL_k = X_WL_{k−1} X_PJ[k] J_k(q_k)` as unit
+//! quaternions (one `sin_cos` of `q_k/2` per revolute joint) and reads `R_WL_k` off the
+//! quaternion.
+//!
+//! Why the base origin and not the world origin: the rounding error of these sums grows with
+//! the distance of the bodies from the reference point (`|p|² m ε` in `M`); taking it at the
+//! base keeps it at the arm's own size whatever `X_WB` (two arms 1.4 m apart lose nothing).
+//! Gravity and the outputs (`X_WL`, `X_WT`, `J`, `J̇ q̇`, wrenches at the tool) do not depend on
+//! the choice.
+//!
+//! Joint damping (`ChainJoint::damping`) is not part of these terms: it is a joint torque the
+//! plant adds (`τ_damping = −b q̇`).
+//!
+//! # Validity
+//! The chain should pass [`crate::model::Chain::validate`] (masses > 0, inertias SPD): then `M`
+//! is SPD and every articulated-inertia pivot is > 0. Slices shorter than `n` panic (a
+//! programming error); otherwise nothing panics, and finite inputs of physical magnitude give
+//! finite outputs. A non-positive pivot (only an invalid chain has one) is counted in
+//! [`ChainData::singular_pivots`] and its joint acceleration is set to 0 instead of dividing.
+//!
+//! # References
+//! 1. R. Featherstone, *Rigid Body Dynamics Algorithms*, Springer, 2008 (RNEA Table 5.1, CRBA
+//!    Table 6.2, ABA Table 7.1).
+//! 2. S. Echeandia, P. M. Wensing, "Numerical methods to compute the Coriolis matrix and
+//!    Christoffel symbols for rigid-body systems", *J. Comput. Nonlinear Dyn.* 16(9), 2021.
 #![allow(non_snake_case)]
 
-use nalgebra::{DMatrix, DVector, Isometry3, Matrix6xX, Vector3, Vector6};
+mod aba;
+mod coriolis;
+mod crba;
+mod energy;
+mod forward;
+mod kinematics;
+mod rnea;
+mod terms;
+
+pub use aba::aba;
+pub use coriolis::coriolis_matrix;
+pub use crba::crba;
+pub use energy::energy;
+pub use forward::forward_dynamics;
+pub use kinematics::kinematics;
+pub use rnea::{gravity, rnea};
+pub use terms::terms;
+
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Matrix6, Matrix6xX, Vector3, Vector6};
 
 use crate::model::SpatialArm;
+use crate::spatial::SpatialInertia;
 
 /// Per-arm workspace and outputs, sized from the chain by [`ChainData::new`].
+///
+/// The public fields are outputs; the private ones are per-body scratch (world rotations, motion
+/// subspaces, inertias, velocities, forces, articulated inertias) sized once, so that no
+/// algorithm allocates. The data holds no chain constants: it may be reused with any arm of the
+/// same number of joints.
 #[derive(Clone, Debug)]
 pub struct ChainData {
     /// `X_WL_k`: pose of each body frame in the world (n).
@@ -37,6 +103,35 @@ pub struct ChainData {
     pub M: DMatrix<f64>,
     /// `C q̇ + g` (n).
     pub bias: DVector<f64>,
+    /// `R_WL_k` as matrices (n).
+    R_WL: Vec<Matrix3<f64>>,
+    /// `p_BL_k = p_WL_k − p_WB`: body origins relative to the base origin, world axes (n).
+    p_BL: Vec<Vector3<f64>>,
+    /// `p_BT = p_WT − p_WB`: the tool origin relative to the base origin, world axes.
+    p_BT: Vector3<f64>,
+    /// `S_k`: motion subspace of joint `k`, world axes about the base origin (n).
+    S: Vec<Vector6<f64>>,
+    /// `𝕀_k`: body inertias, world axes about the base origin (n).
+    I_W: Vec<SpatialInertia>,
+    /// `V_k`: body twists, world axes about the base origin (n).
+    V: Vec<Vector6<f64>>,
+    /// Per-body spatial accelerations (RNEA) or bias accelerations `Ṡ q̇` (ABA) (n).
+    a: Vec<Vector6<f64>>,
+    /// Per-body forces (RNEA) or articulated bias forces `p^A` (ABA) (n).
+    f: Vec<Vector6<f64>>,
+    /// Composite inertias (CRBA) (n).
+    Ic: Vec<SpatialInertia>,
+    /// Articulated inertias `𝕀^A` (ABA) or composite `B` matrices (Coriolis) (n).
+    IA: Vec<Matrix6<f64>>,
+    /// `U_k = 𝕀^A_k S_k` (ABA) (n).
+    U: Vec<Vector6<f64>>,
+    /// `1/D_k` (ABA) and `u_k` (ABA) (n each).
+    Dinv: Vec<f64>,
+    u: Vec<f64>,
+    /// Cholesky factor scratch (n × n).
+    chol: DMatrix<f64>,
+    /// Non-positive pivots met by [`aba`] or [`forward_dynamics`] (invalid chains only).
+    singular: u64,
 }
 
 impl ChainData {
@@ -50,70 +145,57 @@ impl ChainData {
             jdqd: Vector6::zeros(),
             M: DMatrix::zeros(n, n),
             bias: DVector::zeros(n),
+            R_WL: vec![Matrix3::identity(); n],
+            p_BL: vec![Vector3::zeros(); n],
+            p_BT: Vector3::zeros(),
+            S: vec![Vector6::zeros(); n],
+            I_W: vec![SpatialInertia::zero(); n],
+            V: vec![Vector6::zeros(); n],
+            a: vec![Vector6::zeros(); n],
+            f: vec![Vector6::zeros(); n],
+            Ic: vec![SpatialInertia::zero(); n],
+            IA: vec![Matrix6::zeros(); n],
+            U: vec![Vector6::zeros(); n],
+            Dinv: vec![0.0; n],
+            u: vec![0.0; n],
+            chol: DMatrix::zeros(n, n),
+            singular: 0,
         }
+    }
+
+    /// Number of joints the buffers are sized for.
+    pub fn dof(&self) -> usize {
+        self.X_WL.len()
+    }
+
+    /// How many non-positive pivots [`aba`] (articulated inertia `D_k ≤ 0`) and
+    /// [`forward_dynamics`] (`M` not positive definite) have met since construction. Always 0
+    /// for a chain that passes [`crate::model::Chain::validate`].
+    pub fn singular_pivots(&self) -> u64 {
+        self.singular
+    }
+
+    /// Body twists `V_k = [v_k; ω_k]` after [`kinematics`] with `qd` (or any algorithm taking
+    /// `q̇`): world axes, **about the base origin** `p_WB` (`v_k` is the velocity of the body point
+    /// passing through the base origin). Add `ω_k × (p_WL_k − p_WB)` for the body-origin velocity.
+    pub fn body_twists(&self) -> &[Vector6<f64>] {
+        &self.V
+    }
+
+    /// Joint motion subspaces `S_k` after any algorithm: world coordinates about the world
+    /// origin (the columns of the body Jacobians, `V_k = Σ_{j≤k} S_j q̇_j`).
+    pub fn motion_subspaces(&self) -> &[Vector6<f64>] {
+        &self.S
     }
 }
 
-/// Forward kinematics of every body and the tool, the tool Jacobian, and `J̇ q̇` when `qd` is
-/// given. Writes `d.X_WL`, `d.X_WT`, `d.J`, `d.jdqd`.
-pub fn kinematics(arm: &SpatialArm, q: &[f64], qd: Option<&[f64]>, d: &mut ChainData) {
-    let _ = (arm, q, qd, d);
-    todo!("dynamics::kinematics")
-}
-
-/// Joint-space inertia by the composite-rigid-body algorithm. Writes `d.M`.
-pub fn crba(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
-    let _ = (arm, q, d);
-    todo!("dynamics::crba")
-}
-
-/// Inverse dynamics by recursive Newton–Euler: `tau = M q̈ + C q̇ + g − J_Tᵀ F_T`.
-pub fn rnea(
-    arm: &SpatialArm,
-    q: &[f64],
-    qd: &[f64],
-    qdd: &[f64],
-    g_W: &Vector3<f64>,
-    f_T_W: Option<&Vector6<f64>>,
-    tau: &mut [f64],
-    d: &mut ChainData,
-) {
-    let _ = (arm, q, qd, qdd, g_W, f_T_W, tau, d);
-    todo!("dynamics::rnea")
-}
-
-/// Forward dynamics by the articulated-body algorithm: `q̈` from `τ` and the tool wrench.
-pub fn aba(
-    arm: &SpatialArm,
-    q: &[f64],
-    qd: &[f64],
-    tau: &[f64],
-    g_W: &Vector3<f64>,
-    f_T_W: Option<&Vector6<f64>>,
-    qdd: &mut [f64],
-    d: &mut ChainData,
-) {
-    let _ = (arm, q, qd, tau, g_W, f_T_W, qdd, d);
-    todo!("dynamics::aba")
-}
-
-/// Forward dynamics by CRBA + RNEA bias + Cholesky of `M`; agrees with [`aba`].
-pub fn forward_dynamics(
-    arm: &SpatialArm,
-    q: &[f64],
-    qd: &[f64],
-    tau: &[f64],
-    g_W: &Vector3<f64>,
-    f_T_W: Option<&Vector6<f64>>,
-    qdd: &mut [f64],
-    d: &mut ChainData,
-) {
-    let _ = (arm, q, qd, tau, g_W, f_T_W, qdd, d);
-    todo!("dynamics::forward_dynamics")
-}
-
-/// The plant's fused pass: [`kinematics`] with `qd`, `d.M`, and `d.bias = C q̇ + g`.
-pub fn terms(arm: &SpatialArm, q: &[f64], qd: &[f64], g_W: &Vector3<f64>, d: &mut ChainData) {
-    let _ = (arm, q, qd, g_W, d);
-    todo!("dynamics::terms")
+#[inline(always)]
+fn check_len(arm: &SpatialArm, d: &ChainData, name: &str, x: &[f64]) {
+    let n = arm.chain.dof();
+    assert!(
+        d.dof() == n && x.len() >= n,
+        "dynamics: {name} has {} entries and the data {} joints; the arm has {n}",
+        x.len(),
+        d.dof()
+    );
 }

@@ -1,0 +1,131 @@
+//! A counting global allocator proves that the per-arm rigid-body algorithms allocate nothing
+//! after `ChainData::new` (STYLE habit 5; Pinocchio's test_crba_malloc).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use nalgebra::{DMatrix, Isometry3, Matrix3, Translation3, Unit, UnitQuaternion, Vector3, Vector6};
+use tandem::dynamics::{self, ChainData};
+use tandem::model::{Chain, ChainJoint, JointKind, JointLimits, RigidBody, SpatialArm};
+
+struct Counting;
+
+thread_local! {
+    static COUNT: Cell<usize> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        COUNT.with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        unsafe { System.dealloc(p, l) }
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
+        COUNT.with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(p, l, n) }
+    }
+}
+
+#[global_allocator]
+static A: Counting = Counting;
+
+/// Allocations made by `f` on this thread.
+fn count(f: impl FnOnce()) -> usize {
+    let before = COUNT.with(|c| c.get());
+    f();
+    COUNT.with(|c| c.get()) - before
+}
+
+#[test]
+fn the_counter_counts() {
+    let n = count(|| {
+        let v: Vec<u64> = std::hint::black_box(vec![1, 2, 3]);
+        drop(v);
+    });
+    assert_eq!(n, 1);
+}
+
+/// A 7-joint chain with oblique axes, one prismatic joint and a base away from the origin.
+fn arm() -> SpatialArm {
+    let mut joints = Vec::new();
+    let mut bodies = Vec::new();
+    for k in 0..7 {
+        let kind = if k == 3 {
+            JointKind::Prismatic
+        } else {
+            JointKind::Revolute
+        };
+        joints.push(ChainJoint {
+            name: format!("j{k}"),
+            kind,
+            placement: Isometry3::from_parts(
+                Translation3::new(0.05 * k as f64, -0.02, 0.15),
+                UnitQuaternion::from_euler_angles(0.3 * k as f64, -0.2, 0.1),
+            ),
+            axis: Unit::new_normalize(Vector3::new(0.1, (k as f64).sin(), 1.0)),
+            limits: JointLimits::UNLIMITED,
+            damping: 0.0,
+        });
+        bodies.push(RigidBody {
+            name: format!("l{k}"),
+            mass: 1.0 + 0.3 * k as f64,
+            com: Vector3::new(0.01, 0.02 * k as f64, 0.05),
+            inertia: Matrix3::new(0.02, 0.001, 0.0, 0.001, 0.03, 0.002, 0.0, 0.002, 0.025),
+        });
+    }
+    let chain = Chain {
+        name: "alloc".to_string(),
+        base_link: "base".to_string(),
+        tool_link: "tool".to_string(),
+        joints,
+        bodies,
+        tool: Isometry3::translation(0.0, 0.0, 0.1),
+    };
+    chain.validate().unwrap();
+    SpatialArm {
+        chain,
+        base: Isometry3::from_parts(
+            Translation3::new(-0.7, 0.1, 0.0),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, 3.0),
+        ),
+    }
+}
+
+#[test]
+fn rigid_body_algorithms_allocate_nothing() {
+    let arm = arm();
+    let n = arm.chain.dof();
+    let mut d = ChainData::new(&arm);
+    let g = Vector3::new(0.0, 0.0, -9.81);
+    let f_t = Vector6::new(1.0, -2.0, 3.0, 0.1, 0.2, -0.3);
+    let mut q = vec![0.3; n];
+    let qd = vec![-0.5; n];
+    let qdd = vec![0.7; n];
+    let mut tau = vec![0.0; n];
+    let mut out = vec![0.0; n];
+    let mut c = DMatrix::zeros(n, n);
+    let mut run = |q: &[f64], d: &mut ChainData| {
+        dynamics::kinematics(&arm, q, None, d);
+        dynamics::kinematics(&arm, q, Some(&qd), d);
+        dynamics::crba(&arm, q, d);
+        dynamics::rnea(&arm, q, &qd, &qdd, &g, None, &mut tau, d);
+        dynamics::rnea(&arm, q, &qd, &qdd, &g, Some(&f_t), &mut tau, d);
+        dynamics::aba(&arm, q, &qd, &tau, &g, Some(&f_t), &mut out, d);
+        dynamics::forward_dynamics(&arm, q, &qd, &tau, &g, Some(&f_t), &mut out, d);
+        dynamics::terms(&arm, q, &qd, &g, d);
+        dynamics::coriolis_matrix(&arm, q, &qd, &mut c, d);
+        dynamics::gravity(&arm, q, &g, &mut out, d);
+        std::hint::black_box(dynamics::energy(&arm, q, &qd, &g, d));
+    };
+    run(&q, &mut d); // warm-up
+    let allocs = count(|| {
+        for k in 0..100 {
+            q[k % n] += 0.01;
+            run(&q, &mut d);
+        }
+    });
+    assert_eq!(allocs, 0, "dynamics allocated {allocs} times in 100 rounds");
+    assert!(d.M.iter().all(|v| v.is_finite()));
+}
