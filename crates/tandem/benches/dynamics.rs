@@ -39,10 +39,8 @@ struct Case {
 }
 
 fn case(name: &'static str, chain: Chain) -> Case {
-    let path = std::env::temp_dir().join(format!(
-        "tandem-bench-{}-{name}.urdf",
-        std::process::id()
-    ));
+    let path =
+        std::env::temp_dir().join(format!("tandem-bench-{}-{name}.urdf", std::process::id()));
     std::fs::write(&path, chains::chain_to_urdf(&chain)).unwrap();
     let robot = dynibo::Robot::from_urdf(&path).unwrap();
     std::fs::remove_file(&path).ok();

@@ -174,14 +174,25 @@ fn grasp_frame(p: [f64; 3], x: [f64; 3], y: [f64; 3], z: [f64; 3]) -> nalgebra::
 /// `R_WO = I`; the S6 start angles as the guess. Gravity `(0, 0, −9.81)`, Baumgarte 20 rad/s.
 pub fn dual_ur5() -> SpatialSetup {
     use crate::plant::spatial::{GraspModel, SpatialObjectParams, SpatialPlantParams};
+    use std::f64::consts::FRAC_PI_2;
     let params = SpatialPlantParams {
         arms: vec![
             ur5_arm(-0.70, 0.0, 0.0),
             ur5_arm(0.70, 0.0, std::f64::consts::PI),
         ],
         grasps: vec![
-            grasp_frame([-0.2, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]),
-            grasp_frame([0.2, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, -1.0, 0.0], [-1.0, 0.0, 0.0]),
+            grasp_frame(
+                [-0.2, 0.0, 0.0],
+                [0.0, 0.0, -1.0],
+                [0.0, 1.0, 0.0],
+                [1.0, 0.0, 0.0],
+            ),
+            grasp_frame(
+                [0.2, 0.0, 0.0],
+                [0.0, 0.0, -1.0],
+                [0.0, -1.0, 0.0],
+                [-1.0, 0.0, 0.0],
+            ),
         ],
         object: SpatialObjectParams::spec_box(),
         gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),
@@ -192,8 +203,8 @@ pub fn dual_ur5() -> SpatialSetup {
         params,
         x_wo: nalgebra::Isometry3::translation(0.1, 0.0, 0.3),
         q_guess: vec![
-            -0.212431, -1.267797, 1.525974, -0.258177, 1.358366, -1.570796, //
-            -0.350708, -1.754035, 2.044645, -0.290610, 1.220088, -1.570796,
+            -0.212431, -1.267797, 1.525974, -0.258177, 1.358366, -FRAC_PI_2, //
+            -0.350708, -1.754035, 2.044645, -0.290610, 1.220088, -FRAC_PI_2,
         ],
     }
 }
@@ -201,6 +212,7 @@ pub fn dual_ur5() -> SpatialSetup {
 /// [`dual_ur5`] plus a third UR5-class arm at `(0, −0.70, 0)` facing +y, holding the middle of
 /// the box's −y face (tool z into the box, tool x down).
 pub fn three_ur5() -> SpatialSetup {
+    use std::f64::consts::FRAC_PI_2;
     let mut s = dual_ur5();
     s.params
         .arms
@@ -211,8 +223,9 @@ pub fn three_ur5() -> SpatialSetup {
         [-1.0, 0.0, 0.0],
         [0.0, 1.0, 0.0],
     ));
-    s.q_guess
-        .extend_from_slice(&[-0.212431, -1.267797, 1.525974, -0.258177, 1.358366, -1.570796]);
+    s.q_guess.extend_from_slice(&[
+        -0.212431, -1.267797, 1.525974, -0.258177, 1.358366, -FRAC_PI_2,
+    ]);
     s
 }
 
@@ -227,8 +240,18 @@ pub fn dual_franka() -> SpatialSetup {
             franka_arm(0.55, 0.0, std::f64::consts::PI),
         ],
         grasps: vec![
-            grasp_frame([-0.12, 0.0, 0.1], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]),
-            grasp_frame([0.12, 0.0, 0.1], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]),
+            grasp_frame(
+                [-0.12, 0.0, 0.1],
+                [1.0, 0.0, 0.0],
+                [0.0, -1.0, 0.0],
+                [0.0, 0.0, -1.0],
+            ),
+            grasp_frame(
+                [0.12, 0.0, 0.1],
+                [-1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, -1.0],
+            ),
         ],
         object: SpatialObjectParams::spec_box(),
         gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),

@@ -584,6 +584,43 @@ impl SpatialPlant {
         }
     }
 
+    /// Joint torques that hold a state at rest in static equilibrium: each arm's gravity
+    /// torques minus `J_iᵀ F_i`, with the grasp wrenches `F_i` the minimum-norm solution of
+    /// `Σ G_iᵀ F_i = [m g_W; 0]` (the arms carry the object's weight, no internal wrench).
+    /// Writes `tau` (n_q) and the wrenches into `ws.wrenches`; runs the kinematics into
+    /// `ws.data`. Set-up use (allocates nothing but is not on the hot path).
+    pub fn holding_torques(&self, y: &[f64], ws: &mut SpatialWorkspace, tau: &mut [f64]) {
+        let (q, o, _) = self.split(y);
+        let m = self.arms.len();
+        // G = [Ad_1ᵀ … Ad_mᵀ] (6 × 6m); min-norm F = Gᵀ (G Gᵀ)⁻¹ w.
+        let mut ggt = Matrix6::zeros();
+        let mut ads = Vec::with_capacity(m);
+        for i in 0..m {
+            let r = o.q * self.grasps[i].translation.vector;
+            let mut adt = Matrix6::identity();
+            adt.fixed_view_mut::<3, 3>(3, 0).copy_from(&skew(&r));
+            ggt += adt * adt.transpose();
+            ads.push(adt);
+        }
+        let w = v6(&(self.object.mass * self.g_W), &Vector3::zeros());
+        let lam = ggt
+            .cholesky()
+            .map(|c| c.solve(&w))
+            .unwrap_or_else(Vector6::zeros);
+        for (i, arm) in self.arms.iter().enumerate() {
+            let n = arm.chain.dof();
+            let s = self.offsets[i];
+            let f = ads[i].transpose() * lam;
+            ws.wrenches[i] = f;
+            let d = &mut ws.data[i];
+            dynamics::kinematics(arm, &q[s..s + n], None, d);
+            dynamics::gravity(arm, &q[s..s + n], &self.g_W, &mut tau[s..s + n], d);
+            for k in 0..n {
+                tau[s + k] -= d.J.column(k).dot(&f);
+            }
+        }
+    }
+
     /// The state with the object at `x_wo` moving with twist `twist` (world axes), each arm's
     /// joints solved so that its tool frame sits on its grasp frame, starting from
     /// `q_guess` (stacked, n_q), and joint rates from `J_i q̇_i = Ad_i V_o` (minimum norm).
