@@ -72,6 +72,91 @@ pub fn cholesky_solve_in_place<R: Dim, C: Dim, S: RawStorageMut<f64, R, C>>(
     }
 }
 
+/// In-place Cholesky `A = L Lᵀ` of an `n × n` symmetric matrix stored **row-major** in a flat
+/// slice (`a[i n + j]`); the lower triangle (`j ≤ i`) becomes `L`, the strict upper triangle is
+/// left as is. Returns the smallest pivot over the largest diagonal entry, or `Err(k)` at the
+/// first pivot that is not positive and finite. Rows are contiguous, so the inner products run
+/// over contiguous memory (the hot kernel of the spatial plant's grasp-space solve).
+#[inline]
+pub fn cholesky_rows(a: &mut [f64], n: usize) -> Result<f64, usize> {
+    let a = &mut a[..n * n];
+    let mut max_diag: f64 = 0.0;
+    for k in 0..n {
+        max_diag = max_diag.max(a[k * n + k].abs());
+    }
+    let mut min_pivot = f64::INFINITY;
+    for i in 0..n {
+        let (done, rest) = a.split_at_mut(i * n);
+        let row_i = &mut rest[..n];
+        for j in 0..i {
+            let row_j = &done[j * n..j * n + j + 1];
+            let s = row_i[j] - dot(&row_i[..j], &row_j[..j]);
+            row_i[j] = s / row_j[j];
+        }
+        let d = row_i[i] - dot(&row_i[..i], &row_i[..i]);
+        if !(d > 0.0) || !d.is_finite() {
+            return Err(i);
+        }
+        min_pivot = min_pivot.min(d);
+        row_i[i] = d.sqrt();
+    }
+    Ok(if max_diag > 0.0 {
+        min_pivot / max_diag
+    } else {
+        0.0
+    })
+}
+
+/// `Σ a_k b_k` over equal-length slices.
+#[inline]
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut s = 0.0;
+    for k in 0..n {
+        s += a[k] * b[k];
+    }
+    s
+}
+
+/// Forward substitution `L X = B` in place for `m` right-hand sides, with `L` from
+/// [`cholesky_rows`] (row-major `n × n`) and `B` row-major `n × m` (`b[i m + c]`).
+#[inline]
+pub fn forward_rows(l: &[f64], n: usize, b: &mut [f64], m: usize) {
+    let l = &l[..n * n];
+    let b = &mut b[..n * m];
+    for i in 0..n {
+        let (done, rest) = b.split_at_mut(i * m);
+        let row = &mut rest[..m];
+        for k in 0..i {
+            let lik = l[i * n + k];
+            let src = &done[k * m..k * m + m];
+            for c in 0..m {
+                row[c] -= lik * src[c];
+            }
+        }
+        let inv = 1.0 / l[i * n + i];
+        for v in row.iter_mut() {
+            *v *= inv;
+        }
+    }
+}
+
+/// Back substitution `Lᵀ x = y` in place for one right-hand side, with `L` from
+/// [`cholesky_rows`].
+#[inline]
+pub fn backward_rows(l: &[f64], n: usize, x: &mut [f64]) {
+    let l = &l[..n * n];
+    let x = &mut x[..n];
+    for i in (0..n).rev() {
+        let mut s = x[i];
+        for k in (i + 1)..n {
+            s -= l[k * n + i] * x[k];
+        }
+        x[i] = s / l[i * n + i];
+    }
+}
+
 /// Convenience: `true` when every entry of a dynamic matrix is finite.
 pub fn all_finite(m: &DMatrix<f64>) -> bool {
     m.iter().all(|v| v.is_finite())
@@ -80,6 +165,46 @@ pub fn all_finite(m: &DMatrix<f64>) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The row-major kernels solve `A X = B` for a random SPD `A` to round-off, and agree with
+    /// the column-major Cholesky.
+    #[test]
+    fn row_major_kernels_solve_spd_systems() {
+        let n = 7;
+        let mut r = crate::fixtures::SplitMix64(11);
+        let g: Vec<f64> = r.vec(n * n, 1.0);
+        let mut a = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                a[i * n + j] = (0..n).map(|k| g[i * n + k] * g[j * n + k]).sum::<f64>()
+                    + if i == j { 0.5 } else { 0.0 };
+            }
+        }
+        let a0 = a.clone();
+        let mut l = a.clone();
+        cholesky_rows(&mut l, n).unwrap();
+        let m = 3;
+        let b: Vec<f64> = r.vec(n * m, 1.0);
+        for c in 0..m {
+            let mut x: Vec<f64> = (0..n).map(|i| b[i * m + c]).collect();
+            let mut xb = b.clone();
+            forward_rows(&l, n, &mut xb, m);
+            let mut y: Vec<f64> = (0..n).map(|i| xb[i * m + c]).collect();
+            backward_rows(&l, n, &mut y);
+            let dm = DMatrix::from_row_slice(n, n, &a0);
+            let mut lc = dm.clone();
+            cholesky_in_place(&mut lc, n).unwrap();
+            cholesky_solve_in_place(&lc, n, &mut x);
+            for i in 0..n {
+                let res: f64 = (0..n).map(|k| a0[i * n + k] * y[k]).sum::<f64>() - b[i * m + c];
+                assert!(res.abs() < 1e-12, "{res}");
+                assert!((x[i] - y[i]).abs() < 1e-12 * (1.0 + x[i].abs()));
+            }
+        }
+        let mut bad = a0.clone();
+        bad[2 * n + 2] = -1.0;
+        assert_eq!(cholesky_rows(&mut bad, n), Err(2));
+    }
     use nalgebra::{DVector, Matrix3};
 
     #[test]

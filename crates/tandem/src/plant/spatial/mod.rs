@@ -65,8 +65,8 @@ pub mod object;
 mod kkt;
 
 use nalgebra::{
-    DMatrix, DVector, Isometry3, Matrix3, Matrix6, Quaternion, Translation3, UnitQuaternion,
-    Vector3, Vector6,
+    DVector, Isometry3, Matrix3, Matrix6, Quaternion, Translation3, UnitQuaternion, Vector3,
+    Vector6,
 };
 
 use crate::dynamics::{self, ChainData};
@@ -144,20 +144,20 @@ pub struct SpatialWorkspace {
     pub kkt_pivot: f64,
     /// Evaluations whose grasp-space matrix needed regularisation.
     pub regularised: u64,
-    /// Cholesky factors of each `M_i`.
-    chol: Vec<DMatrix<f64>>,
-    /// `M_i⁻¹ J_iᵀ` (n_i × 6).
-    y_jt: Vec<DMatrix<f64>>,
-    /// Unconstrained joint accelerations of each arm.
-    qdd0: Vec<DVector<f64>>,
-    /// Grasp-space matrix `K` and its factor (6m × 6m).
-    k: DMatrix<f64>,
-    /// Right-hand side / solution (6m).
+    /// Cholesky factor of each `M_i`, row-major `n_i × n_i`.
+    chol: Vec<Vec<f64>>,
+    /// Per arm `[u | Z] = L⁻¹ [τ − Cq̇ − g − Dq̇ | Jᵀ]`, row-major `n_i × 7`.
+    x: Vec<Vec<f64>>,
+    /// Grasp-space matrix `K` and then its factor, row-major `6m × 6m`.
+    k: Vec<f64>,
+    /// `K` before factorisation (to regularise after a failed factorisation).
+    k_copy: Vec<f64>,
+    /// Right-hand side, then the multipliers (6m).
     rhs: Vec<f64>,
-    /// Per-grasp `r_i = R_WO p_OGi`, m.
+    /// Per grasp: where `−F_i` acts on the object, from its centre of mass, world axes, m.
     r: Vec<Vector3<f64>>,
-    /// Scratch of the largest arm's dof.
-    tmp: Vec<f64>,
+    /// Per grasp `[r_i]× I_W⁻¹`.
+    a: Vec<Matrix3<f64>>,
 }
 
 impl SpatialWorkspace {
@@ -358,22 +358,18 @@ impl SpatialPlant {
             chol: self
                 .arms
                 .iter()
-                .map(|a| DMatrix::zeros(a.chain.dof(), a.chain.dof()))
+                .map(|a| vec![0.0; a.chain.dof() * a.chain.dof()])
                 .collect(),
-            y_jt: self
+            x: self
                 .arms
                 .iter()
-                .map(|a| DMatrix::zeros(a.chain.dof(), 6))
+                .map(|a| vec![0.0; a.chain.dof() * 7])
                 .collect(),
-            qdd0: self
-                .arms
-                .iter()
-                .map(|a| DVector::zeros(a.chain.dof()))
-                .collect(),
-            k: DMatrix::zeros(6 * m, 6 * m),
+            k: vec![0.0; 36 * m * m],
+            k_copy: vec![0.0; 36 * m * m],
             rhs: vec![0.0; 6 * m],
             r: vec![Vector3::zeros(); m],
-            tmp: vec![0.0; self.arms.iter().map(|a| a.chain.dof()).max().unwrap_or(0)],
+            a: vec![Matrix3::zeros(); m],
         }
     }
 
