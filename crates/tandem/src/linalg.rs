@@ -77,7 +77,7 @@ pub fn cholesky_solve_in_place<R: Dim, C: Dim, S: RawStorageMut<f64, R, C>>(
 /// left as is. Returns the smallest pivot over the largest diagonal entry, or `Err(k)` at the
 /// first pivot that is not positive and finite. Rows are contiguous, so the inner products run
 /// over contiguous memory (the hot kernel of the spatial plant's grasp-space solve).
-#[inline]
+#[inline(always)]
 pub fn cholesky_rows(a: &mut [f64], n: usize) -> Result<f64, usize> {
     let a = &mut a[..n * n];
     let mut max_diag: f64 = 0.0;
@@ -108,7 +108,7 @@ pub fn cholesky_rows(a: &mut [f64], n: usize) -> Result<f64, usize> {
 }
 
 /// `Σ a_k b_k` over equal-length slices.
-#[inline]
+#[inline(always)]
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
@@ -121,7 +121,7 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 /// Forward substitution `L X = B` in place for `m` right-hand sides, with `L` from
 /// [`cholesky_rows`] (row-major `n × n`) and `B` row-major `n × m` (`b[i m + c]`).
-#[inline]
+#[inline(always)]
 pub fn forward_rows(l: &[f64], n: usize, b: &mut [f64], m: usize) {
     let l = &l[..n * n];
     let b = &mut b[..n * m];
@@ -144,7 +144,7 @@ pub fn forward_rows(l: &[f64], n: usize, b: &mut [f64], m: usize) {
 
 /// Back substitution `Lᵀ x = y` in place for one right-hand side, with `L` from
 /// [`cholesky_rows`].
-#[inline]
+#[inline(always)]
 pub fn backward_rows(l: &[f64], n: usize, x: &mut [f64]) {
     let l = &l[..n * n];
     let x = &mut x[..n];

@@ -33,27 +33,26 @@ pub(super) fn derivative(
     let (q, o, qd) = p.split(y);
     let r_wo = *o.q.to_rotation_matrix().matrix();
 
-    // 1. Per arm: terms, M = L Lᵀ, and [u | Z] = L⁻¹ [τ − Cq̇ − g − Dq̇ | Jᵀ].
+    // 1. Per arm: terms, M = L Lᵀ, and [u | Z] = L⁻¹ [τ − Cq̇ − g − Dq̇ | Jᵀ]. The common
+    //    joint counts get constant loop bounds (unrolled kernels).
     for (i, arm) in p.arms.iter().enumerate() {
-        let n = arm.chain.dof();
         let s = p.offsets[i];
-        let (qi, qdi) = (&q[s..s + n], &qd[s..s + n]);
         let d = &mut ws.data[i];
-        dynamics::terms(arm, qi, qdi, &p.g_W, d);
-        let l = &mut ws.chol[i][..n * n];
-        // M is symmetric: its column-major storage is its row-major storage.
-        l.copy_from_slice(d.M.as_slice());
-        if cholesky_rows(l, n).is_err() {
+        dynamics::terms(
+            arm,
+            &q[s..s + arm.chain.dof()],
+            &qd[s..s + arm.chain.dof()],
+            &p.g_W,
+            d,
+        );
+        let ok = match arm.chain.dof() {
+            6 => arm_factor(6, arm, s, qd, input, d, &mut ws.chol[i], &mut ws.x[i]),
+            7 => arm_factor(7, arm, s, qd, input, d, &mut ws.chol[i], &mut ws.x[i]),
+            n => arm_factor(n, arm, s, qd, input, d, &mut ws.chol[i], &mut ws.x[i]),
+        };
+        if !ok {
             return false;
         }
-        let x = &mut ws.x[i][..n * RHS];
-        let jt = d.J.as_slice(); // column-major 6 × n: jt[6k + c] = J[c, k]
-        for k in 0..n {
-            let row = &mut x[k * RHS..k * RHS + RHS];
-            row[0] = input.tau[s + k] - d.bias[k] - arm.chain.joints[k].damping * qdi[k];
-            row[1..].copy_from_slice(&jt[6 * k..6 * k + 6]);
-        }
-        forward_rows(l, n, x, RHS);
     }
 
     // 2. Object: world inertia, bias b_o.
@@ -101,7 +100,11 @@ pub(super) fn derivative(
             }
             out[k] = acc;
         }
-        backward_rows(&ws.chol[i], n, out);
+        match n {
+            6 => backward_rows(&ws.chol[i], 6, out),
+            7 => backward_rows(&ws.chol[i], 7, out),
+            _ => backward_rows(&ws.chol[i], n, out),
+        }
     }
     ws.a_o = v6(
         &((b_lin - f_lin_sum) * inv_m),
@@ -118,6 +121,39 @@ pub(super) fn derivative(
     dy[n_q + 5] = 0.5 * (wy * w0 + wz * x0 - wx * z0);
     dy[n_q + 6] = 0.5 * (wz * w0 + wx * y0 - wy * x0);
     dy[2 * n_q + 7..2 * n_q + 13].copy_from_slice(ws.a_o.as_slice());
+    true
+}
+
+/// `L = chol(M)` and `[u | Z] = L⁻¹ [τ − Cq̇ − g − Dq̇ | Jᵀ]` for one arm of `n` joints
+/// (inlined so that a constant `n` unrolls the kernels). `false` if `M` is not positive
+/// definite.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn arm_factor(
+    n: usize,
+    arm: &crate::model::SpatialArm,
+    s: usize,
+    qd: &[f64],
+    input: &SpatialInput,
+    d: &dynamics::ChainData,
+    l: &mut [f64],
+    x: &mut [f64],
+) -> bool {
+    let l = &mut l[..n * n];
+    // M is symmetric: its column-major storage is its row-major storage.
+    l.copy_from_slice(&d.M.as_slice()[..n * n]);
+    if cholesky_rows(l, n).is_err() {
+        return false;
+    }
+    let x = &mut x[..n * RHS];
+    let jt = &d.J.as_slice()[..6 * n]; // column-major 6 × n: jt[6k + c] = J[c, k]
+    let (tau, qd) = (&input.tau[s..s + n], &qd[s..s + n]);
+    for k in 0..n {
+        let row = &mut x[k * RHS..k * RHS + RHS];
+        row[0] = tau[k] - d.bias[k] - arm.chain.joints[k].damping * qd[k];
+        row[1..].copy_from_slice(&jt[6 * k..6 * k + 6]);
+    }
+    forward_rows(l, n, x, RHS);
     true
 }
 
@@ -228,7 +264,12 @@ fn weld_wrenches(
         }
     }
     ws.k_copy[..nk * nk].copy_from_slice(k);
-    match cholesky_rows(k, nk) {
+    let factored = match nk {
+        12 => cholesky_rows(k, 12),
+        18 => cholesky_rows(k, 18),
+        _ => cholesky_rows(k, nk),
+    };
+    match factored {
         Ok(piv) if piv > 1e-14 => ws.kkt_pivot = piv,
         _ => {
             // Singular chain: K + ε tr(K)/(6m) I from the saved copy, counted.
@@ -245,8 +286,16 @@ fn weld_wrenches(
             }
         }
     }
-    forward_rows(k, nk, &mut ws.rhs, 1);
-    backward_rows(k, nk, &mut ws.rhs);
+    match nk {
+        12 => {
+            forward_rows(k, 12, &mut ws.rhs, 1);
+            backward_rows(k, 12, &mut ws.rhs);
+        }
+        _ => {
+            forward_rows(k, nk, &mut ws.rhs, 1);
+            backward_rows(k, nk, &mut ws.rhs);
+        }
+    }
     for i in 0..m {
         ws.wrenches[i] = Vector6::from_column_slice(&ws.rhs[6 * i..6 * i + 6]);
     }
