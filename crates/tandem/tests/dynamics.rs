@@ -378,7 +378,8 @@ fn terms_match_the_separate_algorithms() {
             assert!(rel_err(d.bias.as_slice(), &b, 1.0) < 1e-15);
             dynamics::kinematics(&arm, &s.q, Some(&s.qd), &mut e);
             assert_eq!(d.J, e.J);
-            assert_eq!(d.jdqd, e.jdqd);
+            // terms reads J̇ q̇ off the RNEA's accelerations: same sums, other rounding.
+            assert!((d.jdqd - e.jdqd).amax() < 1e-14 * e.jdqd.amax().max(1.0));
             assert_eq!(d.X_WT, e.X_WT);
             assert_eq!(d.X_WL, e.X_WL);
         }

@@ -15,20 +15,25 @@ use super::kinematics::{inertias, placements};
 use crate::model::SpatialArm;
 use crate::spatial::SpatialInertia;
 
-/// The CRBA pass on placed bodies (after `placements` and `inertias`): writes `d.M` and the
-/// composite inertias `d.Ic`.
+/// The CRBA pass on placed bodies (after `placements` and `inertias`): writes `d.M`.
 #[inline]
 pub(super) fn crba_pass(d: &mut ChainData) {
     let n = d.S.len();
+    let (s, iw) = (&d.S[..n], &d.I_W[..n]);
+    let m = &mut d.M.as_mut_slice()[..n * n];
     let mut ic = SpatialInertia::zero();
+    // Upper triangle column by column (column k holds M_ik, i ≤ k; column-major), then the
+    // mirror.
     for k in (0..n).rev() {
-        ic += d.I_W[k];
-        d.Ic[k] = ic;
-        let f = ic.apply(&d.S[k]);
-        for i in 0..=k {
-            let m = d.S[i].dot(&f);
-            d.M[(i, k)] = m;
-            d.M[(k, i)] = m;
+        ic += iw[k];
+        let f = ic.apply(&s[k]);
+        for (mik, si) in m[k * n..k * n + k + 1].iter_mut().zip(s) {
+            *mik = si.dot(&f);
+        }
+    }
+    for k in 0..n {
+        for i in 0..k {
+            m[i * n + k] = m[k * n + i];
         }
     }
 }

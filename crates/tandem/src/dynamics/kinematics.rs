@@ -22,6 +22,7 @@ use super::{ChainData, check_len};
 use crate::model::{JointKind, SpatialArm};
 use crate::spatial::SpatialInertia;
 use crate::spatial::motion::{ang, cross_motion, lin, stack};
+use crate::spatial::trig::sin_cos;
 
 /// `R` from a unit quaternion (homogeneous form, no normalisation).
 #[inline(always)]
@@ -53,6 +54,15 @@ pub(super) fn placements(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
     // Positions relative to the base origin p_WB (world axes): see the module doc of `super`.
     let p_wb = arm.base.translation.vector;
     let mut p_prev = Vector3::zeros();
+    // Equal-length slices: the indexing below needs no bounds checks.
+    let n = chain.joints.len();
+    let (q, x_wl, p_bl, r_wl_out, s_out) = (
+        &q[..n],
+        &mut d.X_WL[..n],
+        &mut d.p_BL[..n],
+        &mut d.R_WL[..n],
+        &mut d.S[..n],
+    );
     for (k, j) in chain.joints.iter().enumerate() {
         let q_pj = j.placement.rotation.quaternion();
         let t_pj = j.placement.translation.vector;
@@ -63,7 +73,7 @@ pub(super) fn placements(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
         let (q_wl, p_wl, r_wl, s) = match j.kind {
             JointKind::Revolute => {
                 // J(q) = Rot(a, q) = (cos q/2, sin q/2 a).
-                let (sh, ch) = (0.5 * q[k]).sin_cos();
+                let (sh, ch) = sin_cos(0.5 * q[k]);
                 let q_wl = q_wj * Quaternion::new(ch, sh * a.x, sh * a.y, sh * a.z);
                 let r = rot(&q_wl);
                 let z = r * a;
@@ -76,11 +86,11 @@ pub(super) fn placements(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
                 (q_wj, p, r, stack(&z, &Vector3::zeros()))
             }
         };
-        d.X_WL[k].rotation = UnitQuaternion::new_unchecked(q_wl);
-        d.X_WL[k].translation.vector = p_wb + p_wl;
-        d.p_BL[k] = p_wl;
-        d.R_WL[k] = r_wl;
-        d.S[k] = s;
+        x_wl[k].rotation = UnitQuaternion::new_unchecked(q_wl);
+        x_wl[k].translation.vector = p_wb + p_wl;
+        p_bl[k] = p_wl;
+        r_wl_out[k] = r_wl;
+        s_out[k] = s;
         q_prev = q_wl;
         r_prev = r_wl;
         p_prev = p_wl;
@@ -97,9 +107,14 @@ pub(super) fn placements(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
 /// `c = p + R c_L`, `I_O = R I_c Rᵀ − m [c]²`, `h = m c`.
 #[inline]
 pub(super) fn inertias(arm: &SpatialArm, d: &mut ChainData) {
-    for (k, b) in arm.chain.bodies.iter().enumerate() {
-        d.I_W[k] =
-            SpatialInertia::from_com_posed(b.mass, &b.com, &b.inertia, &d.R_WL[k], &d.p_BL[k]);
+    for (((i, b), r), p) in d
+        .I_W
+        .iter_mut()
+        .zip(&arm.chain.bodies)
+        .zip(&d.R_WL)
+        .zip(&d.p_BL)
+    {
+        *i = SpatialInertia::from_com_posed(b.mass, &b.com, &b.inertia, r, p);
     }
 }
 
@@ -107,44 +122,43 @@ pub(super) fn inertias(arm: &SpatialArm, d: &mut ChainData) {
 #[inline]
 pub(super) fn velocities(qd: &[f64], d: &mut ChainData) {
     let mut v = Vector6::zeros();
-    for k in 0..d.S.len() {
-        v += d.S[k] * qd[k];
-        d.V[k] = v;
+    for ((vk, s), qdk) in d.V.iter_mut().zip(&d.S).zip(qd) {
+        v += s * *qdk;
+        *vk = v;
     }
 }
 
-/// Stage 4a: `(S, X_WT) → J`: each `S_k` moved to the tool point.
+/// Stage 4a: `(S, p_BT) → J`: each `S_k` moved to the tool point.
 #[inline]
 pub(super) fn tool_jacobian(d: &mut ChainData) {
     let p_t = d.p_BT;
-    for k in 0..d.S.len() {
-        let s = &d.S[k];
+    for (col, s) in d.J.as_mut_slice().chunks_exact_mut(6).zip(&d.S) {
         let w = ang(s);
         let v = lin(s) + w.cross(&p_t);
-        let mut col = d.J.column_mut(k);
-        col[0] = v.x;
-        col[1] = v.y;
-        col[2] = v.z;
-        col[3] = w.x;
-        col[4] = w.y;
-        col[5] = w.z;
+        col.copy_from_slice(&[v.x, v.y, v.z, w.x, w.y, w.z]);
     }
 }
 
-/// Stage 4b: `(S, V, q̇, X_WT) → J̇ q̇` (classical, tool point).
+/// Stage 4b: `(S, V, q̇, p_BT) → J̇ q̇` (classical, tool point).
 #[inline]
 pub(super) fn tool_jdqd(qd: &[f64], d: &mut ChainData) {
-    let n = d.S.len();
     let mut acc = Vector6::zeros();
-    for k in 0..n {
-        acc += cross_motion(&d.V[k], &d.S[k]) * qd[k];
+    for ((v, s), qdk) in d.V.iter().zip(&d.S).zip(qd) {
+        acc += cross_motion(v, s) * *qdk;
     }
+    tool_jdqd_from(&acc, d);
+}
+
+/// `J̇ q̇` from the last body's spatial acceleration `acc` at `q̈ = 0` without gravity
+/// (`Σ_k V_k × S_k q̇_k`) and its twist.
+#[inline]
+pub(super) fn tool_jdqd_from(acc: &Vector6<f64>, d: &mut ChainData) {
     let p_t = d.p_BT;
-    let vt = d.V[n - 1];
+    let vt = d.V[d.V.len() - 1];
     let w = ang(&vt);
     let pd_t = lin(&vt) + w.cross(&p_t);
-    let alpha = ang(&acc);
-    d.jdqd = stack(&(lin(&acc) + alpha.cross(&p_t) + w.cross(&pd_t)), &alpha);
+    let alpha = ang(acc);
+    d.jdqd = stack(&(lin(acc) + alpha.cross(&p_t) + w.cross(&pd_t)), &alpha);
 }
 
 /// Forward kinematics of every body and the tool, the tool Jacobian, and `J̇ q̇` when `qd` is

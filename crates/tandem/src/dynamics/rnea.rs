@@ -30,7 +30,8 @@ pub(super) fn tool_wrench_at_origin(d: &ChainData, f_t: &Vector6<f64>) -> Vector
 }
 
 /// The RNEA passes on placed bodies (after `placements` and `inertias`): writes `tau` and
-/// leaves the twists in `d.V`. `qdd = None` means `q̈ = 0`.
+/// leaves the twists in `d.V`. `qdd = None` means `q̈ = 0`. Returns the last body's spatial
+/// acceleration (gravity included as the base's `[−g_W; 0]`).
 #[inline]
 pub(super) fn rnea_passes(
     qd: &[f64],
@@ -39,31 +40,35 @@ pub(super) fn rnea_passes(
     f_T_W: Option<&Vector6<f64>>,
     tau: &mut [f64],
     d: &mut ChainData,
-) {
+) -> Vector6<f64> {
     let n = d.S.len();
     let mut v = Vector6::zeros();
     let mut a = stack(&(-g_W), &Vector3::zeros());
+    // Equal-length slices: no bounds checks in the loops.
+    let (s_all, i_all, v_all, f_all) = (&d.S[..n], &d.I_W[..n], &mut d.V[..n], &mut d.f[..n]);
+    let (qd, tau) = (&qd[..n], &mut tau[..n]);
     for k in 0..n {
-        let s = d.S[k];
+        let s = s_all[k];
         let sqd = s * qd[k];
         v += sqd;
         a += cross_motion(&v, &sqd);
         if let Some(qdd) = qdd {
             a += s * qdd[k];
         }
-        let i = &d.I_W[k];
-        d.V[k] = v;
-        d.f[k] = i.apply(&a) + cross_force(&v, &i.apply(&v));
+        let i = &i_all[k];
+        v_all[k] = v;
+        f_all[k] = i.apply(&a) + cross_force(&v, &i.apply(&v));
     }
     if let Some(f_t) = f_T_W {
         let w = tool_wrench_at_origin(d, f_t);
         d.f[n - 1] -= w;
     }
     let mut f = Vector6::zeros();
-    for k in (0..n).rev() {
-        f += d.f[k];
-        tau[k] = d.S[k].dot(&f);
+    for ((t, s), fk) in tau.iter_mut().zip(&d.S).zip(&d.f).rev() {
+        f += fk;
+        *t = s.dot(&f);
     }
+    a
 }
 
 /// Inverse dynamics by recursive Newton–Euler (Featherstone 2008, Table 5.1, world

@@ -4,6 +4,7 @@
 //!   inverses, accurate near `θ = 0` (Taylor series) and `θ = π` (antipodal `Log`).
 //! * [`motion`]: twists `[v; ω]` and wrenches `[f; τ]` (**linear first**), their cross products
 //!   and the motion and force adjoints of a rigid transform `X_AB` (nalgebra `Isometry3<f64>`).
+//! * [`trig`]: an inlined `sin_cos` for the joint angles (Cody–Waite + fdlibm kernels).
 //! * [`inertia`]: spatial inertia `(m, h = m c, I_O)` with its application to a twist and its
 //!   change of frame.
 //!
@@ -14,6 +15,7 @@
 pub mod inertia;
 pub mod motion;
 pub mod so3;
+pub mod trig;
 
 pub use inertia::SpatialInertia;
 pub use motion::{

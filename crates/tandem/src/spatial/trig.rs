@@ -1,0 +1,108 @@
+//! `sin` and `cos` of one angle together, inlined: the joint-angle trigonometry of every
+//! kinematic pass (one call per revolute joint).
+//!
+//! Cody–Waite reduction `x = k π/2 + r`, `|r| ≤ π/4 (1 + 2⁻⁴⁰)`, with `π/2` split in three
+//! 33-bit parts (so `k · part` is exact for `|k| < 2²⁰`), then the fdlibm minimax kernels
+//! (`__kernel_sin`, `__kernel_cos`, degree 13 and 14; error below 1 ulp on `[−π/4, π/4]`) and
+//! the quadrant of `k`. Measured against the platform's `f64::sin_cos`: at most 1 ulp apart
+//! (tests). Outside `|x| < 1e5` (and for NaN or ±∞) it falls back to `f64::sin_cos`. About 40
+//! instructions instead of ~110 for the library call.
+
+// The kernel constants are fdlibm's published decimals, kept verbatim.
+#![allow(clippy::excessive_precision)]
+
+const S1: f64 = -1.666_666_666_666_663_243_48e-1;
+const S2: f64 = 8.333_333_333_322_489_461_24e-3;
+const S3: f64 = -1.984_126_982_985_794_931_34e-4;
+const S4: f64 = 2.755_731_370_707_006_767_89e-6;
+const S5: f64 = -2.505_076_025_340_686_341_95e-8;
+const S6: f64 = 1.589_690_995_211_550_102_21e-10;
+
+const C1: f64 = 4.166_666_666_666_660_190_37e-2;
+const C2: f64 = -1.388_888_888_887_410_957_49e-3;
+const C3: f64 = 2.480_158_728_947_672_941_78e-5;
+const C4: f64 = -2.755_731_435_139_066_330_35e-7;
+const C5: f64 = 2.087_572_321_298_174_827_90e-9;
+const C6: f64 = -1.135_964_755_778_819_482_65e-11;
+
+/// `2/π`.
+const INV_PIO2: f64 = std::f64::consts::FRAC_2_PI;
+/// `π/2` in three parts of 33 significant bits each (fdlibm's `pio2_1`, `pio2_2`, `pio2_3`).
+const PIO2_1: f64 = 1.570_796_326_734_125_614_17;
+const PIO2_2: f64 = 6.077_100_506_303_965_976_60e-11;
+const PIO2_3: f64 = 2.022_266_248_711_166_455_80e-21;
+
+/// `(sin x, cos x)`; see the module doc for the method and accuracy.
+#[inline(always)]
+pub fn sin_cos(x: f64) -> (f64, f64) {
+    if !(x.abs() < 1e5) || x == 0.0 {
+        // Large, non-finite, or ±0 (whose sign the polynomial would lose).
+        return x.sin_cos();
+    }
+    // Round to nearest by the 1.5·2⁵² trick (exact for |x·2/π| < 2⁵¹; `f64::round` is a
+    // library call on baseline x86-64).
+    const SHIFT: f64 = 6_755_399_441_055_744.0;
+    let k = (x * INV_PIO2 + SHIFT) - SHIFT;
+    let r = ((x - k * PIO2_1) - k * PIO2_2) - k * PIO2_3;
+    let z = r * r;
+    // sin r = r + r³ (S1 + z (S2 + … + z⁴ S6)).
+    let ps = S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)));
+    let s = r + r * z * (S1 + z * ps);
+    // cos r = 1 − z/2 + z² (C1 + … + z⁵ C6), with fdlibm's compensated 1 − z/2.
+    let pc = z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6)))));
+    let hz = 0.5 * z;
+    let w = 1.0 - hz;
+    let c = w + (((1.0 - w) - hz) + z * pc);
+    match (k as i64) & 3 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fixtures::SplitMix64;
+
+    fn ulps(a: f64, b: f64) -> f64 {
+        if a == b {
+            return 0.0;
+        }
+        // Distance in units of the larger value's ulp (a denormal-safe floor).
+        let m = a.abs().max(b.abs()).max(f64::MIN_POSITIVE);
+        (a - b).abs() / (m * f64::EPSILON)
+    }
+
+    #[test]
+    fn agrees_with_the_library_to_one_ulp() {
+        let mut rng = SplitMix64(31);
+        let mut worst: f64 = 0.0;
+        let mut check = |x: f64| {
+            let (s, c) = sin_cos(x);
+            let (s0, c0) = x.sin_cos();
+            // Near a zero of sin or cos the relative error of either grows; compare on the
+            // absolute scale of 1 there, the standard for trigonometric kernels.
+            let es = ulps(s, s0).min((s - s0).abs() / f64::EPSILON);
+            let ec = ulps(c, c0).min((c - c0).abs() / f64::EPSILON);
+            worst = worst.max(es).max(ec);
+        };
+        for _ in 0..200_000 {
+            check(rng.range(-4.0, 4.0));
+            check(rng.range(-1e4, 1e4));
+        }
+        for k in -40..40 {
+            let x = k as f64 * std::f64::consts::FRAC_PI_4;
+            for d in [0.0, 1e-300, 1e-16, -1e-16, 1e-9, -1e-9] {
+                check(x + d);
+            }
+        }
+        for x in [0.0, -0.0, 1e-308, 5e-324, 99_999.0, 100_000.0, 1e10] {
+            check(x);
+        }
+        assert!(worst <= 1.0, "worst {worst} ulp");
+        assert!(sin_cos(f64::NAN).0.is_nan() && sin_cos(f64::INFINITY).1.is_nan());
+        assert_eq!(sin_cos(-0.0).0.to_bits(), (-0.0f64).to_bits());
+    }
+}
