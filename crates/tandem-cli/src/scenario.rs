@@ -90,6 +90,8 @@ pub struct Source {
     pub text: String,
     /// Folder that relative paths inside the file (a replay file) are resolved against.
     pub dir: PathBuf,
+    /// The scenario file, if it is one (never inside a folder `--force` replaces).
+    pub file: Option<PathBuf>,
 }
 
 /// Resolve the command line's `SCENARIO`: an existing file, else an embedded name; `None` is the
@@ -115,6 +117,7 @@ pub fn resolve(arg: Option<&str>) -> Result<Source, crate::BadInput> {
             display: p.display().to_string(),
             text,
             dir,
+            file: Some(p.to_path_buf()),
         });
     }
     if let Some(e) = EMBEDDED.iter().find(|e| e.name == arg) {
@@ -148,6 +151,7 @@ pub fn embedded_source(e: &Embedded) -> Source {
         display: format!("embedded scenario `{}`", e.name),
         text: e.text.to_string(),
         dir: PathBuf::from("."),
+        file: None,
     }
 }
 

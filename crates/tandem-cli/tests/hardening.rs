@@ -1,0 +1,229 @@
+//! Regression tests of the hardening issue: one test per reported defect, named after it, plus
+//! the classes found on the way. Every run is short (at most a few simulated seconds).
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+const BIN: &str = env!("CARGO_BIN_EXE_tandem");
+
+/// A fresh, empty scratch folder.
+fn scratch(name: &str) -> PathBuf {
+    static N: AtomicUsize = AtomicUsize::new(0);
+    let d = std::env::temp_dir().join(format!(
+        "tandem-harden-{name}-{}-{}",
+        std::process::id(),
+        N.fetch_add(1, Ordering::Relaxed)
+    ));
+    let _ = fs::remove_dir_all(&d);
+    fs::create_dir_all(&d).expect("create scratch folder");
+    d
+}
+
+/// Run the binary in `cwd`.
+fn tandem(cwd: &Path, args: &[&str]) -> Output {
+    Command::new(BIN)
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("run tandem")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn code(o: &Output) -> i32 {
+    o.status.code().unwrap_or(-1)
+}
+
+/// Assert exit code `c`, showing the output otherwise.
+fn exit(o: &Output, c: i32) {
+    assert_eq!(
+        code(o),
+        c,
+        "exit code\nstdout:\n{}\nstderr:\n{}",
+        stdout(o),
+        stderr(o)
+    );
+}
+
+/// The embedded paper scenario's text.
+fn paper_text(cwd: &Path) -> String {
+    let o = tandem(cwd, &["scenario", "show", "paper"]);
+    exit(&o, 0);
+    stdout(&o)
+}
+
+/// The paper scenario with each `from` replaced by `to` (which must occur once at least).
+fn paper_edited(cwd: &Path, edits: &[(&str, &str)]) -> String {
+    let mut text = paper_text(cwd);
+    for (from, to) in edits {
+        assert!(text.contains(from), "the paper scenario has no `{from}`");
+        text = text.replacen(from, to, 1);
+    }
+    text
+}
+
+/// Write the edited paper scenario into `dir/name`.
+fn paper_with(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
+    let p = dir.join(name);
+    fs::write(&p, paper_edited(dir, edits)).expect("write scenario");
+    p
+}
+
+/// Every file under `dir` with its content (sorted), to compare a tree before and after.
+fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in fs::read_dir(&d).expect("read_dir").flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push((p.clone(), fs::read(&p).expect("read")));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+const SHORT: [&str; 5] = ["--duration", "0.2", "--no-figures", "--controller", "pd"];
+
+// ---------------------------------------------------------------------------------------------
+// 1. --force replaces only folders tandem wrote.
+
+#[test]
+fn force_never_deletes_the_scenario_file() {
+    let d = scratch("force-scenario");
+    let s = paper_with(&d, "my.toml", &[]);
+    let before = tree(&d);
+    let mut args = vec!["run", "my.toml", "--out", "my.toml", "--force"];
+    args.extend(SHORT);
+    let o = tandem(&d, &args);
+    exit(&o, 2);
+    assert!(stderr(&o).contains("is a file"), "{}", stderr(&o));
+    assert!(s.is_file());
+    assert_eq!(tree(&d), before, "nothing changed");
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn force_never_deletes_the_working_folder() {
+    let d = scratch("force-cwd");
+    let here = d.join("here");
+    fs::create_dir(&here).expect("mkdir");
+    paper_with(&here, "s.toml", &[]);
+    // Even a marker does not make the current folder (or a parent) replaceable.
+    fs::write(here.join(".tandem-output"), "").expect("marker");
+    let before = tree(&d);
+    for out in ["../here", ".", ".."] {
+        let mut args = vec!["run", "s.toml", "--out", out, "--force"];
+        args.extend(SHORT);
+        let o = tandem(&here, &args);
+        exit(&o, 2);
+        assert!(
+            stderr(&o).contains("current folder"),
+            "{out}: {}",
+            stderr(&o)
+        );
+    }
+    assert_eq!(tree(&d), before, "nothing changed");
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn force_never_turns_a_file_into_a_folder() {
+    let d = scratch("force-file");
+    fs::write(d.join("notes.txt"), "mine").expect("write");
+    let mut args = vec!["run", "--out", "notes.txt", "--force"];
+    args.extend(SHORT);
+    let o = tandem(&d, &args);
+    exit(&o, 2);
+    assert!(stderr(&o).contains("is a file"), "{}", stderr(&o));
+    assert_eq!(
+        fs::read_to_string(d.join("notes.txt")).expect("read"),
+        "mine"
+    );
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn force_never_deletes_a_folder_tandem_did_not_write() {
+    let d = scratch("force-foreign");
+    fs::create_dir(d.join("photos")).expect("mkdir");
+    fs::write(d.join("photos/cat.jpg"), "meow").expect("write");
+    let before = tree(&d);
+    for cmd in ["run", "compare"] {
+        let mut args = vec![cmd, "--out", "photos", "--force", "--duration", "0.2"];
+        args.push("--no-figures");
+        let o = tandem(&d, &args);
+        exit(&o, 2);
+        assert!(stderr(&o).contains(".tandem-output"), "{}", stderr(&o));
+    }
+    assert_eq!(tree(&d), before, "nothing changed");
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn force_never_deletes_a_folder_holding_the_scenario_or_replay() {
+    let d = scratch("force-holds");
+    // A tandem output folder, with the user's edited scenario saved inside it.
+    let mut args = vec!["run", "--out", "res"];
+    args.extend(SHORT);
+    exit(&tandem(&d, &args), 0);
+    paper_with(&d.join("res"), "edited.toml", &[]);
+    let before = tree(&d);
+    let mut args = vec!["run", "res/edited.toml", "--out", "res", "--force"];
+    args.extend(SHORT);
+    let o = tandem(&d, &args);
+    exit(&o, 2);
+    assert!(stderr(&o).contains("input file"), "{}", stderr(&o));
+    // Replaying the folder's own torques into it would delete the replayed file.
+    let o = tandem(
+        &d,
+        &[
+            "run",
+            "--replay",
+            "res/timeseries.csv",
+            "--out",
+            "res",
+            "--force",
+            "--duration",
+            "0.1",
+            "--no-figures",
+        ],
+    );
+    exit(&o, 2);
+    assert!(stderr(&o).contains("input file"), "{}", stderr(&o));
+    assert_eq!(tree(&d), before, "nothing changed");
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn force_replaces_a_folder_tandem_wrote() {
+    let d = scratch("force-ok");
+    let mut args = vec!["run", "--out", "res"];
+    args.extend(SHORT);
+    exit(&tandem(&d, &args), 0);
+    assert!(d.join("res/.tandem-output").is_file(), "marker written");
+    fs::write(d.join("res/stale.txt"), "old").expect("write");
+    args.push("--force");
+    exit(&tandem(&d, &args), 0);
+    assert!(!d.join("res/stale.txt").exists(), "replaced whole");
+    assert!(d.join("res/summary.json").is_file());
+    let names: Vec<String> = fs::read_dir(&d)
+        .expect("ls")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, vec!["res"], "no temporary folder left: {names:?}");
+    let _ = fs::remove_dir_all(&d);
+}
