@@ -227,3 +227,65 @@ fn force_replaces_a_folder_tandem_wrote() {
     assert_eq!(names, vec!["res"], "no temporary folder left: {names:?}");
     let _ = fs::remove_dir_all(&d);
 }
+
+// ---------------------------------------------------------------------------------------------
+// 2. Bounded work for every input.
+
+/// Run the binary in `cwd`, killing it (and failing) if it takes more than `secs` seconds.
+fn tandem_within(cwd: &Path, args: &[&str], secs: f64) -> Output {
+    let mut child = Command::new(BIN)
+        .args(args)
+        .current_dir(cwd)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn tandem");
+    let t0 = std::time::Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return child.wait_with_output().expect("output");
+        }
+        if t0.elapsed().as_secs_f64() > secs {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("tandem {args:?} did not return within {secs} s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+}
+
+#[test]
+fn validate_returns_for_a_circle_or_lemniscate_with_a_huge_phase() {
+    let d = scratch("phase");
+    for phase in [
+        "1e20",
+        "-1e308",
+        "9223372036854775807.0",
+        "9.223372036854775807e18",
+    ] {
+        paper_with(
+            &d,
+            "circle.toml",
+            &[("phase = 0.0           #", &format!("phase = {phase} #"))],
+        );
+        paper_with(
+            &d,
+            "lem.toml",
+            &[
+                ("kind = \"circle\"", "kind = \"lemniscate\""),
+                ("radius = 0.2", "size = 0.2"),
+                ("phase = 0.0           #", &format!("phase = {phase} #")),
+            ],
+        );
+        for f in ["circle.toml", "lem.toml"] {
+            let o = tandem_within(&d, &["validate", f], 10.0);
+            exit(&o, 2);
+            let e = stderr(&o);
+            assert!(
+                e.contains("path.phase") && e.contains("line 90"),
+                "{f} {phase}: {e}"
+            );
+        }
+    }
+    let _ = fs::remove_dir_all(&d);
+}
