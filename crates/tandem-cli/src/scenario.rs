@@ -100,9 +100,14 @@ pub fn resolve(arg: Option<&str>) -> Result<Source, crate::BadInput> {
     let arg = arg.unwrap_or(DEFAULT);
     let p = FsPath::new(arg);
     if p.is_file() {
-        let text = std::fs::read_to_string(p).map_err(|e| {
+        let text = read_limited(p, MAX_SCENARIO_BYTES).map_err(|e| {
             crate::BadInput::msg(format!("cannot read scenario file {}: {e}", p.display()))
         })?;
+        // A UTF-8 byte-order mark (some editors write one) is not part of the TOML.
+        let text = match text.strip_prefix('\u{feff}') {
+            Some(t) => t.to_string(),
+            None => text,
+        };
         let name = p
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -142,6 +147,35 @@ pub fn resolve(arg: Option<&str>) -> Result<Source, crate::BadInput> {
         names.join(", ")
     ));
     Err(crate::BadInput::msg(msg))
+}
+
+/// Largest scenario file read, bytes (16 MiB; the embedded paper scenario is 12 kB).
+pub const MAX_SCENARIO_BYTES: u64 = 16 << 20;
+
+/// Most arms, and links per arm, a scenario may have (the plant's matrices grow with the
+/// square of the joint count).
+pub const MAX_ARMS: usize = 16;
+/// See [`MAX_ARMS`].
+pub const MAX_LINKS: usize = 16;
+
+/// Read a UTF-8 file of at most `limit` bytes (a larger one is refused, never read whole).
+pub fn read_limited(p: &FsPath, limit: u64) -> Result<String, String> {
+    use std::io::Read;
+    let f = std::fs::File::open(p).map_err(|e| e.to_string())?;
+    let mut buf = Vec::new();
+    f.take(limit + 1)
+        .read_to_end(&mut buf)
+        .map_err(|e| e.to_string())?;
+    if buf.len() as u64 > limit {
+        return Err(format!(
+            "the file is larger than {} MiB (a scenario is a few kB)",
+            limit >> 20
+        ));
+    }
+    String::from_utf8(buf).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        format!("the file is not UTF-8 text (invalid byte at offset {at})")
+    })
 }
 
 /// The source of an embedded scenario.
@@ -687,6 +721,17 @@ impl fmt::Display for ScenarioError {
 
 impl std::error::Error for ScenarioError {}
 
+/// A number for a message: shortest round-trip form, with an exponent outside
+/// [1e-4, 1e6) (`1e9`, `1.7e96`, `-2.5e-7`), never hundreds of digits.
+pub fn num(v: f64) -> String {
+    let a = v.abs();
+    if !v.is_finite() || a == 0.0 || (1e-4..1e6).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 /// 1-based (line, column) of a byte offset (column in characters).
 pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(text.len());
@@ -764,7 +809,7 @@ impl Source {
                 reason,
             } => {
                 let path = map(&param);
-                self.error_at(&path, format!("{path} = {value}: {reason}"))
+                self.error_at(&path, format!("{path} = {}: {reason}", num(value)))
             }
             ModelError::Geometry { what, reason } => {
                 let path = map(&what);
@@ -1185,6 +1230,26 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
     // Arms and grasps.
     if sc.arms.is_empty() {
         return Err(src.error_at("arms", "at least one arm is needed ([[arms]])"));
+    }
+    if sc.arms.len() > MAX_ARMS {
+        return Err(src.error_at(
+            "arms",
+            format!("{} arms: at most {MAX_ARMS} are supported", sc.arms.len()),
+        ));
+    }
+    if let Some((i, a)) = sc
+        .arms
+        .iter()
+        .enumerate()
+        .find(|(_, a)| a.links.len() > MAX_LINKS)
+    {
+        return Err(src.error_at(
+            &format!("arms[{i}].links"),
+            format!(
+                "arms[{i}] has {} links: at most {MAX_LINKS} are supported",
+                a.links.len()
+            ),
+        ));
     }
     let mut q_guess = Vec::new();
     let mut need_guess = false;

@@ -289,3 +289,36 @@ fn validate_returns_for_a_circle_or_lemniscate_with_a_huge_phase() {
     }
     let _ = fs::remove_dir_all(&d);
 }
+
+#[test]
+fn duration_1e9_is_refused_at_validation_not_allocated() {
+    let d = scratch("duration");
+    paper_with(&d, "long.toml", &[("duration = 90.0", "duration = 1e9")]);
+    let o = tandem_within(&d, &["validate", "long.toml"], 10.0);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(
+        e.contains("run.duration = 1e9") && e.contains("1.000e12 control ticks"),
+        "{e}"
+    );
+    // Within the tick limit, but a log of 1.5 GB: refused with the size and the remedy.
+    paper_with(&d, "log.toml", &[("duration = 90.0", "duration = 1e5")]);
+    for args in [
+        &["validate", "log.toml"][..],
+        &["run", "log.toml", "--no-figures"][..],
+        &["run", "--duration", "1e5"][..],
+    ] {
+        let o = tandem_within(&d, args, 10.0);
+        exit(&o, 2);
+        let e = stderr(&o);
+        assert!(
+            e.contains("run.duration = 100000:")
+                && e.contains("3333335 rows")
+                && e.contains("GB, more than the 0.5 GB limit")
+                && e.contains("raise the log period to at least 9.000e-2 s"),
+            "{args:?}: {e}"
+        );
+    }
+    assert!(!d.join("out").exists(), "nothing written");
+    let _ = fs::remove_dir_all(&d);
+}

@@ -58,6 +58,14 @@ pub struct SimParams {
     pub min_sigma: f64,
 }
 
+/// Most control ticks a run may have (10⁹: 11.6 simulated days at 1 kHz, about an hour of wall
+/// time), so that every run ends in bounded time.
+pub const MAX_TICKS: f64 = 1e9;
+
+/// Most memory the preallocated log may take, bytes (512 MiB): a longer log is refused at
+/// validation with its size, never allocated.
+pub const MAX_LOG_BYTES: f64 = 512.0 * 1024.0 * 1024.0;
+
 fn default_drift() -> f64 {
     1e-6
 }
@@ -111,6 +119,16 @@ impl SimParams {
         }
         let sub = ratio(hc, hp, "control_period", "plant_step")?;
         let per_log = ratio(hl, hc, "log_period", "control_period")?;
+        if !((d / hc).round() <= MAX_TICKS) {
+            return Err(ModelError::invalid(
+                "duration",
+                d,
+                format!(
+                    "is {:.3e} control ticks of {hc} s, more than the {MAX_TICKS:.0e} a run may have",
+                    (d / hc).round()
+                ),
+            ));
+        }
         let ticks = (d / hc).round() as usize;
         for (j, v) in self.start.iter().enumerate() {
             if !v.is_finite() {
@@ -438,7 +456,23 @@ impl Simulation {
         let n_arms = plant.arms().len();
         let sensors = Sensors::new(sensors, plant.n_q(), n_arms, params.control_period)?;
         let rows = ticks / per_log + 2;
-        let log = Log::with_layout(&layout(plant.n_q(), n_arms), rows);
+        let layout = layout(plant.n_q(), n_arms);
+        let bytes = rows as f64 * layout.len() as f64 * 8.0;
+        if bytes > MAX_LOG_BYTES {
+            return Err(ModelError::invalid(
+                "duration",
+                params.duration,
+                format!(
+                    "the log would hold {rows} rows × {} columns = {:.1} GB, more than the {:.1} GB limit: \
+                     raise the log period to at least {:.3e} s or shorten the run",
+                    layout.len(),
+                    bytes / 1e9,
+                    MAX_LOG_BYTES / 1e9,
+                    params.log_period * (bytes / MAX_LOG_BYTES).ceil()
+                ),
+            ));
+        }
+        let log = Log::with_layout(&layout, rows);
         let n = plant.state_dim();
         let mut sim = Simulation {
             input: plant.zero_input(),
