@@ -1540,6 +1540,8 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
             _ => src.model_error(e, |p| {
                 if p.starts_with("arms") {
                     p.to_string()
+                } else if p == "gravity" {
+                    "plant.gravity".into()
                 } else if p.starts_with("encoder") || p.starts_with("force") {
                     format!("sensors.{p}")
                 } else {

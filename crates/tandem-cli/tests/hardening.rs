@@ -322,3 +322,171 @@ fn duration_1e9_is_refused_at_validation_not_allocated() {
     assert!(!d.join("out").exists(), "nothing written");
     let _ = fs::remove_dir_all(&d);
 }
+
+// ---------------------------------------------------------------------------------------------
+// 4. Non-finite values are faults; missing metrics are null with a reason.
+
+fn read_json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&fs::read_to_string(path).expect("read json")).expect("parse json")
+}
+
+/// No NaN or infinity anywhere in a CSV file or in a JSON file's text.
+fn assert_all_finite(dir: &Path) {
+    let csv = fs::read_to_string(dir.join("timeseries.csv")).expect("csv");
+    for (i, line) in csv.lines().enumerate().skip(1) {
+        for cell in line.split(',') {
+            let v: f64 = cell
+                .parse()
+                .unwrap_or_else(|_| panic!("line {i}: `{cell}`"));
+            assert!(v.is_finite(), "timeseries.csv line {}: {cell}", i + 1);
+        }
+    }
+    let json = fs::read_to_string(dir.join("summary.json")).expect("json");
+    for bad in ["NaN", "Infinity", "inf"] {
+        assert!(!json.contains(bad), "summary.json has {bad}");
+    }
+}
+
+/// The paper scenario with the force sensor's noise `std_dev` set to `sd`.
+fn with_force_noise(dir: &Path, sd: &str) -> PathBuf {
+    let mut text = paper_text(dir);
+    let i = text.find("[sensors.force]").expect("force section");
+    let j = i + text[i..].find("std_dev = 0.0").expect("std_dev");
+    text.replace_range(j..j + "std_dev = 0.0".len(), &format!("std_dev = {sd}"));
+    let p = dir.join("noisy.toml");
+    fs::write(&p, text).expect("write");
+    p
+}
+
+#[test]
+fn huge_force_sensor_noise_is_a_fault_never_nan_in_the_csv() {
+    let d = scratch("noise");
+    for sd in ["1.7e308", "1e300", "1e150"] {
+        with_force_noise(&d, sd);
+        let out = format!("o{sd}");
+        let o = tandem(
+            &d,
+            &["run", "noisy.toml", "--duration", "0.3", "--out", &out],
+        );
+        exit(&o, 1);
+        let e = stderr(&o);
+        assert!(e.contains("became non-finite at t = "), "{sd}: {e}");
+        assert!(e.contains("last good state x_o = (0.19000, "), "{e}");
+        let dir = d.join(&out);
+        assert_all_finite(&dir);
+        let s = read_json(&dir.join("summary.json"));
+        assert_eq!(s["completed"], false, "{sd}");
+        let kind = s["fault"]["kind"].as_str().unwrap_or("");
+        assert!(kind.starts_with("non_finite"), "{sd}: {kind}");
+        assert!(
+            s["fault_message"]
+                .as_str()
+                .unwrap_or("")
+                .contains("non-finite")
+        );
+    }
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn gravity_1e308_is_a_validation_error_never_nan_forces() {
+    let d = scratch("gravity");
+    paper_with(&d, "g.toml", &[("gravity = 9.8 ", "gravity = 1e308 ")]);
+    let o = tandem(&d, &["run", "g.toml", "--duration", "0.2", "--no-figures"]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(e.contains("plant.gravity") && e.contains("line 75"), "{e}");
+    assert!(!d.join("out").exists());
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn metrics_that_do_not_exist_are_null_with_a_reason_never_0() {
+    let d = scratch("metrics");
+    // 0.3 s: nothing after the 5 s transient; PD has no weights.
+    let o = tandem(
+        &d,
+        &[
+            "run",
+            "--controller",
+            "pd",
+            "--duration",
+            "0.3",
+            "--no-figures",
+            "--out",
+            "pd",
+        ],
+    );
+    exit(&o, 0);
+    let s = read_json(&d.join("pd/summary.json"));
+    let why = &s["unavailable"];
+    for k in ["rms_z1_after", "max_z1_after", "max_z1_theta_after"] {
+        assert!(s[k].is_null(), "{k} = {}", s[k]);
+        assert!(
+            why[k].as_str().unwrap_or("").starts_with("run too short"),
+            "{k}: {why}"
+        );
+    }
+    assert!(s["final_weight_norms"].is_null());
+    assert!(
+        why["final_weight_norms"]
+            .as_str()
+            .unwrap_or("")
+            .contains("no NN weights")
+    );
+    assert!(s["rms_z1"].as_f64().expect("exists") > 0.0);
+    // A replay has no commanded wrench.
+    let o = tandem(
+        &d,
+        &[
+            "run",
+            "--replay",
+            "pd/timeseries.csv",
+            "--duration",
+            "0.3",
+            "--no-figures",
+            "--out",
+            "rp",
+        ],
+    );
+    exit(&o, 0);
+    let s = read_json(&d.join("rp/summary.json"));
+    for k in ["rms_wrench", "peak_wrench", "wrench_roughness"] {
+        assert!(s[k].is_null(), "{k} = {}", s[k]);
+        assert!(
+            s["unavailable"][k]
+                .as_str()
+                .unwrap_or("")
+                .contains("replay"),
+            "{k}"
+        );
+    }
+    // Every null of the summary has a reason.
+    for (k, v) in s.as_object().expect("object") {
+        if v.is_null() && k != "fault" && k != "fault_message" {
+            assert!(
+                s["unavailable"].get(k).is_some(),
+                "{k} is null without a reason"
+            );
+        }
+    }
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn fault_message_prints_a_diverged_state_readably() {
+    use tandem::sim::{Fault, FaultKind};
+    let f = Fault {
+        t: 0.006,
+        kind: FaultKind::NonFinite,
+        x_o: [1.7e96, -3.0e300, 0.25],
+        q: vec![1e300, 0.5, -2e-9, 0.0],
+    };
+    let s = f.to_string();
+    assert!(s.len() < 200, "{} chars: {s}", s.len());
+    assert!(
+        s.contains("x_o = (1.700e96, -3.000e300, 0.25000)")
+            && s.contains("q = [1.000e300, 0.5000, -2.000e-9, 0.0000]"),
+        "{s}"
+    );
+}
