@@ -800,6 +800,32 @@ impl Source {
         }
     }
 
+    /// A warning about the field at `path`: `path: text (line L)`, or `(preset or default
+    /// value, not set in the file)` when the file does not set it.
+    pub fn warning_at(&self, path: &str, text: &str) -> String {
+        let body = text
+            .strip_prefix(path)
+            .map_or(text, |r| r.trim_start_matches([':', ' ']));
+        let body = if text.starts_with(path) && !text[path.len()..].starts_with(':') {
+            // `admittance.m_e[0] = 0 selects ...`: keep the sentence whole.
+            text
+        } else {
+            body
+        };
+        let place = match span_of(&self.text, path) {
+            Some((s, true)) => {
+                let (l, _) = line_col(&self.text, s.start);
+                format!(" ({}, line {l})", self.display)
+            }
+            _ => " (preset or default value, not set in the file)".to_string(),
+        };
+        if body.starts_with(path) {
+            format!("{body}{place}")
+        } else {
+            format!("{path}: {body}{place}")
+        }
+    }
+
     /// A library validation error, its parameter path mapped to the file's by `map`.
     pub fn model_error(&self, e: ModelError, map: impl Fn(&str) -> String) -> ScenarioError {
         match e {
@@ -899,13 +925,86 @@ pub fn parse(src: &Source) -> Result<Scenario, ScenarioError> {
             span,
         )
     })?;
-    serde_path_to_error::deserialize::<_, Scenario>(de).map_err(|e| {
+    let sc = serde_path_to_error::deserialize::<_, Scenario>(de).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.inner();
         let span = inner.span();
         let msg = inner.message().trim_end().to_string();
         err(describe(&path, &msg, &src.text, &span), span)
-    })
+    })?;
+    check_lengths(src, &sc)?;
+    Ok(sc)
+}
+
+/// Every array in the file has exactly the length of the field it fills: serde reads the first
+/// N entries of a fixed-size array and ignores the rest (`base = [-0.38, 0.0, 99.0, "x"]` was
+/// read as `[-0.38, 0.0]`). The parsed scenario is written back and every array of the file
+/// compared with the one at the same path, whatever struct (the CLI's or the library's) it
+/// filled.
+fn check_lengths(src: &Source, sc: &Scenario) -> Result<(), ScenarioError> {
+    use toml::de::{DeTable, DeValue};
+    let Ok(back) = toml::Value::try_from(sc) else {
+        return Ok(());
+    };
+    let Ok(root) = DeTable::parse(&src.text) else {
+        return Ok(());
+    };
+    fn walk(
+        path: &str,
+        v: &toml::Spanned<DeValue<'_>>,
+        back: &toml::Value,
+        found: &mut Option<(String, usize, usize, Range<usize>)>,
+    ) {
+        if found.is_some() {
+            return;
+        }
+        match (v.get_ref(), back) {
+            (DeValue::Array(a), toml::Value::Array(b)) => {
+                if a.len() != b.len() {
+                    *found = Some((path.to_string(), a.len(), b.len(), v.span()));
+                    return;
+                }
+                for (i, (x, y)) in a.iter().zip(b.iter()).enumerate() {
+                    walk(&format!("{path}[{i}]"), x, y, found);
+                }
+            }
+            (DeValue::Table(t), toml::Value::Table(b)) => {
+                for (k, x) in t.iter() {
+                    if let Some(y) = b.get(k.get_ref().as_ref()) {
+                        let key = k.get_ref().as_ref();
+                        let p = if path.is_empty() {
+                            key.to_string()
+                        } else {
+                            format!("{path}.{key}")
+                        };
+                        walk(&p, x, y, found);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut found = None;
+    let top = root.get_ref();
+    if let toml::Value::Table(b) = &back {
+        for (k, x) in top.iter() {
+            if let Some(y) = b.get(k.get_ref().as_ref()) {
+                walk(k.get_ref().as_ref(), x, y, &mut found);
+            }
+        }
+    }
+    match found {
+        None => Ok(()),
+        Some((path, got, want, span)) => Err(ScenarioError {
+            file: src.display.clone(),
+            message: format!(
+                "{path} has {got} entries; it takes exactly {want}{}",
+                at_line(&src.text, &Some(span.clone()))
+            ),
+            span: Some(span),
+            text: src.text.clone(),
+        }),
+    }
 }
 
 /// Turn serde's message and path into a sentence with the place and a suggestion.
@@ -1202,6 +1301,13 @@ fn controller_path(kind: ControllerKind) -> impl Fn(&str) -> String {
             ControllerKind::Ctc => "ctc",
             ControllerKind::Replay => "replay",
         };
+        // The RBF network's own paths (`rbf.levels`, `rbf.centres`) are the NN's `levels`.
+        let p = p
+            .strip_prefix("gains.")
+            .map_or(p, |r| if r.starts_with("rbf.") { r } else { p });
+        if p.starts_with("rbf.") {
+            return format!("controller.{section}.levels");
+        }
         if let Some(rest) = p.strip_prefix("gains.") {
             if rest.starts_with("k_c") {
                 return format!("controller.{rest}");
@@ -1265,7 +1371,15 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
                     ),
                 ));
             }
-            Some(g) => q_guess.extend_from_slice(g),
+            Some(g) => {
+                if let Some(k) = g.iter().position(|v| !v.is_finite()) {
+                    return Err(src.error_at(
+                        &format!("arms[{i}].q_guess[{k}]"),
+                        format!("arms[{i}].q_guess[{k}] = {}: must be finite", num(g[k])),
+                    ));
+                }
+                q_guess.extend_from_slice(g)
+            }
             None if a.links.len() != 2 => {
                 return Err(src.error_at(
                     &format!("arms[{i}]"),
@@ -1296,6 +1410,22 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
         baumgarte: sc.plant.baumgarte,
     };
     tandem::plant::Plant::new(&plant).map_err(|e| src.model_error(e, plant_path))?;
+    // Two arms holding the same point leave the object's rotation about it undetermined.
+    for (j, b) in sc.arms.iter().enumerate() {
+        for (i, a) in sc.arms.iter().enumerate().take(j) {
+            let d = (a.grasp[0] - b.grasp[0]).hypot(a.grasp[1] - b.grasp[1]);
+            if !(d > 1e-6) {
+                return Err(src.error_at(
+                    &format!("arms[{j}].grasp"),
+                    format!(
+                        "arms[{j}].grasp = ({}, {}) coincides with arms[{i}].grasp: the grasp points must be distinct (at least 1 µm apart) to hold the object",
+                        num(b.grasp[0]),
+                        num(b.grasp[1])
+                    ),
+                ));
+            }
+        }
+    }
 
     // Path.
     let path = build_path(&sc.path, src)?;
@@ -1495,7 +1625,42 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
         Some(cp) => {
             let (c, w) = Controller::new(cp, &b.plant, b.path.clone(), b.sim.duration)
                 .map_err(|e| src.model_error(e, controller_path(sc.controller.kind)))?;
-            warnings.extend(w.iter().map(|w: &ControlWarning| w.to_string()));
+            let map = controller_path(sc.controller.kind);
+            warnings.extend(w.iter().map(|w: &ControlWarning| {
+                let (param, text) = match w {
+                    ControlWarning::Gain { param, reason } => (map(param), reason.clone()),
+                    ControlWarning::Admittance(a) => {
+                        let t = a.to_string();
+                        // The library's sentence starts with its own path, `admittance.m_e[0] ...`.
+                        let path = t
+                            .split_whitespace()
+                            .next()
+                            .unwrap_or("admittance")
+                            .to_string();
+                        (path, t)
+                    }
+                };
+                src.warning_at(&param, &text)
+            }));
+            // The start must be inside the output bounds the controller keeps (iBLF: |x_1j| < k_cj).
+            if sc.controller.kind != ControllerKind::Replay {
+                let unit = ["m", "m", "rad"];
+                for j in 0..3 {
+                    let (x, k) = (sc.run.start[j], sc.controller.k_c[j]);
+                    if k > 0.0 && !(x.abs() < k) {
+                        return Err(src.error_at(
+                            &format!("run.start[{j}]"),
+                            format!(
+                                "run.start[{j}] = {} {} is outside the output bound |x_{j}| < controller.k_c[{j}] = {} {}: the run would start in violation",
+                                num(x),
+                                unit[j],
+                                num(k),
+                                unit[j]
+                            ),
+                        ));
+                    }
+                }
+            }
             Driver::Controller(Box::new(c))
         }
         None => {
@@ -1555,9 +1720,12 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
     let x0 = b.path.sample(0.0).p;
     let gap = ((b.sim.start[0] - x0.x).powi(2) + (b.sim.start[1] - x0.y).powi(2)).sqrt();
     if gap > 0.02 {
-        warnings.push(format!(
-            "run.start ({:.3}, {:.3}) is {:.0} mm from the path's start ({:.3}, {:.3}): expect a large initial error and wrench",
-            b.sim.start[0], b.sim.start[1], 1e3 * gap, x0.x, x0.y
+        warnings.push(src.warning_at(
+            "run.start",
+            &format!(
+                "({:.3}, {:.3}) is {:.0} mm from the path's start ({:.3}, {:.3}): expect a large initial error and wrench",
+                b.sim.start[0], b.sim.start[1], 1e3 * gap, x0.x, x0.y
+            ),
         ));
     }
     Ok(Ready { sim, warnings })

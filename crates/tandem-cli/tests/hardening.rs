@@ -490,3 +490,216 @@ fn fault_message_prints_a_diverged_state_readably() {
         "{s}"
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// 5. Strict shapes; a start outside the bounds is a validation error.
+
+/// `validate` on the edited paper scenario: exit 2 and the message.
+fn refused(d: &Path, edits: &[(&str, &str)]) -> String {
+    paper_with(d, "bad.toml", edits);
+    let o = tandem_within(d, &["validate", "bad.toml"], 20.0);
+    exit(&o, 2);
+    stderr(&o)
+}
+
+#[test]
+fn too_long_arrays_are_errors_never_cut_short() {
+    let d = scratch("arrays");
+    for (edit, field, line) in [
+        (
+            ("base = [-0.38, 0.0]", "base = [-0.38, 0.0, 99.0, \"x\"]"),
+            "arms[0].base has 4 entries; it takes exactly 2",
+            "line 21",
+        ),
+        (
+            ("start = [0.19, 0.0, 0.0]", "start = [0.19, 0.0, 0.0, 1.0]"),
+            "run.start has 4 entries; it takes exactly 3",
+            "line 192",
+        ),
+        (
+            ("k_c = [0.35, 0.35, 0.35]", "k_c = [0.35, 0.35, 0.35, 0.35]"),
+            "controller.k_c has 4 entries; it takes exactly 3",
+            "line 131",
+        ),
+        (
+            (
+                "gravity = [0.0, 9.8, 0.0]",
+                "gravity = [0.0, 9.8, 0.0, 0.0]",
+            ),
+            "object.gravity has 4 entries; it takes exactly 3",
+            "line 69",
+        ),
+    ] {
+        let e = refused(&d, &[edit]);
+        assert!(e.contains(field) && e.contains(line), "{field}: {e}");
+    }
+    // Too short stays an error too (serde's own message, located).
+    let e = refused(&d, &[("k_c = [0.35, 0.35, 0.35]", "k_c = [0.35, 0.35]")]);
+    assert!(
+        e.contains("controller.k_c") && e.contains("line 131"),
+        "{e}"
+    );
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_start_outside_the_bounds_is_a_validation_error() {
+    let d = scratch("start");
+    let e = refused(
+        &d,
+        &[("start = [0.19, 0.0, 0.0]", "start = [0.19, 0.0, 0.4]")],
+    );
+    assert!(
+        e.contains("run.start[2] = 0.4 rad is outside the output bound")
+            && e.contains("controller.k_c[2] = 0.35")
+            && e.contains("line 192, column 21"),
+        "{e}"
+    );
+    let e = refused(
+        &d,
+        &[("start = [0.19, 0.0, 0.0]", "start = [-0.35, 0.0, 0.0]")],
+    );
+    assert!(e.contains("run.start[0] = -0.35 m"), "{e}");
+    // Out of an arm's reach: the start breaks a grasp.
+    let e = refused(
+        &d,
+        &[("start = [0.19, 0.0, 0.0]", "start = [0.3, 0.3, 0.0]")],
+    );
+    assert!(
+        e.contains("run.start") && e.contains("cannot be reached"),
+        "{e}"
+    );
+    let _ = fs::remove_dir_all(&d);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 6. Errors blame the right field; warnings carry scenario paths and lines.
+
+#[test]
+fn q_guess_with_nan_blames_q_guess_not_run_start() {
+    let d = scratch("qguess");
+    // A 3-link arm 1 (its q_guess is used) whose guess has a NaN.
+    let text = paper_edited(
+        &d,
+        &[(
+            "grasp = [-0.05, 0.0]",
+            "grasp = [-0.05, 0.0]\nq_guess = [0.5, nan, 1.0]",
+        )],
+    );
+    let i = text.find("[[arms.links]]        # link 2").expect("link 2");
+    let j = i + text[i..].find("\n[[arms]]").expect("arm 2");
+    let link = text[i..j].to_string();
+    let mut text = text;
+    text.insert_str(j, &format!("\n{link}"));
+    fs::write(d.join("bad.toml"), text).expect("write");
+    let o = tandem(&d, &["validate", "bad.toml"]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(
+        e.contains("arms[0].q_guess[1] = NaN: must be finite") && e.contains("line 28"),
+        "{e}"
+    );
+    assert!(!e.contains("run.start"), "{e}");
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn coincident_grasps_blame_the_grasp_not_controller_delta() {
+    let d = scratch("grasps");
+    let e = refused(
+        &d,
+        &[
+            ("grasp = [-0.05, 0.0]", "grasp = [0.0, 0.0]"),
+            ("grasp = [0.05, 0.0]", "grasp = [0.0, 0.0]"),
+        ],
+    );
+    assert!(
+        e.contains("arms[1].grasp = (0, 0) coincides with arms[0].grasp") && e.contains("line 46"),
+        "{e}"
+    );
+    assert!(!e.contains("delta"), "{e}");
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn omega_1e308_names_omega_not_a_nan_pose() {
+    let d = scratch("omega");
+    let e = refused(&d, &[("omega = 0.1 ", "omega = 1e308 ")]);
+    assert!(
+        e.contains("path.omega = 1e308") && e.contains("line 89") && !e.contains("NaN"),
+        "{e}"
+    );
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn nn_levels_is_reported_as_nn_levels_where_it_is_set() {
+    let d = scratch("levels");
+    let many: Vec<String> = (0..21)
+        .map(|k| format!("{:.1}", -1.0 + 0.1 * k as f64))
+        .collect();
+    let line = format!("[controller.nn]\nlevels = [{}]\n", many.join(", "));
+    let e = refused(&d, &[("[controller.nn]\n", &line)]);
+    assert!(
+        e.contains("controller.nn.levels") && e.contains("line 141"),
+        "{e}"
+    );
+    assert!(
+        !e.contains("rbf") && !e.contains("not set in the file"),
+        "{e}"
+    );
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn warnings_name_scenario_fields_with_their_line() {
+    let d = scratch("warnings");
+    paper_with(
+        &d,
+        "w.toml",
+        &[
+            ("gains = \"tuned\"", "gains = \"paper\""),
+            (
+                "[controller.nn]\n",
+                "[controller.nn]\nk2 = [11.0, 15.0, 10.0]\n",
+            ),
+            ("m_e = 200.0 ", "m_e = 0.0 "),
+        ],
+    );
+    let o = tandem(&d, &["validate", "w.toml"]);
+    exit(&o, 0);
+    let e = stderr(&o);
+    for j in 0..3 {
+        assert!(
+            e.contains(&format!(
+                "warning (NN (paper)): controller.nn.k2[{j}]: K2 = "
+            )),
+            "{e}"
+        );
+    }
+    assert!(e.contains("(w.toml, line 141)"), "{e}");
+    assert!(e.contains("admittance.m_e[0] = 0 selects") && e.contains("(w.toml, line 176)"));
+    assert!(!e.contains("gains.k2"), "library path leaked: {e}");
+    // From the preset, not the file: said so.
+    let o = tandem(&d, &["validate", "paper"]);
+    exit(&o, 0);
+    let o = tandem(
+        &d,
+        &[
+            "run",
+            "--gains",
+            "paper",
+            "--duration",
+            "0.1",
+            "--no-figures",
+        ],
+    );
+    exit(&o, 0);
+    let e = stderr(&o);
+    assert!(
+        e.contains("controller.nn.k2[0]: K2 = 11")
+            && e.contains("(preset or default value, not set in the file)"),
+        "{e}"
+    );
+    let _ = fs::remove_dir_all(&d);
+}
