@@ -709,7 +709,8 @@ pub struct ScenarioError {
 
 impl fmt::Display for ScenarioError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.file, self.message)?;
+        // A message may quote the input (a value, a key): never more than a line of it.
+        write!(f, "{}: {}", self.file, clip_middle(&self.message, 300, 100))?;
         if let Some(span) = &self.span {
             if let Some(snippet) = excerpt(&self.text, span.clone()) {
                 write!(f, "\n{snippet}")?;
@@ -759,25 +760,69 @@ fn at_line(text: &str, span: &Option<Range<usize>>) -> String {
     }
 }
 
-/// The source line of `span` with carets under it, rustc style.
+/// Characters of a source line shown before and after the error's column.
+const CONTEXT_BEFORE: usize = 40;
+/// See [`CONTEXT_BEFORE`].
+const CONTEXT_AFTER: usize = 60;
+
+/// The source line of `span` with carets under it, rustc style; a long line is cut to
+/// [`CONTEXT_BEFORE`] + [`CONTEXT_AFTER`] characters around the span (`…` marks the cuts).
 fn excerpt(text: &str, span: Range<usize>) -> Option<String> {
     if text.is_empty() {
         return None;
     }
-    let (line, col) = line_col(text, span.start);
-    let src = text.lines().nth(line - 1)?;
-    let width = text[floor_char(text, span.start)..floor_char(text, span.end.min(text.len()))]
-        .lines()
-        .next()
-        .map_or(1, |s| s.chars().count().max(1))
-        .min(src.chars().count().saturating_sub(col - 1).max(1));
+    let start = floor_char(text, span.start.min(text.len()));
+    let (line, _) = line_col(text, start);
+    // The line's bounds by search from the span (never a scan of the whole text's lines).
+    let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+    let line_end = text[start..].find('\n').map_or(text.len(), |i| start + i);
+    let src = text[line_start..line_end].trim_end_matches('\r');
+    let col = text[line_start..start].chars().count();
+    let width = text[start..floor_char(text, span.end.clamp(start, line_end))]
+        .chars()
+        .count()
+        .clamp(1, CONTEXT_AFTER);
+    // The window [from, from + shown) of the line's characters.
+    let from = col.saturating_sub(CONTEXT_BEFORE);
+    let shown: String = src
+        .chars()
+        .skip(from)
+        .take(CONTEXT_BEFORE + CONTEXT_AFTER)
+        .collect();
+    let cut_left = from > 0;
+    let cut_right = src.chars().count() > from + CONTEXT_BEFORE + CONTEXT_AFTER;
     let n = line.to_string();
     let pad = " ".repeat(n.len());
     Some(format!(
-        "{pad} |\n{n} | {src}\n{pad} | {}{}",
-        " ".repeat(col - 1),
+        "{pad} |\n{n} | {}{shown}{}\n{pad} | {}{}",
+        if cut_left { "…" } else { "" },
+        if cut_right { "…" } else { "" },
+        " ".repeat(col - from + usize::from(cut_left)),
         "^".repeat(width)
     ))
+}
+
+/// `s` cut to its first `head` and last `tail` characters (with `…` between) when longer: a
+/// message that quotes a huge value keeps its start and its place (`(line L, column C)`).
+pub fn clip_middle(s: &str, head: usize, tail: usize) -> String {
+    let n = s.chars().count();
+    if n <= head + tail + 1 {
+        return s.to_string();
+    }
+    let a: String = s.chars().take(head).collect();
+    let b: String = s.chars().skip(n - tail).collect();
+    format!("{a}…{b}")
+}
+
+/// `s` cut to at most `n` characters (with `…`), for messages that echo the input.
+pub fn clip(s: &str, n: usize) -> String {
+    if s.chars().count() <= n {
+        s.to_string()
+    } else {
+        let mut c: String = s.chars().take(n).collect();
+        c.push('…');
+        c
+    }
 }
 
 impl Source {
@@ -933,7 +978,33 @@ pub fn parse(src: &Source) -> Result<Scenario, ScenarioError> {
         err(describe(&path, &msg, &src.text, &span), span)
     })?;
     check_lengths(src, &sc)?;
+    if let Some(n) = &sc.name {
+        check_name(src, n)?;
+    }
     Ok(sc)
+}
+
+/// A scenario `name` becomes part of the default output folder `out/<name>-...`: it must be a
+/// plain name (no path separators, not `.` or `..`, no leading dot, no control characters, at
+/// most 100 characters), so the folder stays inside `out/`.
+fn check_name(src: &Source, n: &str) -> Result<(), ScenarioError> {
+    let why = if n.trim().is_empty() {
+        None
+    } else if n.contains('/') || n.contains('\\') {
+        Some("must not contain a path separator (it names the output folder out/<name>-...)")
+    } else if n.starts_with('.') {
+        Some("must not start with a dot (it names the output folder out/<name>-...)")
+    } else if n.chars().any(char::is_control) {
+        Some("must not contain control characters")
+    } else if n.chars().count() > 100 {
+        Some("must be at most 100 characters")
+    } else {
+        None
+    };
+    match why {
+        None => Ok(()),
+        Some(w) => Err(src.error_at("name", format!("name = {:?}: {w}", clip(n, 60)))),
+    }
 }
 
 /// Every array in the file has exactly the length of the field it fills: serde reads the first
@@ -1688,7 +1759,7 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
     )
     .map_err(|e| {
         // What remains to check here is the start pose (reach, singularity) and the formulation.
-        let [x, y, th] = b.sim.start;
+        let [x, y, th] = b.sim.start.map(num);
         let text = e.to_string();
         match &e {
             ModelError::Invalid { param, .. } if param == "start" => src.error_at(

@@ -703,3 +703,80 @@ fn warnings_name_scenario_fields_with_their_line() {
     );
     let _ = fs::remove_dir_all(&d);
 }
+
+#[test]
+fn a_name_cannot_escape_the_out_folder() {
+    let d = scratch("name");
+    let base = d.join("work");
+    fs::create_dir(&base).expect("mkdir");
+    for name in ["../../escaped", "..", "a/b", "a\\\\b", ".hidden"] {
+        let text = format!("name = \"{name}\"\n{}", paper_text(&base));
+        fs::write(base.join("s.toml"), text).expect("write");
+        let mut args = vec!["run", "s.toml"];
+        args.extend(SHORT);
+        let o = tandem(&base, &args);
+        exit(&o, 2);
+        let e = stderr(&o);
+        assert!(e.contains("name = ") && e.contains("line 1"), "{name}: {e}");
+    }
+    let names: Vec<String> = fs::read_dir(&d)
+        .expect("ls")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, vec!["work"], "nothing written outside: {names:?}");
+    assert!(!base.join("out").exists());
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_syntax_error_on_a_50_mb_line_echoes_one_line_of_context() {
+    let d = scratch("longline");
+    let text = paper_text(&d);
+    // 10 MB: under the 16 MiB file limit (a 50 MB file is refused unread).
+    let long = text.replacen(
+        "description =",
+        &format!("x = {} @\ndescription =", "1".repeat(10_000_000)),
+        1,
+    );
+    fs::write(d.join("long.toml"), &long).expect("write");
+    let quoted = text.replacen(
+        "k_c = [0.35, 0.35, 0.35]",
+        &format!("k_c = [\"{}\", 0.35, 0.35]", "a".repeat(10_000_000)),
+        1,
+    );
+    fs::write(d.join("quoted.toml"), &quoted).expect("write");
+    let huge = format!("x = {}\n", "1".repeat(50_000_000));
+    fs::write(d.join("huge.toml"), &huge).expect("write");
+    for (f, needle) in [
+        ("long.toml", "TOML syntax error"),
+        ("quoted.toml", "controller.k_c[0] (line 131, column 8)"),
+        ("huge.toml", "larger than 16 MiB"),
+    ] {
+        let o = tandem_within(&d, &["validate", f], 20.0);
+        exit(&o, 2);
+        let e = stderr(&o);
+        assert!(e.len() < 1500, "{f}: {} bytes of stderr", e.len());
+        assert!(e.contains(needle), "{f}: {e}");
+    }
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_utf8_byte_order_mark_is_accepted() {
+    let d = scratch("bom");
+    let text = format!("\u{feff}{}", paper_text(&d));
+    fs::write(d.join("bom.toml"), text).expect("write");
+    let o = tandem(&d, &["validate", "bom.toml"]);
+    exit(&o, 0);
+    // Lines still count from the file's first line.
+    let text = format!(
+        "\u{feff}{}",
+        paper_edited(&d, &[("delta = 0.005", "delta = -1.0")])
+    );
+    fs::write(d.join("bad.toml"), text).expect("write");
+    let o = tandem(&d, &["validate", "bad.toml"]);
+    exit(&o, 2);
+    assert!(stderr(&o).contains("controller.delta = -1") && stderr(&o).contains("line 132"));
+    let _ = fs::remove_dir_all(&d);
+}
