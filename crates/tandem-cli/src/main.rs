@@ -171,7 +171,8 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: {e:#}");
             let bad = e.downcast_ref::<BadInput>().is_some()
-                || e.downcast_ref::<ScenarioError>().is_some();
+                || e.downcast_ref::<ScenarioError>().is_some()
+                || e.downcast_ref::<output::Refused>().is_some();
             ExitCode::from(if bad { 2 } else { 1 })
         }
     }
@@ -189,10 +190,30 @@ fn load(arg: Option<&str>, o: &Overrides) -> Result<(Source, Scenario)> {
     Ok((src, sc))
 }
 
-/// Refuse an existing output folder without --force, with the command that would overwrite it.
-fn check_out(dir: &Path, force: bool) -> Result<()> {
-    if force || std::fs::symlink_metadata(dir).is_err() {
+/// The input files of a run (scenario file, replay file): `--force` never replaces a folder
+/// that holds one.
+fn inputs(src: &Source, sc: &Scenario) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = src.file.iter().cloned().collect();
+    if let Some(r) = &sc.controller.replay {
+        let p = Path::new(r);
+        v.push(if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            src.dir.join(p)
+        });
+    }
+    v
+}
+
+/// Refuse an existing output folder without --force, with the command that would overwrite it;
+/// with --force, refuse anything tandem did not write (see [`output::check_replaceable`]).
+fn check_out(dir: &Path, force: bool, protected: &[PathBuf]) -> Result<()> {
+    if std::fs::symlink_metadata(dir).is_err() {
         return Ok(());
+    }
+    if force {
+        let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
+        return output::check_replaceable(dir, &p);
     }
     let mut cmd = vec!["tandem".to_string()];
     cmd.extend(std::env::args().skip(1).map(|a| shell_quote(&a)));
@@ -246,11 +267,13 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
         }
         PathBuf::from("out").join(name)
     });
-    check_out(&out_dir, a.common.force)?;
+    let protected = inputs(&src, &sc);
+    check_out(&out_dir, a.common.force, &protected)?;
     let label = runner::label(&sc);
     let prepared = runner::prepare(sc, &src)?;
     print_warnings(&label, &prepared.ready.warnings);
-    let out = OutputDir::create(&out_dir, a.common.force)?;
+    let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
+    let out = OutputDir::create(&out_dir, a.common.force, &p)?;
 
     let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
     bar.set_style(bar_style());
@@ -328,7 +351,8 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-compare", src.name)));
-    check_out(&out_dir, a.common.force)?;
+    let protected = inputs(&src, &base);
+    check_out(&out_dir, a.common.force, &protected)?;
     let mut prepared = Vec::new();
     for (kind, gains, slug) in COMPARED {
         let mut sc = base.clone();
@@ -343,7 +367,8 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
         print_warnings(&label, &p.ready.warnings);
         prepared.push((slug, label, p));
     }
-    let out = OutputDir::create(&out_dir, a.common.force)?;
+    let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
+    let out = OutputDir::create(&out_dir, a.common.force, &p)?;
 
     // All runs at once, one progress bar each.
     let multi = MultiProgress::with_draw_target(ProgressDrawTarget::stderr());

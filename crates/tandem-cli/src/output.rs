@@ -56,10 +56,85 @@ fn remove_any(path: &Path) -> std::io::Result<()> {
     }
 }
 
+/// The file inside every folder tandem writes; `--force` replaces only folders that hold it.
+pub const MARKER: &str = ".tandem-output";
+
+/// The marker's content (for a person who finds it).
+const MARKER_TEXT: &str = "This folder was written by tandem. `tandem run --force` (or `compare --force`) may \
+     replace it as a whole; remove this file to protect the folder.\n";
+
+/// A refusal to replace an existing path (bad input: the command line names the wrong folder).
+#[derive(Debug)]
+pub struct Refused(pub String);
+
+impl std::fmt::Display for Refused {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Refused {}
+
+/// Why `--force` may not replace an existing path: it must be a real folder (not a file, not a
+/// symbolic link), hold the [`MARKER`] tandem writes, and be neither the current folder nor one
+/// of its parents, nor hold any of the `protected` input files (the scenario, a replay file).
+pub fn check_replaceable(dir: &Path, protected: &[&Path]) -> Result<()> {
+    let refuse = |why: String| -> Result<()> {
+        Err(anyhow!(Refused(format!(
+            "--force does not replace {}: {why} (nothing was run or deleted)",
+            dir.display()
+        ))))
+    };
+    let meta = match fs::symlink_metadata(dir) {
+        Ok(m) => m,
+        Err(_) => return Ok(()),
+    };
+    if meta.file_type().is_symlink() {
+        return refuse("it is a symbolic link, not a folder tandem wrote".into());
+    }
+    if !meta.is_dir() {
+        return refuse("it is a file, not a folder tandem wrote".into());
+    }
+    let canon =
+        fs::canonicalize(dir).with_context(|| format!("cannot resolve {}", dir.display()))?;
+    if let Ok(cwd) = std::env::current_dir().and_then(fs::canonicalize) {
+        if cwd.starts_with(&canon) {
+            return refuse(if cwd == canon {
+                "it is the current folder".into()
+            } else {
+                "it holds the current folder".into()
+            });
+        }
+    }
+    for p in protected {
+        let abs = fs::canonicalize(p)
+            .unwrap_or_else(|_| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf()));
+        if abs.starts_with(&canon) {
+            return refuse(format!("it holds the input file {}", p.display()));
+        }
+    }
+    match fs::symlink_metadata(canon.join(MARKER)) {
+        Ok(m) if m.is_file() => Ok(()),
+        _ => refuse(format!(
+            "it has no {MARKER} marker, so tandem did not write it (delete it yourself if it is an old tandem output)"
+        )),
+    }
+}
+
+/// Creates `path` (which must not exist) with `bytes`.
+fn write_new(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut f = fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(path)?;
+    f.write_all(bytes)?;
+    f.sync_all()
+}
+
 /// An output folder that appears in place only when complete.
 ///
 /// ```ignore
-/// let out = OutputDir::create(Path::new("runs/nn"), force)?; // fails early if it exists
+/// let out = OutputDir::create(Path::new("runs/nn"), force, &[])?; // fails early if it exists
 /// write_csv(&out.path("timeseries.csv"), &header, &columns)?;
 /// let final_dir = out.commit()?;                            // atomically in place
 /// ```
@@ -71,6 +146,8 @@ pub struct OutputDir {
     tmp_dir: PathBuf,
     /// Whether an existing `final_dir` may be replaced.
     force: bool,
+    /// Input files whose folders must never be replaced.
+    protected: Vec<PathBuf>,
     /// Set by `commit`, so that `Drop` leaves the (renamed) folder alone.
     committed: bool,
 }
@@ -78,32 +155,51 @@ pub struct OutputDir {
 impl OutputDir {
     /// Checks that `final_dir` may be written and creates the temporary sibling folder.
     ///
-    /// Fails, before any work is done, when `final_dir` exists and `force` is false. The parent
-    /// folder is created if missing.
-    pub fn create(final_dir: &Path, force: bool) -> Result<Self> {
-        if fs::symlink_metadata(final_dir).is_ok() && !force {
-            bail!(
-                "output folder {} exists; use --force to overwrite",
-                final_dir.display()
-            );
+    /// Fails, before any work is done, when `final_dir` exists and `force` is false, or when
+    /// `force` is set but [`check_replaceable`] refuses it (`protected` lists input files the
+    /// run reads, whose folders must never be replaced). The parent folder is created if
+    /// missing. The temporary folder gets the [`MARKER`] file, so the committed folder carries
+    /// it.
+    pub fn create(final_dir: &Path, force: bool, protected: &[&Path]) -> Result<Self> {
+        if fs::symlink_metadata(final_dir).is_ok() {
+            if !force {
+                bail!(
+                    "output folder {} exists; use --force to overwrite",
+                    final_dir.display()
+                );
+            }
+            check_replaceable(final_dir, protected)?;
         }
         let (parent, name) = parent_and_name(final_dir)?;
         fs::create_dir_all(&parent)
             .with_context(|| format!("cannot create folder {}", parent.display()))?;
-        let tmp_dir = parent.join(format!(".{name}.tmp-{}", unique_suffix()));
-        if fs::symlink_metadata(&tmp_dir).is_ok() {
-            // A stale folder of a dead process that had the same pid: it is ours to reuse.
-            remove_any(&tmp_dir)
-                .with_context(|| format!("cannot remove stale folder {}", tmp_dir.display()))?;
+        // A fresh name: an existing entry (whoever made it) is never reused or removed.
+        let mut tmp_dir = parent.join(format!(".{name}.tmp-{}", unique_suffix()));
+        let mut tries = 0;
+        loop {
+            match fs::create_dir(&tmp_dir) {
+                Ok(()) => break,
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && tries < 64 => {
+                    tries += 1;
+                    tmp_dir = parent.join(format!(".{name}.tmp-{}", unique_suffix()));
+                }
+                Err(e) => {
+                    return Err(anyhow!(e)).with_context(|| {
+                        format!("cannot create temporary folder {}", tmp_dir.display())
+                    });
+                }
+            }
         }
-        fs::create_dir(&tmp_dir)
-            .with_context(|| format!("cannot create temporary folder {}", tmp_dir.display()))?;
-        Ok(Self {
+        let out = Self {
             final_dir: final_dir.to_path_buf(),
             tmp_dir,
             force,
+            protected: protected.iter().map(|p| p.to_path_buf()).collect(),
             committed: false,
-        })
+        };
+        write_new(&out.tmp_dir.join(MARKER), MARKER_TEXT.as_bytes())
+            .with_context(|| format!("cannot write {}", out.tmp_dir.join(MARKER).display()))?;
+        Ok(out)
     }
 
     /// Where to write the file `name` (may contain sub-folders, which the caller creates).
@@ -147,8 +243,18 @@ impl OutputDir {
             return Ok(self.final_dir.clone());
         }
 
+        // Checked again: the folder may have changed while the run was going.
+        let protected: Vec<&Path> = self.protected.iter().map(PathBuf::as_path).collect();
+        check_replaceable(&self.final_dir, &protected)?;
         let (parent, name) = parent_and_name(&self.final_dir)?;
         let old = parent.join(format!(".{name}.old-{}", unique_suffix()));
+        if fs::symlink_metadata(&old).is_ok() {
+            bail!(
+                "cannot move the existing {} aside: {} exists",
+                self.final_dir.display(),
+                old.display()
+            );
+        }
         fs::rename(&self.final_dir, &old).with_context(|| {
             format!(
                 "cannot move the existing {} aside",
@@ -243,7 +349,10 @@ fn write_atomic_with(
 ) -> Result<()> {
     let tmp = temp_sibling(path)?;
     let result = (|| -> std::io::Result<()> {
-        let file = fs::File::create(&tmp)?;
+        let file = fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)?;
         let mut w = std::io::BufWriter::new(file);
         write(&mut w)?;
         let file = w.into_inner().map_err(|e| e.into_error())?;

@@ -157,11 +157,111 @@ pub fn summary_json(f: &Finished, scenario: &str, output_time: Option<f64>) -> V
     head.insert("warnings".into(), json!(f.warnings));
     head.insert("rows".into(), json!(f.outcome.log.len()));
     head.insert("regularised".into(), json!(f.outcome.regularised));
-    if let Value::Object(m) = v {
+    let gaps = unavailable(f);
+    if let Value::Object(mut m) = v {
+        for (k, _) in &gaps {
+            if let Some(x) = m.get_mut(*k) {
+                *x = Value::Null;
+            }
+        }
         head.extend(m);
     }
+    let mut reasons = serde_json::Map::new();
+    for (k, why) in gaps {
+        reasons.insert(k.into(), json!(why));
+    }
+    // Anything else that is null but not optional was a non-finite number.
+    for (k, x) in &head {
+        let optional = matches!(k.as_str(), "fault" | "fault_message");
+        if x.is_null() && !optional && !reasons.contains_key(k) {
+            reasons.insert(k.clone(), json!("not a finite number"));
+        }
+    }
+    for (k, x) in &timing {
+        if x.is_null() {
+            reasons.insert(format!("timing.{k}"), json!("not a finite number"));
+        }
+    }
+    head.insert("unavailable".into(), Value::Object(reasons));
     head.insert("timing".into(), Value::Object(timing));
     Value::Object(head)
+}
+
+/// The summary metrics that do not exist for this run, with the reason: they are written as
+/// `null` (never 0) and the reason goes into `unavailable`.
+pub fn unavailable(f: &Finished) -> Vec<(&'static str, String)> {
+    let log = &f.outcome.log;
+    let s = &f.summary;
+    let mut v: Vec<(&'static str, String)> = Vec::new();
+    let t = log.get("t").unwrap_or(&[]);
+    let from_log = [
+        "rms_z1",
+        "max_z1",
+        "rms_z1_after",
+        "max_z1_after",
+        "max_z1_theta_after",
+        "settling_time_1mm",
+        "rms_wrench",
+        "peak_wrench",
+        "wrench_roughness",
+        "rms_joint_torque",
+        "peak_joint_torque",
+        "grasp_force_range",
+        "weight_settling_time",
+        "final_weight_norms",
+    ];
+    let Some(&last) = t.last() else {
+        let why = format!(
+            "no logged rows: the run stopped at t = {} s, before its first row",
+            crate::table::num(s.t_end, 4)
+        );
+        v.extend(from_log.iter().map(|k| (*k, why.clone())));
+        if !s.min_margin.is_finite() {
+            v.push(("min_margin", why));
+        }
+        return v;
+    };
+    if last < s.transient {
+        let why = format!(
+            "run too short: the log ends at {} s, before the transient window (from {} s)",
+            crate::table::num(last, 4),
+            crate::table::num(s.transient, 4)
+        );
+        for k in ["rms_z1_after", "max_z1_after", "max_z1_theta_after"] {
+            v.push((k, why.clone()));
+        }
+    }
+    let replay = f.sc.controller.kind == ControllerKind::Replay;
+    if replay {
+        for k in ["rms_wrench", "peak_wrench", "wrench_roughness"] {
+            v.push((
+                k,
+                "a replay has no controller, so no commanded wrench".into(),
+            ));
+        }
+    } else if t.len() < 2 {
+        v.push(("wrench_roughness", "needs two logged rows".into()));
+    }
+    if f.sc.controller.kind != ControllerKind::Nn {
+        for k in ["weight_settling_time", "final_weight_norms"] {
+            v.push((
+                k,
+                format!("the {} run has no NN weights", f.sc.controller.kind.name()),
+            ));
+        }
+    } else if s.weight_settling_time.iter().any(Option::is_none) {
+        v.push((
+            "weight_settling_time.*",
+            "null: that weight norm never stays within ±10 % of its final value".into(),
+        ));
+    }
+    if s.settling_time_1mm.is_none() {
+        v.push((
+            "settling_time_1mm",
+            "never: ‖z1_xy‖ is not below 1 mm for the rest of the run".into(),
+        ));
+    }
+    v
 }
 
 /// The resolved scenario as TOML, with a header saying what it is.

@@ -90,6 +90,8 @@ pub struct Source {
     pub text: String,
     /// Folder that relative paths inside the file (a replay file) are resolved against.
     pub dir: PathBuf,
+    /// The scenario file, if it is one (never inside a folder `--force` replaces).
+    pub file: Option<PathBuf>,
 }
 
 /// Resolve the command line's `SCENARIO`: an existing file, else an embedded name; `None` is the
@@ -98,9 +100,14 @@ pub fn resolve(arg: Option<&str>) -> Result<Source, crate::BadInput> {
     let arg = arg.unwrap_or(DEFAULT);
     let p = FsPath::new(arg);
     if p.is_file() {
-        let text = std::fs::read_to_string(p).map_err(|e| {
+        let text = read_limited(p, MAX_SCENARIO_BYTES).map_err(|e| {
             crate::BadInput::msg(format!("cannot read scenario file {}: {e}", p.display()))
         })?;
+        // A UTF-8 byte-order mark (some editors write one) is not part of the TOML.
+        let text = match text.strip_prefix('\u{feff}') {
+            Some(t) => t.to_string(),
+            None => text,
+        };
         let name = p
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -115,6 +122,7 @@ pub fn resolve(arg: Option<&str>) -> Result<Source, crate::BadInput> {
             display: p.display().to_string(),
             text,
             dir,
+            file: Some(p.to_path_buf()),
         });
     }
     if let Some(e) = EMBEDDED.iter().find(|e| e.name == arg) {
@@ -141,6 +149,35 @@ pub fn resolve(arg: Option<&str>) -> Result<Source, crate::BadInput> {
     Err(crate::BadInput::msg(msg))
 }
 
+/// Largest scenario file read, bytes (16 MiB; the embedded paper scenario is 12 kB).
+pub const MAX_SCENARIO_BYTES: u64 = 16 << 20;
+
+/// Most arms, and links per arm, a scenario may have (the plant's matrices grow with the
+/// square of the joint count).
+pub const MAX_ARMS: usize = 16;
+/// See [`MAX_ARMS`].
+pub const MAX_LINKS: usize = 16;
+
+/// Read a UTF-8 file of at most `limit` bytes (a larger one is refused, never read whole).
+pub fn read_limited(p: &FsPath, limit: u64) -> Result<String, String> {
+    use std::io::Read;
+    let f = std::fs::File::open(p).map_err(|e| e.to_string())?;
+    let mut buf = Vec::new();
+    f.take(limit + 1)
+        .read_to_end(&mut buf)
+        .map_err(|e| e.to_string())?;
+    if buf.len() as u64 > limit {
+        return Err(format!(
+            "the file is larger than {} MiB (a scenario is a few kB)",
+            limit >> 20
+        ));
+    }
+    String::from_utf8(buf).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        format!("the file is not UTF-8 text (invalid byte at offset {at})")
+    })
+}
+
 /// The source of an embedded scenario.
 pub fn embedded_source(e: &Embedded) -> Source {
     Source {
@@ -148,6 +185,7 @@ pub fn embedded_source(e: &Embedded) -> Source {
         display: format!("embedded scenario `{}`", e.name),
         text: e.text.to_string(),
         dir: PathBuf::from("."),
+        file: None,
     }
 }
 
@@ -671,7 +709,8 @@ pub struct ScenarioError {
 
 impl fmt::Display for ScenarioError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.file, self.message)?;
+        // A message may quote the input (a value, a key): never more than a line of it.
+        write!(f, "{}: {}", self.file, clip_middle(&self.message, 300, 100))?;
         if let Some(span) = &self.span {
             if let Some(snippet) = excerpt(&self.text, span.clone()) {
                 write!(f, "\n{snippet}")?;
@@ -682,6 +721,17 @@ impl fmt::Display for ScenarioError {
 }
 
 impl std::error::Error for ScenarioError {}
+
+/// A number for a message: shortest round-trip form, with an exponent outside
+/// [1e-4, 1e6) (`1e9`, `1.7e96`, `-2.5e-7`), never hundreds of digits.
+pub fn num(v: f64) -> String {
+    let a = v.abs();
+    if !v.is_finite() || a == 0.0 || (1e-4..1e6).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
 
 /// 1-based (line, column) of a byte offset (column in characters).
 pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
@@ -710,25 +760,69 @@ fn at_line(text: &str, span: &Option<Range<usize>>) -> String {
     }
 }
 
-/// The source line of `span` with carets under it, rustc style.
+/// Characters of a source line shown before and after the error's column.
+const CONTEXT_BEFORE: usize = 40;
+/// See [`CONTEXT_BEFORE`].
+const CONTEXT_AFTER: usize = 60;
+
+/// The source line of `span` with carets under it, rustc style; a long line is cut to
+/// [`CONTEXT_BEFORE`] + [`CONTEXT_AFTER`] characters around the span (`…` marks the cuts).
 fn excerpt(text: &str, span: Range<usize>) -> Option<String> {
     if text.is_empty() {
         return None;
     }
-    let (line, col) = line_col(text, span.start);
-    let src = text.lines().nth(line - 1)?;
-    let width = text[floor_char(text, span.start)..floor_char(text, span.end.min(text.len()))]
-        .lines()
-        .next()
-        .map_or(1, |s| s.chars().count().max(1))
-        .min(src.chars().count().saturating_sub(col - 1).max(1));
+    let start = floor_char(text, span.start.min(text.len()));
+    let (line, _) = line_col(text, start);
+    // The line's bounds by search from the span (never a scan of the whole text's lines).
+    let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+    let line_end = text[start..].find('\n').map_or(text.len(), |i| start + i);
+    let src = text[line_start..line_end].trim_end_matches('\r');
+    let col = text[line_start..start].chars().count();
+    let width = text[start..floor_char(text, span.end.clamp(start, line_end))]
+        .chars()
+        .count()
+        .clamp(1, CONTEXT_AFTER);
+    // The window [from, from + shown) of the line's characters.
+    let from = col.saturating_sub(CONTEXT_BEFORE);
+    let shown: String = src
+        .chars()
+        .skip(from)
+        .take(CONTEXT_BEFORE + CONTEXT_AFTER)
+        .collect();
+    let cut_left = from > 0;
+    let cut_right = src.chars().count() > from + CONTEXT_BEFORE + CONTEXT_AFTER;
     let n = line.to_string();
     let pad = " ".repeat(n.len());
     Some(format!(
-        "{pad} |\n{n} | {src}\n{pad} | {}{}",
-        " ".repeat(col - 1),
+        "{pad} |\n{n} | {}{shown}{}\n{pad} | {}{}",
+        if cut_left { "…" } else { "" },
+        if cut_right { "…" } else { "" },
+        " ".repeat(col - from + usize::from(cut_left)),
         "^".repeat(width)
     ))
+}
+
+/// `s` cut to its first `head` and last `tail` characters (with `…` between) when longer: a
+/// message that quotes a huge value keeps its start and its place (`(line L, column C)`).
+pub fn clip_middle(s: &str, head: usize, tail: usize) -> String {
+    let n = s.chars().count();
+    if n <= head + tail + 1 {
+        return s.to_string();
+    }
+    let a: String = s.chars().take(head).collect();
+    let b: String = s.chars().skip(n - tail).collect();
+    format!("{a}…{b}")
+}
+
+/// `s` cut to at most `n` characters (with `…`), for messages that echo the input.
+pub fn clip(s: &str, n: usize) -> String {
+    if s.chars().count() <= n {
+        s.to_string()
+    } else {
+        let mut c: String = s.chars().take(n).collect();
+        c.push('…');
+        c
+    }
 }
 
 impl Source {
@@ -751,6 +845,32 @@ impl Source {
         }
     }
 
+    /// A warning about the field at `path`: `path: text (line L)`, or `(preset or default
+    /// value, not set in the file)` when the file does not set it.
+    pub fn warning_at(&self, path: &str, text: &str) -> String {
+        let body = text
+            .strip_prefix(path)
+            .map_or(text, |r| r.trim_start_matches([':', ' ']));
+        let body = if text.starts_with(path) && !text[path.len()..].starts_with(':') {
+            // `admittance.m_e[0] = 0 selects ...`: keep the sentence whole.
+            text
+        } else {
+            body
+        };
+        let place = match span_of(&self.text, path) {
+            Some((s, true)) => {
+                let (l, _) = line_col(&self.text, s.start);
+                format!(" ({}, line {l})", self.display)
+            }
+            _ => " (preset or default value, not set in the file)".to_string(),
+        };
+        if body.starts_with(path) {
+            format!("{body}{place}")
+        } else {
+            format!("{path}: {body}{place}")
+        }
+    }
+
     /// A library validation error, its parameter path mapped to the file's by `map`.
     pub fn model_error(&self, e: ModelError, map: impl Fn(&str) -> String) -> ScenarioError {
         match e {
@@ -760,7 +880,7 @@ impl Source {
                 reason,
             } => {
                 let path = map(&param);
-                self.error_at(&path, format!("{path} = {value}: {reason}"))
+                self.error_at(&path, format!("{path} = {}: {reason}", num(value)))
             }
             ModelError::Geometry { what, reason } => {
                 let path = map(&what);
@@ -850,13 +970,112 @@ pub fn parse(src: &Source) -> Result<Scenario, ScenarioError> {
             span,
         )
     })?;
-    serde_path_to_error::deserialize::<_, Scenario>(de).map_err(|e| {
+    let sc = serde_path_to_error::deserialize::<_, Scenario>(de).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.inner();
         let span = inner.span();
         let msg = inner.message().trim_end().to_string();
         err(describe(&path, &msg, &src.text, &span), span)
-    })
+    })?;
+    check_lengths(src, &sc)?;
+    if let Some(n) = &sc.name {
+        check_name(src, n)?;
+    }
+    Ok(sc)
+}
+
+/// A scenario `name` becomes part of the default output folder `out/<name>-...`: it must be a
+/// plain name (no path separators, not `.` or `..`, no leading dot, no control characters, at
+/// most 100 characters), so the folder stays inside `out/`.
+fn check_name(src: &Source, n: &str) -> Result<(), ScenarioError> {
+    let why = if n.trim().is_empty() {
+        None
+    } else if n.contains('/') || n.contains('\\') {
+        Some("must not contain a path separator (it names the output folder out/<name>-...)")
+    } else if n.starts_with('.') {
+        Some("must not start with a dot (it names the output folder out/<name>-...)")
+    } else if n.chars().any(char::is_control) {
+        Some("must not contain control characters")
+    } else if n.chars().count() > 100 {
+        Some("must be at most 100 characters")
+    } else {
+        None
+    };
+    match why {
+        None => Ok(()),
+        Some(w) => Err(src.error_at("name", format!("name = {:?}: {w}", clip(n, 60)))),
+    }
+}
+
+/// Every array in the file has exactly the length of the field it fills: serde reads the first
+/// N entries of a fixed-size array and ignores the rest (`base = [-0.38, 0.0, 99.0, "x"]` was
+/// read as `[-0.38, 0.0]`). The parsed scenario is written back and every array of the file
+/// compared with the one at the same path, whatever struct (the CLI's or the library's) it
+/// filled.
+fn check_lengths(src: &Source, sc: &Scenario) -> Result<(), ScenarioError> {
+    use toml::de::{DeTable, DeValue};
+    let Ok(back) = toml::Value::try_from(sc) else {
+        return Ok(());
+    };
+    let Ok(root) = DeTable::parse(&src.text) else {
+        return Ok(());
+    };
+    fn walk(
+        path: &str,
+        v: &toml::Spanned<DeValue<'_>>,
+        back: &toml::Value,
+        found: &mut Option<(String, usize, usize, Range<usize>)>,
+    ) {
+        if found.is_some() {
+            return;
+        }
+        match (v.get_ref(), back) {
+            (DeValue::Array(a), toml::Value::Array(b)) => {
+                if a.len() != b.len() {
+                    *found = Some((path.to_string(), a.len(), b.len(), v.span()));
+                    return;
+                }
+                for (i, (x, y)) in a.iter().zip(b.iter()).enumerate() {
+                    walk(&format!("{path}[{i}]"), x, y, found);
+                }
+            }
+            (DeValue::Table(t), toml::Value::Table(b)) => {
+                for (k, x) in t.iter() {
+                    if let Some(y) = b.get(k.get_ref().as_ref()) {
+                        let key = k.get_ref().as_ref();
+                        let p = if path.is_empty() {
+                            key.to_string()
+                        } else {
+                            format!("{path}.{key}")
+                        };
+                        walk(&p, x, y, found);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut found = None;
+    let top = root.get_ref();
+    if let toml::Value::Table(b) = &back {
+        for (k, x) in top.iter() {
+            if let Some(y) = b.get(k.get_ref().as_ref()) {
+                walk(k.get_ref().as_ref(), x, y, &mut found);
+            }
+        }
+    }
+    match found {
+        None => Ok(()),
+        Some((path, got, want, span)) => Err(ScenarioError {
+            file: src.display.clone(),
+            message: format!(
+                "{path} has {got} entries; it takes exactly {want}{}",
+                at_line(&src.text, &Some(span.clone()))
+            ),
+            span: Some(span),
+            text: src.text.clone(),
+        }),
+    }
 }
 
 /// Turn serde's message and path into a sentence with the place and a suggestion.
@@ -1153,6 +1372,13 @@ fn controller_path(kind: ControllerKind) -> impl Fn(&str) -> String {
             ControllerKind::Ctc => "ctc",
             ControllerKind::Replay => "replay",
         };
+        // The RBF network's own paths (`rbf.levels`, `rbf.centres`) are the NN's `levels`.
+        let p = p
+            .strip_prefix("gains.")
+            .map_or(p, |r| if r.starts_with("rbf.") { r } else { p });
+        if p.starts_with("rbf.") {
+            return format!("controller.{section}.levels");
+        }
         if let Some(rest) = p.strip_prefix("gains.") {
             if rest.starts_with("k_c") {
                 return format!("controller.{rest}");
@@ -1182,6 +1408,26 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
     if sc.arms.is_empty() {
         return Err(src.error_at("arms", "at least one arm is needed ([[arms]])"));
     }
+    if sc.arms.len() > MAX_ARMS {
+        return Err(src.error_at(
+            "arms",
+            format!("{} arms: at most {MAX_ARMS} are supported", sc.arms.len()),
+        ));
+    }
+    if let Some((i, a)) = sc
+        .arms
+        .iter()
+        .enumerate()
+        .find(|(_, a)| a.links.len() > MAX_LINKS)
+    {
+        return Err(src.error_at(
+            &format!("arms[{i}].links"),
+            format!(
+                "arms[{i}] has {} links: at most {MAX_LINKS} are supported",
+                a.links.len()
+            ),
+        ));
+    }
     let mut q_guess = Vec::new();
     let mut need_guess = false;
     for (i, a) in sc.arms.iter().enumerate() {
@@ -1196,7 +1442,15 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
                     ),
                 ));
             }
-            Some(g) => q_guess.extend_from_slice(g),
+            Some(g) => {
+                if let Some(k) = g.iter().position(|v| !v.is_finite()) {
+                    return Err(src.error_at(
+                        &format!("arms[{i}].q_guess[{k}]"),
+                        format!("arms[{i}].q_guess[{k}] = {}: must be finite", num(g[k])),
+                    ));
+                }
+                q_guess.extend_from_slice(g)
+            }
             None if a.links.len() != 2 => {
                 return Err(src.error_at(
                     &format!("arms[{i}]"),
@@ -1227,6 +1481,22 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
         baumgarte: sc.plant.baumgarte,
     };
     tandem::plant::Plant::new(&plant).map_err(|e| src.model_error(e, plant_path))?;
+    // Two arms holding the same point leave the object's rotation about it undetermined.
+    for (j, b) in sc.arms.iter().enumerate() {
+        for (i, a) in sc.arms.iter().enumerate().take(j) {
+            let d = (a.grasp[0] - b.grasp[0]).hypot(a.grasp[1] - b.grasp[1]);
+            if !(d > 1e-6) {
+                return Err(src.error_at(
+                    &format!("arms[{j}].grasp"),
+                    format!(
+                        "arms[{j}].grasp = ({}, {}) coincides with arms[{i}].grasp: the grasp points must be distinct (at least 1 µm apart) to hold the object",
+                        num(b.grasp[0]),
+                        num(b.grasp[1])
+                    ),
+                ));
+            }
+        }
+    }
 
     // Path.
     let path = build_path(&sc.path, src)?;
@@ -1427,7 +1697,42 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
         Some(cp) => {
             let (c, w) = Controller::new(cp, &b.plant, b.path.clone(), b.sim.duration)
                 .map_err(|e| src.model_error(e, controller_path(sc.controller.kind)))?;
-            warnings.extend(w.iter().map(|w: &ControlWarning| w.to_string()));
+            let map = controller_path(sc.controller.kind);
+            warnings.extend(w.iter().map(|w: &ControlWarning| {
+                let (param, text) = match w {
+                    ControlWarning::Gain { param, reason } => (map(param), reason.clone()),
+                    ControlWarning::Admittance(a) => {
+                        let t = a.to_string();
+                        // The library's sentence starts with its own path, `admittance.m_e[0] ...`.
+                        let path = t
+                            .split_whitespace()
+                            .next()
+                            .unwrap_or("admittance")
+                            .to_string();
+                        (path, t)
+                    }
+                };
+                src.warning_at(&param, &text)
+            }));
+            // The start must be inside the output bounds the controller keeps (iBLF: |x_1j| < k_cj).
+            if sc.controller.kind != ControllerKind::Replay {
+                let unit = ["m", "m", "rad"];
+                for j in 0..3 {
+                    let (x, k) = (sc.run.start[j], sc.controller.k_c[j]);
+                    if k > 0.0 && !(x.abs() < k) {
+                        return Err(src.error_at(
+                            &format!("run.start[{j}]"),
+                            format!(
+                                "run.start[{j}] = {} {} is outside the output bound |x_{j}| < controller.k_c[{j}] = {} {}: the run would start in violation",
+                                num(x),
+                                unit[j],
+                                num(k),
+                                unit[j]
+                            ),
+                        ));
+                    }
+                }
+            }
             Driver::Controller(Box::new(c))
         }
         None => {
@@ -1455,7 +1760,7 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
     )
     .map_err(|e| {
         // What remains to check here is the start pose (reach, singularity) and the formulation.
-        let [x, y, th] = b.sim.start;
+        let [x, y, th] = b.sim.start.map(num);
         let text = e.to_string();
         match &e {
             ModelError::Invalid { param, .. } if param == "start" => src.error_at(
@@ -1472,6 +1777,8 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
             _ => src.model_error(e, |p| {
                 if p.starts_with("arms") {
                     p.to_string()
+                } else if p == "gravity" {
+                    "plant.gravity".into()
                 } else if p.starts_with("encoder") || p.starts_with("force") {
                     format!("sensors.{p}")
                 } else {
@@ -1485,9 +1792,12 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
     let x0 = b.path.sample(0.0).p;
     let gap = ((b.sim.start[0] - x0.x).powi(2) + (b.sim.start[1] - x0.y).powi(2)).sqrt();
     if gap > 0.02 {
-        warnings.push(format!(
-            "run.start ({:.3}, {:.3}) is {:.0} mm from the path's start ({:.3}, {:.3}): expect a large initial error and wrench",
-            b.sim.start[0], b.sim.start[1], 1e3 * gap, x0.x, x0.y
+        warnings.push(src.warning_at(
+            "run.start",
+            &format!(
+                "({:.3}, {:.3}) is {:.0} mm from the path's start ({:.3}, {:.3}): expect a large initial error and wrench",
+                b.sim.start[0], b.sim.start[1], 1e3 * gap, x0.x, x0.y
+            ),
         ));
     }
     Ok(Ready { sim, warnings })

@@ -5,13 +5,8 @@ use tandem::report::Summary;
 /// `v` with `sig` significant digits, plain notation for 1e-3 ≤ |v| < 1e6, else exponent form.
 pub fn num(v: f64, sig: usize) -> String {
     if !v.is_finite() {
-        return if v.is_nan() {
-            "NaN".into()
-        } else if v > 0.0 {
-            "∞".into()
-        } else {
-            "−∞".into()
-        };
+        // A metric that does not exist (summary.json says why).
+        return "—".into();
     }
     if v == 0.0 {
         return "0".into();
@@ -55,15 +50,21 @@ pub fn rows(runs: &[(&str, &Summary)]) -> Vec<(String, Vec<String>)> {
     });
     row("simulated time", &|s| format!("{} s", num(s.t_end, 4)));
     row("RMS ‖z1_xy‖, whole run", &|s| {
+        if no_rows(s) {
+            return "— (no logged rows)".into();
+        }
         format!("{} mm", num(s.rms_z1 * 1e3, 3))
     });
     row("max ‖z1_xy‖, whole run", &|s| {
+        if no_rows(s) {
+            return "—".into();
+        }
         format!("{} mm", num(s.max_z1 * 1e3, 3))
     });
     let tr = runs.first().map_or(0.0, |(_, s)| s.transient);
     let after = format!("after {} s", num(tr, 3));
     // Nothing is "after the transient" in a run that ends before it.
-    let after_ok = |s: &Summary| s.t_end > s.transient;
+    let after_ok = |s: &Summary| s.t_end > s.transient && !no_rows(s);
     row(&format!("RMS ‖z1_xy‖, {after}"), &|s| {
         if !after_ok(s) {
             return "— (run too short)".into();
@@ -92,18 +93,21 @@ pub fn rows(runs: &[(&str, &Summary)]) -> Vec<(String, Vec<String>)> {
     // A replay has no controller: no commanded wrench.
     let replay = |s: &Summary| s.controller == "replay";
     row("RMS / peak wrench ‖τ_xy‖", &|s| {
-        if replay(s) {
+        if replay(s) || no_rows(s) {
             return "— (replay)".into();
         }
         format!("{} / {} N", num(s.rms_wrench, 3), num(s.peak_wrench, 3))
     });
     row("wrench roughness (RMS Δτ)", &|s| {
-        if replay(s) {
+        if replay(s) || no_rows(s) {
             return "—".into();
         }
         format!("{} N", num(s.wrench_roughness, 3))
     });
     row("RMS / peak joint torque", &|s| {
+        if no_rows(s) {
+            return "—".into();
+        }
         format!(
             "{} / {} N m",
             num(s.rms_joint_torque, 3),
@@ -143,6 +147,11 @@ pub fn rows(runs: &[(&str, &Summary)]) -> Vec<(String, Vec<String>)> {
         )
     });
     out
+}
+
+/// A run that logged no row (every log metric is missing): its grasp-force range is empty.
+fn no_rows(s: &Summary) -> bool {
+    !(s.grasp_force_range[0] <= s.grasp_force_range[1])
 }
 
 /// Aligned text.

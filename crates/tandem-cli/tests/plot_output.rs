@@ -360,7 +360,7 @@ fn output_dir_refuses_existing_folder_without_force() {
     let fin = parent.join("run");
     fs::create_dir(&fin).expect("existing");
     fs::write(fin.join("old.txt"), "old").expect("old file");
-    let err = output::OutputDir::create(&fin, false).expect_err("must refuse");
+    let err = output::OutputDir::create(&fin, false, &[]).expect_err("must refuse");
     let msg = err.to_string();
     assert!(msg.contains("exists") && msg.contains("--force"), "{msg}");
     // Nothing was created next to it, and the old results are intact.
@@ -375,21 +375,25 @@ fn output_dir_commit_creates_and_force_replaces() {
     let fin = parent.join("run");
 
     // Fresh: written in a hidden temporary folder, visible only after commit.
-    let out = output::OutputDir::create(&fin, false).expect("create");
+    let out = output::OutputDir::create(&fin, false, &[]).expect("create");
     fs::write(out.path("a.txt"), "new").expect("write");
     assert!(!fin.exists(), "not visible before commit");
     assert_eq!(out.final_dir(), fin.as_path());
     let got = out.commit().expect("commit");
     assert_eq!(got, fin);
-    assert_eq!(listing(&fin), vec!["a.txt"]);
+    assert_eq!(listing(&fin), vec![output::MARKER, "a.txt"]);
     assert_eq!(listing(&parent), vec!["run"]);
 
     // Existing + force: replaced whole (the old file does not survive), no leftovers.
-    let out = output::OutputDir::create(&fin, true).expect("create with force");
+    let out = output::OutputDir::create(&fin, true, &[]).expect("create with force");
     fs::write(out.path("b.txt"), "newer").expect("write");
-    assert_eq!(listing(&fin), vec!["a.txt"], "old intact until commit");
+    assert_eq!(
+        listing(&fin),
+        vec![output::MARKER, "a.txt"],
+        "old intact until commit"
+    );
     out.commit().expect("commit with force");
-    assert_eq!(listing(&fin), vec!["b.txt"]);
+    assert_eq!(listing(&fin), vec![output::MARKER, "b.txt"]);
     assert_eq!(
         fs::read_to_string(fin.join("b.txt")).expect("read"),
         "newer"
@@ -402,11 +406,18 @@ fn output_dir_commit_creates_and_force_replaces() {
 
     // Existing, created after a non-forced create: commit refuses and keeps the old one.
     let other = parent.join("other");
-    let out = output::OutputDir::create(&other, false).expect("create");
+    let out = output::OutputDir::create(&other, false, &[]).expect("create");
     fs::write(out.path("c.txt"), "c").expect("write");
     fs::create_dir(&other).expect("someone else");
     assert!(out.commit().is_err());
     assert!(listing(&other).is_empty());
+    // A folder tandem did not write (no marker) is refused by force, before and at commit.
+    let err = output::OutputDir::create(&other, true, &[]).expect_err("no marker");
+    assert!(err.to_string().contains(output::MARKER), "{err}");
+    let out = output::OutputDir::create(&parent.join("third"), true, &[]).expect("create");
+    fs::create_dir(parent.join("third")).expect("someone else, no marker");
+    assert!(out.commit().is_err());
+    fs::remove_dir(parent.join("third")).expect("rmdir");
     assert_eq!(
         listing(&parent),
         vec!["other", "run"],
@@ -420,7 +431,7 @@ fn dropped_output_dir_leaves_nothing() {
     let parent = scratch("drop");
     let fin = parent.join("run");
     {
-        let out = output::OutputDir::create(&fin, false).expect("create");
+        let out = output::OutputDir::create(&fin, false, &[]).expect("create");
         fs::create_dir(out.path("figures")).expect("subdir");
         fs::write(out.path("figures/x.txt"), "x").expect("write");
         assert_eq!(listing(&parent).len(), 1, "one temporary folder");
@@ -430,12 +441,13 @@ fn dropped_output_dir_leaves_nothing() {
     // With force and an existing folder, dropping keeps the old results.
     fs::create_dir(&fin).expect("existing");
     fs::write(fin.join("keep.txt"), "keep").expect("write");
+    fs::write(fin.join(output::MARKER), "").expect("marker");
     {
-        let out = output::OutputDir::create(&fin, true).expect("create");
+        let out = output::OutputDir::create(&fin, true, &[]).expect("create");
         fs::write(out.path("new.txt"), "n").expect("write");
     }
     assert_eq!(listing(&parent), vec!["run"]);
-    assert_eq!(listing(&fin), vec!["keep.txt"]);
+    assert_eq!(listing(&fin), vec![output::MARKER, "keep.txt"]);
     let _ = fs::remove_dir_all(&parent);
 }
 

@@ -91,11 +91,9 @@ fn procrustes(
     let mut theta = s.atan2(c);
     // Unwrap toward the hint (a run moves far less than π between calls).
     let (pi, tau) = (std::f64::consts::PI, std::f64::consts::TAU);
-    while theta - theta_hint > pi {
-        theta -= tau;
-    }
-    while theta_hint - theta > pi {
-        theta += tau;
+    // In closed form: a loop of ±2π steps never ends for a huge hint (the step is lost).
+    if theta_hint.is_finite() && (theta - theta_hint).abs() > pi {
+        theta += tau * ((theta_hint - theta) / tau).round();
     }
     let h2 = s * s + c * c;
     let rot = if h2 > 0.0 {

@@ -58,6 +58,14 @@ pub struct SimParams {
     pub min_sigma: f64,
 }
 
+/// Most control ticks a run may have (10⁹: 11.6 simulated days at 1 kHz, about an hour of wall
+/// time), so that every run ends in bounded time.
+pub const MAX_TICKS: f64 = 1e9;
+
+/// Most memory the preallocated log may take, bytes (512 MiB): a longer log is refused at
+/// validation with its size, never allocated.
+pub const MAX_LOG_BYTES: f64 = 512.0 * 1024.0 * 1024.0;
+
 fn default_drift() -> f64 {
     1e-6
 }
@@ -111,6 +119,16 @@ impl SimParams {
         }
         let sub = ratio(hc, hp, "control_period", "plant_step")?;
         let per_log = ratio(hl, hc, "log_period", "control_period")?;
+        if !((d / hc).round() <= MAX_TICKS) {
+            return Err(ModelError::invalid(
+                "duration",
+                d,
+                format!(
+                    "is {:.3e} control ticks of {hc} s, more than the {MAX_TICKS:.0e} a run may have",
+                    (d / hc).round()
+                ),
+            ));
+        }
         let ticks = (d / hc).round() as usize;
         for (j, v) in self.start.iter().enumerate() {
             if !v.is_finite() {
@@ -209,6 +227,12 @@ pub enum FaultKind {
     },
     /// The reduced formulation could not be evaluated (IK out of reach or singular arm).
     Reduced,
+    /// A signal of the tick (grasp force, sensor reading, controller internal or output) became
+    /// non-finite; it is named as its log column (`F_meas1.x`, `x_r.y`, `tau_q2`, ...).
+    NonFiniteSignal {
+        /// The signal.
+        signal: String,
+    },
 }
 
 /// Why a run stopped early: what, when, and the last good state (never a NaN one).
@@ -223,6 +247,17 @@ pub struct Fault {
     pub x_o: [f64; 3],
     /// Joint angles of the last good state, rad.
     pub q: Vec<f64>,
+}
+
+/// A number for a message: fixed point for ordinary magnitudes, an exponent otherwise (a
+/// diverged state prints as `1.7e96`, never as a 97-digit number).
+fn readable(v: f64, decimals: usize) -> String {
+    let a = v.abs();
+    if !v.is_finite() || a == 0.0 || (1e-3..1e6).contains(&a) {
+        format!("{v:.decimals$}")
+    } else {
+        format!("{v:.3e}")
+    }
 }
 
 impl std::fmt::Display for Fault {
@@ -241,11 +276,18 @@ impl std::fmt::Display for Fault {
                 f,
                 "the reduced formulation failed (grasp out of reach or singular arm) at t = {t:.4} s"
             )?,
+            FaultKind::NonFiniteSignal { signal } => {
+                write!(f, "{signal} became non-finite at t = {t:.4} s")?
+            }
         }
+        let q: Vec<String> = self.q.iter().map(|v| readable(*v, 4)).collect();
         write!(
             f,
-            "; last good state x_o = ({:.5}, {:.5}, {:.5}), q = {:.4?}",
-            self.x_o[0], self.x_o[1], self.x_o[2], self.q
+            "; last good state x_o = ({}, {}, {}), q = [{}]",
+            readable(self.x_o[0], 5),
+            readable(self.x_o[1], 5),
+            readable(self.x_o[2], 5),
+            q.join(", ")
         )
     }
 }
@@ -438,7 +480,23 @@ impl Simulation {
         let n_arms = plant.arms().len();
         let sensors = Sensors::new(sensors, plant.n_q(), n_arms, params.control_period)?;
         let rows = ticks / per_log + 2;
-        let log = Log::with_layout(&layout(plant.n_q(), n_arms), rows);
+        let layout = layout(plant.n_q(), n_arms);
+        let bytes = rows as f64 * layout.len() as f64 * 8.0;
+        if bytes > MAX_LOG_BYTES {
+            return Err(ModelError::invalid(
+                "duration",
+                params.duration,
+                format!(
+                    "the log would hold {rows} rows × {} columns = {:.1} GB, more than the {:.1} GB limit: \
+                     raise the log period to at least {:.3e} s or shorten the run",
+                    layout.len(),
+                    bytes / 1e9,
+                    MAX_LOG_BYTES / 1e9,
+                    params.log_period * (bytes / MAX_LOG_BYTES).ceil()
+                ),
+            ));
+        }
+        let log = Log::with_layout(&layout, rows);
         let n = plant.state_dim();
         let mut sim = Simulation {
             input: plant.zero_input(),
@@ -470,6 +528,20 @@ impl Simulation {
         }
         // Initial forces with zero torque held (the object hanging in the arms' grasp).
         sim.eval_forces();
+        if let Some(i) = sim
+            .forces
+            .iter()
+            .position(|f| !(f.x.is_finite() && f.y.is_finite()))
+        {
+            return Err(ModelError::geometry(
+                "gravity",
+                format!(
+                    "the grasp force of arm {} holding the object at the start is not finite: \
+                     gravity, masses or inertias too large",
+                    i + 1
+                ),
+            ));
+        }
         let (q, _, qd, _) = sim.plant.split(&sim.y);
         sim.sensors.reset(q, qd, &sim.forces);
         if let Driver::Controller(c) = &mut sim.driver {
@@ -584,6 +656,10 @@ impl Simulation {
             }
         }
         self.input.f_d = self.disturbance.at(t);
+        // Every value of the tick must be finite before it is logged or integrated.
+        if let Some(signal) = self.non_finite_signal() {
+            return Err(self.fault(t, FaultKind::NonFiniteSignal { signal }));
+        }
         // 5 (before advancing): log the state at t_k with the torque chosen at t_k.
         if k % self.per_log == 0 {
             self.log_row(t);
@@ -643,6 +719,63 @@ impl Simulation {
             }
         }
         Ok(())
+    }
+
+    /// The first non-finite signal of the tick (grasp forces, sensor readings, the driver's
+    /// record and torques, the disturbance), named as its log column; `None` if all are
+    /// finite. Allocates only when it finds one.
+    fn non_finite_signal(&self) -> Option<String> {
+        const AX: [&str; 3] = ["x", "y", "theta"];
+        let fin = |v: &Vector2<f64>| v.x.is_finite() && v.y.is_finite();
+        for (i, f) in self.ws.forces.iter().enumerate() {
+            if !fin(f) {
+                return Some(format!("the grasp force F{}", i + 1));
+            }
+        }
+        for (i, f) in self.forces.iter().enumerate() {
+            if !fin(&self.sensors.force(i)) || !fin(f) {
+                return Some(format!("the force-sensor reading F_meas{}", i + 1));
+            }
+        }
+        if let Some(k) = self.sensors.q().iter().position(|v| !v.is_finite()) {
+            return Some(format!("the encoder reading q{}", k + 1));
+        }
+        if let Some(k) = self.sensors.qd().iter().position(|v| !v.is_finite()) {
+            return Some(format!("the joint-rate reading qd{}", k + 1));
+        }
+        let r = &self.rec;
+        let groups = [
+            ("x_hat", &r.x_o),
+            ("x_d", &r.x_d),
+            ("x_r", &r.x_r),
+            ("z1", &r.z1),
+            ("z2", &r.z2),
+            ("alpha", &r.alpha),
+            ("alpha_dot", &r.alpha_dot),
+            ("tau", &r.wrench),
+            ("w_norm", &r.w_norm),
+        ];
+        for (name, v) in groups {
+            if let Some(j) = v.iter().position(|x| !x.is_finite()) {
+                return Some(format!("{name}.{}", AX[j]));
+            }
+        }
+        if !r.q_switch.is_finite() {
+            return Some("Q".into());
+        }
+        if !r.margin.is_finite() {
+            return Some("margin".into());
+        }
+        if r.non_finite {
+            return Some("a controller input or output (replaced by the controller)".into());
+        }
+        if let Some(k) = self.input.tau.iter().position(|v| !v.is_finite()) {
+            return Some(format!("tau_q{}", k + 1));
+        }
+        if let Some(j) = self.input.f_d.iter().position(|v| !v.is_finite()) {
+            return Some(format!("the disturbance F_d.{}", AX[j]));
+        }
+        None
     }
 
     fn log_row(&mut self, t: f64) {

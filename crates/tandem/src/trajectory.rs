@@ -213,8 +213,8 @@ impl Circle {
         finite("circle.center[0]", center.x)?;
         finite("circle.center[1]", center.y)?;
         positive("circle.radius", radius)?;
-        finite("circle.omega", omega)?;
-        finite("circle.phase", phase)?;
+        rate("circle.omega", omega, radius, 1.0)?;
+        phase_angle("circle.phase", phase)?;
         finite("circle.theta", theta)?;
         Ok(Circle {
             center,
@@ -306,6 +306,15 @@ impl PointToPoint {
         }
         finite("point_to_point.t0", t0)?;
         positive("point_to_point.duration", duration)?;
+        // The jerk at the ends is 60 Δp / T³ (and t0 + T must be a time).
+        let dp = (to - from).amax();
+        if !(60.0 * dp / duration.powi(3)).is_finite() || !(t0 + duration).is_finite() {
+            return Err(ModelError::invalid(
+                "point_to_point.duration",
+                duration,
+                "is so short (for this distance) that the path's derivatives overflow",
+            ));
+        }
         Ok(PointToPoint {
             from,
             to,
@@ -398,8 +407,8 @@ impl Lemniscate {
         finite("lemniscate.center[0]", center.x)?;
         finite("lemniscate.center[1]", center.y)?;
         positive("lemniscate.size", size)?;
-        finite("lemniscate.omega", omega)?;
-        finite("lemniscate.phase", phase)?;
+        rate("lemniscate.omega", omega, size, 4.0)?;
+        phase_angle("lemniscate.phase", phase)?;
         finite("lemniscate.theta", theta)?;
         Ok(Lemniscate {
             center,
@@ -579,6 +588,17 @@ impl Spline {
                 ]
             })
             .collect();
+        let coef: Vec<[Vector3<f64>; 4]> = coef;
+        if let Some(k) = coef
+            .iter()
+            .position(|c| c.iter().any(|v| !v.iter().all(|x| x.is_finite())))
+        {
+            return Err(ModelError::invalid(
+                format!("spline.waypoints[{}].t", k + 1),
+                knots[k + 1],
+                "is so close to the previous waypoint (for this pose change) that the path's derivatives overflow",
+            ));
+        }
         Ok(Spline {
             knots,
             coef,
@@ -676,20 +696,54 @@ fn angle_range(omega: f64, phase: f64, t_end: f64) -> (f64, f64) {
     (phase.min(last), phase.max(last))
 }
 
+/// Largest |angle| \[rad\] a periodic path accepts for its phase: beyond it the rounding step
+/// of an `f64` angle exceeds 1e-7 rad, so the phase is no longer an angle (reduce it mod 2π).
+pub const MAX_PHASE: f64 = 1e9;
+
+/// Check a periodic path's angular rate: finite, with the jerk `amp·ω³` (its largest
+/// derivative, times `gain`) finite too.
+fn rate(param: &str, omega: f64, amp: f64, gain: f64) -> Result<f64, ModelError> {
+    finite(param, omega)?;
+    if !(gain * amp * omega.abs().powi(3)).is_finite() {
+        return Err(ModelError::invalid(
+            param,
+            omega,
+            "is so large that the path's derivatives overflow",
+        ));
+    }
+    Ok(omega)
+}
+
+/// Check a periodic path's phase: finite and at most [`MAX_PHASE`] in magnitude.
+fn phase_angle(param: &str, phase: f64) -> Result<f64, ModelError> {
+    finite(param, phase)?;
+    if phase.abs() > MAX_PHASE {
+        return Err(ModelError::invalid(
+            param,
+            phase,
+            "must be at most 1e9 rad in magnitude (a larger angle has no resolution left: reduce it modulo 2π)",
+        ));
+    }
+    Ok(phase)
+}
+
 /// $\max_{\psi \in [lo, hi]} |c + A\cos\psi|$: the ends of the range and the extrema of cos
-/// (multiples of π) inside it.
+/// (multiples of π) inside it, in closed form (no loop over the angle's magnitude).
 fn max_abs_cos(c: f64, amp: f64, lo: f64, hi: f64) -> f64 {
-    if hi - lo >= TAU || (hi - lo).is_nan() {
-        // A full turn (or an infinite / NaN range): both extremes are reached.
+    // A full turn, an infinite / NaN range, or angles too large to resolve π (their rounding
+    // step exceeds 1e-3 rad): both extremes are (or may be) reached.
+    const RESOLVED: f64 = 1e12;
+    if !(hi - lo < TAU) || !(lo.abs().max(hi.abs()) < RESOLVED) {
         return c.abs() + amp.abs();
     }
     let mut m = (c + amp * lo.cos()).abs().max((c + amp * hi.cos()).abs());
-    // At most two multiples of π in a range shorter than 2π.
-    let mut k = (lo / PI).ceil();
-    while k * PI <= hi {
-        let cos_k = if k.rem_euclid(2.0) == 0.0 { 1.0 } else { -1.0 };
-        m = m.max((c + amp * cos_k).abs());
-        k += 1.0;
+    // At most two multiples of π in a range shorter than 2π: k0 π and (k0 + 1) π.
+    let k0 = (lo / PI).ceil();
+    for k in [k0, k0 + 1.0] {
+        if k * PI <= hi {
+            let cos_k = if k.rem_euclid(2.0) == 0.0 { 1.0 } else { -1.0 };
+            m = m.max((c + amp * cos_k).abs());
+        }
     }
     m
 }
@@ -997,6 +1051,40 @@ mod tests {
             Vector3::new(0.2, 0.2, 0.0)
         );
         assert!(Path::paper().max_abs(90.0).iter().all(|&m| m < 0.35));
+    }
+
+    #[test]
+    fn max_abs_is_closed_form_for_huge_angles() {
+        // Issue "validate never returns for a phase of 1e20": the loop stopped advancing.
+        for (lo, hi) in [
+            (1e20, 1e20 + 1.0),
+            (-1e308, -1e308),
+            (9.223372036854776e18, 9.223372036854776e18),
+            (1e12, 1e12 + 1.0),
+        ] {
+            assert_eq!(max_abs_cos(0.1, 0.2, lo, hi), 0.1 + 0.2 + 0.0);
+        }
+        // Resolved ranges: exact extrema, both multiples of π checked.
+        assert_eq!(max_abs_cos(0.0, 1.0, 3.0, 3.5), 1.0);
+        assert_eq!(max_abs_cos(0.5, 1.0, -0.1, 0.1), 1.5);
+        assert!((max_abs_cos(0.0, 1.0, 0.5, 1.0) - 0.5f64.cos()).abs() < 1e-15);
+        assert_eq!(max_abs_cos(0.2, 1.0, 3.0, 3.5 + PI), 1.2);
+        assert_eq!(max_abs_cos(-0.2, 1.0, 3.0, 3.5 + PI), 1.2);
+        assert_eq!(max_abs_cos(0.2, 1.0, -0.1, PI + 0.1), 1.2);
+        for phase in [1e20, -1e308, 9.223372036854776e18, 1e9 + 1.0] {
+            let e = Circle::new(Vector2::zeros(), 0.2, 0.1, phase, 0.0).expect_err("phase");
+            assert!(e.to_string().contains("circle.phase"), "{e}");
+            let e = Lemniscate::new(Vector2::zeros(), 0.2, 0.1, phase, 0.0).expect_err("phase");
+            assert!(e.to_string().contains("lemniscate.phase"), "{e}");
+        }
+        let e = Circle::new(Vector2::zeros(), 0.2, 1e308, 0.0, 0.0).expect_err("omega");
+        assert!(e.to_string().contains("circle.omega"), "{e}");
+        let e = PointToPoint::new(Vector3::zeros(), Vector3::repeat(1.0), 0.0, 1e-110)
+            .expect_err("too short");
+        assert!(e.to_string().contains("point_to_point.duration"), "{e}");
+        let w = [(0.0, Vector3::zeros()), (1e-110, Vector3::repeat(1.0))];
+        let e = Spline::new(&w).expect_err("too close");
+        assert!(e.to_string().contains("spline.waypoints[1].t"), "{e}");
     }
 
     #[test]
