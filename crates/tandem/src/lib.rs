@@ -34,10 +34,12 @@
 //!   of 2 (planar force) or 6 (spatial force/torque) channels, same channel model, same
 //!   seeding.
 //! * [`integrate`] works on flat slices ([`integrate::OdeSystem`]) and serves both.
-//! * The loop ([`sim`]) talks to a plant through [`plant::ClosedChain`] and to a controller
-//!   through the driver interface (time, encoders, flat wrench readings → joint torques and a
-//!   record). The spatial controller (SPEC-spatial S5) plugs in as another driver, not as a
-//!   second loop.
+//! * The loop ([`sim`]) steps the plant, samples the sensors, calls the driver (time,
+//!   encoders, wrench readings → joint torques and a record), checks health and logs. Today it
+//!   drives the planar plant; it becomes generic over [`plant::ClosedChain`] and a driver trait
+//!   when the spatial controller (SPEC-spatial S5) lands, which then plugs in as one more
+//!   driver, not as a second loop. Until then the spatial plant is stepped directly
+//!   ([`plant::spatial::SpatialPlant::step`]).
 #![warn(missing_docs)]
 
 pub mod error;
