@@ -32,3 +32,23 @@
 //! | `Q = M(Z), m(z), d_1, d_2, ω` | [`crate::switching`] | switching function (37)–(38) | scalar |
 //! | `f^U, ϖ` | `FuBound`, `NnGains::varpi` | bound of `|F(Z)|` and robust-term smoothing (40), (43) | 3 |
 //! | `V_1, V_2, V_3` | `iblf::v1` | Lyapunov functions (27), (33), (46) | scalar |
+//!
+//! # Spatial (SPEC-spatial S1)
+//!
+//! Frames in Drake's monogram notation: `X_AB` is the pose of frame `B` in `A` (`p_A = X_AB p_B`),
+//! `R_AB` its rotation, `p_AB` its translation; `W` world, `B_i` arm `i`'s base, `L_k` body `k`,
+//! `T_i` tool `i`, `O` the object (at its centre of mass), `G_i` grasp `i` in the object. Twists
+//! `[v; ω]` and wrenches `[f; τ]` are ordered **linear first**; quaternions in files `[w, x, y, z]`.
+//!
+//! | symbol | code | meaning | shape, unit |
+//! |---|---|---|---|
+//! | `X_WB_i` | `SpatialArm::base` | base placement of arm `i` | SE(3) |
+//! | `X_WL_k`, `X_WT` | `ChainData::{X_WL, X_WT}` | body and tool poses | SE(3) |
+//! | `J_i` | `ChainData::J` | tool Jacobian, world axes, `[ṗ_T; ω_T] = J q̇` | 6×n, (m, 1)/rad |
+//! | `J̇_i q̇_i` | `ChainData::jdqd` | classical tool acceleration at `q̈ = 0` | 6, (m/s², rad/s²) |
+//! | `M, C q̇ + g` | `ChainData::{M, bias}` | joint-space inertia (CRBA), bias (RNEA) | n×n, n |
+//! | `X_OG_i` | `SpatialPlantParams::grasps` | grasp frame `i` in the object | SE(3) |
+//! | `p_WO, R_WO, [v_WO; ω_WO]` | `ObjectState::{p, q, v, w}` | object pose and twist (world axes) | 3, SO(3), 6 |
+//! | `F_i` | `SpatialWorkspace::wrenches` | grasp wrench: the object on tool `i`, about its origin, world axes | 6, (N, N m) |
+//! | `G_i = Ad_i` | [`crate::plant::spatial`] | grasp matrix block, `F_o = −Σ G_iᵀ F_i` | 6×6 |
+//! | `F_d` | `SpatialInput::f_d` | environment wrench on the object (subtracted) | 6, (N, N m) |
