@@ -18,7 +18,7 @@
 
 use nalgebra::{Vector3, Vector6};
 
-use super::kinematics::{inertias, placements};
+use super::kinematics::placements_and_inertias;
 use super::rnea::tool_wrench_at_origin;
 use super::{ChainData, check_len};
 use crate::model::SpatialArm;
@@ -44,8 +44,7 @@ pub fn aba(
     check_len(arm, d, "qd", qd);
     check_len(arm, d, "tau", tau);
     check_len(arm, d, "qdd", qdd);
-    placements(arm, q, d);
-    inertias(arm, d);
+    placements_and_inertias(arm, q, d);
     let n = d.S.len();
     // Pass 1: twists, bias accelerations c_k (in d.a), articulated inertias and bias forces.
     let mut v = Vector6::zeros();

@@ -11,7 +11,7 @@
 //! flops per body and 11 per entry of the upper triangle.
 
 use super::ChainData;
-use super::kinematics::{inertias, placements};
+use super::kinematics::placements_and_inertias;
 use crate::model::SpatialArm;
 use crate::spatial::SpatialInertia;
 
@@ -42,7 +42,6 @@ pub(super) fn crba_pass(d: &mut ChainData) {
 /// (Featherstone 2008, Table 6.2, world coordinates). Reads `q`; writes `d.M` (both triangles)
 /// and the poses `d.X_WL`, `d.X_WT`.
 pub fn crba(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
-    placements(arm, q, d);
-    inertias(arm, d);
+    placements_and_inertias(arm, q, d);
     crba_pass(d);
 }

@@ -7,7 +7,7 @@
 use nalgebra::{Vector3, Vector6};
 
 use super::crba::crba_pass;
-use super::kinematics::{inertias, placements};
+use super::kinematics::placements_and_inertias;
 use super::rnea::rnea_passes;
 use super::{ChainData, check_len};
 use crate::linalg::{cholesky_in_place, cholesky_solve_in_place};
@@ -32,8 +32,7 @@ pub fn forward_dynamics(
     check_len(arm, d, "qd", qd);
     check_len(arm, d, "tau", tau);
     check_len(arm, d, "qdd", qdd);
-    placements(arm, q, d);
-    inertias(arm, d);
+    placements_and_inertias(arm, q, d);
     let n = d.S.len();
     let mut bias = std::mem::take(&mut d.bias);
     rnea_passes(qd, None, g_W, f_T_W, bias.as_mut_slice(), d);

@@ -103,10 +103,11 @@ pub(super) fn placements(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
     d.X_WT.translation.vector = p_wb + p_bt;
 }
 
-/// Stage 2: `(X_WL, R_WL) → 𝕀_k` in world axes about the base origin:
-/// `c = p + R c_L`, `I_O = R I_c Rᵀ − m [c]²`, `h = m c`.
+/// Stages 1 and 2: `q → (X_WL, R_WL, S, X_WT, 𝕀_k)`, with the body inertias in
+/// world axes about the base origin: `c = p + R c_L`, `I_O = R I_c Rᵀ − m [c]²`, `h = m c`.
 #[inline]
-pub(super) fn inertias(arm: &SpatialArm, d: &mut ChainData) {
+pub(super) fn placements_and_inertias(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
+    placements(arm, q, d);
     for (((i, b), r), p) in d
         .I_W
         .iter_mut()
