@@ -17,8 +17,9 @@ use crate::model::SpatialArm;
 ///
 /// Reads `q`, `q̇`, `τ` (n), `g_W` and `F_T` (as [`super::aba`]); writes `qdd` (n),
 /// `d.M`, `d.bias` = `C q̇ + g − J_Tᵀ F_T` and the poses. If `M` is not positive definite
-/// (invalid chain only), `M + ε tr(M)/n I` with `ε = 1e-12` is factored instead and the event is
-/// counted in [`ChainData::singular_pivots`]; if that fails too, `qdd` is set to zero.
+/// (invalid chain only), `M + ε (tr(M)/n + 1) I` with `ε = 1e-12` is factored instead (so a
+/// chain of massless bodies gives large but finite accelerations) and the event is counted in
+/// [`ChainData::singular_pivots`]; if that fails too, `qdd` is set to zero.
 pub fn forward_dynamics(
     arm: &SpatialArm,
     q: &[f64],
@@ -45,7 +46,7 @@ pub fn forward_dynamics(
     if cholesky_in_place(&mut d.chol, n).is_err() {
         d.singular += 1;
         let tr: f64 = (0..n).map(|k| d.M[(k, k)].abs()).sum();
-        let eps = 1e-12 * tr / n as f64 + f64::MIN_POSITIVE;
+        let eps = 1e-12 * (tr / n as f64 + 1.0);
         d.chol.copy_from(&d.M);
         for k in 0..n {
             d.chol[(k, k)] += eps;
