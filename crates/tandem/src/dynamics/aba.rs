@@ -11,7 +11,7 @@
 //!                q̈_k = (u_k − U_k · a') / D_k,   a_k = a' + S_k q̈_k
 //! ```
 //!
-//! In world coordinates the articulated inertias are summed without the `X* 𝕀ᴬ X⁻¹` change of
+//! In one fixed coordinate system the articulated inertias are summed without the `X* 𝕀ᴬ X⁻¹` change of
 //! frame of the body-coordinate version. Cost: the shared stages, then per body a 6 × 6
 //! matrix–vector product for `U`, a symmetric rank-1 update and a second 6 × 6 product for
 //! `𝕀ᵃ c`: about 200 flops.

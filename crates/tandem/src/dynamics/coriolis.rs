@@ -1,7 +1,7 @@
 //! The Christoffel-consistent Coriolis matrix `C(q, q̇)` in O(n²) from composite quantities
 //! (Echeandia & Wensing 2021, ref. 2 of [`super`]), world axes about the base origin.
 //!
-//! With `J_b` the Jacobian of body `b` (columns `S_j`, `j ≤ b`; world coordinates about the
+//! With `J_b` the Jacobian of body `b` (columns `S_j`, `j ≤ b`; world axes about the base
 //! origin), `J̇_b` its derivative (columns `Ṡ_j = V_j × S_j`) and
 //!
 //! ```text
