@@ -1109,3 +1109,89 @@ fn planar_arm_from_urdf_reproduces_the_closed_forms() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Robustness
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn large_finite_inputs_give_finite_outputs() {
+    // Joint angles far outside ±π (up to 1e9 rad: the trigonometry's range reduction and its
+    // fallback), fast joints, large torques and wrenches: every output finite. Prismatic joints
+    // stay within ±2 m (a slider at 1e9 m is not a physical input).
+    let mut rng = SplitMix64(501);
+    for arm in test_arms(500) {
+        let n = arm.chain.dof();
+        let mut d = ChainData::new(&arm);
+        let g = g_down();
+        let mut c = DMatrix::zeros(n, n);
+        for scale in [1.0, 1e3, 1e6] {
+            let mut q = rng.vec(n, 1e3 * scale);
+            for (qk, j) in q.iter_mut().zip(&arm.chain.joints) {
+                if j.kind == JointKind::Prismatic {
+                    *qk = qk.rem_euclid(4.0) - 2.0;
+                }
+            }
+            let qd = rng.vec(n, 50.0);
+            let qdd = rng.vec(n, 1e3);
+            let tau = rng.vec(n, 1e4);
+            let f = Vector6::from_fn(|_, _| rng.range(-1e4, 1e4));
+            let mut out = vec![0.0; n];
+            let t = rnea_vec(&arm, &q, &qd, &qdd, &g, Some(&f), &mut d);
+            assert!(t.iter().all(|v| v.is_finite()));
+            dynamics::aba(&arm, &q, &qd, &tau, &g, Some(&f), &mut out, &mut d);
+            assert!(out.iter().all(|v| v.is_finite()));
+            dynamics::forward_dynamics(&arm, &q, &qd, &tau, &g, Some(&f), &mut out, &mut d);
+            assert!(out.iter().all(|v| v.is_finite()));
+            dynamics::terms(&arm, &q, &qd, &g, &mut d);
+            assert!(
+                d.M.iter()
+                    .chain(d.bias.iter())
+                    .chain(d.J.iter())
+                    .all(|v| v.is_finite())
+            );
+            assert!(d.jdqd.iter().all(|v| v.is_finite()));
+            dynamics::coriolis_matrix(&arm, &q, &qd, &mut c, &mut d);
+            assert!(c.iter().all(|v| v.is_finite()));
+            let (te, ue) = dynamics::energy(&arm, &q, &qd, &g, &mut d);
+            assert!(te.is_finite() && ue.is_finite());
+            assert_eq!(d.singular_pivots(), 0);
+        }
+    }
+}
+
+#[test]
+fn invalid_massless_chain_does_not_panic_or_give_nan() {
+    // `Chain::validate` rejects massless moving bodies; the algorithms must still neither
+    // panic nor produce NaN, and must count the singular pivots.
+    let mut rng = SplitMix64(502);
+    let mut chain = random_chain(&mut rng, 6, true);
+    for b in chain.bodies.iter_mut().skip(3) {
+        *b = RigidBody::massless(b.name.clone());
+    }
+    let mut all_massless = chain.clone();
+    for b in all_massless.bodies.iter_mut() {
+        *b = RigidBody::massless(b.name.clone());
+    }
+    for chain in [chain, all_massless] {
+        assert!(chain.validate().is_err());
+        let arm = at_identity(chain);
+        let mut d = ChainData::new(&arm);
+        let s = random_state(&mut rng, 6);
+        let mut out = vec![0.0; 6];
+        dynamics::aba(
+            &arm,
+            &s.q,
+            &s.qd,
+            &s.tau,
+            &g_down(),
+            Some(&s.f_t),
+            &mut out,
+            &mut d,
+        );
+        assert!(out.iter().all(|v| v.is_finite()), "{out:?}");
+        dynamics::forward_dynamics(&arm, &s.q, &s.qd, &s.tau, &g_down(), None, &mut out, &mut d);
+        assert!(out.iter().all(|v| v.is_finite()), "{out:?}");
+        assert!(d.singular_pivots() > 0);
+    }
+}

@@ -11,14 +11,14 @@
 //!                q̈_k = (u_k − U_k · a') / D_k,   a_k = a' + S_k q̈_k
 //! ```
 //!
-//! In world coordinates the articulated inertias are summed without the `X* 𝕀ᴬ X⁻¹` change of
+//! In one fixed coordinate system the articulated inertias are summed without the `X* 𝕀ᴬ X⁻¹` change of
 //! frame of the body-coordinate version. Cost: the shared stages, then per body a 6 × 6
 //! matrix–vector product for `U`, a symmetric rank-1 update and a second 6 × 6 product for
 //! `𝕀ᵃ c`: about 200 flops.
 
 use nalgebra::{Vector3, Vector6};
 
-use super::kinematics::{inertias, placements};
+use super::kinematics::placements_and_inertias;
 use super::rnea::tool_wrench_at_origin;
 use super::{ChainData, check_len};
 use crate::model::SpatialArm;
@@ -44,8 +44,7 @@ pub fn aba(
     check_len(arm, d, "qd", qd);
     check_len(arm, d, "tau", tau);
     check_len(arm, d, "qdd", qdd);
-    placements(arm, q, d);
-    inertias(arm, d);
+    placements_and_inertias(arm, q, d);
     let n = d.S.len();
     // Pass 1: twists, bias accelerations c_k (in d.a), articulated inertias and bias forces.
     let mut v = Vector6::zeros();

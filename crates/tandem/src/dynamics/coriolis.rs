@@ -1,7 +1,7 @@
 //! The Christoffel-consistent Coriolis matrix `C(q, q̇)` in O(n²) from composite quantities
 //! (Echeandia & Wensing 2021, ref. 2 of [`super`]), world axes about the base origin.
 //!
-//! With `J_b` the Jacobian of body `b` (columns `S_j`, `j ≤ b`; world coordinates about the
+//! With `J_b` the Jacobian of body `b` (columns `S_j`, `j ≤ b`; world axes about the base
 //! origin), `J̇_b` its derivative (columns `Ṡ_j = V_j × S_j`) and
 //!
 //! ```text
@@ -26,7 +26,7 @@
 
 use nalgebra::{DMatrix, Matrix6, Vector6};
 
-use super::kinematics::{inertias, placements, velocities};
+use super::kinematics::{placements_and_inertias, velocities};
 use super::{ChainData, check_len};
 use crate::model::SpatialArm;
 use crate::spatial::motion::{ang, cross_force_matrix, cross_motion, cross_motion_matrix, lin};
@@ -61,8 +61,7 @@ pub fn coriolis_matrix(
         c.nrows() == n && c.ncols() == n,
         "coriolis_matrix: c must be n × n"
     );
-    placements(arm, q, d);
-    inertias(arm, d);
+    placements_and_inertias(arm, q, d);
     velocities(qd, d);
     // Composite inertias (d.Ic), composite B (d.IA) and Ṡ_k (d.a), tip to base.
     let mut ic = crate::spatial::SpatialInertia::zero();

@@ -6,12 +6,12 @@
 //! F_k  = 𝕀ᶜ_k S_k,   M_ik = M_ki = S_i · F_k   for i ≤ k
 //! ```
 //!
-//! In world coordinates the composite inertias need no change of frame, and each entry of `M`
+//! In one fixed coordinate system the composite inertias need no change of frame, and each entry of `M`
 //! is one 6-vector dot product. Cost: the shared placement and inertia stages, then about 30
 //! flops per body and 11 per entry of the upper triangle.
 
 use super::ChainData;
-use super::kinematics::{inertias, placements};
+use super::kinematics::placements_and_inertias;
 use crate::model::SpatialArm;
 use crate::spatial::SpatialInertia;
 
@@ -39,10 +39,9 @@ pub(super) fn crba_pass(d: &mut ChainData) {
 }
 
 /// Joint-space inertia `M(q)` (n × n, kg m² / kg / kg m) by the composite-rigid-body algorithm
-/// (Featherstone 2008, Table 6.2, world coordinates). Reads `q`; writes `d.M` (both triangles)
+/// (Featherstone 2008, Table 6.2, world axes about the base origin). Reads `q`; writes `d.M` (both triangles)
 /// and the poses `d.X_WL`, `d.X_WT`.
 pub fn crba(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
-    placements(arm, q, d);
-    inertias(arm, d);
+    placements_and_inertias(arm, q, d);
     crba_pass(d);
 }

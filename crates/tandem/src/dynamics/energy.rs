@@ -10,7 +10,7 @@
 
 use nalgebra::Vector3;
 
-use super::kinematics::{inertias, placements, velocities};
+use super::kinematics::{placements_and_inertias, velocities};
 use super::{ChainData, check_len};
 use crate::model::SpatialArm;
 
@@ -25,8 +25,7 @@ pub fn energy(
     d: &mut ChainData,
 ) -> (f64, f64) {
     check_len(arm, d, "qd", qd);
-    placements(arm, q, d);
-    inertias(arm, d);
+    placements_and_inertias(arm, q, d);
     velocities(qd, d);
     let mut t = 0.0;
     let mut h = Vector3::zeros();

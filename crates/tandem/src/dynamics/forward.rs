@@ -7,7 +7,7 @@
 use nalgebra::{Vector3, Vector6};
 
 use super::crba::crba_pass;
-use super::kinematics::{inertias, placements};
+use super::kinematics::placements_and_inertias;
 use super::rnea::rnea_passes;
 use super::{ChainData, check_len};
 use crate::linalg::{cholesky_in_place, cholesky_solve_in_place};
@@ -17,8 +17,9 @@ use crate::model::SpatialArm;
 ///
 /// Reads `q`, `q̇`, `τ` (n), `g_W` and `F_T` (as [`super::aba`]); writes `qdd` (n),
 /// `d.M`, `d.bias` = `C q̇ + g − J_Tᵀ F_T` and the poses. If `M` is not positive definite
-/// (invalid chain only), `M + ε tr(M)/n I` with `ε = 1e-12` is factored instead and the event is
-/// counted in [`ChainData::singular_pivots`]; if that fails too, `qdd` is set to zero.
+/// (invalid chain only), `M + ε (tr(M)/n + 1) I` with `ε = 1e-12` is factored instead (so a
+/// chain of massless bodies gives large but finite accelerations) and the event is counted in
+/// [`ChainData::singular_pivots`]; if that fails too, `qdd` is set to zero.
 pub fn forward_dynamics(
     arm: &SpatialArm,
     q: &[f64],
@@ -32,8 +33,7 @@ pub fn forward_dynamics(
     check_len(arm, d, "qd", qd);
     check_len(arm, d, "tau", tau);
     check_len(arm, d, "qdd", qdd);
-    placements(arm, q, d);
-    inertias(arm, d);
+    placements_and_inertias(arm, q, d);
     let n = d.S.len();
     let mut bias = std::mem::take(&mut d.bias);
     rnea_passes(qd, None, g_W, f_T_W, bias.as_mut_slice(), d);
@@ -46,7 +46,7 @@ pub fn forward_dynamics(
     if cholesky_in_place(&mut d.chol, n).is_err() {
         d.singular += 1;
         let tr: f64 = (0..n).map(|k| d.M[(k, k)].abs()).sum();
-        let eps = 1e-12 * tr / n as f64 + f64::MIN_POSITIVE;
+        let eps = 1e-12 * (tr / n as f64 + 1.0);
         d.chol.copy_from(&d.M);
         for k in 0..n {
             d.chol[(k, k)] += eps;

@@ -1,5 +1,6 @@
-//! Forward kinematics, the tool Jacobian and `J̇ q̇` (Featherstone 2008, §4.1–4.2; world
-//! coordinates). The stages here are shared by every other algorithm.
+//! Forward kinematics, the tool Jacobian and `J̇ q̇` (Featherstone 2008, ch. 3–4: velocity
+//! propagation; world axes about the base origin). The stages here are shared by every other
+//! algorithm.
 //!
 //! ```text
 //! X_WL_k = X_WL_{k−1} X_PJ[k] J_k(q_k)          (X_WL_{−1} = X_WB = arm.base)
@@ -12,9 +13,9 @@
 //!                                                ṗ_T = v + ω × p_T, (v, ω) = V_{n−1})
 //! ```
 //!
-//! Cost for n joints: one `sin_cos` and about 90 flops per joint (two quaternion products, the
-//! quaternion-to-matrix conversion, the world axis and `S_k`), 12 flops per Jacobian column,
-//! 30 per joint for `J̇ q̇`.
+//! Cost for n joints: one inlined `sin_cos` and about 130 flops per joint (two quaternion
+//! products, the quaternion-to-matrix conversion, the world axis and `S_k`; ≈ 370
+//! instructions), 12 flops per Jacobian column, 35 per joint for `J̇ q̇`.
 
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3, Vector6};
 
@@ -103,10 +104,11 @@ pub(super) fn placements(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
     d.X_WT.translation.vector = p_wb + p_bt;
 }
 
-/// Stage 2: `(X_WL, R_WL) → 𝕀_k` in world axes about the base origin:
-/// `c = p + R c_L`, `I_O = R I_c Rᵀ − m [c]²`, `h = m c`.
+/// Stages 1 and 2: `q → (X_WL, R_WL, S, X_WT, 𝕀_k)`, with the body inertias in
+/// world axes about the base origin: `c = p + R c_L`, `I_O = R I_c Rᵀ − m [c]²`, `h = m c`.
 #[inline]
-pub(super) fn inertias(arm: &SpatialArm, d: &mut ChainData) {
+pub(super) fn placements_and_inertias(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
+    placements(arm, q, d);
     for (((i, b), r), p) in d
         .I_W
         .iter_mut()
@@ -162,7 +164,7 @@ pub(super) fn tool_jdqd_from(acc: &Vector6<f64>, d: &mut ChainData) {
 }
 
 /// Forward kinematics of every body and the tool, the tool Jacobian, and `J̇ q̇` when `qd` is
-/// given (Featherstone 2008, §4.1–4.2, in world coordinates).
+/// given (Featherstone 2008, ch. 4; world axes).
 ///
 /// Reads `q` (n, rad or m), optionally `q̇` (n); writes `d.X_WL` (n poses), `d.X_WT`,
 /// `d.J` (6 × n, `[ṗ_T; ω_T] = J q̇`, world axes, about the tool origin, m/rad and 1) and

@@ -15,7 +15,7 @@
 
 use nalgebra::{Vector3, Vector6};
 
-use super::kinematics::{inertias, placements};
+use super::kinematics::{placements, placements_and_inertias};
 use super::{ChainData, check_len};
 use crate::model::SpatialArm;
 use crate::spatial::motion::{ang, cross_force, cross_motion, lin, stack};
@@ -91,8 +91,7 @@ pub fn rnea(
     check_len(arm, d, "qd", qd);
     check_len(arm, d, "qdd", qdd);
     check_len(arm, d, "tau", tau);
-    placements(arm, q, d);
-    inertias(arm, d);
+    placements_and_inertias(arm, q, d);
     rnea_passes(qd, Some(qdd), g_W, f_T_W, tau, d);
 }
 

@@ -2,19 +2,21 @@
 //! `q̈ = 0`) from one placement stage and one set of world-coordinate inertias.
 //!
 //! ```text
-//! placements → inertias → RNEA(q̈ = 0) [twists V_k] → J, J̇ q̇ → CRBA
+//! forward:  placements + world inertias → twists V_k, accelerations a_k (q̈ = 0), forces f_k
+//! backward: bias_k = S_k · Σ_{b≥k} f_b   and   𝕀ᶜ_k, M_ik = S_i · 𝕀ᶜ_k S_k   in one loop
+//! tool:     J from S_k;  J̇ q̇ from a_{n−1} + [g; 0] = Σ V_k × S_k q̇_k
 //! ```
 //!
-//! Cost: the stages of [`super::kinematics`], [`super::rnea`] and [`super::crba`] once each,
-//! with the poses, inertias and twists shared.
+//! The same sums as [`super::kinematics`], [`super::rnea`] at `q̈ = 0` and [`super::crba`]
+//! (the tests hold them equal), in two loops over the bodies instead of six.
 
 use nalgebra::{Vector3, Vector6};
 
-use super::crba::crba_pass;
-use super::kinematics::{inertias, placements, tool_jacobian, tool_jdqd_from};
-use super::rnea::rnea_passes;
+use super::kinematics::{placements_and_inertias, tool_jacobian, tool_jdqd_from};
 use super::{ChainData, check_len};
 use crate::model::SpatialArm;
+use crate::spatial::SpatialInertia;
+use crate::spatial::motion::{cross_force, cross_motion, stack};
 
 /// The plant's fused pass: [`super::kinematics`] with `qd`, `d.M`, and
 /// `d.bias = C q̇ + g` (n, N m or N).
@@ -23,16 +25,50 @@ use crate::model::SpatialArm;
 /// `d.jdqd`, `d.M`, `d.bias` and the body twists.
 pub fn terms(arm: &SpatialArm, q: &[f64], qd: &[f64], g_W: &Vector3<f64>, d: &mut ChainData) {
     check_len(arm, d, "qd", qd);
-    placements(arm, q, d);
-    inertias(arm, d);
-    // The bias goes into d.bias; take it out to lend it as the output slice.
-    let mut bias = std::mem::take(&mut d.bias);
-    let a_last = rnea_passes(qd, None, g_W, None, bias.as_mut_slice(), d);
-    d.bias = bias;
+    placements_and_inertias(arm, q, d);
+    let n = d.S.len();
+    // Forward: twists, accelerations at q̈ = 0 (gravity as the base's [−g; 0]), body forces.
+    let mut v = Vector6::zeros();
+    let mut a = stack(&(-g_W), &Vector3::zeros());
+    {
+        let (s_all, i_all, v_all, f_all) = (&d.S[..n], &d.I_W[..n], &mut d.V[..n], &mut d.f[..n]);
+        let qd = &qd[..n];
+        for k in 0..n {
+            let sqd = s_all[k] * qd[k];
+            v += sqd;
+            a += cross_motion(&v, &sqd);
+            let i = &i_all[k];
+            v_all[k] = v;
+            f_all[k] = i.apply(&a) + cross_force(&v, &i.apply(&v));
+        }
+    }
+    // Backward, RNEA and CRBA together: τ_k = S_k · Σ_{b≥k} f_b (the bias C q̇ + g) and
+    // M_ik = S_i · (𝕀ᶜ_k S_k), upper triangle by columns.
+    {
+        let (s_all, i_all, f_all) = (&d.S[..n], &d.I_W[..n], &d.f[..n]);
+        let bias = &mut d.bias.as_mut_slice()[..n];
+        let m = &mut d.M.as_mut_slice()[..n * n];
+        let mut f = Vector6::zeros();
+        let mut ic = SpatialInertia::zero();
+        for k in (0..n).rev() {
+            let s = &s_all[k];
+            f += f_all[k];
+            bias[k] = s.dot(&f);
+            ic += i_all[k];
+            let fk = ic.apply(s);
+            for (mik, si) in m[k * n..k * n + k + 1].iter_mut().zip(s_all) {
+                *mik = si.dot(&fk);
+            }
+        }
+        for k in 0..n {
+            for i in 0..k {
+                m[i * n + k] = m[k * n + i];
+            }
+        }
+    }
     tool_jacobian(d);
-    // The RNEA's last acceleration at q̈ = 0 is Σ V_k × S_k q̇_k plus the base's [−g; 0]: the
-    // tool's J̇ q̇ comes from it without a second pass.
-    let acc = a_last + Vector6::new(g_W.x, g_W.y, g_W.z, 0.0, 0.0, 0.0);
+    // The last acceleration at q̈ = 0 is Σ V_k × S_k q̇_k plus the base's [−g; 0]: the tool's
+    // J̇ q̇ comes from it without a second pass.
+    let acc = a + stack(g_W, &Vector3::zeros());
     tool_jdqd_from(&acc, d);
-    crba_pass(d);
 }
