@@ -146,6 +146,11 @@ struct RunArgs {
     /// --controller replay).
     #[arg(long, value_name = "FILE")]
     replay: Option<PathBuf>,
+    /// How a replay turns rows into torques: hold (each row until the next; rows on the control
+    /// grid, time stamps within 1 % of a tick snapped onto it) or linear (interpolated at every
+    /// tick: a log at another rate). Overrides controller.replay_interpolation.
+    #[arg(long, value_enum, value_name = "MODE")]
+    replay_interpolation: Option<replay::Interpolation>,
     #[command(flatten)]
     common: Common,
 }
@@ -256,6 +261,7 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
         duration: a.common.duration,
         replay: a.replay.clone(),
         seed: a.common.seed,
+        replay_interpolation: a.replay_interpolation,
     };
     let (src, sc) = load(a.scenario.as_deref(), &o)?;
     let kind = sc.controller.kind;

@@ -1,26 +1,76 @@
 //! Torque files for the `replay` controller.
 //!
-//! Two layouts are accepted, told apart by their header:
-//! - a run's `timeseries.csv`: the time column `t [s]` and the joint torques `tau_q1 [N m]`,
-//!   `tau_q2 [N m]`, … are picked by name (every other column is ignored);
-//! - a plain table `t,tau1,tau2,…`: a `t` (or `time`) column plus one column per joint, in the
-//!   plant's joint order (arm 1's joints first), whatever their names.
+//! Columns are matched by their header names, never by position (units in brackets after a
+//! name, `tau_q1 [N m]`, are ignored, and so is a UTF-8 byte-order mark):
+//! - exactly one time column, `t` or `time` (seconds);
+//! - one torque column per joint, in the plant's joint order (arm 1's joints first): a run's
+//!   `timeseries.csv` names them `tau_q1`, `tau_q2`, …; a plain table may also call them
+//!   `tau1`, `tau2`, …. A missing, duplicate or extra joint column is an error naming it.
+//!   Every other column is ignored.
 //!
-//! Units in brackets after a name are ignored. Each row is held until the next one (zero-order
-//! hold, [`tandem::sim::Replay`]); before the first row the first row applies.
+//! Time stamps are snapped to the control grid `k h` when within [`SNAP`] of a tick (a log
+//! written by an accumulated clock, `0.0010000000000000002`, replays on its tick, not one tick
+//! late). Rows must be strictly increasing; a run's log (the `tau_q` layout) must also be evenly
+//! spaced, so a missing row is an error naming it. Two modes:
+//! - `hold` (default): each row holds until the next (zero-order hold, as a controller's
+//!   torque does); every row must be on the grid;
+//! - `linear`: linear interpolation between rows at every tick, for a log at another rate.
+//!
+//! Rows after the end of the run are not read (memory is bounded by the run).
 
+use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
+use serde::{Deserialize, Serialize};
 use tandem::sim::Replay;
+
+/// Largest distance of a time stamp from its tick that is snapped onto it, as a fraction of the
+/// control period (1 %).
+pub const SNAP: f64 = 0.01;
+
+/// How rows are turned into torques between their time stamps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Interpolation {
+    /// Each row holds until the next (zero-order hold); every row must be on the control grid.
+    #[default]
+    Hold,
+    /// Linear interpolation between rows at every control tick (a log at another rate).
+    Linear,
+}
 
 /// The bare name of a header cell: `tau_q1 [N m]` → `tau_q1`.
 fn bare(name: &str) -> &str {
-    name.split('[').next().unwrap_or(name).trim()
+    name.trim_start_matches('\u{feff}')
+        .split('[')
+        .next()
+        .unwrap_or(name)
+        .trim()
+}
+
+/// The joint number of a torque column (`tau_q3`, `tau3` → 3).
+fn joint(name: &str) -> Option<usize> {
+    let k = name
+        .strip_prefix("tau_q")
+        .or_else(|| name.strip_prefix("tau"))?;
+    if k.is_empty() || !k.bytes().all(|b| b.is_ascii_digit()) || k.len() > 6 {
+        return None;
+    }
+    k.parse().ok()
+}
+
+/// Timing of the run the file is replayed into.
+#[derive(Clone, Copy, Debug)]
+pub struct Timing {
+    /// Control period, s.
+    pub control_period: f64,
+    /// Duration, s.
+    pub duration: f64,
 }
 
 /// Read a torque file for a plant with `n_q` joints.
-pub fn load(path: &Path, n_q: usize) -> Result<Replay> {
+pub fn load(path: &Path, n_q: usize, timing: Timing, mode: Interpolation) -> Result<Replay> {
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .comment(Some(b'#'))
@@ -28,68 +78,184 @@ pub fn load(path: &Path, n_q: usize) -> Result<Replay> {
         .with_context(|| format!("cannot open {}", path.display()))?;
     let headers = rdr.headers().context("cannot read the header row")?.clone();
     let names: Vec<&str> = headers.iter().map(bare).collect();
-    let Some(t_col) = names
-        .iter()
-        .position(|n| n.eq_ignore_ascii_case("t") || n.eq_ignore_ascii_case("time"))
-    else {
-        bail!(
+    let show = |n: &str| crate::scenario::clip(n, 40);
+
+    // The time column: exactly one.
+    let t_cols: Vec<usize> = (0..names.len())
+        .filter(|&c| names[c].eq_ignore_ascii_case("t") || names[c].eq_ignore_ascii_case("time"))
+        .collect();
+    let t_col = match t_cols.as_slice() {
+        [c] => *c,
+        [] => bail!(
             "no time column: the header needs `t` (or `t [s]`), found {}",
             names
                 .iter()
-                .map(|n| format!("`{n}`"))
+                .take(12)
+                .map(|n| format!("`{}`", show(n)))
                 .collect::<Vec<_>>()
                 .join(", ")
-        );
+        ),
+        [a, b, ..] => bail!(
+            "duplicate time column: header cells {} and {} are both `{}`",
+            a + 1,
+            b + 1,
+            show(names[*b])
+        ),
     };
-    // A run's time series: the tau_q<k> columns by number. Otherwise every other column.
-    let mut tau: Vec<(usize, usize)> = names
-        .iter()
-        .enumerate()
-        .filter_map(|(c, n)| {
-            n.strip_prefix("tau_q")
-                .and_then(|k| k.parse::<usize>().ok())
-                .map(|k| (k, c))
-        })
-        .collect();
-    let cols: Vec<usize> = if tau.is_empty() {
-        (0..names.len()).filter(|&c| c != t_col).collect()
-    } else {
-        tau.sort();
-        for (i, (k, _)) in tau.iter().enumerate() {
-            if *k != i + 1 {
+    // Torque columns by joint number: each of 1..=n_q exactly once, none beyond.
+    let mut by_joint: BTreeMap<usize, usize> = BTreeMap::new();
+    let log_layout = names.iter().any(|n| n.starts_with("tau_q"));
+    for (c, n) in names.iter().enumerate() {
+        let Some(k) = joint(n) else { continue };
+        if log_layout && !n.starts_with("tau_q") {
+            continue;
+        }
+        if k == 0 || k > n_q {
+            bail!(
+                "column `{}` names joint {k}, but the plant has {n_q} joints (tau_q1..tau_q{n_q})",
+                show(n)
+            );
+        }
+        if let Some(prev) = by_joint.insert(k, c) {
+            bail!(
+                "duplicate torque column `{}` (header cells {} and {})",
+                show(n),
+                prev + 1,
+                c + 1
+            );
+        }
+    }
+    let prefix = if log_layout { "tau_q" } else { "tau" };
+    if let Some(k) = (1..=n_q).find(|k| !by_joint.contains_key(k)) {
+        bail!(
+            "missing torque column `{prefix}{k}`: the plant has {n_q} joints, so the file needs \
+             {prefix}1..{prefix}{n_q} (found {} torque column(s))",
+            by_joint.len()
+        );
+    }
+    let cols: Vec<usize> = (1..=n_q).map(|k| by_joint[&k]).collect();
+
+    // Rows, up to the first one past the end of the run.
+    let h = timing.control_period;
+    let t_stop = timing.duration + h;
+    let max_rows = (timing.duration / h).ceil() as usize + 2;
+    let mut times: Vec<f64> = Vec::new();
+    let mut rows: Vec<Vec<f64>> = Vec::new();
+    let mut lines: Vec<u64> = Vec::new();
+    let mut rec = csv::StringRecord::new();
+    loop {
+        match rdr.read_record(&mut rec) {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => {
+                let line = e.position().map_or(0, |p| p.line());
                 bail!(
-                    "the torque columns tau_q1..tau_q{} are not complete",
-                    tau.len()
+                    "line {line}: {}",
+                    crate::scenario::clip(&e.to_string(), 200)
                 );
             }
         }
-        tau.iter().map(|&(_, c)| c).collect()
-    };
-    if cols.len() != n_q {
-        bail!(
-            "{} torque column(s) ({}) for a plant with {n_q} joints",
-            cols.len(),
-            cols.iter()
-                .map(|&c| format!("`{}`", names[c]))
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
-    }
-    let mut times = Vec::new();
-    let mut rows = Vec::new();
-    for (r, rec) in rdr.records().enumerate() {
-        let line = r + 2;
-        let rec = rec.with_context(|| format!("line {line}"))?;
+        let line = rec.position().map_or(0, |p| p.line());
         let num = |c: usize| -> Result<f64> {
             let s = rec.get(c).unwrap_or("");
-            s.parse::<f64>().with_context(|| {
-                format!("line {line}, column `{}`: `{s}` is not a number", names[c])
-            })
+            match s.parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(v),
+                Ok(_) => bail!(
+                    "line {line}, column `{}`: `{s}` is not finite",
+                    show(names[c])
+                ),
+                Err(_) => bail!(
+                    "line {line}, column `{}`: `{}` is not a number",
+                    show(names[c]),
+                    crate::scenario::clip(s, 40)
+                ),
+            }
         };
-        times.push(num(t_col)?);
-        rows.push(cols.iter().map(|&c| num(c)).collect::<Result<Vec<f64>>>()?);
+        let t = num(t_col)?;
+        let row = cols.iter().map(|&c| num(c)).collect::<Result<Vec<f64>>>()?;
+        let past = t > t_stop;
+        times.push(t);
+        rows.push(row);
+        lines.push(line);
+        if past || times.len() > max_rows.saturating_mul(64) {
+            break;
+        }
     }
-    Replay::new(times, rows, n_q).map_err(|e| anyhow::anyhow!("{e}"))
+    if times.is_empty() {
+        bail!("no data rows");
+    }
+
+    // Order, then the grid.
+    for k in 1..times.len() {
+        if !(times[k] > times[k - 1]) {
+            bail!(
+                "line {}: t = {} does not increase (line {} has t = {}); rows must be in time order",
+                lines[k],
+                times[k],
+                lines[k - 1],
+                times[k - 1]
+            );
+        }
+    }
+    let snapped: Vec<Option<f64>> = times
+        .iter()
+        .map(|&t| {
+            let k = (t / h).round();
+            ((t - k * h).abs() <= SNAP * h).then_some(k * h)
+        })
+        .collect();
+    let times = match mode {
+        Interpolation::Hold => {
+            let mut out = Vec::with_capacity(times.len());
+            for (k, s) in snapped.iter().enumerate() {
+                match s {
+                    Some(s) if k == 0 || *s > out[k - 1] => out.push(*s),
+                    Some(_) => bail!(
+                        "line {}: t = {} falls on the same control tick as line {} (h = {h} s)",
+                        lines[k],
+                        times[k],
+                        lines[k - 1]
+                    ),
+                    None => bail!(
+                        "line {}: t = {} is not on the control grid (multiples of {h} s, within {} %); \
+                         replay a log at another rate with interpolation = \"linear\" (--replay-interpolation linear)",
+                        lines[k],
+                        times[k],
+                        SNAP * 100.0
+                    ),
+                }
+            }
+            out
+        }
+        // Snap what is on the grid; keep the rest as stamped.
+        Interpolation::Linear => times
+            .iter()
+            .zip(&snapped)
+            .map(|(t, s)| s.unwrap_or(*t))
+            .collect(),
+    };
+    // A run's log is evenly spaced: a different step is a missing (or extra) row.
+    if log_layout && times.len() > 2 {
+        let step = times[1] - times[0];
+        for k in 2..times.len() {
+            let d = times[k] - times[k - 1];
+            if (d - step).abs() > SNAP * h {
+                bail!(
+                    "line {}: a gap in the log: t jumps from {} to {} s ({} s), the log's step is {} s",
+                    lines[k],
+                    times[k - 1],
+                    times[k],
+                    crate::scenario::num(d),
+                    crate::scenario::num(step)
+                );
+            }
+        }
+    }
+    let r = Replay::new(times, rows, n_q).map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok(match mode {
+        Interpolation::Hold => r,
+        Interpolation::Linear => r.linear(),
+    })
 }
 
 #[cfg(test)]
@@ -102,30 +268,83 @@ mod tests {
         p
     }
 
+    const MS: Timing = Timing {
+        control_period: 1e-3,
+        duration: 2.0,
+    };
+
     #[test]
     fn reads_plain_and_timeseries_layouts() {
-        let p = write("plain.csv", "t,tau1,tau2\n0,1,2\n0.5,3,4\n");
-        let mut r = load(&p, 2).expect("plain");
+        let p = write("plain.csv", "t,tau2,tau1\n0,2,1\n0.5,4,3\n");
+        let mut r = load(&p, 2, MS, Interpolation::Hold).expect("plain");
         assert_eq!(r.at(0.7), &[3.0, 4.0]);
         let p = write(
             "ts.csv",
             "t [s],x_o.x [m],tau_q2 [N m],tau_q1 [N m]\n0,9,2,1\n1,9,4,3\n",
         );
-        let mut r = load(&p, 2).expect("timeseries");
+        let mut r = load(&p, 2, MS, Interpolation::Hold).expect("timeseries");
         assert_eq!(r.at(0.0), &[1.0, 2.0]);
         assert_eq!(r.at(1.5), &[3.0, 4.0]);
+        let p = write("bom.csv", "\u{feff}t,tau1,tau2\n0,1,2\n");
+        assert!(load(&p, 2, MS, Interpolation::Hold).is_ok());
     }
 
     #[test]
     fn explains_bad_files() {
-        let p = write("bad.csv", "t,tau1\n0,1\n");
-        let e = load(&p, 2).expect_err("too few").to_string();
-        assert!(e.contains("1 torque column"), "{e}");
-        let p = write("bad2.csv", "t,a,b\n0,1,x\n");
-        let e = format!("{:#}", load(&p, 2).expect_err("nan"));
-        assert!(e.contains("line 2, column `b`"), "{e}");
-        let p = write("bad3.csv", "time,a,b\n1,1,1\n0,1,1\n");
-        let e = load(&p, 2).expect_err("order").to_string();
-        assert!(e.contains("increasing"), "{e}");
+        let e = |text: &str| {
+            let p = write("bad.csv", text);
+            format!(
+                "{:#}",
+                load(&p, 2, MS, Interpolation::Hold).expect_err(text)
+            )
+        };
+        assert!(e("t,tau1\n0,1\n").contains("missing torque column `tau2`"));
+        assert!(e("t,tau1,tau2\n0,1,x\n").contains("line 2, column `tau2`"));
+        assert!(e("time,tau1,tau2\n1,1,1\n0,1,1\n").contains("line 3: t = 0 does not increase"));
+        assert!(e("t,t,t,t,t\n0,1,1,1,1\n").contains("duplicate time column"));
+        assert!(e("t,tau1,tau1,tau2\n0,1,1,1\n").contains("duplicate torque column `tau1`"));
+        assert!(e("t,tau1,tau2,tau3\n0,1,1,1\n").contains("`tau3` names joint 3"));
+        assert!(e("t,a,b\n0,1,1\n").contains("missing torque column `tau1`"));
+        assert!(e("t,tau1,tau2\n0,1,1\n0.0005,1,1\n").contains("not on the control grid"));
+        assert!(e("t,tau_q1,tau_q2\n0,1,1\n0.01,1,1\n0.03,1,1\n").contains("line 4: a gap"));
+    }
+
+    #[test]
+    fn accumulated_clock_snaps_onto_its_tick() {
+        // t_k = t_{k−1} + 0.001, summed: 0.0010000000000000002 and drifting.
+        let mut text = String::from("t,tau1\n");
+        let mut t = 0.0f64;
+        for k in 0..3000 {
+            text.push_str(&format!("{t:?},{k}\n"));
+            t += 0.001;
+        }
+        let p = write("clock.csv", &text);
+        let mut r = load(
+            &p,
+            1,
+            Timing {
+                control_period: 1e-3,
+                duration: 3.0,
+            },
+            Interpolation::Hold,
+        )
+        .expect("snapped");
+        for k in [1usize, 7, 1000, 2999] {
+            assert_eq!(r.at(k as f64 * 1e-3), &[k as f64], "tick {k}");
+        }
+    }
+
+    #[test]
+    fn linear_interpolates_a_log_at_another_rate() {
+        let p = write("coarse.csv", "t,tau1\n0,0\n0.01,1\n0.02,3\n");
+        let mut r = load(&p, 1, MS, Interpolation::Linear).expect("linear");
+        assert_eq!(r.at(0.0), &[0.0]);
+        assert!((r.at(0.004)[0] - 0.4).abs() < 1e-12);
+        assert!((r.at(0.015)[0] - 2.0).abs() < 1e-12);
+        assert_eq!(r.at(0.5), &[3.0]);
+        // Off-grid rows are fine when interpolating.
+        let p = write("off.csv", "t,tau1\n0,0\n0.0005,1\n0.0025,3\n");
+        let mut r = load(&p, 1, MS, Interpolation::Linear).expect("linear");
+        assert!((r.at(0.001)[0] - 1.5).abs() < 1e-12);
     }
 }

@@ -572,6 +572,10 @@ pub struct ControllerConfig {
     /// Torque file of `kind = "replay"` (relative to the scenario file's folder).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub replay: Option<String>,
+    /// How the replayed rows become torques between time stamps: `hold` (default; every row on
+    /// the control grid) or `linear` (a log at another rate).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replay_interpolation: Option<crate::replay::Interpolation>,
 }
 
 /// A value given once for both axes, or as `[x, y]`.
@@ -1161,6 +1165,8 @@ pub struct Overrides {
     pub replay: Option<PathBuf>,
     /// `--seed`.
     pub seed: Option<u64>,
+    /// `--replay-interpolation`.
+    pub replay_interpolation: Option<crate::replay::Interpolation>,
 }
 
 impl Scenario {
@@ -1201,6 +1207,15 @@ impl Scenario {
         }
         if let Some(s) = o.seed {
             self.run.seed = s;
+        }
+        if let Some(i) = o.replay_interpolation {
+            if self.controller.kind != ControllerKind::Replay {
+                return Err(crate::BadInput::msg(format!(
+                    "--replay-interpolation is for a replay (--replay FILE), not the {} controller",
+                    self.controller.kind.name()
+                )));
+            }
+            self.controller.replay_interpolation = Some(i);
         }
         Ok(())
     }
@@ -1738,15 +1753,21 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
         None => {
             let file = b.replay.as_deref().unwrap_or(FsPath::new(""));
             let n_q: usize = b.plant.arms.iter().map(|a| a.links.len()).sum();
-            let replay = crate::replay::load(file, n_q).map_err(|e| ScenarioError {
-                file: src.display.clone(),
-                message: format!(
-                    "controller.replay (or --replay) = {}: {e:#}",
-                    file.display()
-                ),
-                span: None,
-                text: String::new(),
-            })?;
+            let timing = crate::replay::Timing {
+                control_period: b.sim.control_period,
+                duration: b.sim.duration,
+            };
+            let mode = sc.controller.replay_interpolation.unwrap_or_default();
+            let replay =
+                crate::replay::load(file, n_q, timing, mode).map_err(|e| ScenarioError {
+                    file: src.display.clone(),
+                    message: format!(
+                        "controller.replay (or --replay) = {}: {e:#}",
+                        file.display()
+                    ),
+                    span: None,
+                    text: String::new(),
+                })?;
             Driver::Replay(replay)
         }
     };

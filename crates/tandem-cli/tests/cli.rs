@@ -471,8 +471,9 @@ fn replaying_a_runs_torques_reproduces_its_motion() {
     let s = read_json(&d.join("re/summary.json"));
     assert_eq!(s["controller"], "replay");
 
-    // A plain `t,tau1,…` table (any column names) works too: the same torques, the same motion.
-    let mut plain = String::from("t,first,second,third,fourth\n");
+    // A plain `t,tau1,…` table (columns by name, any order) works too: the same torques, the
+    // same motion.
+    let mut plain = String::from("t,tau1,tau2,tau3,tau4\n");
     let tau: Vec<&[f64]> = (1..=4)
         .map(|k| column(&ha, &ca, &format!("tau_q{k} [N m]")))
         .collect();

@@ -780,3 +780,159 @@ fn a_utf8_byte_order_mark_is_accepted() {
     assert!(stderr(&o).contains("controller.delta = -1") && stderr(&o).contains("line 132"));
     let _ = fs::remove_dir_all(&d);
 }
+
+// ---------------------------------------------------------------------------------------------
+// 7. Replay robust to real logs.
+
+/// A CSV file as (header, columns).
+fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = fs::read_to_string(path).expect("csv");
+    let mut lines = text.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let mut cols = vec![Vec::new(); header.len()];
+    for l in lines {
+        for (c, v) in l.split(',').enumerate() {
+            cols[c].push(v.parse::<f64>().expect("number"));
+        }
+    }
+    (header, cols)
+}
+
+fn col<'a>(h: &[String], c: &'a [Vec<f64>], name: &str) -> &'a [f64] {
+    let i = h.iter().position(|n| n == name).expect(name);
+    &c[i]
+}
+
+#[test]
+fn replay_of_a_log_one_rounding_unit_off_replays_on_its_tick() {
+    let d = scratch("clock");
+    paper_with(
+        &d,
+        "fine.toml",
+        &[("log_period = 0.03 ", "log_period = 0.001")],
+    );
+    let common = ["--duration", "3", "--no-figures"];
+    let mut a = vec!["run", "fine.toml", "--controller", "pd", "--out", "pd"];
+    a.extend(common);
+    exit(&tandem(&d, &a), 0);
+    let (h, c) = read_csv(&d.join("pd/timeseries.csv"));
+    // The same torques stamped by an accumulated clock (t += 0.001): 0.0010000000000000002, ...
+    let mut text = String::from("t [s],tau_q1 [N m],tau_q2 [N m],tau_q3 [N m],tau_q4 [N m]\n");
+    let tau: Vec<&[f64]> = (1..=4)
+        .map(|k| col(&h, &c, &format!("tau_q{k} [N m]")))
+        .collect();
+    let mut t = 0.0f64;
+    let mut off = 0;
+    for r in 0..tau[0].len() {
+        off += usize::from(t != r as f64 * 1e-3);
+        let row: Vec<String> = tau.iter().map(|v| format!("{:?}", v[r])).collect();
+        text.push_str(&format!("{t:?},{}\n", row.join(",")));
+        t += 0.001;
+    }
+    assert!(off > 1000, "the clock is off the grid on {off} rows");
+    fs::write(d.join("clock.csv"), text).expect("write");
+    let mut b = vec!["run", "fine.toml", "--replay", "clock.csv", "--out", "re"];
+    b.extend(common);
+    exit(&tandem(&d, &b), 0);
+    let (hb, cb) = read_csv(&d.join("re/timeseries.csv"));
+    for name in ["x_o.x [m]", "x_o.y [m]", "x_o.theta [rad]"] {
+        let err = col(&h, &c, name)
+            .iter()
+            .zip(col(&hb, &cb, name))
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        assert!(err <= 1e-9, "{name}: the replay is off by {err}");
+    }
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn replay_columns_are_matched_by_header_name() {
+    let d = scratch("names");
+    let run = |file: &str, text: &str, extra: &[&str]| -> Output {
+        fs::write(d.join(file), text).expect("write");
+        let mut a = vec![
+            "run",
+            "--replay",
+            file,
+            "--duration",
+            "0.05",
+            "--no-figures",
+        ];
+        a.extend(extra);
+        let out = format!("o-{file}");
+        a.extend(["--out", out.as_str()]);
+        tandem(&d, &a)
+    };
+    let o = run("t5.csv", "t,t,t,t,t\n0,1,1,1,1\n", &[]);
+    exit(&o, 2);
+    assert!(
+        stderr(&o).contains("duplicate time column"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run("miss.csv", "t,tau1,tau2,tau4\n0,1,1,1\n", &[]);
+    exit(&o, 2);
+    assert!(
+        stderr(&o).contains("missing torque column `tau3`"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(
+        "dup.csv",
+        "t [s],tau_q1,tau_q2,tau_q2,tau_q3,tau_q4\n0,1,1,1,1,1\n",
+        &[],
+    );
+    exit(&o, 2);
+    assert!(
+        stderr(&o).contains("duplicate torque column `tau_q2`"),
+        "{}",
+        stderr(&o)
+    );
+    // Any order, extra columns ignored.
+    let o = run(
+        "order.csv",
+        "tau4,note,tau2,t,tau3,tau1\n0,9,0,0,0,0\n",
+        &[],
+    );
+    exit(&o, 0);
+    // Non-monotonic or gapped logs name the row.
+    let o = run(
+        "back.csv",
+        "t,tau1,tau2,tau3,tau4\n0,0,0,0,0\n0.002,0,0,0,0\n0.001,0,0,0,0\n",
+        &[],
+    );
+    exit(&o, 2);
+    assert!(
+        stderr(&o).contains("line 4: t = 0.001 does not increase"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(
+        "gap.csv",
+        "t,tau_q1,tau_q2,tau_q3,tau_q4\n0,0,0,0,0\n0.001,0,0,0,0\n0.002,0,0,0,0\n0.004,0,0,0,0\n",
+        &[],
+    );
+    exit(&o, 2);
+    assert!(
+        stderr(&o).contains("line 5: a gap in the log"),
+        "{}",
+        stderr(&o)
+    );
+    // Off the grid: refused for hold, interpolated on request.
+    let off = "t,tau1,tau2,tau3,tau4\n0,0,0,0,0\n0.0015,1,1,1,1\n0.0035,0,0,0,0\n";
+    let o = run("off.csv", off, &[]);
+    exit(&o, 2);
+    assert!(
+        stderr(&o).contains("not on the control grid"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run("off2.csv", off, &["--replay-interpolation", "linear"]);
+    exit(&o, 0);
+    let _ = fs::remove_dir_all(&d);
+}

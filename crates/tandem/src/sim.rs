@@ -150,6 +150,10 @@ pub struct Replay {
     times: Vec<f64>,
     rows: Vec<Vec<f64>>,
     cursor: usize,
+    /// Linear interpolation between rows instead of the hold ([`Replay::linear`]).
+    linear: bool,
+    /// The interpolated row (one per joint).
+    scratch: Vec<f64>,
 }
 
 impl Replay {
@@ -183,11 +187,20 @@ impl Replay {
                 ));
             }
         }
+        let n = rows[0].len();
         Ok(Replay {
             times,
             rows,
             cursor: 0,
+            linear: false,
+            scratch: vec![0.0; n],
         })
+    }
+    /// The same table interpolated linearly between rows (the first row before the first time
+    /// stamp, the last after the last one).
+    pub fn linear(mut self) -> Self {
+        self.linear = true;
+        self
     }
     /// The held row at `t` (monotone `t` is O(1) amortised).
     pub fn at(&mut self, t: f64) -> &[f64] {
@@ -197,7 +210,15 @@ impl Replay {
         while self.cursor + 1 < self.times.len() && self.times[self.cursor + 1] <= t {
             self.cursor += 1;
         }
-        &self.rows[self.cursor]
+        let k = self.cursor;
+        if self.linear && k + 1 < self.times.len() && t > self.times[k] {
+            let s = (t - self.times[k]) / (self.times[k + 1] - self.times[k]);
+            for (j, v) in self.scratch.iter_mut().enumerate() {
+                *v = self.rows[k][j] + s * (self.rows[k + 1][j] - self.rows[k][j]);
+            }
+            return &self.scratch;
+        }
+        &self.rows[k]
     }
 }
 
