@@ -190,21 +190,22 @@ fn weld_wrenches(
         let mut lam = [[0.0f64; 6]; 6];
         let mut jq0 = Vector6::zeros();
         for kk in 0..n {
-            let row = &x[kk * RHS..kk * RHS + RHS];
+            let row: &[f64; RHS] = x[kk * RHS..kk * RHS + RHS].try_into().expect("RHS columns");
             let u = row[0];
+            // Full 6 × 6 rank-one update per joint: six 6-wide AXPYs vectorise better than the
+            // 21-entry triangle.
             for a in 0..6 {
                 let za = row[1 + a];
                 jq0[a] += za * u;
-                for b in a..6 {
-                    lam[a][b] += za * row[1 + b];
+                let dst = &mut lam[a];
+                for b in 0..6 {
+                    dst[b] += za * row[1 + b];
                 }
             }
         }
         for a in 0..6 {
-            for b in a..6 {
-                k[(6 * i + a) * nk + 6 * i + b] = lam[a][b];
-                k[(6 * i + b) * nk + 6 * i + a] = lam[a][b];
-            }
+            let dst = &mut k[(6 * i + a) * nk + 6 * i..(6 * i + a) * nk + 6 * i + 6];
+            dst.copy_from_slice(&lam[a]);
         }
         // rhs_i = γ_i − (J q̈⁰ + J̇q̇ − Ad_i V̇⁰ − c_i), γ_i = −2ω_b ė − ω_b² e.
         let jt = d.J.as_slice();
