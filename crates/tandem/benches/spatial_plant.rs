@@ -30,7 +30,9 @@ fn bench(c: &mut Criterion) {
         c.bench_function(&format!("spatial_plant/{name}/rk4_step_1ms"), |b| {
             b.iter(|| {
                 yy.copy_from_slice(&y);
-                plant.step(&mut rk, 0.0, black_box(&mut yy), &input, &mut ws, 1e-3, 1);
+                plant
+                    .step(&mut rk, 0.0, black_box(&mut yy), &input, &mut ws, 1e-3, 1)
+                    .unwrap();
             })
         });
     }

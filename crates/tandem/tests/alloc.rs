@@ -224,10 +224,14 @@ fn spatial_plant_steps_allocate_nothing() {
             let mut rk = Rk4::new(plant.state_dim());
             let input = plant.zero_input();
             let mut dy = vec![0.0; plant.state_dim()];
-            plant.step(&mut rk, 0.0, &mut y, &input, &mut ws, 1e-4, 2);
+            plant
+                .step(&mut rk, 0.0, &mut y, &input, &mut ws, 1e-4, 2)
+                .unwrap();
             let n = count(|| {
                 for k in 0..20 {
-                    plant.step(&mut rk, k as f64 * 1e-4, &mut y, &input, &mut ws, 1e-4, 1);
+                    plant
+                        .step(&mut rk, k as f64 * 1e-4, &mut y, &input, &mut ws, 1e-4, 1)
+                        .unwrap();
                     assert!(plant.derivative(&y, &input, &mut ws, &mut dy));
                 }
             });

@@ -59,7 +59,9 @@ fn integrate(
     let mut ws = plant.workspace();
     let mut rk = Rk4::new(plant.state_dim());
     for k in 0..steps {
-        plant.step(&mut rk, k as f64 * h, y, input, &mut ws, h, 1);
+        plant
+            .step(&mut rk, k as f64 * h, y, input, &mut ws, h, 1)
+            .expect("finite state");
         each(k + 1, y);
     }
 }
@@ -169,6 +171,34 @@ fn energy_is_conserved_in_free_fall() {
     }
 }
 
+/// The same free fall over 10 s (the horizon) at a 0.125 ms step: the falling arms
+/// pass within σ_min ≈ 1e-6–1e-8 of singular configurations, where RK4 at 1 ms loses up to
+/// 4e-4 of the energy; at 0.125 ms the drift stays below 1e-6 relative (measured 1.2e-7 dual
+/// UR5, 1.1e-9 dual Franka, 3.4e-8 three UR5).
+#[test]
+#[ignore = "10 s of free fall at 0.125 ms for three chains; run by .ci/run"]
+fn energy_is_conserved_in_a_10_s_free_fall_at_a_fine_step() {
+    for (name, s) in setups() {
+        let (plant, mut y) = build(&undamped(s));
+        let input = plant.zero_input();
+        let mut ws = plant.workspace();
+        let e0 = plant.energy(&y, &mut ws).total();
+        let (mut worst, mut t_max) = (0.0f64, 0.0f64);
+        integrate(&plant, &mut y, &input, 1.25e-4, 80_000, |k, y| {
+            if k % 8 == 0 {
+                let e = plant.energy(y, &mut ws);
+                worst = nan_max(worst, (e.total() - e0).abs());
+                t_max = t_max.max(e.kinetic);
+            }
+        });
+        println!(
+            "{name}: 10 s free fall at 0.125 ms: drift {worst:.3e} J, peak kinetic {t_max:.1} J, relative {:.3e}",
+            worst / t_max
+        );
+        assert!(worst / t_max < 1e-6, "{name}: {:e}", worst / t_max);
+    }
+}
+
 /// With joint and object damping, energy never rises (beyond round-off).
 #[test]
 fn energy_never_rises_with_damping() {
@@ -224,7 +254,9 @@ fn held_run(
         }
         let (s, c) = (0.5 * t).sin_cos();
         input.f_d = Vector6::new(10.0 * c, 10.0 * s, 5.0 * s, 1.0 * s, 1.0 * c, 0.5 * c);
-        plant.step(&mut rk, t, y, &input, &mut ws, h, 1);
+        plant
+            .step(&mut rk, t, y, &input, &mut ws, h, 1)
+            .expect("finite state");
         each(k + 1, y);
     }
 }
@@ -358,15 +390,15 @@ fn grasp_wrenches_match_each_arms_own_dynamics() {
         let obj = plant.object();
         let r = o.q.to_rotation_matrix();
         let i_w = r.matrix() * obj.inertia * r.matrix().transpose();
-        let mut f_sum = Vector3::zeros();
-        let mut t_sum = Vector3::zeros();
+        let mut g = vec![nalgebra::Matrix6::zeros(); plant.arms().len()];
+        plant.grasp_map(&y, &mut g);
+        let mut f_o = Vector6::zeros();
         for i in 0..plant.arms().len() {
-            let f = ws.wrenches[i];
-            let fl = Vector3::new(f[0], f[1], f[2]);
-            let ri = r * plant.grasps()[i].translation.vector;
-            f_sum += fl;
-            t_sum += Vector3::new(f[3], f[4], f[5]) + ri.cross(&fl);
+            f_o -= g[i] * ws.wrenches[i];
         }
+        let f_sum = -Vector3::new(f_o[0], f_o[1], f_o[2]);
+        let t_sum = -Vector3::new(f_o[3], f_o[4], f_o[5]);
+        let _ = r;
         let c = obj.damping;
         let dv = Vector3::new(a[0], a[1], a[2]);
         let dw = Vector3::new(a[3], a[4], a[5]);
@@ -509,4 +541,80 @@ fn velocity_constraint_holds_along_the_motion() {
         );
         assert!(worst.0 < 1e-9 && worst.1 < 1e-9, "{name}: {worst:?}");
     }
+}
+
+/// A locked chain is a counted event with its time and state, and the run goes on with finite
+/// values: two 1-joint arms welded to one box (12 weld constraints on 2 + 6 coordinates: the
+/// grasp-space matrix `K` is singular) make every step regularise `K`; each is counted, the
+/// first with its time and state.
+#[test]
+fn a_locked_chain_is_a_counted_event_with_time_and_state() {
+    use nalgebra::{Matrix3, Translation3, UnitQuaternion};
+    use tandem::model::{Chain, ChainJoint, JointKind, JointLimits, RigidBody, SpatialArm};
+    use tandem::plant::spatial::{SpatialObjectParams, SpatialPlantParams};
+    let one_joint = |x: f64| SpatialArm {
+        chain: Chain {
+            name: "pivot".into(),
+            base_link: "base".into(),
+            tool_link: "tool".into(),
+            joints: vec![ChainJoint {
+                name: "j1".into(),
+                kind: JointKind::Revolute,
+                placement: nalgebra::Isometry3::identity(),
+                axis: Vector3::y_axis(),
+                limits: JointLimits::UNLIMITED,
+                damping: 0.0,
+            }],
+            bodies: vec![RigidBody {
+                name: "link".into(),
+                mass: 1.0,
+                com: Vector3::new(0.0, 0.0, 0.15),
+                inertia: Matrix3::from_diagonal(&Vector3::new(0.01, 0.01, 0.002)),
+            }],
+            tool: nalgebra::Isometry3::translation(0.0, 0.0, 0.3),
+        },
+        base: nalgebra::Isometry3::from_parts(
+            Translation3::new(x, 0.0, 0.0),
+            UnitQuaternion::identity(),
+        ),
+    };
+    let x_wo = nalgebra::Isometry3::translation(0.0, 0.0, 0.3);
+    // Weld each tool where it is at q = 0.
+    let grasp = |x: f64| x_wo.inverse() * nalgebra::Isometry3::translation(x, 0.0, 0.3);
+    let params = SpatialPlantParams {
+        arms: vec![one_joint(-0.2), one_joint(0.2)],
+        grasps: vec![grasp(-0.2), grasp(0.2)],
+        object: SpatialObjectParams::spec_box(),
+        gravity: Vector3::new(0.0, 0.0, -9.81),
+        baumgarte: 20.0,
+        grasp_model: GraspModel::Weld,
+    };
+    let plant = SpatialPlant::new(&params).unwrap();
+    let mut y = plant
+        .initial_state(&x_wo, &Vector6::zeros(), &[0.0, 0.0])
+        .unwrap();
+    let mut ws = plant.workspace();
+    let input = plant.zero_input();
+    let mut rk = Rk4::new(plant.state_dim());
+    for k in 0..100 {
+        plant
+            .step(
+                &mut rk,
+                0.5 + k as f64 * 1e-3,
+                &mut y,
+                &input,
+                &mut ws,
+                1e-3,
+                1,
+            )
+            .expect("finite");
+    }
+    assert!(y.iter().all(|v| v.is_finite()));
+    assert_eq!(ws.locked.steps, 100, "every step regularises");
+    assert_eq!(ws.locked.first_t, Some(0.5));
+    let n = plant.n_q();
+    assert_eq!(ws.locked.first_state[n + 2], 0.3, "the first event's state");
+    // The regularised chain holds: the weld residual stays small.
+    let (lin, ang) = plant.constraint_residual(&y, &mut ws);
+    assert!(lin < 1e-6 && ang < 1e-6, "{lin:e} {ang:e}");
 }

@@ -45,6 +45,8 @@ pub trait ClosedChain {
     ) -> bool;
     /// `n` RK4 steps of size `h` from `(t, y)` with the input held, including any projection
     /// the state needs (the spatial plant renormalises its quaternion). No allocation.
+    /// Returns `false` when the state became non-finite (the spatial plant then leaves `y` at
+    /// the last good state).
     fn advance(
         &self,
         rk: &mut Rk4,
@@ -54,7 +56,7 @@ pub trait ClosedChain {
         ws: &mut Self::Workspace,
         h: f64,
         n: usize,
-    );
+    ) -> bool;
     /// The grasp wrenches of the last evaluation as the wrist sensors read them, flat
     /// (`WRENCH_DIM` per arm): planar forces in world axes; spatial `[f; τ]` in tool axes.
     fn sensor_wrenches(&self, ws: &Self::Workspace, out: &mut [f64]);
@@ -112,13 +114,14 @@ impl ClosedChain for super::Plant {
         ws: &mut Self::Workspace,
         h: f64,
         n: usize,
-    ) {
+    ) -> bool {
         let mut sys = super::ConstrainedOde {
             plant: self,
             ws,
             input,
         };
         rk.substeps(&mut sys, t, y, h * n as f64, n);
+        y.iter().all(|v| v.is_finite())
     }
     fn sensor_wrenches(&self, ws: &Self::Workspace, out: &mut [f64]) {
         for (i, f) in ws.forces.iter().enumerate() {
@@ -182,8 +185,8 @@ impl ClosedChain for super::spatial::SpatialPlant {
         ws: &mut Self::Workspace,
         h: f64,
         n: usize,
-    ) {
-        self.step(rk, t, y, input, ws, h, n);
+    ) -> bool {
+        self.step(rk, t, y, input, ws, h, n).is_ok()
     }
     fn sensor_wrenches(&self, ws: &Self::Workspace, out: &mut [f64]) {
         for i in 0..ws.wrenches.len() {

@@ -158,6 +158,10 @@ pub struct SpatialWorkspace {
     r: Vec<Vector3<f64>>,
     /// Per grasp `[r_i]× I_W⁻¹`.
     a: Vec<Matrix3<f64>>,
+    /// Locked-chain events of [`SpatialPlant::step`].
+    pub locked: LockedEvents,
+    /// The state at the start of the current step (to undo a non-finite step).
+    y_prev: Vec<f64>,
 }
 
 impl SpatialWorkspace {
@@ -172,6 +176,42 @@ impl SpatialWorkspace {
             &r.inverse_transform_vector(&f.fixed_rows::<3>(3).into_owned()),
         )
     }
+}
+
+/// Why a spatial plant step stopped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StepFault {
+    /// The state became non-finite in the RK4 step that started at `t` (s); the state was left
+    /// at the start of that step.
+    NonFinite {
+        /// Start of the failed step, s.
+        t: f64,
+    },
+}
+
+impl std::fmt::Display for StepFault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StepFault::NonFinite { t } => {
+                write!(
+                    f,
+                    "the spatial plant state became non-finite in the step at t = {t:.4} s"
+                )
+            }
+        }
+    }
+}
+
+/// Steps at a locked configuration (the grasp-space matrix regularised), counted by
+/// [`SpatialPlant::step`], with the time and the state at the start of the first one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LockedEvents {
+    /// Steps that needed regularisation.
+    pub steps: u64,
+    /// Start time of the first such step, s.
+    pub first_t: Option<f64>,
+    /// The state at the start of the first such step (all zero until then).
+    pub first_state: Vec<f64>,
 }
 
 /// The object part of a state.
@@ -370,6 +410,12 @@ impl SpatialPlant {
             rhs: vec![0.0; 6 * m],
             r: vec![Vector3::zeros(); m],
             a: vec![Matrix3::zeros(); m],
+            locked: LockedEvents {
+                steps: 0,
+                first_t: None,
+                first_state: vec![0.0; self.state_dim()],
+            },
+            y_prev: vec![0.0; self.state_dim()],
         }
     }
 
@@ -559,6 +605,15 @@ impl SpatialPlant {
 
     /// `n` RK4 steps of size `h` from `(t, y)` with the input held, renormalising the
     /// quaternion after each. After it, `ws` holds the last stage's evaluation.
+    ///
+    /// A step whose grasp-space matrix needed regularisation (a locked chain: arms singular
+    /// in directions the object cannot take up, e.g. over-constrained welds) is a counted event
+    /// in [`SpatialWorkspace::locked`], with the time and state of the first one. (A single
+    /// singular arm does not lock the chain: the object's own inertia keeps `K` positive
+    /// definite; the simulation loop watches the arms' σ_min with
+    /// [`SpatialPlant::min_singular_value`].) A step that produces a non-finite state is undone (`y` is left
+    /// at the last good state, never NaN) and reported as [`StepFault::NonFinite`] with its
+    /// time. No allocation.
     pub fn step(
         &self,
         rk: &mut Rk4,
@@ -568,15 +623,46 @@ impl SpatialPlant {
         ws: &mut SpatialWorkspace,
         h: f64,
         n: usize,
-    ) {
-        let mut sys = SpatialOde {
-            plant: self,
-            ws,
-            input,
-        };
+    ) -> Result<(), StepFault> {
         for k in 0..n {
-            rk.step(&mut sys, t + k as f64 * h, y, h);
+            let tk = t + k as f64 * h;
+            ws.y_prev.copy_from_slice(y);
+            let before = ws.regularised;
+            {
+                let mut sys = SpatialOde {
+                    plant: self,
+                    ws: &mut *ws,
+                    input,
+                };
+                rk.step(&mut sys, tk, y, h);
+            }
             self.normalize(y);
+            if !y.iter().all(|v| v.is_finite()) {
+                y.copy_from_slice(&ws.y_prev);
+                return Err(StepFault::NonFinite { t: tk });
+            }
+            if ws.regularised > before {
+                let ev = &mut ws.locked;
+                ev.steps += 1;
+                if ev.first_t.is_none() {
+                    ev.first_t = Some(tk);
+                    ev.first_state.copy_from_slice(&ws.y_prev);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The grasp matrix of a state, one block per grasp: `out[i] = G_iᵀ = Ad_iᵀ =
+    /// [[I, 0], [[r_i]×, I]]` with `r_i = R_WO p_OGi`, so the arms' wrench on the object (about
+    /// its centre of mass, world axes) is `F_o = −Σ G_iᵀ F_i` (SPEC-spatial S3). The internal
+    /// wrenches are the null space of `[G_1ᵀ … G_mᵀ]` (dimension `6m − 6`).
+    pub fn grasp_map(&self, y: &[f64], out: &mut [Matrix6<f64>]) {
+        let (_, o, _) = self.split(y);
+        for (i, g) in out.iter_mut().enumerate().take(self.grasps.len()) {
+            let r = o.q * self.grasps[i].translation.vector;
+            *g = Matrix6::identity();
+            g.fixed_view_mut::<3, 3>(3, 0).copy_from(&skew(&r));
         }
     }
 
@@ -680,14 +766,33 @@ impl SpatialPlant {
             let r = x_wo.rotation * self.grasps[i].translation.vector;
             let w = twist.fixed_rows::<3>(3).into_owned();
             let vt = v6(&(twist.fixed_rows::<3>(0) + w.cross(&r)), &w);
-            let jjt = jjt(d);
-            let sol = jjt.cholesky().ok_or_else(|| {
-                ModelError::geometry(
+            // Full row rank (n ≥ 6): minimum norm Jᵀ(J Jᵀ)⁻¹ V_T; fewer joints: least squares
+            // (Jᵀ J)⁻¹ Jᵀ V_T, which must then reproduce V_T.
+            let qd: DVector<f64> = if n >= 6 {
+                let sol = jjt(d).cholesky().ok_or_else(|| {
+                    ModelError::geometry(
+                        format!("arms[{i}]"),
+                        "is at a singular configuration at the start pose",
+                    )
+                })?;
+                d.J.transpose() * sol.solve(&vt)
+            } else {
+                let jtj = d.J.transpose() * &d.J;
+                let sol = jtj.cholesky().ok_or_else(|| {
+                    ModelError::geometry(
+                        format!("arms[{i}]"),
+                        "is at a singular configuration at the start pose",
+                    )
+                })?;
+                sol.solve(&(d.J.transpose() * vt))
+            };
+            let miss = (&d.J * &qd - vt).norm();
+            if miss > 1e-9 * (1.0 + vt.norm()) {
+                return Err(ModelError::geometry(
                     format!("arms[{i}]"),
-                    "is at a singular configuration at the start pose",
-                )
-            })?;
-            let qd = d.J.transpose() * sol.solve(&vt);
+                    format!("cannot follow the start twist at its grasp ({miss:.3e} off)"),
+                ));
+            }
             y[s..s + n].copy_from_slice(&q);
             y[self.n_q + 7 + s..self.n_q + 7 + s + n].copy_from_slice(qd.as_slice());
         }
