@@ -389,8 +389,9 @@ fn terms_match_the_separate_algorithms() {
 #[test]
 fn aba_matches_cholesky_and_inverts_rnea() {
     // ABA and M⁻¹(τ − b) are different O(n)/O(n³) factorisations of the same system: they agree
-    // to cond(M) ε; the random chains (mass ratios up to 10, prismatic joints) have cond(M) up to
-    // ~1e4, so 1e-11 relative to max(|q̈|, 1).
+    // to about cond(M) ε. Measured cond(M) over these states: ≤ 8e2 (Panda-like), ≤ 4e4 (the
+    // UR5-like arm's light wrist), ≤ 6e3 (random chains), so cond·ε ≤ 9e-12: tolerance 5e-11
+    // relative to max(|q̈|, 1) (and to max(|τ|, 1) for rnea ∘ aba).
     let mut rng = SplitMix64(203);
     let mut worst: f64 = 0.0;
     let mut worst_inv: f64 = 0.0;
@@ -407,18 +408,18 @@ fn aba_matches_cholesky_and_inverts_rnea() {
                 dynamics::forward_dynamics(&arm, &s.q, &s.qd, &s.tau, &g, f, &mut c, &mut d);
                 let e = rel_err(&a, &c, 1.0);
                 worst = worst.max(e);
-                assert!(e < 1e-11, "{}: ABA vs Cholesky {e:e}", arm.chain.name);
+                assert!(e < 5e-11, "{}: ABA vs Cholesky {e:e}", arm.chain.name);
                 // forward ∘ inverse: rnea(q, q̇, aba(τ)) = τ.
                 let t = rnea_vec(&arm, &s.q, &s.qd, &a, &g, f, &mut d);
                 let e = rel_err(&t, &s.tau, 1.0);
                 worst_inv = worst_inv.max(e);
-                assert!(e < 1e-11, "{}: rnea ∘ aba {e:e}", arm.chain.name);
+                assert!(e < 5e-11, "{}: rnea ∘ aba {e:e}", arm.chain.name);
                 // inverse ∘ forward: aba(q, q̇, rnea(q̈)) = q̈.
                 let t = rnea_vec(&arm, &s.q, &s.qd, &s.qdd, &g, f, &mut d);
                 dynamics::aba(&arm, &s.q, &s.qd, &t, &g, f, &mut a, &mut d);
                 let e = rel_err(&a, &s.qdd, 1.0);
                 worst_inv = worst_inv.max(e);
-                assert!(e < 1e-11, "{}: aba ∘ rnea {e:e}", arm.chain.name);
+                assert!(e < 5e-11, "{}: aba ∘ rnea {e:e}", arm.chain.name);
             }
             assert_eq!(d.singular_pivots(), 0);
         }

@@ -2,7 +2,7 @@
 //! (Featherstone 2008, §6.1): `q̈ = M⁻¹ (τ − (C q̇ + g − J_Tᵀ F_T))`.
 //!
 //! The O(n³) alternative to [`super::aba`], against which it is tested; for n ≤ 7 both cost
-//! about the same. It also leaves `d.M` and `d.bias` (`C q̇ + g − J_Tᵀ F_T`) behind.
+//! about the same. It also leaves `d.M` behind.
 
 use nalgebra::{Vector3, Vector6};
 
@@ -15,8 +15,8 @@ use crate::model::SpatialArm;
 
 /// Forward dynamics by CRBA + RNEA bias + Cholesky of `M`; agrees with [`super::aba`].
 ///
-/// Reads `q`, `q̇`, `τ` (n), `g_W` and `F_T` (as [`super::aba`]); writes `qdd` (n),
-/// `d.M`, `d.bias` = `C q̇ + g − J_Tᵀ F_T` and the poses. If `M` is not positive definite
+/// Reads `q`, `q̇`, `τ` (n), `g_W` and `F_T` (as [`super::aba`]); writes `qdd` (n), `d.M`
+/// and the poses (not `d.bias`). If `M` is not positive definite
 /// (invalid chain only), `M + ε (tr(M)/n + 1) I` with `ε = 1e-12` is factored instead (so a
 /// chain of massless bodies gives large but finite accelerations) and the event is counted in
 /// [`ChainData::singular_pivots`]; if that fails too, `qdd` is set to zero.
@@ -35,12 +35,11 @@ pub fn forward_dynamics(
     check_len(arm, d, "qdd", qdd);
     placements_and_inertias(arm, q, d);
     let n = d.S.len();
-    let mut bias = std::mem::take(&mut d.bias);
-    rnea_passes(qd, None, g_W, f_T_W, bias.as_mut_slice(), d);
-    d.bias = bias;
+    // qdd first holds the bias C q̇ + g − J_Tᵀ F_T, then τ minus it.
+    rnea_passes(qd, None, g_W, f_T_W, qdd, d);
     crba_pass(d);
-    for k in 0..n {
-        qdd[k] = tau[k] - d.bias[k];
+    for (a, t) in qdd[..n].iter_mut().zip(tau) {
+        *a = t - *a;
     }
     d.chol.copy_from(&d.M);
     if cholesky_in_place(&mut d.chol, n).is_err() {

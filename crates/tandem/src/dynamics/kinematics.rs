@@ -45,6 +45,27 @@ pub(super) fn rot(q: &Quaternion<f64>) -> Matrix3<f64> {
     )
 }
 
+/// Hamilton product `a b` written out (16 multiplications).
+#[inline(always)]
+fn qmul(a: &Quaternion<f64>, b: &Quaternion<f64>) -> Quaternion<f64> {
+    Quaternion::new(
+        a.w * b.w - a.i * b.i - a.j * b.j - a.k * b.k,
+        a.w * b.i + a.i * b.w + a.j * b.k - a.k * b.j,
+        a.w * b.j - a.i * b.k + a.j * b.w + a.k * b.i,
+        a.w * b.k + a.i * b.j - a.j * b.i + a.k * b.w,
+    )
+}
+
+/// `R v` for a rotation matrix, written out.
+#[inline(always)]
+fn mulv(r: &Matrix3<f64>, v: &Vector3<f64>) -> Vector3<f64> {
+    Vector3::new(
+        r[(0, 0)] * v.x + r[(0, 1)] * v.y + r[(0, 2)] * v.z,
+        r[(1, 0)] * v.x + r[(1, 1)] * v.y + r[(1, 2)] * v.z,
+        r[(2, 0)] * v.x + r[(2, 1)] * v.y + r[(2, 2)] * v.z,
+    )
+}
+
 /// Stage 1: `q → (X_WL, R_WL, S, X_WT)`. Reads the chain and `arm.base`.
 #[inline]
 pub(super) fn placements(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
@@ -69,20 +90,20 @@ pub(super) fn placements(arm: &SpatialArm, q: &[f64], d: &mut ChainData) {
         let t_pj = j.placement.translation.vector;
         let a = j.axis.into_inner();
         // Parent-to-joint placement composed first: q_WJ = q_W,parent q_PJ (16 mult).
-        let q_wj = q_prev * q_pj;
-        let p_j = p_prev + r_prev * t_pj;
+        let q_wj = qmul(&q_prev, q_pj);
+        let p_j = p_prev + mulv(&r_prev, &t_pj);
         let (q_wl, p_wl, r_wl, s) = match j.kind {
             JointKind::Revolute => {
                 // J(q) = Rot(a, q) = (cos q/2, sin q/2 a).
                 let (sh, ch) = sin_cos(0.5 * q[k]);
-                let q_wl = q_wj * Quaternion::new(ch, sh * a.x, sh * a.y, sh * a.z);
+                let q_wl = qmul(&q_wj, &Quaternion::new(ch, sh * a.x, sh * a.y, sh * a.z));
                 let r = rot(&q_wl);
-                let z = r * a;
+                let z = mulv(&r, &a);
                 (q_wl, p_j, r, stack(&p_j.cross(&z), &z))
             }
             JointKind::Prismatic => {
                 let r = rot(&q_wj);
-                let z = r * a;
+                let z = mulv(&r, &a);
                 let p = p_j + z * q[k];
                 (q_wj, p, r, stack(&z, &Vector3::zeros()))
             }

@@ -56,13 +56,14 @@
 //!
 //! | 7-DOF Panda-like | tandem          | dynibo            |
 //! |------------------|-----------------|-------------------|
-//! | kinematics (poses, J, J̇q̇) | 3 382 Ir, 0.55–0.72 µs | 6 447 Ir, 1.3–1.5 µs |
-//! | RNEA             | 5 903 Ir, 0.80–0.91 µs | 7 229 Ir, 1.1–1.6 µs |
-//! | CRBA             | 5 407 Ir, 0.79–0.90 µs | 9 207 Ir, 1.45–1.66 µs |
-//! | ABA              | 9 312 Ir, 1.3–2.0 µs   | 19 450 Ir, 3.6–4.7 µs |
-//! | terms (kinematics + M + C q̇ + g) | 7 771 Ir, 1.1–1.2 µs | ≈ 22 900 Ir (sum of the calls), 4.1–6.1 µs |
+//! | kinematics (poses, J, J̇q̇) | 3 336 Ir, 0.55–0.72 µs | 6 447 Ir, 1.3–1.5 µs |
+//! | RNEA             | 5 857 Ir, 0.80–0.91 µs | 7 229 Ir, 1.1–1.6 µs |
+//! | CRBA             | 5 379 Ir, 0.79–0.90 µs | 9 207 Ir, 1.45–1.66 µs |
+//! | ABA              | 9 258 Ir, 1.3–2.0 µs   | 19 450 Ir, 3.6–4.7 µs |
+//! | terms (kinematics + M + C q̇ + g) | 7 714 Ir, 1.1–1.2 µs | ≈ 22 900 Ir (sum of the calls), 4.1–6.1 µs |
 //!
-//! For the 6-DOF UR5-like arm `terms` is 6 566 instructions (0.64–0.97 µs loaded). The time is
+//! For the 6-DOF UR5-like arm `terms` is 6 502 instructions (0.64–0.97 µs loaded); built for
+//! x86-64-v3 (AVX2, FMA) every count drops by 10–18 % (Panda-like `terms` 6 661). The time is
 //! arithmetic spread over the stages, not one hot spot: per body about 370 instructions for the
 //! placement (two quaternion products, quaternion to matrix, world axis, one inlined
 //! `sin_cos`), 160 for the world inertia (`R I_c Rᵀ`), 280 for the RNEA forward step (two

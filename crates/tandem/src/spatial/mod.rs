@@ -2,6 +2,7 @@
 //!
 //! * [`so3`]: `hat`/`vee`, `Exp`/`Log` of SO(3) and the right and left Jacobians with their
 //!   inverses, accurate near `θ = 0` (Taylor series) and `θ = π` (antipodal `Log`).
+//! * [`se3`]: `Exp`/`Log` of SE(3) on linear-first twists (pose errors by the log map).
 //! * [`motion`]: twists `[v; ω]` and wrenches `[f; τ]` (**linear first**), their cross products
 //!   and the motion and force adjoints of a rigid transform `X_AB` (nalgebra `Isometry3<f64>`).
 //! * [`trig`]: an inlined `sin_cos` for the joint angles (Cody–Waite + fdlibm kernels).
@@ -14,6 +15,7 @@
 
 pub mod inertia;
 pub mod motion;
+pub mod se3;
 pub mod so3;
 pub mod trig;
 
