@@ -17,7 +17,7 @@ use nalgebra::{UnitQuaternion, Vector3, Vector6};
 use proptest::prelude::*;
 use tandem::ModelError;
 use tandem::reference::se3_path::{
-    AxisFrame, CircleParams, Se3Path, Se3Sample, Se3Spline, Se3Waypoint, chart_x1,
+    AxisFrame, CircleParams, Se3Path, Se3Sample, Se3Spline, Se3Waypoint, chart_rates, chart_x1,
     left_jacobian_rates,
 };
 use tandem::spatial::so3;
@@ -87,11 +87,22 @@ struct Worst {
     w: f64,
     wd: f64,
     wdd: f64,
+    /// Largest error / tolerance over all checks.
+    ratio: f64,
 }
 
 impl Worst {
-    fn put(slot: &mut f64, what: &str, t: f64, fd: Vector3<f64>, an: Vector3<f64>, tol: f64) {
+    fn put(
+        slot: &mut f64,
+        ratio: &mut f64,
+        what: &str,
+        t: f64,
+        fd: Vector3<f64>,
+        an: Vector3<f64>,
+        tol: f64,
+    ) {
         let e = (fd - an).amax();
+        *ratio = ratio.max(e / tol);
         assert!(
             e <= tol,
             "{what} at t = {t}: fd {fd:?} vs analytic {an:?}, error {e:e} > tol {tol:e}"
@@ -113,6 +124,7 @@ fn check_all(path: &Se3Path, t: f64, h: f64, b: &Bounds, worst: &mut Worst) {
     let pos = |f: fn(&Se3Sample) -> Vector3<f64>| move |x: f64| f(&path.sample(x));
     Worst::put(
         &mut worst.v,
+        &mut worst.ratio,
         "v",
         t,
         fd4(pos(|s| s.p), t, h),
@@ -121,6 +133,7 @@ fn check_all(path: &Se3Path, t: f64, h: f64, b: &Bounds, worst: &mut Worst) {
     );
     Worst::put(
         &mut worst.a,
+        &mut worst.ratio,
         "a",
         t,
         fd4(pos(|s| s.v), t, h),
@@ -129,6 +142,7 @@ fn check_all(path: &Se3Path, t: f64, h: f64, b: &Bounds, worst: &mut Worst) {
     );
     Worst::put(
         &mut worst.j,
+        &mut worst.ratio,
         "j",
         t,
         fd4(pos(|s| s.a), t, h),
@@ -138,6 +152,7 @@ fn check_all(path: &Se3Path, t: f64, h: f64, b: &Bounds, worst: &mut Worst) {
     // ξ is a rotation vector of magnitude ≤ |ω| 2h.
     Worst::put(
         &mut worst.w,
+        &mut worst.ratio,
         "ω",
         t,
         fd4_omega(path, t, h),
@@ -146,6 +161,7 @@ fn check_all(path: &Se3Path, t: f64, h: f64, b: &Bounds, worst: &mut Worst) {
     );
     Worst::put(
         &mut worst.wd,
+        &mut worst.ratio,
         "ω̇",
         t,
         fd4(pos(|s| s.w), t, h),
@@ -154,6 +170,7 @@ fn check_all(path: &Se3Path, t: f64, h: f64, b: &Bounds, worst: &mut Worst) {
     );
     Worst::put(
         &mut worst.wdd,
+        &mut worst.ratio,
         "ω̈",
         t,
         fd4(pos(|s| s.wd), t, h),
@@ -547,9 +564,11 @@ fn spline_derivatives_match_finite_differences() {
     let path = Se3Path::spline(&wps).unwrap();
     // Inside a segment p is a cubic: p⁽⁴⁾ = 0, so the stencil is exact for v, a, j up to
     // rounding (b.p[5..] = 0). ω is analytic inside a segment but its 5th-and-higher
-    // derivatives have no closed bound: bound them by the measured maximum of |ω̈| times
-    // (|φ̇|max + 1/h_min)³ with h_min the shortest segment — the scale on which φ's cubic
-    // changes — which dominates the Taylor coefficients of J_l(φ(t)) φ̇(t).
+    // derivatives have no closed bound: estimate |ω⁽ⁿ⁾| ≤ |ω̈|max kⁿ⁻² with the rate
+    // k = 2(|φ̇|max + 1/h_min), h_min = 0.4 s the shortest segment — the time scale on which
+    // φ's cubic changes, and |φ̇| the one on which J_l(φ) does. This is an estimate, not a
+    // proof: the measured errors (printed, with their largest fraction of the tolerance) sit
+    // well below the resulting tolerances.
     let mut b = Bounds {
         p: [0.0; 8],
         w: [0.0; 8],
@@ -632,6 +651,71 @@ fn left_jacobian_rates_match_so3_and_finite_differences() {
     eprintln!("J_l rates: |w − J_l φ̇| {e0:e}, ẇ fd {e1:e}, ẅ fd {e2:e}");
     assert!(e0 < 1e-14);
     assert!(e1 < 1e-9 && e2 < 1e-9);
+}
+
+#[test]
+fn chart_rates_match_finite_differences() {
+    // x_1 = (p − c, Log(R_refᵀ R)) and its rates against 4th-order differences of the lower
+    // one, for references off each path's family (no wrap: the angles stay below 2.2 rad).
+    // h = 1e-3. φ's derivatives are those of ω through J_l⁻¹ (‖J_l⁻¹‖ ≤ π/2) and its rates:
+    // |φ⁽ⁿ⁾| ≲ (π/2) 4ⁿ |ω|max-scale; for the circle |φ⁽⁷⁾| ≲ (π/2)·0.8·2.1⁷·16 ≈ 3.7e3, so
+    // truncation h⁴/30 · 3.7e3 ≈ 1.2e-10; rounding 1.5 ε · 3 / h ≈ 1e-12. Tolerance 5e-10
+    // (circle, quintic), and 5e-9 for the spline (faster, see its derivative test).
+    let circ = Se3Path::circle(&tilted_circle(AxisFrame::Body)).unwrap();
+    let (pp, ..) = p2p();
+    let sp = Se3Path::spline(&test_waypoints()).unwrap();
+    let c = Vector3::new(0.05, 0.0, 0.3);
+    let cases = [
+        (
+            &circ,
+            circ.sample(0.3).r * quat(Vector3::new(0.2, 1.0, -0.4), 0.3),
+            5e-10,
+            0.0,
+            6.0,
+        ),
+        (
+            &pp,
+            quat(Vector3::new(1.0, 0.2, -0.3), 0.4),
+            5e-10,
+            0.55,
+            2.45,
+        ),
+        (&sp, sp.sample(0.0).r, 5e-9, 0.0, 3.8),
+    ];
+    let h = 1e-3;
+    for (path, r_ref, tol, t_lo, t_hi) in cases {
+        let rot = |k: usize| {
+            move |t: f64| {
+                let x = chart_rates(&path.sample(t), &c, &r_ref)[k];
+                Vector3::new(x[3], x[4], x[5])
+            }
+        };
+        let mut worst = [0f64; 3];
+        for i in 0..=200 {
+            let t = t_lo + (t_hi - t_lo) * i as f64 / 200.0;
+            if let Se3Path::Spline(s) = path {
+                if s.waypoints().iter().any(|w| (w.t - t).abs() <= 2.5 * h) {
+                    continue;
+                }
+            }
+            let x = chart_rates(&path.sample(t), &c, &r_ref);
+            // The value is the chart itself.
+            let s = path.sample(t);
+            assert_eq!(x[0], chart_x1(&s, &c, &r_ref));
+            assert_eq!(x[1].fixed_rows::<3>(0), s.v);
+            for k in 1..4 {
+                let fd = fd4(rot(k - 1), t, h);
+                let an = Vector3::new(x[k][3], x[k][4], x[k][5]);
+                let e = (fd - an).amax();
+                assert!(e < tol, "order {k} at t = {t}: {fd:?} vs {an:?} ({e:e})");
+                worst[k - 1] = worst[k - 1].max(e);
+            }
+        }
+        eprintln!(
+            "chart rates: worst |fd − analytic| (φ̇, φ̈, φ⃛) = {:e} {:e} {:e}",
+            worst[0], worst[1], worst[2]
+        );
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1014,7 +1098,8 @@ fn sampling_never_allocates() {
         let n = count(|| {
             for i in 0..10_000 {
                 let s = path.sample(std::hint::black_box(-1.0 + 5e-4 * i as f64));
-                acc += s.p.x + s.r.w + s.wdd.y;
+                let x = chart_rates(&s, &Vector3::zeros(), &UnitQuaternion::identity());
+                acc += s.p.x + s.r.w + s.wdd.y + x[3][4];
             }
         });
         assert_eq!(n, 0, "{path:?}");

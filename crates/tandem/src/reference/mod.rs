@@ -12,5 +12,5 @@ pub mod se3_path;
 
 pub use se3_path::{
     AxisFrame, CircleParams, Se3Circle, Se3Path, Se3PointToPoint, Se3Sample, Se3Spline,
-    Se3Waypoint, chart_x1,
+    Se3Waypoint, chart_rates, chart_x1, left_jacobian_rates,
 };

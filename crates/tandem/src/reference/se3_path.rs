@@ -85,9 +85,13 @@
 //! several paths); the cumulative B-spline of Kim et al. has no such limit but is $C^2$ only
 //! through control rotations it does not interpolate.
 //!
-//! # Reach in the output chart ([`Se3Path::max_abs`])
+//! # The output chart ([`chart_x1`], [`chart_rates`], [`Se3Path::max_abs`])
 //!
-//! $\max_{t\in[0,t_{end}]} |x_{1j}(t)|$ for $x_1 = (p - c,\ \mathrm{Log}(R_{ref}^T R))$
+//! [`chart_rates`] turns a sample into the S5 output coordinates $x_1 = (p - c, \varphi)$ and
+//! their exact first three time derivatives (the planar [`crate::trajectory::PathSample`]'s
+//! role for the six-output iBLF), through $J_l^{-1}$ and the derivatives of $J_l$.
+//!
+//! [`Se3Path::max_abs`] gives $\max_{t\in[0,t_{end}]} |x_{1j}(t)|$ for $x_1 = (p - c,\ \mathrm{Log}(R_{ref}^T R))$
 //! (SPEC-spatial S5), used to check the iBLF bounds $k_c$:
 //! * position: closed form for all three shapes (circle: $|d_j + \rho_j\cos(\psi - \beta_j)|$
 //!   over the angle range; quintic: monotone; spline: the derivative's roots per segment);
@@ -126,7 +130,7 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
 use crate::error::{ModelError, positive};
-use crate::spatial::so3::{exp_quat, log_quat};
+use crate::spatial::so3::{exp_quat, left_jacobian_inv, log_quat};
 use crate::trajectory::MAX_PHASE;
 use crate::trajectory::{Path, Spline};
 
@@ -208,6 +212,40 @@ fn stack(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector6<f64> {
 /// $x_1 = (p - c,\ \mathrm{Log}(R_{ref}^T R))$, linear first [m, rad].
 pub fn chart_x1(s: &Se3Sample, c: &Vector3<f64>, r_ref: &UnitQuaternion<f64>) -> Vector6<f64> {
     stack(&(s.p - c), &log_quat(&(r_ref.inverse() * s.r)))
+}
+
+/// The desired output in the S5 chart and its first three time derivatives,
+/// $[x_1, \dot x_1, \ddot x_1, \dddot x_1]$ with $x_1 = (p - c,\ \varphi)$,
+/// $\varphi = \mathrm{Log}(R_{ref}^T R)$, linear first [m, rad; /s, /s², /s³].
+///
+/// With $Q = R_{ref}^T R = \mathrm{Exp}(\varphi)$, $\dot Q = [\omega_r] Q$ where
+/// $\omega_r = R_{ref}^T\omega$, so $\omega_r = J_l(\varphi)\dot\varphi$ and, differentiating
+/// ([`left_jacobian_rates`] is linear in its last argument),
+/// $$\dot\varphi = J_l^{-1}\omega_r,\quad
+///   \ddot\varphi = J_l^{-1}(\dot\omega_r - \dot J_l\dot\varphi),\quad
+///   \dddot\varphi = J_l^{-1}(\ddot\omega_r - \ddot J_l\dot\varphi - 2\dot J_l\ddot\varphi)$$
+/// (exact; $J_l^{-1}$ is regular for $|\varphi| \le \pi$, which `Log` guarantees). The chart
+/// itself jumps where $R$ crosses the half turn from $R_{ref}$ (SPEC-spatial S5 keeps
+/// $|\varphi| < k_{c} < \pi$). No allocation.
+pub fn chart_rates(
+    s: &Se3Sample,
+    c: &Vector3<f64>,
+    r_ref: &UnitQuaternion<f64>,
+) -> [Vector6<f64>; 4] {
+    let ref_inv = r_ref.inverse();
+    let phi = log_quat(&(ref_inv * s.r));
+    let (w, wd, wdd) = (ref_inv * s.w, ref_inv * s.wd, ref_inv * s.wdd);
+    let jl_inv = left_jacobian_inv(&phi);
+    let z = Vector3::zeros();
+    let d1 = jl_inv * w;
+    let d2 = jl_inv * (wd - left_jacobian_rates(&phi, &d1, &z, &z)[1]);
+    let d3 = jl_inv * (wdd - left_jacobian_rates(&phi, &d1, &d2, &z)[2]);
+    [
+        stack(&(s.p - c), &phi),
+        stack(&s.v, &d1),
+        stack(&s.a, &d2),
+        stack(&s.j, &d3),
+    ]
 }
 
 // ---------------------------------------------------------------------------------------------
