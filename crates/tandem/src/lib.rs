@@ -63,6 +63,7 @@ pub mod sensors;
 pub mod admittance;
 pub mod iblf;
 pub mod rbf;
+pub mod reference;
 pub mod switching;
 pub mod trajectory;
 
