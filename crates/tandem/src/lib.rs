@@ -46,6 +46,7 @@ pub mod notation;
 
 pub mod dynamics;
 pub mod model;
+pub mod se3;
 pub mod spatial;
 
 pub mod arm;
