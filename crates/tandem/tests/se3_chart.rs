@@ -11,9 +11,6 @@
 //! (round trips, exact cases) are held to a few ulps (1e-14). Measured maxima are printed
 //! (`--nocapture`) and quoted in the report.
 
-// Grasp helpers serve the fit tests (next commit).
-#![allow(dead_code)]
-
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -24,7 +21,7 @@ use nalgebra::{
 use proptest::prelude::*;
 use tandem::fixtures::SplitMix64;
 use tandem::se3::chart::jl_inv_rate;
-use tandem::se3::{Chart, PoseSample};
+use tandem::se3::{Chart, PoseSample, candidate, fit, fit_weighted};
 use tandem::spatial::so3;
 
 // ---------------------------------------------------------------------------------------------
@@ -336,7 +333,8 @@ fn phi_ddot_and_e_dot_match_finite_differences() {
         assert!(err_alt < 1e-13, "θ = {th}: three-term form {err_alt:e}");
     }
     eprintln!(
-        "ẍ_1 vs FD of ẋ_1: {worst:.2e}; Ė vs FD of E: {worst_e:.2e}; three-term form: {worst_alt:.2e} (relative)"
+        "ẍ_1 vs FD of ẋ_1: {worst:.2e}; Ė vs FD of E: {worst_e:.2e}; \
+         three-term form: {worst_alt:.2e} (relative)"
     );
 }
 
@@ -464,6 +462,262 @@ fn dynamics_in_chart_coordinates_are_the_same_equation() {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Fit.
+
+#[test]
+fn consistent_candidates_give_the_object_exactly() {
+    let mut rng = SplitMix64(21);
+    let mut worst = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for k in 0..60 {
+        let grasps: Vec<Isometry3<f64>> = if k % 3 == 0 {
+            scenario_grasps().to_vec()
+        } else {
+            let n = 1 + k % 5;
+            random_grasps(&mut rng, n)
+        };
+        let r0 = rand_quat(&mut rng);
+        let m = Motion::random(&mut rng, r0, 1.0);
+        let o = m.at(0.3);
+        let tools: Vec<PoseSample> = grasps.iter().map(|g| tool_of(&o, g)).collect();
+        // Hint: anything within 90° of the object (here the object 1 rad off).
+        let hint = o.q * so3::exp_quat(&(unit(&mut rng) * 1.0));
+        let weights: Vec<f64> = (0..grasps.len()).map(|_| rng.range(0.1, 3.0)).collect();
+        for f in [
+            fit(&grasps, &tools, &hint),
+            fit_weighted(&grasps, &tools, &weights, &hint),
+        ] {
+            assert!(!f.degenerate && f.n == grasps.len());
+            let (ep, er, ev, ea) = sample_err(&f.sample, &o);
+            let sc = 1.0 + o.twist.norm() + o.twist_dot.norm();
+            worst = (
+                worst.0.max(ep),
+                worst.1.max(er),
+                worst.2.max(ev / sc),
+                worst.3.max(ea / sc),
+            );
+            assert!(f.spread < 1e-7, "spread {}", f.spread);
+            // Candidates themselves are the object.
+            for (t, g) in tools.iter().zip(&grasps) {
+                let c = candidate(t, g);
+                let e = sample_err(&c, &o);
+                assert!(e.0 < 1e-14 && e.1 < 1e-14 && e.2 < 1e-13 && e.3 < 1e-13);
+            }
+        }
+    }
+    eprintln!(
+        "consistent fit: pose {:.2e} m, {:.2e} rad; twist {:.2e}; twist rate {:.2e} (relative)",
+        worst.0, worst.1, worst.2, worst.3
+    );
+    assert!(worst.0 < 1e-14 && worst.1 < 1e-14 && worst.2 < 1e-14 && worst.3 < 1e-14);
+}
+
+/// Tool reference motions that disagree: each arm's tool follows the object's motion through
+/// its grasp, composed with its own smooth offset of up to ~0.3 rad and a few cm.
+fn perturbed_tools(
+    rng: &mut SplitMix64,
+    grasps: &[Isometry3<f64>],
+) -> (Motion, Vec<Motion>, UnitQuaternion<f64>) {
+    let r0 = rand_quat(rng);
+    let obj = Motion::random(rng, r0, 1.0);
+    let o = obj.at(0.0);
+    let tools = grasps
+        .iter()
+        .map(|g| {
+            let t0 = tool_of(&o, g);
+            let off = so3::exp_quat(&(unit(rng) * 0.3));
+            let mut mi = Motion::random(rng, t0.q * off, 1.0);
+            mi.p0 = t0.p + Vector3::from_fn(|_, _| rng.range(-0.03, 0.03));
+            mi
+        })
+        .collect();
+    (obj, tools, o.q)
+}
+
+#[test]
+fn fitted_rates_match_finite_differences_of_the_fitted_pose() {
+    let mut rng = SplitMix64(31);
+    let mut worst = [0.0f64; 4];
+    for k in 0..40 {
+        let grasps: Vec<Isometry3<f64>> = if k % 2 == 0 {
+            scenario_grasps().to_vec()
+        } else {
+            random_grasps(&mut rng, 1 + k % 6)
+        };
+        let weights: Vec<f64> = (0..grasps.len()).map(|_| rng.range(0.2, 2.0)).collect();
+        let (_, tools, hint) = perturbed_tools(&mut rng, &grasps);
+        let at = |t: f64| {
+            let ts: Vec<PoseSample> = tools.iter().map(|m| m.at(t)).collect();
+            if k % 4 == 1 {
+                fit_weighted(&grasps, &ts, &weights, &hint)
+            } else {
+                fit(&grasps, &ts, &hint)
+            }
+        };
+        let f0 = at(0.0).sample;
+        let v = d5(|t| at(t).sample.p, H);
+        let w = omega_fd(|t| at(t).sample.q, H);
+        let a = d5(|t| at(t).sample.v(), H);
+        let wd = d5(|t| at(t).sample.w(), H);
+        let e = [
+            (v - f0.v()).norm(),
+            (w - f0.w()).norm(),
+            (a - f0.v_dot()).norm(),
+            (wd - f0.w_dot()).norm(),
+        ];
+        for (x, y) in worst.iter_mut().zip(e) {
+            *x = x.max(y);
+        }
+        assert!(e[0] < 1e-10 && e[1] < 1e-10, "k = {k}: {e:?}");
+        assert!(e[2] < 2e-10 && e[3] < 2e-10, "k = {k}: {e:?}");
+    }
+    eprintln!(
+        "perturbed fit vs FD: v {:.2e}, ω {:.2e}, v̇ {:.2e}, ω̇ {:.2e}",
+        worst[0], worst[1], worst[2], worst[3]
+    );
+}
+
+#[test]
+fn relabelling_grasps_changes_nothing() {
+    let mut rng = SplitMix64(41);
+    let mut worst: f64 = 0.0;
+    for k in 0..30 {
+        let n = 2 + k % 5;
+        let grasps = random_grasps(&mut rng, n);
+        let weights: Vec<f64> = (0..n).map(|_| rng.range(0.2, 2.0)).collect();
+        let (_, tools, hint) = perturbed_tools(&mut rng, &grasps);
+        let ts: Vec<PoseSample> = tools.iter().map(|m| m.at(0.2)).collect();
+        let f = fit_weighted(&grasps, &ts, &weights, &hint);
+        // Reverse, then rotate the labels.
+        for shift in 0..n {
+            let perm: Vec<usize> = (0..n).map(|i| (n - 1 - i + shift) % n).collect();
+            let g2: Vec<_> = perm.iter().map(|&i| grasps[i]).collect();
+            let t2: Vec<_> = perm.iter().map(|&i| ts[i]).collect();
+            let w2: Vec<_> = perm.iter().map(|&i| weights[i]).collect();
+            let f2 = fit_weighted(&g2, &t2, &w2, &hint);
+            let (ep, er, ev, ea) = sample_err(&f.sample, &f2.sample);
+            worst = worst.max(ep).max(er).max(ev).max(ea);
+            assert!((f.spread - f2.spread).abs() < 1e-14);
+        }
+    }
+    eprintln!("relabelling: max difference {worst:.2e}");
+    assert!(worst < 1e-14, "{worst:e}");
+}
+
+#[test]
+fn a_world_frame_change_transforms_the_fit_covariantly() {
+    let mut rng = SplitMix64(51);
+    let mut worst: f64 = 0.0;
+    for k in 0..30 {
+        let grasps: Vec<Isometry3<f64>> = if k % 2 == 0 {
+            scenario_grasps().to_vec()
+        } else {
+            random_grasps(&mut rng, 3)
+        };
+        let (_, tools, hint) = perturbed_tools(&mut rng, &grasps);
+        let ts: Vec<PoseSample> = tools.iter().map(|m| m.at(-0.4)).collect();
+        let x_a = Isometry3::from_parts(
+            Translation3::from(Vector3::from_fn(|_, _| rng.range(-2.0, 2.0))),
+            rand_quat(&mut rng),
+        );
+        let f = fit(&grasps, &ts, &hint).sample.transformed(&x_a);
+        let ts2: Vec<PoseSample> = ts.iter().map(|t| t.transformed(&x_a)).collect();
+        let f2 = fit(&grasps, &ts2, &(x_a.rotation * hint)).sample;
+        let (ep, er, ev, ea) = sample_err(&f, &f2);
+        worst = worst.max(ep).max(er).max(ev).max(ea);
+    }
+    eprintln!("world-frame change: max difference {worst:.2e}");
+    assert!(worst < 1e-13, "{worst:e}");
+}
+
+#[test]
+fn two_equal_candidates_give_the_geodesic_midpoint() {
+    // A normalised sum of two unit quaternions is their slerp midpoint, at any angle < π.
+    let mut rng = SplitMix64(61);
+    let g = [Isometry3::identity(), Isometry3::identity()];
+    for th in [1e-6, 0.3, 1.5, 3.0] {
+        let q = rand_quat(&mut rng);
+        let n = unit(&mut rng);
+        let t1 = PoseSample::at_rest(Vector3::new(1.0, 0.0, 0.0), q);
+        let t2 = PoseSample::at_rest(Vector3::new(0.0, 1.0, 0.0), q * so3::exp_quat(&(n * th)));
+        let f = fit(&g, &[t1, t2], &q);
+        let mid = q * so3::exp_quat(&(n * (0.5 * th)));
+        assert!(rot_err(&f.sample.q, &mid) < 1e-15, "θ = {th}");
+        assert!((f.spread - 0.5 * th).abs() < 1e-14);
+        assert!((f.sample.p - Vector3::new(0.5, 0.5, 0.0)).norm() < 1e-16);
+    }
+}
+
+#[test]
+fn a_symmetric_squeeze_cancels_in_the_fit() {
+    // SPEC §3.1: each tool reference placed δ inside its grasp point along the line between
+    // the scenario's end-face grasps (orientations exact) leaves the fitted pose unchanged.
+    let mut rng = SplitMix64(81);
+    let g = scenario_grasps();
+    for _ in 0..20 {
+        let r0 = rand_quat(&mut rng);
+        let m = Motion::random(&mut rng, r0, 1.0);
+        let o = m.at(0.0);
+        let axis = o.q * Vector3::x();
+        let delta = 0.005;
+        let mut t = [tool_of(&o, &g[0]), tool_of(&o, &g[1])];
+        t[0].p += axis * delta;
+        t[1].p -= axis * delta;
+        let f = fit(&g, &t, &o.q).sample;
+        assert!((f.p - o.p).norm() < 1e-15 && rot_err(&f.q, &o.q) < 1e-15);
+        // An unbalanced push moves the reference by the mean offset.
+        t[1].p += axis * delta;
+        let f = fit(&g, &t, &o.q).sample;
+        assert!((f.p - o.p - axis * (0.5 * delta)).norm() < 1e-15);
+    }
+}
+
+#[test]
+fn degenerate_and_empty_fits_are_finite_and_flagged() {
+    let q = UnitQuaternion::identity();
+    let f = fit(&[], &[], &q);
+    assert!(f.degenerate && f.n == 0 && f.sample.q == q);
+    // Two half-turns, both at 90° in 4-D from the hint's neighbourhood: not degenerate.
+    let g = [Isometry3::identity(), Isometry3::identity()];
+    let a = PoseSample::at_rest(Vector3::zeros(), so3::exp_quat(&Vector3::new(PI, 0.0, 0.0)));
+    let b = PoseSample::at_rest(Vector3::zeros(), so3::exp_quat(&Vector3::new(0.0, PI, 0.0)));
+    let f = fit(&g, &[a, b], &q);
+    assert!(f.sample.q.coords.iter().all(|v| v.is_finite()));
+    // One half-turn given as ±q, both exactly ⊥ the hint (180° from it): the signs cannot be
+    // chosen, the sum cancels exactly → degenerate, finite.
+    let c = PoseSample {
+        twist: v6(&Vector3::zeros(), &Vector3::new(1.0, 2.0, 3.0)),
+        ..PoseSample::at_rest(
+            Vector3::zeros(),
+            UnitQuaternion::new_unchecked(Quaternion::new(0.0, 1.0, 0.0, 0.0)),
+        )
+    };
+    let d = PoseSample {
+        q: UnitQuaternion::new_unchecked(Quaternion::new(0.0, -1.0, 0.0, 0.0)),
+        ..c
+    };
+    let hint = UnitQuaternion::new_unchecked(Quaternion::new(0.0, 0.0, 1.0, 0.0));
+    let f = fit(&g, &[c, d], &hint);
+    assert!(f.degenerate);
+    let s = f.sample;
+    assert!(
+        s.p.iter()
+            .chain(s.q.coords.iter())
+            .chain(&s.twist)
+            .chain(&s.twist_dot)
+            .all(|v| v.is_finite())
+    );
+    // Zero, negative and NaN weights: equal weights.
+    let t = [
+        PoseSample::at_rest(Vector3::x(), q),
+        PoseSample::at_rest(-Vector3::x(), q),
+    ];
+    let f = fit_weighted(&g, &t, &[0.0, f64::NAN], &q);
+    assert!(f.sample.p.norm() < 1e-16 && !f.degenerate);
+    let f = fit_weighted(&g, &t, &[2.0, -1.0], &q);
+    assert!((f.sample.p - Vector3::x()).norm() < 1e-16);
+}
+
+// ---------------------------------------------------------------------------------------------
 // No NaN, no allocation.
 
 fn finite_sample(s: &PoseSample) -> bool {
@@ -542,13 +796,30 @@ proptest! {
         let (mx, hx) = cs.jac.dynamics(&Matrix6::identity(), &Vector6::from(xd), &s.twist);
         prop_assert!(mx.iter().chain(hx.iter()).all(|v| v.is_finite()));
     }
+
+    #[test]
+    fn fit_never_gives_nan(n in 0usize..6, ts in prop::array::uniform6(arb_sample()),
+                           gs in prop::array::uniform6(arb_grasp()), hint in arb_quat(),
+                           ws in prop::array::uniform6(prop_oneof![
+                               -1e3..1e3f64, Just(0.0), Just(f64::NAN), Just(f64::INFINITY)
+                           ])) {
+        let f = fit(&gs[..n], &ts[..n], &hint);
+        prop_assert!(finite_sample(&f.sample) && f.spread.is_finite());
+        let f = fit_weighted(&gs[..n], &ts[..n], &ws[..n], &hint);
+        prop_assert!(finite_sample(&f.sample) && f.spread.is_finite());
+        for (t, g) in ts.iter().zip(&gs) {
+            prop_assert!(finite_sample(&candidate(t, g)));
+        }
+    }
 }
 
 #[test]
 fn per_tick_functions_allocate_nothing() {
     let mut rng = SplitMix64(71);
-    let hint = rand_quat(&mut rng);
-    let obj = Motion::random(&mut rng, hint, 1.0);
+    let grasps = random_grasps(&mut rng, 4);
+    let (obj, tools, hint) = perturbed_tools(&mut rng, &grasps);
+    let ts: Vec<PoseSample> = tools.iter().map(|m| m.at(0.1)).collect();
+    let weights = [1.0, 2.0, 0.5, 1.5];
     let chart = Chart::new(Vector3::new(0.0, 0.0, 0.3), hint);
     let mm = Matrix6::identity() * 3.0;
     let h = Vector6::from_element(1.0);
@@ -560,7 +831,10 @@ fn per_tick_functions_allocate_nothing() {
             let (ps, _) = chart.inverse(&cs.x1, &cs.x1_dot, &cs.x1_ddot);
             let j = chart.jacobian(&cs.x1.fixed_rows::<3>(3).into_owned(), &Vector3::x());
             let (mx, hx) = cs.jac.dynamics(&mm, &h, &s.twist);
-            sink += ps.p.x + j.b[0] + mx[0] + hx[0];
+            let f = fit(&grasps, &ts, &hint);
+            let fw = fit_weighted(&grasps, &ts, &weights, &hint);
+            let c = candidate(&ts[0], &grasps[0]);
+            sink += ps.p.x + j.b[0] + mx[0] + hx[0] + f.sample.p.x + fw.spread + c.p.x;
         }
     });
     std::hint::black_box(sink);

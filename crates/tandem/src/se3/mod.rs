@@ -5,6 +5,9 @@
 //! * [`chart`]: `x_1 = (p_WO − c, φ)`, `φ = Log(R_refᵀ R_WO)`, with `ẋ_1`, `ẍ_1`, the chart
 //!   Jacobian `E` (`ẋ_1 = E V_WO`), its rate `Ė`, the inverse maps, and the object dynamics
 //!   rewritten in chart coordinates.
+//! * [`fit`](mod@fit): the reference pose that best fits the arms' reference tool poses through the
+//!   grasps (least squares in position, a quaternion mean in orientation), with exact twist and
+//!   twist rate.
 //!
 //! Both work on a [`PoseSample`]: a pose with its twist and twist rate. Conventions
 //! (SPEC-spatial S1): SI units; `R_AB` maps `B` coordinates to `A`; twists are `[v; ω]`,
@@ -17,13 +20,15 @@
 //! slices the caller owns.
 
 pub mod chart;
+pub mod fit;
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3, Vector6};
 
 use crate::plant::spatial::ObjectState;
 use crate::spatial::motion::{ang, lin, stack};
 
 pub use chart::{Chart, ChartJacobian, ChartSample};
+pub use fit::{Fit, candidate, fit, fit_weighted};
 
 /// A pose with its twist and twist rate: `(p_WA, R_WA, V_WA = [v; ω], V̇_WA = [v̇; ω̇])` of some
 /// frame `A` (the object `O`, a tool `T_i`, a desired pose), world axes.
@@ -108,4 +113,10 @@ impl PoseSample {
             twist_dot: stack(&(r * self.v_dot()), &(r * self.w_dot())),
         }
     }
+}
+
+/// The pure quaternion `(0, v)`.
+#[inline]
+pub(crate) fn pure(v: &Vector3<f64>) -> Quaternion<f64> {
+    Quaternion::new(0.0, v.x, v.y, v.z)
 }
