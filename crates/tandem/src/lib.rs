@@ -48,6 +48,7 @@ pub mod notation;
 
 pub mod dynamics;
 pub mod model;
+pub mod se3;
 pub mod spatial;
 
 pub mod arm;
