@@ -234,19 +234,38 @@ fn random_grasps(rng: &mut SplitMix64, n: usize) -> Vec<Isometry3<f64>> {
 fn chart_cases() -> Vec<(f64, Chart, Motion)> {
     let mut rng = SplitMix64(11);
     let mut out = Vec::new();
-    for &th in &[0.0, 1e-9, 1e-4, 0.5, 0.999, 1.0, 1.001, FRAC_PI_2, 2.5, 3.0] {
+    for &th in &[
+        0.0, 1e-9, 1e-4, 0.5, 0.999, 1.0, 1.001, FRAC_PI_2, 2.5, 3.0, 3.12,
+    ] {
         for _ in 0..6 {
             let chart = Chart::new(
                 Vector3::from_fn(|_, _| rng.range(-1.0, 1.0)),
                 rand_quat(&mut rng),
             );
             let r0 = chart.r_ref * so3::exp_quat(&(unit(&mut rng) * th));
-            // Slow enough at 3.0 rad that ±2h stays inside the chart.
+            // Rates ≤ 3 rad/s: ±2h moves φ by < 0.006 rad, so even at 3.12 rad the stencil
+            // stays inside the chart (and outside the 0.01 rad edge band at t = 0).
             let m = Motion::random(&mut rng, r0, 1.0);
             out.push((th, chart, m));
         }
     }
     out
+}
+
+/// Per-angle maxima for the report: `(θ, max error)` in first-seen order.
+fn note(table: &mut Vec<(f64, f64)>, th: f64, e: f64) {
+    match table.iter_mut().find(|(t, _)| *t == th) {
+        Some(row) => row.1 = row.1.max(e),
+        None => table.push((th, e)),
+    }
+}
+
+fn show(table: &[(f64, f64)]) -> String {
+    table
+        .iter()
+        .map(|(t, e)| format!("θ={t}: {e:.1e}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 #[test]
@@ -275,6 +294,7 @@ fn the_test_motion_has_the_twist_it_claims() {
 #[test]
 fn phi_dot_and_e_match_finite_differences_of_x1() {
     let mut worst_rel = 0.0f64;
+    let mut table = Vec::new();
     for (th, chart, m) in chart_cases() {
         let s = chart.sample(&m.at(0.0));
         assert!((s.x1.fixed_rows::<3>(3).norm() - th).abs() < 1e-12);
@@ -291,14 +311,17 @@ fn phi_dot_and_e_match_finite_differences_of_x1() {
         );
         let rel = err / (1.0 + fd.norm());
         worst_rel = worst_rel.max(rel);
+        note(&mut table, th, rel);
         assert!(rel < 1e-10, "θ = {th}: |ẋ_1 − fd| = {err:e}");
     }
     eprintln!("ẋ_1, E V vs FD of x_1: max error {worst_rel:.2e} (relative to 1 + |ẋ_1|)");
+    eprintln!("  per angle: {}", show(&table));
 }
 
 #[test]
 fn phi_ddot_and_e_dot_match_finite_differences() {
     let mut worst: f64 = 0.0;
+    let mut table = Vec::new();
     let mut worst_e: f64 = 0.0;
     let mut worst_alt: f64 = 0.0;
     for (th, chart, m) in chart_cases() {
@@ -323,6 +346,7 @@ fn phi_ddot_and_e_dot_match_finite_differences() {
             + so3::right_jacobian_inv(&phi) * rt_dot * s0.w();
         let err_alt = (alt - s.x1_ddot.fixed_rows::<3>(3)).norm() / (1.0 + alt.norm());
         worst = worst.max(err).max(err_ev);
+        note(&mut table, th, err.max(err_e));
         worst_e = worst_e.max(err_e);
         worst_alt = worst_alt.max(err_alt);
         assert!(
@@ -336,6 +360,7 @@ fn phi_ddot_and_e_dot_match_finite_differences() {
         "ẍ_1 vs FD of ẋ_1: {worst:.2e}; Ė vs FD of E: {worst_e:.2e}; \
          three-term form: {worst_alt:.2e} (relative)"
     );
+    eprintln!("  per angle (ẍ_1 and Ė): {}", show(&table));
 }
 
 #[test]
@@ -402,6 +427,26 @@ fn chart_values_at_known_points() {
     // φ̈ at φ = 0 with ω̇ = 0: −½ φ̇ × φ̇ = 0.
     assert!(s.x1_ddot.norm() < 1e-16);
     assert_eq!(s.margin, PI);
+}
+
+#[test]
+fn the_chart_reduces_to_the_planar_output_for_rotations_about_one_axis() {
+    // R_ref = I, rotation θ(t) about world z: φ = θ e_z, φ̇ = θ̇ e_z, φ̈ = θ̈ e_z (SPEC: the
+    // planar paper's x_1 = (x, y, θ) with c = 0, R_ref = I).
+    let chart = Chart::identity();
+    for (th, thd, thdd) in [(0.3, -0.7, 2.0), (-2.9, 1.1, -0.4), (1e-9, 3.0, 0.0)] {
+        let s0 = PoseSample {
+            p: Vector3::new(0.19, 0.0, 0.0),
+            q: so3::exp_quat(&(Vector3::z() * th)),
+            twist: v6(&Vector3::new(0.1, 0.2, 0.0), &(Vector3::z() * thd)),
+            twist_dot: v6(&Vector3::zeros(), &(Vector3::z() * thdd)),
+        };
+        let s = chart.sample(&s0);
+        let want = |a: f64| Vector3::z() * a;
+        assert!((s.x1.fixed_rows::<3>(3) - want(th)).norm() < 1e-15);
+        assert!((s.x1_dot.fixed_rows::<3>(3) - want(thd)).norm() < 1e-15);
+        assert!((s.x1_ddot.fixed_rows::<3>(3) - want(thdd)).norm() < 1e-15);
+    }
 }
 
 #[test]

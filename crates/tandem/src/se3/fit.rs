@@ -57,12 +57,15 @@
 //! transform (`s ↦ q_W'W ⊗ s`, `p̄ ↦ X_W'W p̄`, twists rotated).
 //!
 //! **Conditions.** The signs `σ_i` take each candidate the short way from the hint (always
-//! possible: a rotation angle is ≤ π). While every candidate stays within 90° of the others
-//! and of the hint, the signs are those of the candidates' mutual shortest arcs, constant along
-//! a motion, and the fit is smooth. A candidate crossing 180° from the hint flips its sign: the
-//! fit jumps there (the rates are exact wherever the signs are constant). [`Fit::spread`] (the
-//! largest angle from `q̄` to a sign-aligned candidate) shows how close that is: > π/2 means the
-//! candidates disagree by more than any sane admittance offset. If the aligned quaternions
+//! possible: a rotation angle is ≤ π). While every candidate is within 90° (rotation angle)
+//! of the hint, the aligned quaternions are within 45° of the hint in ℝ⁴, hence within 90° of
+//! each other (`σ_i q_i · σ_j q_j ≥ 0`): the signs are those of the candidates' mutual shortest
+//! arcs, constant along a motion, and the fit is smooth. Candidates farther apart still give a
+//! well-defined, finite fit, but one that depends on the hint; a candidate crossing 180° from
+//! the hint flips its sign and the fit jumps there (the rates are exact wherever the signs are
+//! constant). [`Fit::spread`] (the largest angle from `q̄` to a sign-aligned candidate) shows
+//! how close that is: > π/2 means the candidates disagree by more than any sane admittance
+//! offset (SPEC's are millimetres and degrees). If the aligned quaternions
 //! nearly cancel (`|s| < 1e-6`, [`Fit::degenerate`]) the rotation is `s/|s|` (or the hint if
 //! `s = 0`) and the rates are computed with `n = max(|s|, 1e-6)`: finite, not exact. Weights
 //! that are negative or not finite count as 0; if they sum to 0, equal weights are used. No
