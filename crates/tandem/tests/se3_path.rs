@@ -974,6 +974,10 @@ fn any_rot() -> impl Strategy<Value = UnitQuaternion<f64>> {
         .prop_map(|(x, y, z, a)| quat(Vector3::new(x, y, z + 1e-3), a))
 }
 
+fn any_point() -> impl Strategy<Value = Vector3<f64>> {
+    (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0).prop_map(|(x, y, z)| Vector3::new(x, y, z))
+}
+
 fn any_time() -> impl Strategy<Value = f64> {
     prop_oneof![
         -10.0f64..100.0,
@@ -986,10 +990,38 @@ fn any_time() -> impl Strategy<Value = f64> {
     ]
 }
 
+/// `max_abs` over `[0, t_end]` is finite, non-negative and above the chart at every sampled
+/// time (up to rounding of the chart itself, 1e-12).
+fn check_reach(
+    path: &Se3Path,
+    c: &Vector3<f64>,
+    r_ref: &UnitQuaternion<f64>,
+    t_end: f64,
+    us: &[f64],
+) -> Result<(), TestCaseError> {
+    let m = path.max_abs(c, r_ref, t_end);
+    prop_assert!(m.iter().all(|x| x.is_finite() && *x >= 0.0), "{m:?}");
+    for &u in us.iter().chain(&[0.0, 1.0]) {
+        let x = chart_x1(&path.sample(u * t_end), c, r_ref).abs();
+        for j in 0..6 {
+            prop_assert!(
+                x[j] <= m[j] + 1e-12,
+                "t = {}, {j}: {} > bound {}",
+                u * t_end,
+                x[j],
+                m[j]
+            );
+        }
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig {
         cases: 256,
         rng_seed: proptest::test_runner::RngSeed::Fixed(11),
+        // Seeded and deterministic: no regression files written next to the tests.
+        failure_persistence: None,
         ..ProptestConfig::default()
     })]
 
@@ -1006,6 +1038,9 @@ proptest! {
         amplitude in 0.0f64..(PI - 1e-6),
         omega_rot in 1e-6f64..1e3,
         t in proptest::collection::vec(any_time(), 8),
+        c_ref in any_point(),
+        r_ref in any_rot(),
+        us in proptest::collection::vec(0.0f64..1.0, 32),
     ) {
         let (Some(e1), Some(ax)) = (unit(e), unit(a)) else { return Ok(()); };
         let e2 = e1.cross(&Vector3::new(0.3, -0.7, 0.2)).try_normalize(1e-3);
@@ -1021,6 +1056,10 @@ proptest! {
         }
         let m = path.max_abs(&Vector3::zeros(), &r0, t[0].abs());
         prop_assert!(m.iter().all(|x| x.is_finite() && *x >= 0.0));
+        // The reach bounds the chart, for R_ref = R(0) (closed form) and a random one.
+        let t_end = if t[1].abs() < 50.0 { t[1].abs() } else { 7.0 };
+        check_reach(&path, &c_ref, &path.sample(0.0).r, t_end, &us)?;
+        check_reach(&path, &c_ref, &r_ref, t_end, &us)?;
     }
 
     #[test]
@@ -1032,6 +1071,9 @@ proptest! {
         t0 in -100.0f64..100.0,
         dur in 1e-3f64..1e3,
         t in proptest::collection::vec(any_time(), 8),
+        c_ref in any_point(),
+        r_ref in any_rot(),
+        us in proptest::collection::vec(0.0f64..1.0, 32),
     ) {
         let pa = Vector3::new(pa.0, pa.1, pa.2);
         let pb = Vector3::new(pb.0, pb.1, pb.2);
@@ -1045,6 +1087,9 @@ proptest! {
         }
         let m = path.max_abs(&Vector3::zeros(), &rb, t[0].abs());
         prop_assert!(m.iter().all(|x| x.is_finite() && *x >= 0.0));
+        let t_end = t0.max(0.0) + 2.0 * dur;
+        check_reach(&path, &c_ref, &ra, t_end, &us)?;
+        check_reach(&path, &c_ref, &r_ref, t_end, &us)?;
     }
 
     #[test]
@@ -1054,7 +1099,9 @@ proptest! {
             2..10),
         r0 in any_rot(),
         t in proptest::collection::vec(any_time(), 8),
-        ts in proptest::collection::vec(0.0f64..1.0, 16),
+        ts in proptest::collection::vec(0.0f64..1.0, 32),
+        c_ref in any_point(),
+        r_ref in any_rot(),
     ) {
         let mut tk = -0.5;
         let wps: Vec<Se3Waypoint> = steps.iter().enumerate().map(|(k, &(dt, p, f))| {
@@ -1073,6 +1120,9 @@ proptest! {
         }
         let m = path.max_abs(&Vector3::zeros(), &r0, span);
         prop_assert!(m.iter().all(|x| x.is_finite() && *x >= 0.0));
+        let t_end = wps[wps.len() - 1].t + 1.0;
+        check_reach(&path, &c_ref, &r0, t_end, &ts)?;
+        check_reach(&path, &c_ref, &r_ref, t_end, &ts)?;
     }
 }
 

@@ -523,16 +523,23 @@ impl Se3Circle {
         self.omega_rot
     }
 
+    /// The angles $(\psi, \chi) = (\omega t + \psi_0, \Omega t + \chi_0)$ both from the same t;
+    /// if either is not finite, both from t = 0.
+    #[inline]
+    fn angles(&self, t: f64) -> (f64, f64) {
+        let psi = self.omega * t + self.phase;
+        let chi = self.omega_rot * t + self.phase_rot;
+        if psi.is_finite() && chi.is_finite() {
+            (psi, chi)
+        } else {
+            (self.phase, self.phase_rot)
+        }
+    }
+
     /// Pose and rates at `t` \[s\]; see the module doc for non-finite or huge `t`.
     #[inline]
     pub fn sample(&self, t: f64) -> Se3Sample {
-        // Both angles from the same t; if either is not finite, both from t = 0.
-        let mut psi = self.omega * t + self.phase;
-        let mut chi = self.omega_rot * t + self.phase_rot;
-        if !(psi.is_finite() && chi.is_finite()) {
-            psi = self.phase;
-            chi = self.phase_rot;
-        }
+        let (psi, chi) = self.angles(t);
         let (s, c) = psi.sin_cos();
         let (r, w) = (self.radius, self.omega);
         let (rw, rw2, rw3) = (r * w, r * w * w, r * w * w * w);
@@ -557,13 +564,19 @@ impl Se3Circle {
 
     fn max_abs(&self, c: &Vector3<f64>, r_ref: &UnitQuaternion<f64>, t_end: f64) -> Vector6<f64> {
         // Position: p_j − c_j = d_j + ρ_j cos(ψ − β_j), ρ_j cos β_j = ρ e1_j, ρ_j sin β_j = ρ e2_j.
+        // The ends are evaluated exactly as `sample` does (an angle of 1e8 rad minus β would
+        // round differently); the interior extrema |d_j ± ρ_j| are exact.
         let (lo, hi) = angle_range(self.omega, self.phase, t_end);
         let d = self.center - c;
+        let (first, last) = (self.sample(0.0), self.sample(t_end));
         let mut out = Vector6::zeros();
         for j in 0..3 {
             let amp = self.radius * self.e1[j].hypot(self.e2[j]);
             let beta = self.e2[j].atan2(self.e1[j]);
-            out[j] = max_abs_cos(d[j], amp, lo - beta, hi - beta);
+            out[j] = (first.p[j] - c[j])
+                .abs()
+                .max((last.p[j] - c[j]).abs())
+                .max(interior_max_abs_cos(d[j], amp, lo - beta, hi - beta));
         }
         // Orientation: R_ref = Exp(θ_r a) R0 (δ-close) gives φ = (θ − θ_r) R0ᵀ a.
         let v = log_quat(&(r_ref * self.r0.inverse()));
@@ -571,8 +584,17 @@ impl Se3Circle {
         let fam = exp_quat(&(self.axis_w * theta_r)) * self.r0;
         let delta = log_quat(&(fam.inverse() * r_ref)).norm();
         let (lo, hi) = angle_range(self.omega_rot, self.phase_rot, t_end);
-        // θ − θ_r = −θ_r + A cos(χ − π/2).
-        let m = max_abs_cos(-theta_r, self.amplitude, lo - FRAC_PI_2, hi - FRAC_PI_2);
+        // θ − θ_r = −θ_r + A cos(χ − π/2); the ends as `sample` evaluates them.
+        let theta_at = |t: f64| self.amplitude * self.angles(t).1.sin();
+        let m = (theta_at(0.0) - theta_r)
+            .abs()
+            .max((theta_at(t_end) - theta_r).abs())
+            .max(interior_max_abs_cos(
+                -theta_r,
+                self.amplitude,
+                lo - FRAC_PI_2,
+                hi - FRAC_PI_2,
+            ));
         if delta <= FAMILY_TOL && m + 2.0 * delta < PI - PI_MARGIN {
             let a_b = self.r0.inverse() * self.axis_w;
             for j in 0..3 {
@@ -874,7 +896,13 @@ impl Se3Spline {
         // segment's bound): require a generous product of the segment bounds to be finite.
         for k in 0..n - 1 {
             let h = wps[k + 1].t - wps[k].t;
-            let s = rot.sample(wps[k].t);
+            let Some(s) = segment_midpoint(&rot, wps[k].t, wps[k + 1].t) else {
+                return Err(ModelError::invalid(
+                    format!("path.waypoints[{}].t", k + 1),
+                    wps[k + 1].t,
+                    "is too close to the previous waypoint to be resolved",
+                ));
+            };
             let b1 = s.v.norm() + s.a.norm() * h + s.j.norm() * h * h;
             let b0 = s.p.norm() + b1 * h;
             let g =
@@ -901,16 +929,19 @@ impl Se3Spline {
     /// whose largest magnitude on $[0, h_k]$ is at an end or at its vertex.
     fn rate_bound(&self, k: usize) -> f64 {
         let (ta, tb) = (self.waypoints[k].t, self.waypoints[k + 1].t);
-        let h = tb - ta;
-        let s = self.rot.sample(ta);
+        let Some(s) = segment_midpoint(&self.rot, ta, tb) else {
+            return f64::INFINITY;
+        };
+        // About the midpoint: σ ∈ [−h/2, h/2] (the derivatives at a knot would be the hold's).
+        let r = 0.5 * (tb - ta);
         let mut sq = 0.0;
         for j in 0..3 {
             let (c0, c1, c2) = (s.v[j], s.a[j], 0.5 * s.j[j]);
             let q = |x: f64| (c0 + (c1 + c2 * x) * x).abs();
-            let mut m = q(0.0).max(q(h));
+            let mut m = q(-r).max(q(r));
             if c2 != 0.0 {
                 let x = -c1 / (2.0 * c2);
-                if x > 0.0 && x < h {
+                if x > -r && x < r {
                     m = m.max(q(x));
                 }
             }
@@ -1149,6 +1180,14 @@ fn bc_with_derivatives(u: f64) -> [f64; 6] {
 // Helpers
 // ---------------------------------------------------------------------------------------------
 
+/// The spline's sample at the midpoint of segment `[ta, tb]`, if that midpoint is strictly
+/// inside it (the planar spline holds its first value at the first knot, so the derivatives
+/// of a segment are read inside it).
+fn segment_midpoint(sp: &Spline, ta: f64, tb: f64) -> Option<crate::trajectory::PathSample> {
+    let tm = ta + 0.5 * (tb - ta);
+    (tm > ta && tm < tb).then(|| sp.sample(tm))
+}
+
 /// `|Log(R_refᵀ R)|` componentwise.
 fn chart_abs(r: &UnitQuaternion<f64>, r_ref: &UnitQuaternion<f64>) -> Vector3<f64> {
     log_quat(&(r_ref.inverse() * r)).abs()
@@ -1266,15 +1305,15 @@ fn angle_range(omega: f64, phase: f64, t_end: f64) -> (f64, f64) {
     (phase.min(last), phase.max(last))
 }
 
-/// $\max_{\psi \in [lo, hi]} |c + A\cos\psi|$ in closed form (as the planar paths'): the ends
-/// of the range and the multiples of π inside it; a full turn, an infinite or NaN range, or
-/// angles too large to resolve π give $|c| + |A|$.
-fn max_abs_cos(c: f64, amp: f64, lo: f64, hi: f64) -> f64 {
+/// $\max |c + A\cos\psi|$ over the multiples of π in $[lo, hi]$ (the interior extrema; 0 if
+/// there are none), in closed form as the planar paths' bound: a full turn, an infinite or
+/// NaN range, or angles too large to resolve π give $|c| + |A|$. The caller adds the ends.
+fn interior_max_abs_cos(c: f64, amp: f64, lo: f64, hi: f64) -> f64 {
     const RESOLVED: f64 = 1e12;
     if !(hi - lo < TAU) || !(lo.abs().max(hi.abs()) < RESOLVED) {
         return c.abs() + amp.abs();
     }
-    let mut m = (c + amp * lo.cos()).abs().max((c + amp * hi.cos()).abs());
+    let mut m: f64 = 0.0;
     let k0 = (lo / PI).ceil();
     for k in [k0, k0 + 1.0] {
         if k * PI <= hi {
@@ -1344,9 +1383,15 @@ mod tests {
     }
 
     #[test]
-    fn max_abs_cos_closed_form() {
-        assert_eq!(max_abs_cos(0.1, 0.2, 1e20, 1e20 + 1.0), 0.1 + 0.2);
-        assert_eq!(max_abs_cos(0.0, 1.0, 3.0, 3.5), 1.0);
-        assert_eq!(max_abs_cos(0.5, 1.0, -0.1, 0.1), 1.5);
+    fn interior_extrema_closed_form() {
+        assert_eq!(interior_max_abs_cos(0.1, 0.2, 1e20, 1e20 + 1.0), 0.1 + 0.2);
+        assert_eq!(
+            interior_max_abs_cos(0.1, 0.2, 0.0, f64::INFINITY),
+            0.1 + 0.2
+        );
+        assert_eq!(interior_max_abs_cos(0.0, 1.0, 3.0, 3.5), 1.0);
+        assert_eq!(interior_max_abs_cos(0.5, 1.0, -0.1, 0.1), 1.5);
+        assert_eq!(interior_max_abs_cos(0.5, 1.0, 0.1, 0.2), 0.0);
+        assert_eq!(interior_max_abs_cos(0.2, 1.0, -0.1, PI + 0.1), 1.2);
     }
 }
