@@ -72,8 +72,9 @@
 //! (smooth in $t$ even where $\varphi$ passes through 0, unlike $\theta$), differentiated
 //! exactly by the chain rule ([`left_jacobian_rates`]). $b(u), c(u)$ and their first two
 //! $u$-derivatives come from their power series $\sum (-1)^k u^k/(2k+2)!$,
-//! $\sum (-1)^k u^k/(2k+3)!$ (30 terms, Horner with derivatives) for $\theta \le 2\pi$ (the
-//! largest term is below 2.3, so at most one digit is lost; the truncation is below 1e-35),
+//! $\sum (-1)^k u^k/(2k+3)!$ (Horner with derivatives; 16 terms for $\theta \le \pi$, 30 up
+//! to $\theta = 2\pi$; the largest term is below 2.3, so at most one digit is lost, and the
+//! truncation is below 1e-22 and 1e-35),
 //! and from the closed forms above $2\pi$ (where they no longer cancel).
 //!
 //! Why this scheme: it is exactly differentiable with a few cross products (no matrix
@@ -236,10 +237,11 @@ pub fn chart_rates(
     let phi = log_quat(&(ref_inv * s.r));
     let (w, wd, wdd) = (ref_inv * s.w, ref_inv * s.wd, ref_inv * s.wdd);
     let jl_inv = left_jacobian_inv(&phi);
+    let bc = bc_with_derivatives(phi.norm_squared());
     let z = Vector3::zeros();
     let d1 = jl_inv * w;
-    let d2 = jl_inv * (wd - left_jacobian_rates(&phi, &d1, &z, &z)[1]);
-    let d3 = jl_inv * (wdd - left_jacobian_rates(&phi, &d1, &d2, &z)[2]);
+    let d2 = jl_inv * (wd - left_jacobian_rates_with(&bc, &phi, &d1, &z, &z)[1]);
+    let d3 = jl_inv * (wdd - left_jacobian_rates_with(&bc, &phi, &d1, &d2, &z)[2]);
     [
         stack(&(s.p - c), &phi),
         stack(&s.v, &d1),
@@ -1083,11 +1085,22 @@ pub fn left_jacobian_rates(
     d2: &Vector3<f64>,
     d3: &Vector3<f64>,
 ) -> [Vector3<f64>; 3] {
-    // u = |φ|² and its rates.
-    let u = phi.norm_squared();
+    left_jacobian_rates_with(&bc_with_derivatives(phi.norm_squared()), phi, d1, d2, d3)
+}
+
+/// [`left_jacobian_rates`] with the coefficients `bc = bc_with_derivatives(|φ|²)` given.
+#[inline]
+fn left_jacobian_rates_with(
+    bc: &[f64; 6],
+    phi: &Vector3<f64>,
+    d1: &Vector3<f64>,
+    d2: &Vector3<f64>,
+    d3: &Vector3<f64>,
+) -> [Vector3<f64>; 3] {
+    // Rates of u = |φ|².
     let u1 = 2.0 * phi.dot(d1);
     let u2 = 2.0 * (d1.norm_squared() + phi.dot(d2));
-    let [b, b_u, b_uu, c, c_u, c_uu] = bc_with_derivatives(u);
+    let [b, b_u, b_uu, c, c_u, c_uu] = *bc;
     let (b1, b2) = (b_u * u1, b_uu * u1 * u1 + b_u * u2);
     let (c1, c2) = (c_u * u1, c_uu * u1 * u1 + c_u * u2);
     // g = φ × φ̇, h = φ × g and their rates (φ̇ × φ̇ = 0).
@@ -1133,9 +1146,13 @@ const C_SERIES: [f64; N_SERIES] = alternating_inverse_factorials(3);
 /// Below this $u = \theta^2$ ($\theta \le 2\pi$) the series are used.
 const SERIES_U: f64 = 4.0 * PI * PI;
 
+/// Terms enough for $u \le \pi^2$ ($\theta \le \pi$, every chart value): the first omitted
+/// terms are below 1e-22.
+const N_SERIES_PI: usize = 16;
+
 /// A power series and its first two derivatives at `u` (Horner).
 #[inline]
-fn horner2(a: &[f64; N_SERIES], u: f64) -> [f64; 3] {
+fn horner2(a: &[f64], u: f64) -> [f64; 3] {
     let (mut p, mut dp, mut ddp) = (0.0, 0.0, 0.0);
     for k in a.iter().rev() {
         ddp = ddp * u + 2.0 * dp;
@@ -1148,6 +1165,11 @@ fn horner2(a: &[f64; N_SERIES], u: f64) -> [f64; 3] {
 /// $[b, b', b'', c, c', c'']$ with $' = d/du$, $u = \theta^2 \ge 0$.
 #[inline]
 fn bc_with_derivatives(u: f64) -> [f64; 6] {
+    if u <= PI * PI {
+        let [b, b1, b2] = horner2(&B_SERIES[..N_SERIES_PI], u);
+        let [c, c1, c2] = horner2(&C_SERIES[..N_SERIES_PI], u);
+        return [b, b1, b2, c, c1, c2];
+    }
     if u <= SERIES_U {
         let [b, b1, b2] = horner2(&B_SERIES, u);
         let [c, c1, c2] = horner2(&C_SERIES, u);
@@ -1367,6 +1389,22 @@ mod tests {
                     s[i],
                     closed[i]
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn short_series_suffice_up_to_pi() {
+        for u in [0.5, 4.0, PI * PI] {
+            for a in [&B_SERIES, &C_SERIES] {
+                let short = horner2(&a[..N_SERIES_PI], u);
+                let long = horner2(a, u);
+                for i in 0..3 {
+                    assert!(
+                        (short[i] - long[i]).abs() < 1e-17,
+                        "u = {u}, derivative {i}"
+                    );
+                }
             }
         }
     }
