@@ -120,6 +120,24 @@
 //!   Phases are limited to [`MAX_PHASE`] (1e9 rad) as in the planar paths.
 //! * Angles near 0: `Exp` through [`exp_quat`] (series below 1e-4), $b, c$ by series.
 //!
+//! # Example
+//!
+//! ```
+//! use tandem::nalgebra::{UnitQuaternion, Vector3};
+//! use tandem::reference::se3_path::{Se3Path, chart_rates};
+//!
+//! let path = Se3Path::spec_s6();
+//! let s = path.sample(15.0); // a quarter lap: on the +y side, pitch back through 0
+//! assert!((s.p - Vector3::new(0.0, 0.1, 0.3)).norm() < 1e-15);
+//! // The S5 chart about the path's centre and R_ref = R(0) = I, and its reach.
+//! let (c, r_ref) = (Vector3::new(0.0, 0.0, 0.3), UnitQuaternion::identity());
+//! let [x1, x1_dot, _, _] = chart_rates(&s, &c, &r_ref);
+//! assert!((x1_dot[4] - s.w.y).abs() < 1e-15); // φ̇ = ω about a fixed axis through φ = 0
+//! let reach = path.max_abs(&c, &r_ref, 60.0);
+//! assert_eq!(reach[4], 10f64.to_radians());
+//! # let _ = x1;
+//! ```
+//!
 //! # References
 //! 1. SPEC-spatial S1 (conventions), S5 (output chart), S6 (the dual-UR5 path).
 //! 2. SPEC §3 (control tick, step 2); the planar paths in [`crate::trajectory`].
