@@ -437,8 +437,11 @@ fn point_to_point_rests_at_the_ends_and_follows_the_geodesic() {
     assert_eq!(path.sample(t0), Se3Sample::hold(pa, ra));
     assert_eq!(path.sample(-5.0), Se3Sample::hold(pa, ra));
     assert_eq!(path.sample(f64::NAN), Se3Sample::hold(pa, ra));
-    assert_eq!(path.sample(t0 + dur), Se3Sample::hold(pb, rb));
-    assert_eq!(path.sample(f64::INFINITY), Se3Sample::hold(pb, rb));
+    // B as stored: the given rotation, with the quaternion sign the move arrives at.
+    let rb_stored = pp.to().1;
+    assert!(angle_between(&rb_stored, &rb) < 1e-16);
+    assert_eq!(path.sample(t0 + dur), Se3Sample::hold(pb, rb_stored));
+    assert_eq!(path.sample(f64::INFINITY), Se3Sample::hold(pb, rb_stored));
     // Just inside the ends the rates go to zero continuously.
     let s = path.sample(t0 + 1e-9);
     assert!(s.v.amax() < 1e-16 && s.w.amax() < 1e-16 && s.a.amax() < 1e-8);
@@ -1125,6 +1128,38 @@ proptest! {
         let t_end = wps[wps.len() - 1].t + 1.0;
         check_reach(&path, &c_ref, &r0, t_end, &ts)?;
         check_reach(&path, &c_ref, &r_ref, t_end, &ts)?;
+    }
+}
+
+#[test]
+fn quaternions_are_continuous_in_t() {
+    // q and −q are one rotation; the samples keep one sign along the whole path, holds
+    // included (consecutive samples 1 ms apart turn by ≤ 3 mrad: their dot product is ≈ 1).
+    let (_, [pa, pb], [ra, rb], t0, dur) = p2p();
+    // The same move with B given as −q_B (the same rotation).
+    let rb_neg = UnitQuaternion::new_unchecked(-rb.into_inner());
+    let flipped = Se3Path::point_to_point(pa, ra, pb, rb_neg, t0, dur).unwrap();
+    let mut wps = test_waypoints();
+    // Waypoints given with the "other" sign, the last one (held) among them.
+    for k in [4, 5] {
+        wps[k].r = UnitQuaternion::new_unchecked(-wps[k].r.into_inner());
+    }
+    let paths = [
+        Se3Path::circle(&tilted_circle(AxisFrame::Body)).unwrap(),
+        p2p().0,
+        flipped,
+        Se3Path::spline(&wps).unwrap(),
+    ];
+    for path in &paths {
+        let mut prev = path.sample(-1.0).r;
+        let mut worst: f64 = 1.0;
+        for i in 0..6000 {
+            let q = path.sample(-1.0 + 1e-3 * i as f64).r;
+            let d = q.coords.dot(&prev.coords);
+            worst = worst.min(d);
+            prev = q;
+        }
+        assert!(worst > 0.99, "quaternion sign flip: min dot {worst}");
     }
 }
 

@@ -689,6 +689,9 @@ impl Se3PointToPoint {
                 "is so short (for this distance) that the path's derivatives overflow",
             ));
         }
+        // The same rotation, with the quaternion sign the move arrives at (q and −q are one
+        // rotation; `Log` takes the short way, w ≥ 0): the samples' quaternions are continuous.
+        let r_to = same_sign(&r_to, &(r_from * exp_quat(&phi)));
         Ok(Se3PointToPoint {
             p_from,
             r_from,
@@ -743,7 +746,9 @@ impl Se3PointToPoint {
     }
 
     /// Pose and rates at `t` \[s\]: exactly A (as given, renormalised) for $t \le t_0$ or NaN,
-    /// exactly B once $\tau \ge 1$, with zero rates.
+    /// exactly B once $\tau \ge 1$, with zero rates. B's quaternion is the given one or its
+    /// negative (the same rotation), whichever the move arrives at, so the samples'
+    /// quaternions are continuous in t.
     #[inline]
     pub fn sample(&self, t: f64) -> Se3Sample {
         let tau = (t - self.t0) / self.duration;
@@ -881,7 +886,8 @@ impl Se3Spline {
         }
         let r_c = wps[0].r;
         let mut phi = Vec::with_capacity(n);
-        for (k, w) in wps.iter().enumerate() {
+        for k in 0..n {
+            let w = wps[k];
             let f = if k == 0 {
                 Vector3::zeros()
             } else {
@@ -895,6 +901,10 @@ impl Se3Spline {
                 ));
             }
             phi.push(f);
+            // Quaternion sign continuous along the path (the spline arrives at R_c Exp(φ_k)).
+            let at = r_c * exp_quat(&f);
+            let w = &mut wps[k];
+            w.r = same_sign(&w.r, &at);
         }
         let rename = |e: ModelError| match e {
             ModelError::Invalid {
@@ -997,7 +1007,8 @@ impl Se3Spline {
         ok
     }
 
-    /// The waypoints (quaternions renormalised).
+    /// The waypoints (quaternions renormalised, and negated where needed so that the
+    /// samples' quaternions are continuous in t; the same rotations).
     pub fn waypoints(&self) -> &[Se3Waypoint] {
         &self.waypoints
     }
@@ -1226,6 +1237,15 @@ fn bc_with_derivatives(u: f64) -> [f64; 6] {
 fn segment_midpoint(sp: &Spline, ta: f64, tb: f64) -> Option<crate::trajectory::PathSample> {
     let tm = ta + 0.5 * (tb - ta);
     (tm > ta && tm < tb).then(|| sp.sample(tm))
+}
+
+/// `q` or `−q` (the same rotation), whichever is on `near`'s side of the quaternion sphere.
+fn same_sign(q: &UnitQuaternion<f64>, near: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    if q.coords.dot(&near.coords) < 0.0 {
+        UnitQuaternion::new_unchecked(-q.into_inner())
+    } else {
+        *q
+    }
 }
 
 /// `|Log(R_refᵀ R)|` componentwise.
