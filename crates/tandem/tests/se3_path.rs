@@ -437,8 +437,11 @@ fn point_to_point_rests_at_the_ends_and_follows_the_geodesic() {
     assert_eq!(path.sample(t0), Se3Sample::hold(pa, ra));
     assert_eq!(path.sample(-5.0), Se3Sample::hold(pa, ra));
     assert_eq!(path.sample(f64::NAN), Se3Sample::hold(pa, ra));
-    assert_eq!(path.sample(t0 + dur), Se3Sample::hold(pb, rb));
-    assert_eq!(path.sample(f64::INFINITY), Se3Sample::hold(pb, rb));
+    // B as stored: the given rotation, with the quaternion sign the move arrives at.
+    let rb_stored = pp.to().1;
+    assert!(angle_between(&rb_stored, &rb) < 1e-16);
+    assert_eq!(path.sample(t0 + dur), Se3Sample::hold(pb, rb_stored));
+    assert_eq!(path.sample(f64::INFINITY), Se3Sample::hold(pb, rb_stored));
     // Just inside the ends the rates go to zero continuously.
     let s = path.sample(t0 + 1e-9);
     assert!(s.v.amax() < 1e-16 && s.w.amax() < 1e-16 && s.a.amax() < 1e-8);
@@ -673,6 +676,8 @@ fn chart_rates_match_finite_differences() {
             0.0,
             6.0,
         ),
+        // The chart passes through φ = 0 at t = 0.3 (series branches of J_l⁻¹ and J_l's rates).
+        (&circ, circ.sample(0.3).r, 5e-10, 0.25, 0.35),
         (
             &pp,
             quat(Vector3::new(1.0, 0.2, -0.3), 0.4),
@@ -974,6 +979,10 @@ fn any_rot() -> impl Strategy<Value = UnitQuaternion<f64>> {
         .prop_map(|(x, y, z, a)| quat(Vector3::new(x, y, z + 1e-3), a))
 }
 
+fn any_point() -> impl Strategy<Value = Vector3<f64>> {
+    (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0).prop_map(|(x, y, z)| Vector3::new(x, y, z))
+}
+
 fn any_time() -> impl Strategy<Value = f64> {
     prop_oneof![
         -10.0f64..100.0,
@@ -986,10 +995,38 @@ fn any_time() -> impl Strategy<Value = f64> {
     ]
 }
 
+/// `max_abs` over `[0, t_end]` is finite, non-negative and above the chart at every sampled
+/// time (up to rounding of the chart itself, 1e-12).
+fn check_reach(
+    path: &Se3Path,
+    c: &Vector3<f64>,
+    r_ref: &UnitQuaternion<f64>,
+    t_end: f64,
+    us: &[f64],
+) -> Result<(), TestCaseError> {
+    let m = path.max_abs(c, r_ref, t_end);
+    prop_assert!(m.iter().all(|x| x.is_finite() && *x >= 0.0), "{m:?}");
+    for &u in us.iter().chain(&[0.0, 1.0]) {
+        let x = chart_x1(&path.sample(u * t_end), c, r_ref).abs();
+        for j in 0..6 {
+            prop_assert!(
+                x[j] <= m[j] + 1e-12,
+                "t = {}, {j}: {} > bound {}",
+                u * t_end,
+                x[j],
+                m[j]
+            );
+        }
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig {
         cases: 256,
         rng_seed: proptest::test_runner::RngSeed::Fixed(11),
+        // Seeded and deterministic: no regression files written next to the tests.
+        failure_persistence: None,
         ..ProptestConfig::default()
     })]
 
@@ -1006,6 +1043,9 @@ proptest! {
         amplitude in 0.0f64..(PI - 1e-6),
         omega_rot in 1e-6f64..1e3,
         t in proptest::collection::vec(any_time(), 8),
+        c_ref in any_point(),
+        r_ref in any_rot(),
+        us in proptest::collection::vec(0.0f64..1.0, 32),
     ) {
         let (Some(e1), Some(ax)) = (unit(e), unit(a)) else { return Ok(()); };
         let e2 = e1.cross(&Vector3::new(0.3, -0.7, 0.2)).try_normalize(1e-3);
@@ -1021,6 +1061,10 @@ proptest! {
         }
         let m = path.max_abs(&Vector3::zeros(), &r0, t[0].abs());
         prop_assert!(m.iter().all(|x| x.is_finite() && *x >= 0.0));
+        // The reach bounds the chart, for R_ref = R(0) (closed form) and a random one.
+        let t_end = if t[1].abs() < 50.0 { t[1].abs() } else { 7.0 };
+        check_reach(&path, &c_ref, &path.sample(0.0).r, t_end, &us)?;
+        check_reach(&path, &c_ref, &r_ref, t_end, &us)?;
     }
 
     #[test]
@@ -1032,6 +1076,9 @@ proptest! {
         t0 in -100.0f64..100.0,
         dur in 1e-3f64..1e3,
         t in proptest::collection::vec(any_time(), 8),
+        c_ref in any_point(),
+        r_ref in any_rot(),
+        us in proptest::collection::vec(0.0f64..1.0, 32),
     ) {
         let pa = Vector3::new(pa.0, pa.1, pa.2);
         let pb = Vector3::new(pb.0, pb.1, pb.2);
@@ -1045,6 +1092,9 @@ proptest! {
         }
         let m = path.max_abs(&Vector3::zeros(), &rb, t[0].abs());
         prop_assert!(m.iter().all(|x| x.is_finite() && *x >= 0.0));
+        let t_end = t0.max(0.0) + 2.0 * dur;
+        check_reach(&path, &c_ref, &ra, t_end, &us)?;
+        check_reach(&path, &c_ref, &r_ref, t_end, &us)?;
     }
 
     #[test]
@@ -1054,7 +1104,9 @@ proptest! {
             2..10),
         r0 in any_rot(),
         t in proptest::collection::vec(any_time(), 8),
-        ts in proptest::collection::vec(0.0f64..1.0, 16),
+        ts in proptest::collection::vec(0.0f64..1.0, 32),
+        c_ref in any_point(),
+        r_ref in any_rot(),
     ) {
         let mut tk = -0.5;
         let wps: Vec<Se3Waypoint> = steps.iter().enumerate().map(|(k, &(dt, p, f))| {
@@ -1073,6 +1125,41 @@ proptest! {
         }
         let m = path.max_abs(&Vector3::zeros(), &r0, span);
         prop_assert!(m.iter().all(|x| x.is_finite() && *x >= 0.0));
+        let t_end = wps[wps.len() - 1].t + 1.0;
+        check_reach(&path, &c_ref, &r0, t_end, &ts)?;
+        check_reach(&path, &c_ref, &r_ref, t_end, &ts)?;
+    }
+}
+
+#[test]
+fn quaternions_are_continuous_in_t() {
+    // q and −q are one rotation; the samples keep one sign along the whole path, holds
+    // included (consecutive samples 1 ms apart turn by ≤ 3 mrad: their dot product is ≈ 1).
+    let (_, [pa, pb], [ra, rb], t0, dur) = p2p();
+    // The same move with B given as −q_B (the same rotation).
+    let rb_neg = UnitQuaternion::new_unchecked(-rb.into_inner());
+    let flipped = Se3Path::point_to_point(pa, ra, pb, rb_neg, t0, dur).unwrap();
+    let mut wps = test_waypoints();
+    // Waypoints given with the "other" sign, the last one (held) among them.
+    for k in [4, 5] {
+        wps[k].r = UnitQuaternion::new_unchecked(-wps[k].r.into_inner());
+    }
+    let paths = [
+        Se3Path::circle(&tilted_circle(AxisFrame::Body)).unwrap(),
+        p2p().0,
+        flipped,
+        Se3Path::spline(&wps).unwrap(),
+    ];
+    for path in &paths {
+        let mut prev = path.sample(-1.0).r;
+        let mut worst: f64 = 1.0;
+        for i in 0..6000 {
+            let q = path.sample(-1.0 + 1e-3 * i as f64).r;
+            let d = q.coords.dot(&prev.coords);
+            worst = worst.min(d);
+            prev = q;
+        }
+        assert!(worst > 0.99, "quaternion sign flip: min dot {worst}");
     }
 }
 
@@ -1095,6 +1182,7 @@ fn sampling_never_allocates() {
     ];
     for path in &paths {
         let mut acc = 0.0;
+        let start = std::time::Instant::now();
         let n = count(|| {
             for i in 0..10_000 {
                 let s = path.sample(std::hint::black_box(-1.0 + 5e-4 * i as f64));
@@ -1102,6 +1190,20 @@ fn sampling_never_allocates() {
                 acc += s.p.x + s.r.w + s.wdd.y + x[3][4];
             }
         });
+        // Informative only (not asserted): sample + chart_rates per call.
+        let ns = start.elapsed().as_nanos() as f64 / 10_000.0;
+        let kind = match path {
+            Se3Path::Circle(_) => "circle",
+            Se3Path::PointToPoint(_) => "point to point",
+            Se3Path::Spline(_) => "spline",
+        };
+        let start = std::time::Instant::now();
+        for i in 0..10_000 {
+            let s = path.sample(std::hint::black_box(-1.0 + 5e-4 * i as f64));
+            acc += s.p.x + s.r.w + s.wdd.y;
+        }
+        let ns_sample = start.elapsed().as_nanos() as f64 / 10_000.0;
+        eprintln!("{kind}: sample {ns_sample:.0} ns, sample + chart_rates {ns:.0} ns");
         assert_eq!(n, 0, "{path:?}");
         assert!(acc.is_finite());
     }

@@ -72,8 +72,9 @@
 //! (smooth in $t$ even where $\varphi$ passes through 0, unlike $\theta$), differentiated
 //! exactly by the chain rule ([`left_jacobian_rates`]). $b(u), c(u)$ and their first two
 //! $u$-derivatives come from their power series $\sum (-1)^k u^k/(2k+2)!$,
-//! $\sum (-1)^k u^k/(2k+3)!$ (30 terms, Horner with derivatives) for $\theta \le 2\pi$ (the
-//! largest term is below 2.3, so at most one digit is lost; the truncation is below 1e-35),
+//! $\sum (-1)^k u^k/(2k+3)!$ (Horner with derivatives; 16 terms for $\theta \le \pi$, 30 up
+//! to $\theta = 2\pi$; the largest term is below 2.3, so at most one digit is lost, and the
+//! truncation is below 1e-22 and 1e-35),
 //! and from the closed forms above $2\pi$ (where they no longer cancel).
 //!
 //! Why this scheme: it is exactly differentiable with a few cross products (no matrix
@@ -118,6 +119,24 @@
 //!   $t = 0$). The quintic and the spline hold their end poses ($t$ NaN holds the start).
 //!   Phases are limited to [`MAX_PHASE`] (1e9 rad) as in the planar paths.
 //! * Angles near 0: `Exp` through [`exp_quat`] (series below 1e-4), $b, c$ by series.
+//!
+//! # Example
+//!
+//! ```
+//! use tandem::nalgebra::{UnitQuaternion, Vector3};
+//! use tandem::reference::se3_path::{Se3Path, chart_rates};
+//!
+//! let path = Se3Path::spec_s6();
+//! let s = path.sample(15.0); // a quarter lap: on the +y side, pitch back through 0
+//! assert!((s.p - Vector3::new(0.0, 0.1, 0.3)).norm() < 1e-15);
+//! // The S5 chart about the path's centre and R_ref = R(0) = I, and its reach.
+//! let (c, r_ref) = (Vector3::new(0.0, 0.0, 0.3), UnitQuaternion::identity());
+//! let [x1, x1_dot, _, _] = chart_rates(&s, &c, &r_ref);
+//! assert!((x1_dot[4] - s.w.y).abs() < 1e-15); // φ̇ = ω about a fixed axis through φ = 0
+//! let reach = path.max_abs(&c, &r_ref, 60.0);
+//! assert_eq!(reach[4], 10f64.to_radians());
+//! # let _ = x1;
+//! ```
 //!
 //! # References
 //! 1. SPEC-spatial S1 (conventions), S5 (output chart), S6 (the dual-UR5 path).
@@ -236,10 +255,11 @@ pub fn chart_rates(
     let phi = log_quat(&(ref_inv * s.r));
     let (w, wd, wdd) = (ref_inv * s.w, ref_inv * s.wd, ref_inv * s.wdd);
     let jl_inv = left_jacobian_inv(&phi);
+    let bc = bc_with_derivatives(phi.norm_squared());
     let z = Vector3::zeros();
     let d1 = jl_inv * w;
-    let d2 = jl_inv * (wd - left_jacobian_rates(&phi, &d1, &z, &z)[1]);
-    let d3 = jl_inv * (wdd - left_jacobian_rates(&phi, &d1, &d2, &z)[2]);
+    let d2 = jl_inv * (wd - left_jacobian_rates_with(&bc, &phi, &d1, &z, &z)[1]);
+    let d3 = jl_inv * (wdd - left_jacobian_rates_with(&bc, &phi, &d1, &d2, &z)[2]);
     [
         stack(&(s.p - c), &phi),
         stack(&s.v, &d1),
@@ -523,16 +543,23 @@ impl Se3Circle {
         self.omega_rot
     }
 
+    /// The angles $(\psi, \chi) = (\omega t + \psi_0, \Omega t + \chi_0)$ both from the same t;
+    /// if either is not finite, both from t = 0.
+    #[inline]
+    fn angles(&self, t: f64) -> (f64, f64) {
+        let psi = self.omega * t + self.phase;
+        let chi = self.omega_rot * t + self.phase_rot;
+        if psi.is_finite() && chi.is_finite() {
+            (psi, chi)
+        } else {
+            (self.phase, self.phase_rot)
+        }
+    }
+
     /// Pose and rates at `t` \[s\]; see the module doc for non-finite or huge `t`.
     #[inline]
     pub fn sample(&self, t: f64) -> Se3Sample {
-        // Both angles from the same t; if either is not finite, both from t = 0.
-        let mut psi = self.omega * t + self.phase;
-        let mut chi = self.omega_rot * t + self.phase_rot;
-        if !(psi.is_finite() && chi.is_finite()) {
-            psi = self.phase;
-            chi = self.phase_rot;
-        }
+        let (psi, chi) = self.angles(t);
         let (s, c) = psi.sin_cos();
         let (r, w) = (self.radius, self.omega);
         let (rw, rw2, rw3) = (r * w, r * w * w, r * w * w * w);
@@ -557,13 +584,19 @@ impl Se3Circle {
 
     fn max_abs(&self, c: &Vector3<f64>, r_ref: &UnitQuaternion<f64>, t_end: f64) -> Vector6<f64> {
         // Position: p_j − c_j = d_j + ρ_j cos(ψ − β_j), ρ_j cos β_j = ρ e1_j, ρ_j sin β_j = ρ e2_j.
+        // The ends are evaluated exactly as `sample` does (an angle of 1e8 rad minus β would
+        // round differently); the interior extrema |d_j ± ρ_j| are exact.
         let (lo, hi) = angle_range(self.omega, self.phase, t_end);
         let d = self.center - c;
+        let (first, last) = (self.sample(0.0), self.sample(t_end));
         let mut out = Vector6::zeros();
         for j in 0..3 {
             let amp = self.radius * self.e1[j].hypot(self.e2[j]);
             let beta = self.e2[j].atan2(self.e1[j]);
-            out[j] = max_abs_cos(d[j], amp, lo - beta, hi - beta);
+            out[j] = (first.p[j] - c[j])
+                .abs()
+                .max((last.p[j] - c[j]).abs())
+                .max(interior_max_abs_cos(d[j], amp, lo - beta, hi - beta));
         }
         // Orientation: R_ref = Exp(θ_r a) R0 (δ-close) gives φ = (θ − θ_r) R0ᵀ a.
         let v = log_quat(&(r_ref * self.r0.inverse()));
@@ -571,8 +604,17 @@ impl Se3Circle {
         let fam = exp_quat(&(self.axis_w * theta_r)) * self.r0;
         let delta = log_quat(&(fam.inverse() * r_ref)).norm();
         let (lo, hi) = angle_range(self.omega_rot, self.phase_rot, t_end);
-        // θ − θ_r = −θ_r + A cos(χ − π/2).
-        let m = max_abs_cos(-theta_r, self.amplitude, lo - FRAC_PI_2, hi - FRAC_PI_2);
+        // θ − θ_r = −θ_r + A cos(χ − π/2); the ends as `sample` evaluates them.
+        let theta_at = |t: f64| self.amplitude * self.angles(t).1.sin();
+        let m = (theta_at(0.0) - theta_r)
+            .abs()
+            .max((theta_at(t_end) - theta_r).abs())
+            .max(interior_max_abs_cos(
+                -theta_r,
+                self.amplitude,
+                lo - FRAC_PI_2,
+                hi - FRAC_PI_2,
+            ));
         if delta <= FAMILY_TOL && m + 2.0 * delta < PI - PI_MARGIN {
             let a_b = self.r0.inverse() * self.axis_w;
             for j in 0..3 {
@@ -647,6 +689,9 @@ impl Se3PointToPoint {
                 "is so short (for this distance) that the path's derivatives overflow",
             ));
         }
+        // The same rotation, with the quaternion sign the move arrives at (q and −q are one
+        // rotation; `Log` takes the short way, w ≥ 0): the samples' quaternions are continuous.
+        let r_to = same_sign(&r_to, &(r_from * exp_quat(&phi)));
         Ok(Se3PointToPoint {
             p_from,
             r_from,
@@ -701,7 +746,9 @@ impl Se3PointToPoint {
     }
 
     /// Pose and rates at `t` \[s\]: exactly A (as given, renormalised) for $t \le t_0$ or NaN,
-    /// exactly B once $\tau \ge 1$, with zero rates.
+    /// exactly B once $\tau \ge 1$, with zero rates. B's quaternion is the given one or its
+    /// negative (the same rotation), whichever the move arrives at, so the samples'
+    /// quaternions are continuous in t.
     #[inline]
     pub fn sample(&self, t: f64) -> Se3Sample {
         let tau = (t - self.t0) / self.duration;
@@ -839,7 +886,8 @@ impl Se3Spline {
         }
         let r_c = wps[0].r;
         let mut phi = Vec::with_capacity(n);
-        for (k, w) in wps.iter().enumerate() {
+        for k in 0..n {
+            let w = wps[k];
             let f = if k == 0 {
                 Vector3::zeros()
             } else {
@@ -853,6 +901,10 @@ impl Se3Spline {
                 ));
             }
             phi.push(f);
+            // Quaternion sign continuous along the path (the spline arrives at R_c Exp(φ_k)).
+            let at = r_c * exp_quat(&f);
+            let w = &mut wps[k];
+            w.r = same_sign(&w.r, &at);
         }
         let rename = |e: ModelError| match e {
             ModelError::Invalid {
@@ -874,7 +926,13 @@ impl Se3Spline {
         // segment's bound): require a generous product of the segment bounds to be finite.
         for k in 0..n - 1 {
             let h = wps[k + 1].t - wps[k].t;
-            let s = rot.sample(wps[k].t);
+            let Some(s) = segment_midpoint(&rot, wps[k].t, wps[k + 1].t) else {
+                return Err(ModelError::invalid(
+                    format!("path.waypoints[{}].t", k + 1),
+                    wps[k + 1].t,
+                    "is too close to the previous waypoint to be resolved",
+                ));
+            };
             let b1 = s.v.norm() + s.a.norm() * h + s.j.norm() * h * h;
             let b0 = s.p.norm() + b1 * h;
             let g =
@@ -901,16 +959,19 @@ impl Se3Spline {
     /// whose largest magnitude on $[0, h_k]$ is at an end or at its vertex.
     fn rate_bound(&self, k: usize) -> f64 {
         let (ta, tb) = (self.waypoints[k].t, self.waypoints[k + 1].t);
-        let h = tb - ta;
-        let s = self.rot.sample(ta);
+        let Some(s) = segment_midpoint(&self.rot, ta, tb) else {
+            return f64::INFINITY;
+        };
+        // About the midpoint: σ ∈ [−h/2, h/2] (the derivatives at a knot would be the hold's).
+        let r = 0.5 * (tb - ta);
         let mut sq = 0.0;
         for j in 0..3 {
             let (c0, c1, c2) = (s.v[j], s.a[j], 0.5 * s.j[j]);
             let q = |x: f64| (c0 + (c1 + c2 * x) * x).abs();
-            let mut m = q(0.0).max(q(h));
+            let mut m = q(-r).max(q(r));
             if c2 != 0.0 {
                 let x = -c1 / (2.0 * c2);
-                if x > 0.0 && x < h {
+                if x > -r && x < r {
                     m = m.max(q(x));
                 }
             }
@@ -946,7 +1007,8 @@ impl Se3Spline {
         ok
     }
 
-    /// The waypoints (quaternions renormalised).
+    /// The waypoints (quaternions renormalised, and negated where needed so that the
+    /// samples' quaternions are continuous in t; the same rotations).
     pub fn waypoints(&self) -> &[Se3Waypoint] {
         &self.waypoints
     }
@@ -1052,11 +1114,22 @@ pub fn left_jacobian_rates(
     d2: &Vector3<f64>,
     d3: &Vector3<f64>,
 ) -> [Vector3<f64>; 3] {
-    // u = |φ|² and its rates.
-    let u = phi.norm_squared();
+    left_jacobian_rates_with(&bc_with_derivatives(phi.norm_squared()), phi, d1, d2, d3)
+}
+
+/// [`left_jacobian_rates`] with the coefficients `bc = bc_with_derivatives(|φ|²)` given.
+#[inline]
+fn left_jacobian_rates_with(
+    bc: &[f64; 6],
+    phi: &Vector3<f64>,
+    d1: &Vector3<f64>,
+    d2: &Vector3<f64>,
+    d3: &Vector3<f64>,
+) -> [Vector3<f64>; 3] {
+    // Rates of u = |φ|².
     let u1 = 2.0 * phi.dot(d1);
     let u2 = 2.0 * (d1.norm_squared() + phi.dot(d2));
-    let [b, b_u, b_uu, c, c_u, c_uu] = bc_with_derivatives(u);
+    let [b, b_u, b_uu, c, c_u, c_uu] = *bc;
     let (b1, b2) = (b_u * u1, b_uu * u1 * u1 + b_u * u2);
     let (c1, c2) = (c_u * u1, c_uu * u1 * u1 + c_u * u2);
     // g = φ × φ̇, h = φ × g and their rates (φ̇ × φ̇ = 0).
@@ -1102,9 +1175,13 @@ const C_SERIES: [f64; N_SERIES] = alternating_inverse_factorials(3);
 /// Below this $u = \theta^2$ ($\theta \le 2\pi$) the series are used.
 const SERIES_U: f64 = 4.0 * PI * PI;
 
+/// Terms enough for $u \le \pi^2$ ($\theta \le \pi$, every chart value): the first omitted
+/// terms are below 1e-22.
+const N_SERIES_PI: usize = 16;
+
 /// A power series and its first two derivatives at `u` (Horner).
 #[inline]
-fn horner2(a: &[f64; N_SERIES], u: f64) -> [f64; 3] {
+fn horner2(a: &[f64], u: f64) -> [f64; 3] {
     let (mut p, mut dp, mut ddp) = (0.0, 0.0, 0.0);
     for k in a.iter().rev() {
         ddp = ddp * u + 2.0 * dp;
@@ -1117,6 +1194,11 @@ fn horner2(a: &[f64; N_SERIES], u: f64) -> [f64; 3] {
 /// $[b, b', b'', c, c', c'']$ with $' = d/du$, $u = \theta^2 \ge 0$.
 #[inline]
 fn bc_with_derivatives(u: f64) -> [f64; 6] {
+    if u <= PI * PI {
+        let [b, b1, b2] = horner2(&B_SERIES[..N_SERIES_PI], u);
+        let [c, c1, c2] = horner2(&C_SERIES[..N_SERIES_PI], u);
+        return [b, b1, b2, c, c1, c2];
+    }
     if u <= SERIES_U {
         let [b, b1, b2] = horner2(&B_SERIES, u);
         let [c, c1, c2] = horner2(&C_SERIES, u);
@@ -1148,6 +1230,23 @@ fn bc_with_derivatives(u: f64) -> [f64; 6] {
 // ---------------------------------------------------------------------------------------------
 // Helpers
 // ---------------------------------------------------------------------------------------------
+
+/// The spline's sample at the midpoint of segment `[ta, tb]`, if that midpoint is strictly
+/// inside it (the planar spline holds its first value at the first knot, so the derivatives
+/// of a segment are read inside it).
+fn segment_midpoint(sp: &Spline, ta: f64, tb: f64) -> Option<crate::trajectory::PathSample> {
+    let tm = ta + 0.5 * (tb - ta);
+    (tm > ta && tm < tb).then(|| sp.sample(tm))
+}
+
+/// `q` or `−q` (the same rotation), whichever is on `near`'s side of the quaternion sphere.
+fn same_sign(q: &UnitQuaternion<f64>, near: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    if q.coords.dot(&near.coords) < 0.0 {
+        UnitQuaternion::new_unchecked(-q.into_inner())
+    } else {
+        *q
+    }
+}
 
 /// `|Log(R_refᵀ R)|` componentwise.
 fn chart_abs(r: &UnitQuaternion<f64>, r_ref: &UnitQuaternion<f64>) -> Vector3<f64> {
@@ -1266,15 +1365,15 @@ fn angle_range(omega: f64, phase: f64, t_end: f64) -> (f64, f64) {
     (phase.min(last), phase.max(last))
 }
 
-/// $\max_{\psi \in [lo, hi]} |c + A\cos\psi|$ in closed form (as the planar paths'): the ends
-/// of the range and the multiples of π inside it; a full turn, an infinite or NaN range, or
-/// angles too large to resolve π give $|c| + |A|$.
-fn max_abs_cos(c: f64, amp: f64, lo: f64, hi: f64) -> f64 {
+/// $\max |c + A\cos\psi|$ over the multiples of π in $[lo, hi]$ (the interior extrema; 0 if
+/// there are none), in closed form as the planar paths' bound: a full turn, an infinite or
+/// NaN range, or angles too large to resolve π give $|c| + |A|$. The caller adds the ends.
+fn interior_max_abs_cos(c: f64, amp: f64, lo: f64, hi: f64) -> f64 {
     const RESOLVED: f64 = 1e12;
     if !(hi - lo < TAU) || !(lo.abs().max(hi.abs()) < RESOLVED) {
         return c.abs() + amp.abs();
     }
-    let mut m = (c + amp * lo.cos()).abs().max((c + amp * hi.cos()).abs());
+    let mut m: f64 = 0.0;
     let k0 = (lo / PI).ceil();
     for k in [k0, k0 + 1.0] {
         if k * PI <= hi {
@@ -1333,6 +1432,22 @@ mod tests {
     }
 
     #[test]
+    fn short_series_suffice_up_to_pi() {
+        for u in [0.5, 4.0, PI * PI] {
+            for a in [&B_SERIES, &C_SERIES] {
+                let short = horner2(&a[..N_SERIES_PI], u);
+                let long = horner2(a, u);
+                for i in 0..3 {
+                    assert!(
+                        (short[i] - long[i]).abs() < 1e-17,
+                        "u = {u}, derivative {i}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
     fn series_values_at_zero() {
         let [b, b1, b2, c, c1, c2] = bc_with_derivatives(0.0);
         assert_eq!(b, 0.5);
@@ -1344,9 +1459,15 @@ mod tests {
     }
 
     #[test]
-    fn max_abs_cos_closed_form() {
-        assert_eq!(max_abs_cos(0.1, 0.2, 1e20, 1e20 + 1.0), 0.1 + 0.2);
-        assert_eq!(max_abs_cos(0.0, 1.0, 3.0, 3.5), 1.0);
-        assert_eq!(max_abs_cos(0.5, 1.0, -0.1, 0.1), 1.5);
+    fn interior_extrema_closed_form() {
+        assert_eq!(interior_max_abs_cos(0.1, 0.2, 1e20, 1e20 + 1.0), 0.1 + 0.2);
+        assert_eq!(
+            interior_max_abs_cos(0.1, 0.2, 0.0, f64::INFINITY),
+            0.1 + 0.2
+        );
+        assert_eq!(interior_max_abs_cos(0.0, 1.0, 3.0, 3.5), 1.0);
+        assert_eq!(interior_max_abs_cos(0.5, 1.0, -0.1, 0.1), 1.5);
+        assert_eq!(interior_max_abs_cos(0.5, 1.0, 0.1, 0.2), 0.0);
+        assert_eq!(interior_max_abs_cos(0.2, 1.0, -0.1, PI + 0.1), 1.2);
     }
 }
