@@ -14,7 +14,7 @@
 //! | model | [`arm`], [`object`], [`grasp`] | [`model`] (chains, URDF), [`plant::spatial::object`] | [`error`] |
 //! | arm dynamics (1)–(4) | [`arm`] (closed forms + general n-link) | [`dynamics`] (FK, J, J̇q̇, CRBA, RNEA, ABA) | |
 //! | closed chain (10)–(14) | [`plant`] (constrained, reduced) | [`plant::spatial`] (welds, compliant grasps) | [`plant::ClosedChain`] |
-//! | reference generation (15)–(21) | [`trajectory`], [`admittance`] | | |
+//! | reference generation (15)–(21) | [`trajectory`], [`admittance`] | [`reference`](mod@reference) (SE(3) paths), [`se3`] (output chart, reference pose fit) | |
 //! | control laws (22)–(44) | [`iblf`], [`rbf`], [`switching`], [`adaptive`], [`pd`], [`ctc`], [`control`] | | |
 //! | simulation | [`sim`], [`report`] | | [`integrate`], [`sensors`], [`disturbance`] |
 //!
