@@ -11,8 +11,6 @@
 //! (round trips, exact cases) are held to a few ulps (1e-14). Measured maxima are printed
 //! (`--nocapture`) and quoted in the report.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use nalgebra::{
@@ -27,34 +25,12 @@ use tandem::spatial::so3;
 // ---------------------------------------------------------------------------------------------
 // Counting allocator (pattern of tests/alloc.rs).
 
-struct Counting;
-
-thread_local! {
-    static COUNT: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        unsafe { System.dealloc(p, l) }
-    }
-    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(p, l, n) }
-    }
-}
+#[path = "support/counting.rs"]
+mod counting;
+use counting::count;
 
 #[global_allocator]
-static A: Counting = Counting;
-
-fn count(f: impl FnOnce()) -> usize {
-    let before = COUNT.with(|c| c.get());
-    f();
-    COUNT.with(|c| c.get()) - before
-}
+static A: counting::Counting = counting::Counting;
 
 // ---------------------------------------------------------------------------------------------
 // Helpers.

@@ -208,14 +208,7 @@ fn weld_wrenches(
             dst.copy_from_slice(&lam[a]);
         }
         // rhs_i = γ_i − (J q̈⁰ + J̇q̇ − Ad_i V̇⁰ − c_i), γ_i = −2ω_b ė − ω_b² e.
-        let jt = d.J.as_slice();
-        let mut vt = Vector6::zeros();
-        for kk in 0..n {
-            let col = &jt[6 * kk..6 * kk + 6];
-            for a in 0..6 {
-                vt[a] += col[a] * qd[s + kk];
-            }
-        }
+        let vt = tool_twist(d, &qd[s..s + n]);
         let ad_a0 = v6(&(a0_lin + a0_ang.cross(&r)), &a0_ang);
         let ci = v6(&o.w.cross(&o.w.cross(&r)), &Vector3::zeros());
         let x_wg = x_wo * p.grasps[i];
@@ -303,6 +296,20 @@ fn weld_wrenches(
     true
 }
 
+/// The tool twist `J q̇` (world axes) from the arm's Jacobian in `d`.
+#[inline]
+fn tool_twist(d: &dynamics::ChainData, qd: &[f64]) -> Vector6<f64> {
+    let jt = &d.J.as_slice()[..6 * qd.len()];
+    let mut vt = Vector6::zeros();
+    for (kk, q) in qd.iter().enumerate() {
+        let col = &jt[6 * kk..6 * kk + 6];
+        for a in 0..6 {
+            vt[a] += col[a] * q;
+        }
+    }
+    vt
+}
+
 /// Compliant grasps: the spring–damper wrench of each grasp into `ws.wrenches`, and `ws.r[i]`
 /// set to the tool origins (where `−F_i` acts on the object).
 fn compliant_wrenches(
@@ -327,14 +334,7 @@ fn compliant_wrenches(
             &log_quat(&(r_wg.inverse() * d.X_WT.rotation)),
         );
         // Relative twist of the tool against the object point under it, in G axes.
-        let jt = d.J.as_slice();
-        let mut vt = Vector6::zeros();
-        for kk in 0..n {
-            let col = &jt[6 * kk..6 * kk + 6];
-            for a in 0..6 {
-                vt[a] += col[a] * qd[s + kk];
-            }
-        }
+        let vt = tool_twist(d, &qd[s..s + n]);
         let rp = p_t - o.p;
         let dv = vt.fixed_rows::<3>(0) - (o.v + o.w.cross(&rp));
         let dw = vt.fixed_rows::<3>(3) - o.w;
