@@ -936,3 +936,25 @@ fn replay_columns_are_matched_by_header_name() {
     exit(&o, 0);
     let _ = fs::remove_dir_all(&d);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Found by the fuzz test (tests/fuzz.rs).
+
+#[test]
+fn a_tiny_plant_step_is_refused_not_an_endless_run() {
+    // plant_step = 2e-144: 4.6e140 RK4 substeps per tick (the count saturated usize).
+    let d = scratch("substeps");
+    let e = refused(
+        &d,
+        &[(
+            "plant_step = 0.001 ",
+            "plant_step = 2.174625375516394e-144 ",
+        )],
+    );
+    assert!(
+        e.contains("run.plant_step = 2.174625375516394e-144")
+            && e.contains("4.598e140 plant steps per control period, more than 1000"),
+        "{e}"
+    );
+    let _ = fs::remove_dir_all(&d);
+}

@@ -62,6 +62,9 @@ pub struct SimParams {
 /// time), so that every run ends in bounded time.
 pub const MAX_TICKS: f64 = 1e9;
 
+/// Most plant steps per control tick (a tiny plant step must not make the run endless).
+pub const MAX_SUBSTEPS: usize = 1000;
+
 /// Most memory the preallocated log may take, bytes (512 MiB): a longer log is refused at
 /// validation with its size, never allocated.
 pub const MAX_LOG_BYTES: f64 = 512.0 * 1024.0 * 1024.0;
@@ -115,6 +118,16 @@ impl SimParams {
                 "log_period",
                 hl,
                 format!("must not exceed the duration ({d} s): the log would hold one row"),
+            ));
+        }
+        if !(hc / hp < MAX_SUBSTEPS as f64 + 0.5) {
+            return Err(ModelError::invalid(
+                "plant_step",
+                hp,
+                format!(
+                    "gives {:.3e} plant steps per control period, more than {MAX_SUBSTEPS} (the run would never end)",
+                    hc / hp
+                ),
             ));
         }
         let sub = ratio(hc, hp, "control_period", "plant_step")?;
