@@ -618,3 +618,31 @@ fn a_locked_chain_is_a_counted_event_with_time_and_state() {
     let (lin, ang) = plant.constraint_residual(&y, &mut ws);
     assert!(lin < 1e-6 && ang < 1e-6, "{lin:e} {ang:e}");
 }
+
+/// A step that would make the state non-finite is undone and reported with its time: the
+/// state is never NaN.
+#[test]
+fn a_non_finite_step_is_undone_and_reported() {
+    use tandem::plant::spatial::StepFault;
+    let s = fixtures::dual_ur5();
+    let (plant, y0) = build(&s);
+    let mut ws = plant.workspace();
+    let mut input = plant.zero_input();
+    input.tau[2] = 1e300;
+    let mut y = y0.clone();
+    let mut rk = Rk4::new(plant.state_dim());
+    let mut fault = None;
+    for k in 0..50 {
+        if let Err(f) = plant.step(&mut rk, k as f64 * 1e-3, &mut y, &input, &mut ws, 1e-3, 1) {
+            fault = Some((k, f));
+            break;
+        }
+    }
+    let (k, f) = fault.expect("a torque of 1e300 N m overflows");
+    assert_eq!(f, StepFault::NonFinite { t: k as f64 * 1e-3 });
+    assert!(
+        y.iter().all(|v| v.is_finite()),
+        "the last good state is kept"
+    );
+    assert!(f.to_string().contains("non-finite"));
+}
