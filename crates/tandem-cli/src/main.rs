@@ -13,6 +13,7 @@ mod output;
 #[allow(dead_code)]
 mod plot;
 mod replay;
+mod robustness;
 mod runner;
 mod scenario;
 mod scene;
@@ -91,6 +92,10 @@ enum Command {
         /// Scenario file or embedded scenario name.
         scenario: String,
     },
+    /// Run every fault family of `[faults]` at five severities for PD and the NN law; write
+    /// robustness.md, figures/robustness.png/.svg and results.json (the report in
+    /// docs/robustness.md is `tandem robustness --out docs --force`... see the README).
+    Robustness(RobustnessArgs),
     /// The embedded scenarios.
     Scenario {
         #[command(subcommand)]
@@ -156,6 +161,21 @@ struct RunArgs {
 }
 
 #[derive(Args)]
+struct RobustnessArgs {
+    /// Scenario file or embedded scenario name [default: paper].
+    scenario: Option<String>,
+    /// Output folder [default: out/SCENARIO-robustness].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Replace the output folder if tandem wrote it.
+    #[arg(long)]
+    force: bool,
+    /// Simulated time of each run, s.
+    #[arg(long, value_name = "S", default_value_t = 20.0)]
+    duration: f64,
+}
+
+#[derive(Args)]
 struct CompareArgs {
     /// Scenario file or embedded scenario name [default: paper].
     scenario: Option<String>,
@@ -168,6 +188,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(a) => cmd_run(a),
         Command::Compare(a) => cmd_compare(a),
+        Command::Robustness(a) => cmd_robustness(a),
         Command::Validate { scenario } => cmd_validate(&scenario),
         Command::Scenario { command } => cmd_scenario(command),
     };
@@ -570,6 +591,40 @@ fn report_md(
          - For PD and CTC, `z2` is the velocity error ż1; for NN it is x_2 − α.\n",
     );
     s
+}
+
+fn cmd_robustness(a: RobustnessArgs) -> Result<ExitCode> {
+    let o = Overrides {
+        duration: Some(a.duration),
+        ..Overrides::default()
+    };
+    let (src, base) = load(a.scenario.as_deref(), &o)?;
+    let out_dir = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-robustness", src.name)));
+    let protected = inputs(&src, &base);
+    check_out(&out_dir, a.force, &protected)?;
+    let t0 = Instant::now();
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cells = robustness::run_grid(&base, &src, threads)?;
+    let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
+    let out = OutputDir::create(&out_dir, a.force, &p)?;
+    let mut cmd = vec!["tandem".to_string()];
+    cmd.extend(std::env::args().skip(1).map(|a| shell_quote(&a)));
+    robustness::write(out.tmp_dir(), &cells, &base, &cmd.join(" "))?;
+    let dir = out.commit()?;
+    let count = |c: &str| cells.iter().filter(|x| x.class == c).count();
+    println!(
+        "{} runs in {} s: {} inside, {} degraded, {} faulted; report {}",
+        cells.len(),
+        table::num(t0.elapsed().as_secs_f64(), 3),
+        count("inside"),
+        count("degraded"),
+        count("fault"),
+        dir.join("robustness.md").display()
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 fn cmd_validate(arg: &str) -> Result<ExitCode> {

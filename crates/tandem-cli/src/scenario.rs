@@ -227,6 +227,87 @@ pub struct Scenario {
     /// Summary metrics.
     #[serde(default)]
     pub metrics: MetricsConfig,
+    /// Injected faults for robustness studies (default: none).
+    #[serde(default, skip_serializing_if = "FaultsConfig::is_off")]
+    pub faults: FaultsConfig,
+}
+
+/// Injected faults (see `tandem::faults`); everything off by default.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FaultsConfig {
+    /// Sensor dropout bursts per second (every reading holds during a burst).
+    #[serde(default)]
+    pub dropout_rate: f64,
+    /// Length of one dropout burst, s.
+    #[serde(default)]
+    pub dropout_length: f64,
+    /// Force-sensor saturation per component, N.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub force_limit: Option<f64>,
+    /// Force-sensor delay, s (whole control periods).
+    #[serde(default)]
+    pub force_delay: f64,
+    /// Encoder quantisation step, rad.
+    #[serde(default)]
+    pub encoder_resolution: f64,
+    /// Actuator torque saturation, N m (the controller does not know it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub torque_limit: Option<f64>,
+    /// Actuator torque rate limit, N m/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub torque_rate: Option<f64>,
+    /// Payload mismatch: the true object's mass over the nominal one (`object`), which the
+    /// controller keeps.
+    #[serde(default = "one")]
+    pub payload_mass: f64,
+    /// The true object's rotational inertia over the nominal one.
+    #[serde(default = "one")]
+    pub payload_inertia: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl Default for FaultsConfig {
+    fn default() -> Self {
+        FaultsConfig {
+            dropout_rate: 0.0,
+            dropout_length: 0.0,
+            force_limit: None,
+            force_delay: 0.0,
+            encoder_resolution: 0.0,
+            torque_limit: None,
+            torque_rate: None,
+            payload_mass: 1.0,
+            payload_inertia: 1.0,
+        }
+    }
+}
+
+impl FaultsConfig {
+    fn is_off(&self) -> bool {
+        *self == FaultsConfig::default()
+    }
+    /// The library's injection (the payload is applied to the plant instead).
+    pub fn injection(&self, seed: u64) -> tandem::faults::Faults {
+        tandem::faults::Faults {
+            dropout_rate: self.dropout_rate,
+            dropout_length: self.dropout_length,
+            force_limit: self.force_limit,
+            force_delay: self.force_delay,
+            encoder_resolution: self.encoder_resolution,
+            torque_limit: self.torque_limit,
+            torque_rate: self.torque_rate,
+            seed: splitmix(seed),
+        }
+    }
+}
+
+/// A seed for the fault stream distinct from the sensors' (same run seed).
+fn splitmix(seed: u64) -> u64 {
+    tandem::fixtures::splitmix64(seed ^ 0x6661_756c_7473)
 }
 
 /// One arm.
@@ -1339,6 +1420,9 @@ pub struct Built {
     pub replay: Option<PathBuf>,
     /// Stacked joint-angle guess for arms that are not 2-link.
     pub q_guess: Option<Vec<f64>>,
+    /// The true plant when it differs from `plant` (the controller's nominal model): a payload
+    /// mismatch of `[faults]`.
+    pub truth: Option<PlantParams>,
 }
 
 fn disturbance(d: &DisturbanceConfig) -> Disturbance {
@@ -1591,6 +1675,29 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
         }
         _ => None,
     };
+    // The true plant: the nominal one with the payload mismatch of [faults].
+    let fc = &sc.faults;
+    for (name, v) in [
+        ("faults.payload_mass", fc.payload_mass),
+        ("faults.payload_inertia", fc.payload_inertia),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(src.error_at(name, format!("{name} = {}: must be finite and > 0", num(v))));
+        }
+    }
+    let truth = (fc.payload_mass != 1.0 || fc.payload_inertia != 1.0).then(|| {
+        let mut t = plant.clone();
+        t.object.inertia[0] *= fc.payload_mass;
+        t.object.inertia[1] *= fc.payload_mass;
+        t.object.inertia[2] *= fc.payload_inertia;
+        t.object.gravity = t.object.gravity.map(|g| g * fc.payload_mass);
+        t
+    });
+    if let Some(t) = &truth {
+        tandem::plant::Plant::new(t).map_err(|e| {
+            src.model_error(e, |p| format!("faults (true plant): {}", plant_path(p)))
+        })?;
+    }
     Ok(Built {
         plant,
         sensors,
@@ -1600,6 +1707,7 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
         controller,
         replay,
         q_guess: need_guess.then_some(q_guess),
+        truth,
     })
 }
 
@@ -1772,7 +1880,7 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
         }
     };
     let sim = Simulation::new(
-        &b.plant,
+        b.truth.as_ref().unwrap_or(&b.plant),
         &b.sensors,
         driver,
         b.disturbance.clone(),
@@ -1808,6 +1916,9 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
             }),
         }
     })?;
+    let sim = sim
+        .with_faults(&sc.faults.injection(sc.run.seed))
+        .map_err(|e| src.model_error(e, |p| p.to_string()))?;
     // A start far from the path's first pose means a large initial error: every law answers it
     // with a large transient wrench (SPEC §4 starts 1 cm off).
     let x0 = b.path.sample(0.0).p;

@@ -958,3 +958,112 @@ fn a_tiny_plant_step_is_refused_not_an_endless_run() {
     );
     let _ = fs::remove_dir_all(&d);
 }
+
+// ---------------------------------------------------------------------------------------------
+// 10. Fault injection.
+
+#[test]
+fn fault_injection_knobs_complete_or_stop_with_a_named_fault() {
+    let d = scratch("faults");
+    let base = paper_text(&d);
+    for (i, knob) in [
+        "dropout_rate = 5.0\ndropout_length = 0.3",
+        "force_limit = 0.5",
+        "force_delay = 0.3",
+        "encoder_resolution = 0.01",
+        "torque_limit = 2.0",
+        "torque_rate = 100.0",
+        "payload_mass = 3.0\npayload_inertia = 3.0",
+    ]
+    .iter()
+    .enumerate()
+    {
+        fs::write(d.join("f.toml"), format!("{base}\n[faults]\n{knob}\n")).expect("write");
+        let out = format!("o{i}");
+        for ctl in ["pd", "nn"] {
+            let o = tandem(
+                &d,
+                &[
+                    "run",
+                    "f.toml",
+                    "--controller",
+                    ctl,
+                    "--duration",
+                    "2",
+                    "--no-figures",
+                    "--out",
+                    &out,
+                    "--force",
+                ],
+            );
+            let s = read_json(&d.join(&out).join("summary.json"));
+            match code(&o) {
+                0 => assert_eq!(s["completed"], true, "{knob}"),
+                1 => {
+                    assert!(s["fault"]["kind"].is_string(), "{knob}: {}", s["fault"]);
+                    assert!(stderr(&o).contains("the ") && stderr(&o).contains(" run stopped: "));
+                }
+                c => panic!("{knob} ({ctl}): exit {c}: {}", stderr(&o)),
+            }
+            assert_all_finite(&d.join(&out));
+            // The resolved scenario keeps the knob.
+            let resolved = fs::read_to_string(d.join(&out).join("scenario.toml")).expect("toml");
+            assert!(resolved.contains("[faults]"), "{knob}");
+        }
+    }
+    // Bad knobs name their field.
+    for (knob, field) in [
+        (
+            "force_delay = 0.0005",
+            "faults.force_delay = 0.0005: must be a whole multiple",
+        ),
+        ("dropout_rate = -1.0", "faults.dropout_rate = -1"),
+        ("torque_limit = 0.0", "faults.torque_limit = 0"),
+        ("payload_mass = 0.0", "faults.payload_mass = 0"),
+        (
+            "force_delay = 2.0",
+            "faults.force_delay = 2: must be at most 1 s",
+        ),
+    ] {
+        fs::write(d.join("b.toml"), format!("{base}\n[faults]\n{knob}\n")).expect("write");
+        let o = tandem(&d, &["validate", "b.toml"]);
+        exit(&o, 2);
+        assert!(stderr(&o).contains(field), "{knob}: {}", stderr(&o));
+        assert!(stderr(&o).contains("(line 20"), "{knob}: {}", stderr(&o));
+    }
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn injected_faults_are_deterministic_and_change_the_run() {
+    let d = scratch("faults-det");
+    let base = paper_text(&d);
+    fs::write(
+        d.join("f.toml"),
+        format!("{base}\n[faults]\ndropout_rate = 2.0\ndropout_length = 0.05\nencoder_resolution = 0.001\n"),
+    )
+    .expect("write");
+    let run = |out: &str, file: &str| {
+        let o = tandem(
+            &d,
+            &[
+                "run",
+                file,
+                "--controller",
+                "pd",
+                "--duration",
+                "2",
+                "--no-figures",
+                "--out",
+                out,
+            ],
+        );
+        exit(&o, 0);
+        fs::read(d.join(out).join("timeseries.csv")).expect("csv")
+    };
+    fs::write(d.join("n.toml"), &base).expect("write");
+    let (a, b, n) = (run("a", "f.toml"), run("b", "f.toml"), run("n", "n.toml"));
+    assert_eq!(a, b, "same seed, same faults: identical logs");
+    assert_ne!(a, n, "the faults change the run");
+    let _ = fs::remove_dir_all(&d);
+}

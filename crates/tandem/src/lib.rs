@@ -58,6 +58,7 @@ pub mod plant;
 
 pub mod fixtures;
 
+pub mod faults;
 pub mod integrate;
 pub mod sensors;
 

@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 use crate::control::{ControlEvents, Controller, Measurements, TickRecord};
 use crate::disturbance::Disturbance;
 use crate::error::{ModelError, positive};
+use crate::faults::{FaultState, Faults};
 use crate::integrate::Rk4;
 use crate::plant::{ConstrainedOde, Plant, PlantInput, PlantParams, PlantWorkspace, ReducedOde};
 use crate::sensors::{SensorParams, Sensors};
@@ -475,9 +476,27 @@ pub struct Simulation {
     k_c: Option<Vector3<f64>>,
     min_margin: f64,
     violation_ticks: u64,
+    /// Injected sensor and actuator faults ([`Simulation::with_faults`]).
+    faults: Option<Box<FaultState>>,
 }
 
 impl Simulation {
+    /// Inject sensor and actuator faults between the plant and the driver (see
+    /// [`crate::faults`]); errors name the field (`faults.force_delay`, ...).
+    pub fn with_faults(mut self, f: &Faults) -> Result<Self, ModelError> {
+        self.faults = if f.any() {
+            let st = f.state(
+                self.params.control_period,
+                self.plant.n_q(),
+                self.forces.len(),
+            )?;
+            Some(Box::new(st))
+        } else {
+            None
+        };
+        Ok(self)
+    }
+
     /// Build a run: validates every part, places the chain at the start pose (analytic IK for
     /// 2-link arms, `q_guess` for others) and starts the driver.
     pub fn new(
@@ -556,6 +575,7 @@ impl Simulation {
             k_c: None,
             min_margin: f64::INFINITY,
             violation_ticks: 0,
+            faults: None,
         };
         if let Driver::Controller(c) = &sim.driver {
             sim.k_c = Some(c.k_c());
@@ -671,12 +691,25 @@ impl Simulation {
                 for i in 0..n_arms {
                     self.forces[i] = self.sensors.force(i);
                 }
-                let meas = Measurements {
-                    q: self.sensors.q(),
-                    qd: self.sensors.qd(),
-                    forces: &self.forces,
-                };
-                c.tick(t, &meas, &mut self.input.tau, &mut self.rec);
+                match &mut self.faults {
+                    Some(fs) => {
+                        fs.sense(k, self.sensors.q(), self.sensors.qd(), &self.forces);
+                        let meas = Measurements {
+                            q: &fs.q,
+                            qd: &fs.qd,
+                            forces: &fs.forces,
+                        };
+                        c.tick(t, &meas, &mut self.input.tau, &mut self.rec);
+                    }
+                    None => {
+                        let meas = Measurements {
+                            q: self.sensors.q(),
+                            qd: self.sensors.qd(),
+                            forces: &self.forces,
+                        };
+                        c.tick(t, &meas, &mut self.input.tau, &mut self.rec);
+                    }
+                }
             }
             Driver::Replay(r) => {
                 self.input.tau.copy_from_slice(r.at(t));
@@ -688,6 +721,9 @@ impl Simulation {
                     ..TickRecord::default()
                 };
             }
+        }
+        if let Some(fs) = &mut self.faults {
+            fs.actuate(hc, &mut self.input.tau);
         }
         self.input.f_d = self.disturbance.at(t);
         // Every value of the tick must be finite before it is logged or integrated.
