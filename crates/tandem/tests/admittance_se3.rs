@@ -284,6 +284,50 @@ fn small_mass_approaches_first_order() {
     eprintln!("M_e → 0: max relative difference {worst:.2e} (tol {rel:.2e})");
 }
 
+/// `ë` from the state (used for the reference twist rate) against central differences of `ė`
+/// along the generated trajectory (constant `F̃`, so `e` is smooth across ticks), on all six
+/// axes: error ≤ `2 h²/6 max|e⁗|` (`e⁗` from the ODE at the middle point, twice for its variation
+/// over the stencil) plus rounding `4 ε max|ė|/h`, as in the planar test.
+#[test]
+fn e_ddot_matches_finite_differences_of_e_dot() {
+    let mut worst = 0.0_f64;
+    for p in [
+        AdmittanceSe3Params::scaled(200.0, 626.0, 1000.0, 0.0, 0.2),
+        AdmittanceSe3Params::scaled(0.0, 626.0, 1000.0, 0.0, 0.2),
+        AdmittanceSe3Params::scaled(10.0, 626.0, 1000.0, 0.0, 0.2),
+    ] {
+        let adm = build(&p);
+        let f = Vector6::new(10.0, -3.0, 5.0, 0.5, -0.2, 0.3);
+        let mut st = AdmittanceSe3State::default();
+        let mut hist = Vec::new();
+        for _ in 0..500 {
+            adm.step(&mut st, &f, &Vector6::zeros());
+            hist.push(st);
+        }
+        for j in 0..6 {
+            let (m, c, k) = (p.m_e[j], p.c_e[j], p.k_e[j]);
+            let v_max = hist.iter().map(|s| s.e_dot[j].abs()).fold(0.0, f64::max);
+            for w in hist.windows(3) {
+                let fd = (w[2].e_dot[j] - w[0].e_dot[j]) / (2.0 * H);
+                let acc = adm.e_ddot(&w[1])[j];
+                let d4 = if m > 0.0 {
+                    let d3 = -(acc * c + w[1].e_dot[j] * k) / m;
+                    ((d3 * c + acc * k) / m).abs()
+                } else {
+                    (k / c).powi(2) * acc.abs()
+                };
+                let tol = 2.0 * H * H / 6.0 * d4 + 4.0 * f64::EPSILON * v_max / H;
+                assert!(
+                    (fd - acc).abs() <= tol,
+                    "M = {m}, axis {j}: fd {fd} vs {acc} (tol {tol:e})"
+                );
+                worst = worst.max((fd - acc).abs() / tol);
+            }
+        }
+    }
+    eprintln!("ë vs FD of ė: max error / bound {worst:.2}");
+}
+
 // ---------------------------------------------------------------------------------------------
 // 2. Static compliance, its sign, and the return
 // ---------------------------------------------------------------------------------------------

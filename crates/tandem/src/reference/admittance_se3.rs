@@ -32,7 +32,7 @@
 //! y). For isotropic rotational gains (the defaults) the two choices agree.
 //!
 //! **Rates.** With the left Jacobian of SO(3), `d/dt Exp(φ) = [J_l(φ) φ̇]_× Exp(φ)` (Solà et
-//! al. [3], eq. 143 with `J_l`; [`crate::spatial::so3`]), differentiating
+//! al. \[3\], the left Jacobian; [`crate::spatial::so3`]), differentiating
 //! `R_r = Exp(e_φ) R_T` with `Ṙ_T = [ω_T] R_T`:
 //!
 //! $$ \omega_r = J_l(e_\varphi)\,\dot e_\varphi + \mathrm{Exp}(e_\varphi)\,\omega_T,
