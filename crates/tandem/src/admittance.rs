@@ -394,7 +394,7 @@ impl Admittance {
 
 /// Exact ZOH discretisation of $M\ddot e + C\dot e + K e = u$ (M, C, K > 0) for step h:
 /// returns $(\Phi, \Gamma)$ on the state $(e, \dot e)$. Closed form; see the module docs.
-fn zoh_second_order(m: f64, c: f64, k: f64, h: f64) -> (Matrix2<f64>, Vector2<f64>) {
+pub(crate) fn zoh_second_order(m: f64, c: f64, k: f64, h: f64) -> (Matrix2<f64>, Vector2<f64>) {
     let sigma = c / (2.0 * m);
     let wn2 = k / m;
     // q = ω_n²/σ² = 1/ζ², formed without squaring σ (no overflow for tiny m).
@@ -439,7 +439,7 @@ fn zoh_second_order(m: f64, c: f64, k: f64, h: f64) -> (Matrix2<f64>, Vector2<f6
 
 /// Exact ZOH discretisation of the first-order $C\dot e + K e = u$, written on $(e, \dot e)$ with
 /// $\dot e_{k+1}$ set to the ODE's value: see the module docs.
-fn zoh_first_order(c: f64, k: f64, h: f64) -> (Matrix2<f64>, Vector2<f64>) {
+pub(crate) fn zoh_first_order(c: f64, k: f64, h: f64) -> (Matrix2<f64>, Vector2<f64>) {
     let x = -k * h / c;
     let a = x.exp();
     let one_minus_a = -x.exp_m1();

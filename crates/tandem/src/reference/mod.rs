@@ -8,6 +8,7 @@
 //!
 //! The planar desired paths are in [`crate::trajectory`].
 
+pub mod admittance_se3;
 pub mod se3_path;
 
 pub use se3_path::{
