@@ -3,9 +3,6 @@
 //! rigid transport and the offset composition against finite differences, consistency with
 //! `se3::fit`, no allocation, never NaN.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use proptest::prelude::*;
 use tandem::ModelError;
 use tandem::nalgebra::{
@@ -24,35 +21,12 @@ use tandem::spatial::so3;
 // Counting allocator (pattern of tests/alloc.rs)
 // ---------------------------------------------------------------------------------------------
 
-struct Counting;
-
-thread_local! {
-    static COUNT: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        unsafe { System.dealloc(p, l) }
-    }
-    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(p, l, n) }
-    }
-}
+#[path = "support/counting.rs"]
+mod counting;
+use counting::count;
 
 #[global_allocator]
-static A: Counting = Counting;
-
-/// Allocations made by `f` on this thread.
-fn count(f: impl FnOnce()) -> usize {
-    let before = COUNT.with(|c| c.get());
-    f();
-    COUNT.with(|c| c.get()) - before
-}
+static A: counting::Counting = counting::Counting;
 
 // ---------------------------------------------------------------------------------------------
 // Fixtures
