@@ -145,8 +145,8 @@ fn main() {
     md.push_str(&format!(
         "Planar paper scenario, {duration} s, NN `tuned` gains (K1, K2, K_r, σ, ϑ² = 50, switching unchanged), constrained plant, admittance on, paper disturbance.\n\n"
     ));
-    md.push_str("| structure | weights planar (spatial) | Θ | settling 1 mm [s] | RMS z1 > 2 s [mm] | RMS z1 > 5 s [mm] | max z1 > 5 s [mm] | peak wrench [N] | roughness [N] | violations / barrier hits | min margin | NN tick [µs] | run RTF |\n");
-    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    md.push_str("| structure | weights planar (spatial) | Θ | settling 1 mm [s] | RMS z1 > 2 s [mm] | RMS z1 > 5 s [mm] | max z1 > 5 s [mm] | peak wrench [N] | roughness [N] | violations / barrier hits | min margin | ‖Ŵ_y‖/|τ_y| dev. > 2 s | NN tick [µs] | run RTF |\n");
+    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for c in &cases {
         let mut g = NnGains::tuned();
         g.levels = c.levels.clone();
@@ -169,8 +169,22 @@ fn main() {
         let s2 = summarize(&out, "nn", c.name, [0.35; 3], 2.0, duration);
         let s5 = summarize(&out, "nn", c.name, [0.35; 3], 5.0, duration);
         let tick = tick_time(&c.network, &c.levels);
+        // Fig. 16 check of tests/paper.rs: after 2 s, ‖Ŵ_y‖/|τ_y| stays near its median.
+        let track = {
+            let (t, w, tau) = (
+                out.log.get("t").unwrap_or(&[]),
+                out.log.get("w_norm.y").unwrap_or(&[]),
+                out.log.get("tau.y").unwrap_or(&[]),
+            );
+            let k2 = t.iter().position(|&x| x >= 2.0).unwrap_or(t.len());
+            let r: Vec<f64> = (k2..t.len()).map(|k| w[k] / tau[k].abs()).collect();
+            let mut sorted = r.clone();
+            sorted.sort_by(f64::total_cmp);
+            let med = sorted.get(sorted.len() / 2).copied().unwrap_or(f64::NAN);
+            r.iter().map(|x| (x - med).abs() / med).fold(0.0, f64::max)
+        };
         let row = format!(
-            "| {} | {} ({}) | ({:.3}, {:.3}, {:.3}) | {} | {:.4} | {:.4} | {:.4} | {:.1} | {:.3} | {} / {} | {:.3} | {:.2} | {:.0} |\n",
+            "| {} | {} ({}) | ({:.3}, {:.3}, {:.3}) | {} | {:.4} | {:.4} | {:.4} | {:.1} | {:.3} | {} / {} | {:.3} | {:.1} % | {:.2} | {:.0} |\n",
             c.name,
             weights_for::<3>(&c.network, &c.levels),
             weights_for::<6>(&c.network, &c.levels),
@@ -187,6 +201,7 @@ fn main() {
             s5.violations,
             s5.events.barrier_hits,
             s5.min_margin,
+            100.0 * track,
             tick,
             s5.real_time_factor,
         );
