@@ -512,3 +512,53 @@ fn rename(e: ModelError, from: &str, to: &str) -> ModelError {
         },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scrambled_halton_is_deterministic_stratified_and_seeded() {
+        let a = scrambled_halton(243, 12, 7);
+        assert_eq!(a, scrambled_halton(243, 12, 7));
+        assert_ne!(a, scrambled_halton(243, 12, 8));
+        assert!(a.iter().all(|&u| (0.0..1.0).contains(&u)));
+        // The first digit of point k is π(k mod p): over any run of consecutive points the
+        // strata [i/p, (i+1)/p) of base p get counts that differ by at most one.
+        let u = scrambled_halton(242, 2, 3);
+        for (dim, p) in [(0usize, 2usize), (1, 3)] {
+            let mut bins = vec![0usize; p];
+            for k in 0..242 {
+                bins[(u[(k, dim)] * p as f64) as usize] += 1;
+            }
+            let (lo, hi) = (bins.iter().min().unwrap(), bins.iter().max().unwrap());
+            assert!(hi - lo <= 1, "dim {dim}: {bins:?}");
+        }
+        // Unlike plain Halton, the first points of two large bases are not on a line.
+        let v = scrambled_halton(60, 24, 0);
+        let (x, y): (Vec<f64>, Vec<f64>) = (0..60).map(|k| (v[(k, 22)], v[(k, 23)])).unzip();
+        let mean = |w: &[f64]| w.iter().sum::<f64>() / w.len() as f64;
+        let (mx, my) = (mean(&x), mean(&y));
+        let cov: f64 = x.iter().zip(&y).map(|(a, b)| (a - mx) * (b - my)).sum();
+        let vx: f64 = x.iter().map(|a| (a - mx) * (a - mx)).sum();
+        let vy: f64 = y.iter().map(|b| (b - my) * (b - my)).sum();
+        let corr = cov / (vx * vy).sqrt();
+        assert!(corr.abs() < 0.5, "bases 83 and 89 correlate: {corr}");
+    }
+
+    #[test]
+    fn sizes_and_default_inputs() {
+        let upd = NnUpdate::<6>::new(SVector::repeat(1.0), SVector::repeat(0.1), 1e-3).unwrap();
+        let s = NetworkStructure::per_axis();
+        assert_eq!(s.inputs_of(4, 6), Some(vec![4, 10, 16, 22]));
+        let net = StructuredNn::<6>::new(&s, &[-1.0, 0.0, 1.0], 50.0, upd).unwrap();
+        assert_eq!(net.n_inputs(), 24);
+        assert_eq!(net.n_weights(), 6 * 81);
+        assert_eq!(net.inputs_of(5), vec![5, 11, 17, 23]);
+        let q = NetworkStructure::QuasiRandom { n: 100, seed: 2 };
+        let net = StructuredNn::<6>::new(&q, &[-1.0, 1.0], 50.0, upd).unwrap();
+        assert_eq!((net.nodes_of(3), net.n_weights()), (100, 600));
+        let n2 = grid_norm2_at_zero(&[-1.0, 1.0], 50.0, 24);
+        assert!((n2 - 6.423_876_652_867_8e6).abs() < 1e-3);
+    }
+}

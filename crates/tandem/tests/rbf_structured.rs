@@ -8,7 +8,7 @@ use std::cell::Cell;
 
 use nalgebra::{SVector, Vector2, Vector3};
 use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams, Measurements, TickRecord};
+use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
 use tandem::disturbance::Disturbance;
 use tandem::error::ModelError;
 use tandem::fixtures::{self, SplitMix64};
@@ -413,6 +413,46 @@ fn per_axis_closed_loop_stays_inside_the_bounds_and_tracks_like_the_full_grid() 
             full.rms_z1_after
         );
     }
+}
+
+#[test]
+fn per_arm_scheme_runs_with_a_per_axis_network() {
+    // The per-arm NN (2 outputs per arm, 8 inputs): the full grid has 2^8 nodes per arm, the
+    // per-axis structure 2 × 16. Θ matched to the per-arm grid's ‖S(0)‖².
+    let per_arm = |g: NnGains| {
+        let cp = ControllerParams {
+            scheme: Scheme::PerArm,
+            ..ControllerParams::paper(LawParams::Nn(g))
+        };
+        let sp = SimParams {
+            duration: 5.0,
+            ..SimParams::paper()
+        };
+        let (sim, _) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
+        let (out, _) = sim.run(|_| {});
+        let s = summarize(&out, "nn", "", [0.35; 3], 2.0, 5.0);
+        assert!(s.completed, "{:?}", s.fault);
+        s
+    };
+    let full = per_arm(NnGains::tuned());
+    let mut g = NnGains::tuned();
+    g.network = NetworkStructure::per_axis();
+    let upd = NnUpdate::<2>::new(Vector2::repeat(1.0), Vector2::repeat(1.0), 1e-3).unwrap();
+    let n2 = StructuredNn::<2>::new(&g.network, &LEVELS, WIDTH2, upd)
+        .unwrap()
+        .norm2_at_zero();
+    let reference = grid_norm2_at_zero(&LEVELS, WIDTH2, 8);
+    for j in 0..2 {
+        g.theta[j] *= reference / n2[j];
+    }
+    let axis = per_arm(g);
+    eprintln!(
+        "per-arm: full grid rms z1 after 2 s {:.3e} m, per-axis {:.3e} m, margin {:.3}",
+        full.rms_z1_after, axis.rms_z1_after, axis.min_margin
+    );
+    assert_eq!(axis.violations, 0);
+    assert!(axis.min_margin > 0.4);
+    assert!(axis.rms_z1_after <= 5.0 * full.rms_z1_after);
 }
 
 #[test]
