@@ -238,6 +238,10 @@ impl<const M: usize> StructuredNn<M> {
                 "needs at least one centre level",
             ));
         }
+        if let Some(&bad) = levels.iter().find(|c| !c.is_finite()) {
+            return Err(ModelError::invalid("gains.levels", bad, "must be finite"));
+        }
+        crate::error::positive("gains.width2", width2)?;
         let kind = match structure {
             NetworkStructure::FullGrid => {
                 let rbf = Rbf::grid(&vec![levels.to_vec(); n_in], width2)?;
@@ -253,12 +257,6 @@ impl<const M: usize> StructuredNn<M> {
             NetworkStructure::QuasiRandom { n, seed } => {
                 let lo = levels.iter().copied().fold(f64::INFINITY, f64::min);
                 let hi = levels.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-                if !(lo.is_finite() && hi.is_finite()) {
-                    return Err(ModelError::geometry(
-                        "gains.levels",
-                        "levels must be finite",
-                    ));
-                }
                 let u = scrambled_halton(*n, n_in, *seed);
                 let centres = u.map(|x| lo + (hi - lo) * x);
                 Self::shared(Rbf::general(&centres, width2)?)?

@@ -327,6 +327,11 @@ fn validation_names_the_field() {
         inputs: vec![vec![0]],
     });
     assert!(matches!(&e, ModelError::Geometry { what, .. } if what == "gains.network.inputs"));
+    let e = StructuredNn::<3>::new(&NetworkStructure::per_axis(), &[0.0, f64::NAN], WIDTH2, upd)
+        .unwrap_err();
+    assert!(matches!(&e, ModelError::Invalid { param, .. } if param == "gains.levels"));
+    let e = StructuredNn::<3>::new(&NetworkStructure::per_axis(), &LEVELS, 0.0, upd).unwrap_err();
+    assert!(matches!(&e, ModelError::Invalid { param, .. } if param == "gains.width2"));
     // Through the controller: the error keeps its path.
     let mut g = NnGains::tuned();
     g.network = NetworkStructure::QuasiRandom { n: 0, seed: 0 };
