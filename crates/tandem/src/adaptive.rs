@@ -22,6 +22,7 @@ use crate::error::{ModelError, positive};
 use crate::iblf::Iblf;
 use crate::plant::Plant;
 use crate::rbf::{NnUpdate, Rbf, RbfNetwork, RbfWorkspace};
+use crate::rbf_structured::{NetworkStructure, StructuredNn};
 use crate::switching::{SwitchParams, Switching};
 
 /// Gains of the NN law (plain data). Presets: [`NnGains::paper`], [`NnGains::tuned`].
@@ -52,6 +53,11 @@ pub struct NnGains {
     pub d2: f64,
     /// Switching shape `ω ≥ 1`.
     pub omega: f64,
+    /// Structure of the RBF network ([`crate::rbf_structured`]): the paper's full grid on
+    /// `levels` (the default, bit for bit), one grid per output over a subset of `Z`, or
+    /// quasi-random centres. Not serialised when it is the default.
+    #[serde(default, skip_serializing_if = "NetworkStructure::is_full_grid")]
+    pub network: NetworkStructure,
 }
 
 impl NnGains {
@@ -71,6 +77,7 @@ impl NnGains {
             d1: 1.0,
             d2: 1.5,
             omega: 1.0,
+            network: NetworkStructure::FullGrid,
         }
     }
     /// Gains that make the paper's claims hold on the paper scenario (SPEC §3.4 starting point;
@@ -251,14 +258,23 @@ impl FuBound {
     }
 }
 
+/// The network of an [`AdaptiveNn`]: the paper's grid (the default, with its fused
+/// output-only pass and the carried norms) or a [`StructuredNn`].
+enum Network<const N: usize> {
+    Grid {
+        rbf: Rbf,
+        rbf_ws: RbfWorkspace,
+        net: RbfNetwork<N>,
+    },
+    Structured(StructuredNn<N>),
+}
+
 /// The NN law for `N` outputs (3 on the object, 2 on one arm's end-effector): validated gains,
-/// the iBLF, switching, the RBF grid and its weights (state), and the input/basis scratch.
+/// the iBLF, switching, the RBF network and its weights (state), and the input/basis scratch.
 pub struct AdaptiveNn<const N: usize = 3> {
     iblf: Iblf<N>,
     switching: Switching,
-    rbf: Rbf,
-    rbf_ws: RbfWorkspace,
-    net: RbfNetwork<N>,
+    network: Network<N>,
     update: NnUpdate<N>,
     k2: SVector<f64, N>,
     k_r: SVector<f64, N>,
@@ -297,19 +313,23 @@ impl<const N: usize> AdaptiveNn<N> {
                 "needs at least one centre level",
             ));
         }
-        let levels = vec![g.levels.clone(); 4 * N];
-        let rbf = Rbf::grid(&levels, g.width2).map_err(|e| prefix_gains(e, "", ""))?;
-        let net = RbfNetwork::<N>::for_basis(&rbf)?;
         let theta = SVector::from_fn(|j, _| g.theta[j]);
         let sigma = SVector::from_fn(|j, _| g.sigma[j]);
         let update = NnUpdate::new(theta, sigma, h).map_err(|e| prefix_gains(e, "", ""))?;
-        let rbf_ws = rbf.workspace();
+        let network = if g.network.is_full_grid() {
+            let levels = vec![g.levels.clone(); 4 * N];
+            let rbf = Rbf::grid(&levels, g.width2).map_err(|e| prefix_gains(e, "", ""))?;
+            let net = RbfNetwork::<N>::for_basis(&rbf)?;
+            let rbf_ws = rbf.workspace();
+            Network::Grid { rbf, rbf_ws, net }
+        } else {
+            positive("gains.width2", g.width2)?;
+            Network::Structured(StructuredNn::new(&g.network, &g.levels, g.width2, update)?)
+        };
         Ok(AdaptiveNn {
             iblf,
             switching,
-            rbf,
-            rbf_ws,
-            net,
+            network,
             update,
             k2: SVector::from_fn(|j, _| g.k2[j]),
             k_r: SVector::from_fn(|j, _| g.k_r[j]),
@@ -328,12 +348,26 @@ impl<const N: usize> AdaptiveNn<N> {
     }
     /// Zero the weights.
     pub fn reset_weights(&mut self) {
-        self.net.reset();
+        match &mut self.network {
+            Network::Grid { net, .. } => net.reset(),
+            Network::Structured(s) => s.reset(),
+        }
         self.w_n2 = [0.0; N];
     }
-    /// The weights `Ŵ`, interleaved by node (`w[k·N + j]`: node k, output j).
+    /// The weights `Ŵ`: on the full grid interleaved by node (`w[k·N + j]`: node k, output j);
+    /// otherwise in the layout of [`StructuredNn::weights`].
     pub fn weights(&self) -> &[f64] {
-        self.net.weights()
+        match &self.network {
+            Network::Grid { net, .. } => net.weights(),
+            Network::Structured(s) => s.weights(),
+        }
+    }
+    /// The structured network, when the gains select one (`None` on the paper's full grid).
+    pub fn structured(&self) -> Option<&StructuredNn<N>> {
+        match &self.network {
+            Network::Grid { .. } => None,
+            Network::Structured(s) => Some(s),
+        }
     }
     /// The adaptation gains `Θ_j`.
     pub fn theta(&self) -> [f64; 3] {
@@ -365,31 +399,36 @@ impl<const N: usize> AdaptiveNn<N> {
             self.z[3 * N + j] = ev.alpha_dot[j];
         }
         let q = self.switching.eval(&self.z);
-        // S(Z) on the grid, outputs with the old weights and the exact held-input update of
-        // (44), fused in one pass over the weights.
-        let phi_a =
-            self.net
-                .tick_at_outputs(&self.rbf, &self.z, &mut self.rbf_ws, q, &z2, &self.update);
-        // ‖Ŵ_j‖ for the record: ‖e Ŵ − c S‖² = e²‖Ŵ‖² − 2ec Ŵ·S + c²‖S‖², with Ŵ·S = f̂_j.
         self.ticks += 1;
-        if self.ticks % NORM_REFRESH == 0 {
-            let n = self.net.norms();
-            for j in 0..N {
-                self.w_n2[j] = n[j] * n[j];
+        let (phi_a, norms) = match &mut self.network {
+            Network::Grid { rbf, rbf_ws, net } => {
+                // S(Z) on the grid, outputs with the old weights and the exact held-input update
+                // of (44), fused in one pass over the weights.
+                let phi_a = net.tick_at_outputs(rbf, &self.z, rbf_ws, q, &z2, &self.update);
+                // ‖Ŵ_j‖ for the record: ‖e Ŵ − c S‖² = e²‖Ŵ‖² − 2ec Ŵ·S + c²‖S‖², Ŵ·S = f̂_j.
+                if self.ticks % NORM_REFRESH == 0 {
+                    let n = net.norms();
+                    for j in 0..N {
+                        self.w_n2[j] = n[j] * n[j];
+                    }
+                } else {
+                    let (e, g, s2) = (self.update.decay(), self.update.gain(), rbf_ws.s_norm2());
+                    for j in 0..N {
+                        let c = g[j] * q * z2[j];
+                        self.w_n2[j] = (e[j] * e[j] * self.w_n2[j] - 2.0 * e[j] * c * phi_a[j]
+                            + c * c * s2)
+                            .max(0.0);
+                    }
+                }
+                let norms: [f64; N] = std::array::from_fn(|j| self.w_n2[j].sqrt());
+                (phi_a, norms)
             }
-        } else {
-            let (e, g, s2) = (
-                self.update.decay(),
-                self.update.gain(),
-                self.rbf_ws.s_norm2(),
-            );
-            for j in 0..N {
-                let c = g[j] * q * z2[j];
-                self.w_n2[j] =
-                    (e[j] * e[j] * self.w_n2[j] - 2.0 * e[j] * c * phi_a[j] + c * c * s2).max(0.0);
+            Network::Structured(s) => {
+                // Per output: f̂_j = Ŵ_jᵀ S_j(Z) and the exact update (44), Q over the full Z.
+                let t = s.tick(&self.z, q, &z2);
+                (t.f_hat, std::array::from_fn(|j| t.w_norm[j]))
             }
-        }
-        let norms: [f64; N] = std::array::from_fn(|j| self.w_n2[j].sqrt());
+        };
         let (nx2, na, nad) = (x2.norm(), ev.alpha.norm(), ev.alpha_dot.norm());
         let mut tau = SVector::<f64, N>::zeros();
         for j in 0..N {

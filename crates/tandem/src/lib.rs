@@ -65,6 +65,7 @@ pub mod sensors;
 pub mod admittance;
 pub mod iblf;
 pub mod rbf;
+pub mod rbf_structured;
 pub mod reference;
 pub mod switching;
 pub mod trajectory;
