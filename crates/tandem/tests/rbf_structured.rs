@@ -3,9 +3,6 @@
 //! the per-axis structure stays inside the bounds and tracks close to the full grid, ticks
 //! allocate nothing, and the default structure is the paper's full grid bit for bit.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use nalgebra::{SVector, Vector2, Vector3};
 use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
@@ -21,35 +18,12 @@ use tandem::report::{Summary, summarize};
 use tandem::sim::SimParams;
 use tandem::trajectory::Path;
 
-struct Counting;
-
-thread_local! {
-    static COUNT: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        unsafe { System.dealloc(p, l) }
-    }
-    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(p, l, n) }
-    }
-}
+#[path = "support/counting.rs"]
+mod counting;
+use counting::count;
 
 #[global_allocator]
-static A: Counting = Counting;
-
-/// Allocations made by `f` on this thread.
-fn count(f: impl FnOnce()) -> usize {
-    let before = COUNT.with(|c| c.get());
-    f();
-    COUNT.with(|c| c.get()) - before
-}
+static A: counting::Counting = counting::Counting;
 
 const LEVELS: [f64; 2] = [-1.0, 1.0];
 const WIDTH2: f64 = 50.0;
