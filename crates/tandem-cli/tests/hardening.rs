@@ -1067,3 +1067,38 @@ fn injected_faults_are_deterministic_and_change_the_run() {
     assert_ne!(a, n, "the faults change the run");
     let _ = fs::remove_dir_all(&d);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Other classes found on the way.
+
+#[test]
+fn messages_never_print_hundreds_of_digits() {
+    let d = scratch("digits");
+    let o = tandem(&d, &["run", "--duration", "1e-300", "--no-figures"]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(e.contains("must not exceed the duration (1e-300 s)"), "{e}");
+    assert!(!e.contains("0.0000000000"), "{e}");
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_closed_pipe_ends_tandem_quietly_not_with_a_panic() {
+    use std::process::Stdio;
+    let d = scratch("pipe");
+    for _ in 0..5 {
+        let mut child = Command::new(BIN)
+            .args(["scenario", "show", "paper"])
+            .current_dir(&d)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn");
+        drop(child.stdout.take()); // the reader goes away before tandem writes
+        let out = child.wait_with_output().expect("wait");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{err}");
+        assert_ne!(out.status.code(), Some(101), "{err}");
+    }
+    let _ = fs::remove_dir_all(&d);
+}

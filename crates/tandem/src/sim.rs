@@ -108,7 +108,7 @@ impl SimParams {
                 Err(ModelError::invalid(
                     what,
                     a,
-                    format!("must be a whole multiple of {of} ({b})"),
+                    format!("must be a whole multiple of {of} ({})", short(b)),
                 ))
             } else {
                 Ok(n as usize)
@@ -118,7 +118,10 @@ impl SimParams {
             return Err(ModelError::invalid(
                 "log_period",
                 hl,
-                format!("must not exceed the duration ({d} s): the log would hold one row"),
+                format!(
+                    "must not exceed the duration ({} s): the log would hold one row",
+                    short(d)
+                ),
             ));
         }
         if !(hc / hp < MAX_SUBSTEPS as f64 + 0.5) {
@@ -282,6 +285,17 @@ pub struct Fault {
     pub x_o: [f64; 3],
     /// Joint angles of the last good state, rad.
     pub q: Vec<f64>,
+}
+
+/// A number for a message in its shortest form, with an exponent outside [1e-4, 1e6)
+/// (`0.001`, `1e-300`), never hundreds of digits.
+fn short(v: f64) -> String {
+    let a = v.abs();
+    if !v.is_finite() || a == 0.0 || (1e-4..1e6).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
 }
 
 /// A number for a message: fixed point for ordinary magnitudes, an exponent otherwise (a
