@@ -670,7 +670,7 @@ impl SpatialPlant {
     /// torques minus `J_iᵀ F_i`, with the grasp wrenches `F_i` the minimum-norm solution of
     /// `Σ G_iᵀ F_i = [m g_W; 0]` (the arms carry the object's weight, no internal wrench).
     /// Writes `tau` (n_q) and the wrenches into `ws.wrenches`; runs the kinematics into
-    /// `ws.data`. Set-up use (allocates nothing but is not on the hot path).
+    /// `ws.data`. For set-up, not the hot path (it allocates a small scratch).
     pub fn holding_torques(&self, y: &[f64], ws: &mut SpatialWorkspace, tau: &mut [f64]) {
         let (q, o, _) = self.split(y);
         let m = self.arms.len();
