@@ -275,8 +275,10 @@ pub fn write(dir: &std::path::Path, cells: &[Cell], base: &Scenario, cmd: &str) 
         md.push('\n');
     }
     md.push_str(
-        "Not studied: a grasp that slips (a compliant grasp with low stiffness) needs the \
-         compliant grasp of the spatial plant, which does not exist yet.\n",
+        "Not studied yet: a grasp that slips (a compliant grasp with low stiffness). The \
+         compliant grasp exists in the spatial plant (`plant::spatial::GraspModel::Compliant`), \
+         but PD and the NN law run on the planar plant here; the family joins this report with \
+         the spatial controller and scenarios.\n",
     );
     crate::output::write_text_atomic(&dir.join("robustness.md"), &md)?;
 
