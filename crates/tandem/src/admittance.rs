@@ -241,45 +241,28 @@ impl Admittance {
             dd_e: Vector2::zeros(),
         };
         for i in 0..2 {
-            let m = non_negative(&format!("admittance.m_e[{i}]"), params.m_e[i])?;
-            let c = positive(&format!("admittance.c_e[{i}]"), params.c_e[i])?;
-            let k = positive(&format!("admittance.k_e[{i}]"), params.k_e[i])?;
-            let tau = non_negative(&format!("admittance.tau_f[{i}]"), params.tau_f[i])?;
-
-            adm.b_f[i] = if tau == 0.0 {
-                1.0
-            } else {
-                -(-h / tau).exp_m1()
-            };
-
-            let (phi, gamma) = if m == 0.0 {
+            let a = axis_map(
+                i,
+                params.m_e[i],
+                params.c_e[i],
+                params.k_e[i],
+                params.tau_f[i],
+                h,
+            )?;
+            if a.first_order {
                 warnings.push(AdmittanceWarning::FirstOrder {
                     axis: i,
-                    tau_f: tau,
+                    tau_f: a.tau_f,
                 });
-                zoh_first_order(c, k, h)
-            } else {
-                zoh_second_order(m, c, k, h)
-            };
-            if !(phi.iter().all(|x| x.is_finite()) && gamma.iter().all(|x| x.is_finite())) {
-                return Err(ModelError::invalid(
-                    format!("admittance.m_e[{i}]"),
-                    m,
-                    format!("exact discretisation overflows with c_e = {c}, k_e = {k}, h = {h}"),
-                ));
             }
-            adm.phi11[i] = phi[(0, 0)];
-            adm.phi12[i] = phi[(0, 1)];
-            adm.phi21[i] = phi[(1, 0)];
-            adm.phi22[i] = phi[(1, 1)];
-            adm.g1[i] = gamma[0];
-            adm.g2[i] = gamma[1];
-            // ë coefficients: (F̃ − C ė − K e)/M, or −K(F̃ − K e)/C² for the first-order form.
-            (adm.dd_f[i], adm.dd_v[i], adm.dd_e[i]) = if m > 0.0 {
-                (1.0 / m, -c / m, -k / m)
-            } else {
-                (-k / (c * c), 0.0, (k / c) * (k / c))
-            };
+            adm.b_f[i] = a.b_f;
+            adm.phi11[i] = a.phi[(0, 0)];
+            adm.phi12[i] = a.phi[(0, 1)];
+            adm.phi21[i] = a.phi[(1, 0)];
+            adm.phi22[i] = a.phi[(1, 1)];
+            adm.g1[i] = a.gamma[0];
+            adm.g2[i] = a.gamma[1];
+            (adm.dd_f[i], adm.dd_v[i], adm.dd_e[i]) = a.dd;
         }
         Ok((adm, warnings))
     }
@@ -394,7 +377,72 @@ impl Admittance {
 
 /// Exact ZOH discretisation of $M\ddot e + C\dot e + K e = u$ (M, C, K > 0) for step h:
 /// returns $(\Phi, \Gamma)$ on the state $(e, \dot e)$. Closed form; see the module docs.
-pub(crate) fn zoh_second_order(m: f64, c: f64, k: f64, h: f64) -> (Matrix2<f64>, Vector2<f64>) {
+/// One axis's validated parameters and exact discretisation, shared by the planar and the 6-D
+/// generator ([`crate::reference::admittance_se3`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct AxisMap {
+    /// Filter gain `1 − e^{−h/τ_f}` (1 when `τ_f = 0`).
+    pub b_f: f64,
+    /// `Φ` of the axis.
+    pub phi: Matrix2<f64>,
+    /// `Γ` of the axis.
+    pub gamma: Vector2<f64>,
+    /// `(dd_f, dd_v, dd_e)`: `ë = dd_f F̃ + dd_v ė + dd_e e`.
+    pub dd: (f64, f64, f64),
+    /// `M_e = 0` (the paper's first-order form).
+    pub first_order: bool,
+    /// The axis's `τ_f`.
+    pub tau_f: f64,
+}
+
+/// Validate axis `j`'s `(M_e, C_e, K_e, τ_f)` (errors name `admittance.{m_e,c_e,k_e,tau_f}[j]`)
+/// and build its exact zero-order-hold map for the period `h`.
+pub(crate) fn axis_map(
+    j: usize,
+    m_e: f64,
+    c_e: f64,
+    k_e: f64,
+    tau_f: f64,
+    h: f64,
+) -> Result<AxisMap, ModelError> {
+    let m = non_negative(&format!("admittance.m_e[{j}]"), m_e)?;
+    let c = positive(&format!("admittance.c_e[{j}]"), c_e)?;
+    let k = positive(&format!("admittance.k_e[{j}]"), k_e)?;
+    let tau = non_negative(&format!("admittance.tau_f[{j}]"), tau_f)?;
+    let b_f = if tau == 0.0 {
+        1.0
+    } else {
+        -(-h / tau).exp_m1()
+    };
+    let (phi, gamma) = if m == 0.0 {
+        zoh_first_order(c, k, h)
+    } else {
+        zoh_second_order(m, c, k, h)
+    };
+    if !(phi.iter().all(|x| x.is_finite()) && gamma.iter().all(|x| x.is_finite())) {
+        return Err(ModelError::invalid(
+            format!("admittance.m_e[{j}]"),
+            m,
+            format!("exact discretisation overflows with c_e = {c}, k_e = {k}, h = {h}"),
+        ));
+    }
+    // ë coefficients: (F̃ − C ė − K e)/M, or −K(F̃ − K e)/C² for the first-order form.
+    let dd = if m > 0.0 {
+        (1.0 / m, -c / m, -k / m)
+    } else {
+        (-k / (c * c), 0.0, (k / c) * (k / c))
+    };
+    Ok(AxisMap {
+        b_f,
+        phi,
+        gamma,
+        dd,
+        first_order: m == 0.0,
+        tau_f: tau,
+    })
+}
+
+fn zoh_second_order(m: f64, c: f64, k: f64, h: f64) -> (Matrix2<f64>, Vector2<f64>) {
     let sigma = c / (2.0 * m);
     let wn2 = k / m;
     // q = ω_n²/σ² = 1/ζ², formed without squaring σ (no overflow for tiny m).
@@ -439,7 +487,7 @@ pub(crate) fn zoh_second_order(m: f64, c: f64, k: f64, h: f64) -> (Matrix2<f64>,
 
 /// Exact ZOH discretisation of the first-order $C\dot e + K e = u$, written on $(e, \dot e)$ with
 /// $\dot e_{k+1}$ set to the ODE's value: see the module docs.
-pub(crate) fn zoh_first_order(c: f64, k: f64, h: f64) -> (Matrix2<f64>, Vector2<f64>) {
+fn zoh_first_order(c: f64, k: f64, h: f64) -> (Matrix2<f64>, Vector2<f64>) {
     let x = -k * h / c;
     let a = x.exp();
     let one_minus_a = -x.exp_m1();

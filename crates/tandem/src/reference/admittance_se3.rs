@@ -129,8 +129,8 @@ use std::fmt;
 
 use nalgebra::{Isometry3, Matrix2, UnitQuaternion, Vector2, Vector3, Vector6};
 
-use crate::admittance::{zoh_first_order, zoh_second_order};
-use crate::error::{ModelError, non_negative, positive};
+use crate::admittance::axis_map;
+use crate::error::{ModelError, positive};
 use crate::reference::se3_path::{Se3Sample, left_jacobian_rates};
 use crate::se3::PoseSample;
 use crate::spatial::motion::{ang, lin, stack};
@@ -348,43 +348,28 @@ impl AdmittanceSe3 {
         };
         let mut warnings = Vec::new();
         for j in 0..6 {
-            let m = non_negative(&format!("admittance.m_e[{j}]"), params.m_e[j])?;
-            let c = positive(&format!("admittance.c_e[{j}]"), params.c_e[j])?;
-            let k = positive(&format!("admittance.k_e[{j}]"), params.k_e[j])?;
-            let tau = non_negative(&format!("admittance.tau_f[{j}]"), params.tau_f[j])?;
-            adm.b_f[j] = if tau == 0.0 {
-                1.0
-            } else {
-                -(-h / tau).exp_m1()
-            };
-            let (phi, gamma): (Matrix2<f64>, Vector2<f64>) = if m == 0.0 {
+            let a = axis_map(
+                j,
+                params.m_e[j],
+                params.c_e[j],
+                params.k_e[j],
+                params.tau_f[j],
+                h,
+            )?;
+            if a.first_order {
                 warnings.push(AdmittanceSe3Warning::FirstOrder {
                     axis: j,
-                    tau_f: tau,
+                    tau_f: a.tau_f,
                 });
-                zoh_first_order(c, k, h)
-            } else {
-                zoh_second_order(m, c, k, h)
-            };
-            if !(phi.iter().all(|x| x.is_finite()) && gamma.iter().all(|x| x.is_finite())) {
-                return Err(ModelError::invalid(
-                    format!("admittance.m_e[{j}]"),
-                    m,
-                    format!("exact discretisation overflows with c_e = {c}, k_e = {k}, h = {h}"),
-                ));
             }
-            adm.phi11[j] = phi[(0, 0)];
-            adm.phi12[j] = phi[(0, 1)];
-            adm.phi21[j] = phi[(1, 0)];
-            adm.phi22[j] = phi[(1, 1)];
-            adm.g1[j] = gamma[0];
-            adm.g2[j] = gamma[1];
-            // ë: (F̃ − C ė − K e)/M, or −K(F̃ − K e)/C² for the first-order form (planar).
-            (adm.dd_f[j], adm.dd_v[j], adm.dd_e[j]) = if m > 0.0 {
-                (1.0 / m, -c / m, -k / m)
-            } else {
-                (-k / (c * c), 0.0, (k / c) * (k / c))
-            };
+            adm.b_f[j] = a.b_f;
+            adm.phi11[j] = a.phi[(0, 0)];
+            adm.phi12[j] = a.phi[(0, 1)];
+            adm.phi21[j] = a.phi[(1, 0)];
+            adm.phi22[j] = a.phi[(1, 1)];
+            adm.g1[j] = a.gamma[0];
+            adm.g2[j] = a.gamma[1];
+            (adm.dd_f[j], adm.dd_v[j], adm.dd_e[j]) = a.dd;
         }
         Ok((adm, warnings))
     }
