@@ -24,27 +24,11 @@ fn build(s: &SpatialSetup) -> (SpatialPlant, Vec<f64>) {
     (plant, y)
 }
 
-/// Gravity-compensating torques at the start (so the chain moves mildly, not in free fall).
+/// Torques that hold the start in static equilibrium (arms' gravity plus the object's weight
+/// shared), so the chain moves mildly rather than in free fall.
 fn hold_torques(plant: &SpatialPlant, y: &[f64]) -> Vec<f64> {
-    let (q, _, _) = plant.split(y);
     let mut tau = vec![0.0; plant.n_q()];
-    let g = plant.gravity();
-    for (i, arm) in plant.arms().iter().enumerate() {
-        let n = arm.chain.dof();
-        let s = plant.offset(i);
-        let mut d = ChainData::new(arm);
-        let z = vec![0.0; n];
-        dynamics::rnea(
-            arm,
-            &q[s..s + n],
-            &z,
-            &z,
-            &g,
-            None,
-            &mut tau[s..s + n],
-            &mut d,
-        );
-    }
+    plant.holding_torques(y, &mut plant.workspace(), &mut tau);
     tau
 }
 

@@ -298,7 +298,7 @@ fn weld_wrenches(
 
 /// The tool twist `J q̇` (world axes) from the arm's Jacobian in `d`.
 #[inline]
-fn tool_twist(d: &dynamics::ChainData, qd: &[f64]) -> Vector6<f64> {
+pub(super) fn tool_twist(d: &dynamics::ChainData, qd: &[f64]) -> Vector6<f64> {
     let jt = &d.J.as_slice()[..6 * qd.len()];
     let mut vt = Vector6::zeros();
     for (kk, q) in qd.iter().enumerate() {

@@ -74,6 +74,8 @@ use crate::error::{ModelError, non_negative};
 use crate::integrate::{OdeSystem, Rk4};
 use crate::model::SpatialArm;
 use crate::plant::Energy;
+pub(crate) use crate::spatial::motion::stack as v6;
+pub(crate) use crate::spatial::so3::{hat as skew, log_quat};
 pub use object::{RigidObject, SpatialObjectParams};
 
 /// How the grasps hold the object.
@@ -240,30 +242,6 @@ impl ObjectState {
 
 /// Relative regularisation of a singular grasp-space matrix.
 const K_REG: f64 = 1e-10;
-
-/// `[v; ω]` from two 3-vectors.
-#[inline]
-pub(crate) fn v6(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector6<f64> {
-    Vector6::new(a.x, a.y, a.z, b.x, b.y, b.z)
-}
-
-/// Rotation vector `Log(R)` of a unit quaternion, `|φ| ≤ π`, accurate near 0 and near π
-/// (`2 atan2(|u|, |w|) u/|u|` on the hemisphere `w ≥ 0`).
-#[inline]
-pub fn log_quat(q: &UnitQuaternion<f64>) -> Vector3<f64> {
-    let (w, u) = if q.w < 0.0 {
-        (-q.w, -q.imag())
-    } else {
-        (q.w, q.imag())
-    };
-    let s = u.norm();
-    if s < 1e-8 {
-        // atan2(s, w)/s = (1/w)(1 − s²/(3w²) + …); w ≈ 1 here.
-        u * (2.0 / w) * (1.0 - s * s / (3.0 * w * w))
-    } else {
-        u * (2.0 * s.atan2(w) / s)
-    }
-}
 
 impl SpatialPlant {
     /// Validate every part and build the plant. Errors name the item: `arms[i]...`,
@@ -510,8 +488,8 @@ impl SpatialPlant {
         for (i, arm) in self.arms.iter().enumerate() {
             let n = arm.chain.dof();
             let s = self.offsets[i];
-            dynamics::kinematics(arm, &q[s..s + n], Some(&qd[s..s + n]), &mut ws.data[i]);
-            let vt = &ws.data[i].J * DVector::from_column_slice(&qd[s..s + n]);
+            dynamics::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
+            let vt = kkt::tool_twist(&ws.data[i], &qd[s..s + n]);
             let r = r_wo * self.grasps[i].translation.vector;
             let vg = o.v + o.w.cross(&r);
             lin = lin.max((vt.fixed_rows::<3>(0) - vg).norm());
@@ -660,9 +638,7 @@ impl SpatialPlant {
     pub fn grasp_map(&self, y: &[f64], out: &mut [Matrix6<f64>]) {
         let (_, o, _) = self.split(y);
         for (i, g) in out.iter_mut().enumerate().take(self.grasps.len()) {
-            let r = o.q * self.grasps[i].translation.vector;
-            *g = Matrix6::identity();
-            g.fixed_view_mut::<3, 3>(3, 0).copy_from(&skew(&r));
+            *g = grasp_block(&(o.q * self.grasps[i].translation.vector));
         }
     }
 
@@ -678,9 +654,7 @@ impl SpatialPlant {
         let mut ggt = Matrix6::zeros();
         let mut ads = Vec::with_capacity(m);
         for i in 0..m {
-            let r = o.q * self.grasps[i].translation.vector;
-            let mut adt = Matrix6::identity();
-            adt.fixed_view_mut::<3, 3>(3, 0).copy_from(&skew(&r));
+            let adt = grasp_block(&(o.q * self.grasps[i].translation.vector));
             ggt += adt * adt.transpose();
             ads.push(adt);
         }
@@ -826,6 +800,13 @@ fn prefix(p: &str, e: ModelError) -> ModelError {
     }
 }
 
+/// `G_iᵀ = Ad_iᵀ = [[I, 0], [[r]×, I]]` for the grasp at `r` from the centre of mass.
+fn grasp_block(r: &Vector3<f64>) -> Matrix6<f64> {
+    let mut g = Matrix6::identity();
+    g.fixed_view_mut::<3, 3>(3, 0).copy_from(&skew(r));
+    g
+}
+
 /// `J Jᵀ` (6 × 6) of the tool Jacobian in `d`.
 fn jjt(d: &ChainData) -> Matrix6<f64> {
     let mut m = Matrix6::zeros();
@@ -923,10 +904,4 @@ impl OdeSystem for SpatialOde<'_> {
             dy.fill(f64::NAN);
         }
     }
-}
-
-/// `[a]×`, the cross-product matrix.
-#[inline]
-pub(crate) fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
 }
