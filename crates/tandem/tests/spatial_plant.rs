@@ -368,7 +368,9 @@ fn grasp_wrenches_match_each_arms_own_dynamics() {
             }
         }
         println!("{name}: arm residual {worst:.3e} N m (scale {scale:.1})");
-        assert!(worst < 1e-9 * scale, "{name}: {worst:e}");
+        // Measured ≤ 8.2e-14 N m against scales of 29–33 N m; the bound allows round-off of the
+        // KKT solve with cond(M) up to 4e4.
+        assert!(worst < 1e-11 * scale, "{name}: {worst:e}");
         // Object: m v̇ = m g − Σ f_i − f_d − c v, I ω̇ + ω × I ω = −Σ(τ_i + r_i × f_i) − τ_d − c ω.
         let a = &dy[2 * n_q + 7..2 * n_q + 13];
         let obj = plant.object();
@@ -382,7 +384,6 @@ fn grasp_wrenches_match_each_arms_own_dynamics() {
         }
         let f_sum = -Vector3::new(f_o[0], f_o[1], f_o[2]);
         let t_sum = -Vector3::new(f_o[3], f_o[4], f_o[5]);
-        let _ = r;
         let c = obj.damping;
         let dv = Vector3::new(a[0], a[1], a[2]);
         let dw = Vector3::new(a[3], a[4], a[5]);
@@ -395,8 +396,13 @@ fn grasp_wrenches_match_each_arms_own_dynamics() {
             + t_sum
             + input.f_d.fixed_rows::<3>(3)
             + Vector3::new(c[3] * o.w.x, c[4] * o.w.y, c[5] * o.w.z);
+        println!(
+            "{name}: object residual {:.3e} N, {:.3e} N m",
+            lin.norm(),
+            ang.norm()
+        );
         assert!(
-            lin.norm() < 1e-9 * scale && ang.norm() < 1e-9 * scale,
+            lin.norm() < 1e-11 * scale && ang.norm() < 1e-11 * scale,
             "{name}: {lin} {ang}"
         );
     }
@@ -437,7 +443,7 @@ fn compliant_grasp_converges_to_the_weld() {
         errs.push(e);
     }
     println!("compliant vs weld, object position after 0.2 s: {errs:?} m");
-    // Measured ratios 9.3 and 10.8 (≈ 10 per decade of k).
+    // Measured ratios 9.9 and 9.9 (≈ 10 per decade of k).
     assert!(
         errs[1] < errs[0] / 6.0 && errs[2] < errs[1] / 6.0,
         "{errs:?}"
