@@ -17,7 +17,6 @@
 use nalgebra::{Matrix2, SVector, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::control::TickRecord;
 use crate::error::{ModelError, positive};
 use crate::iblf::Iblf;
 use crate::plant::Plant;
@@ -89,6 +88,72 @@ impl NnGains {
             k_r: [0.001; 3],
             theta: [1.6, 1.5, 0.5],
             ..NnGains::paper()
+        }
+    }
+}
+
+/// The per-output gains of the NN law for `N` outputs (validated by [`AdaptiveNn::with_axes`]).
+/// Planar gains give theirs with [`NnGains::axes`]; the spatial law has six
+/// ([`crate::control::spatial::SpatialNnGains`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NnAxes<const N: usize> {
+    /// `K1` diagonal (κ1), 1/s.
+    pub k1: [f64; N],
+    /// `K2` diagonal.
+    pub k2: [f64; N],
+    /// `K_r` diagonal (sign term), ≥ 0.
+    pub k_r: [f64; N],
+    /// Adaptation gains `Θ_j`.
+    pub theta: [f64; N],
+    /// σ-modification `σ_j`.
+    pub sigma: [f64; N],
+}
+
+impl NnGains {
+    /// The first `N ≤ 3` entries of the per-output gains (`N = 2`: the `x`, `y` entries, for
+    /// the per-arm scheme).
+    pub fn axes<const N: usize>(&self) -> NnAxes<N> {
+        assert!(N <= 3, "planar gains have three outputs");
+        NnAxes {
+            k1: std::array::from_fn(|j| self.k1[j]),
+            k2: std::array::from_fn(|j| self.k2[j]),
+            k_r: std::array::from_fn(|j| self.k_r[j]),
+            theta: std::array::from_fn(|j| self.theta[j]),
+            sigma: std::array::from_fn(|j| self.sigma[j]),
+        }
+    }
+}
+
+/// What one tick of the NN law computed, for `N` outputs (the controller copies it into its
+/// record). `Copy`, fixed size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NnInternals<const N: usize> {
+    /// `z2 = x_2 − α`.
+    pub z2: SVector<f64, N>,
+    /// Virtual control `α` (31).
+    pub alpha: SVector<f64, N>,
+    /// `α̇`.
+    pub alpha_dot: SVector<f64, N>,
+    /// Weight norms `‖Ŵ_j‖`.
+    pub w_norm: SVector<f64, N>,
+    /// Switching value `Q = M(Z)` (38).
+    pub q: f64,
+    /// A barrier term saturated (|x_1| or |x_r| at the bound).
+    pub barrier_hit: bool,
+    /// A non-finite input was replaced.
+    pub non_finite: bool,
+}
+
+impl<const N: usize> Default for NnInternals<N> {
+    fn default() -> Self {
+        NnInternals {
+            z2: SVector::zeros(),
+            alpha: SVector::zeros(),
+            alpha_dot: SVector::zeros(),
+            w_norm: SVector::zeros(),
+            q: 1.0,
+            barrier_hit: false,
+            non_finite: false,
         }
     }
 }
@@ -280,7 +345,7 @@ pub struct AdaptiveNn<const N: usize = 3> {
     k_r: SVector<f64, N>,
     varpi: f64,
     fu: FuBound,
-    theta: [f64; 3],
+    theta: [f64; N],
     z: Vec<f64>,
     /// `‖Ŵ_j‖²`, carried by the exact recurrence and refreshed every [`NORM_REFRESH`] ticks.
     w_n2: [f64; N],
@@ -295,15 +360,41 @@ impl<const N: usize> AdaptiveNn<N> {
     /// `0 < d1 < d2`, `ω ≥ 1`, `ϖ > 0`, `ϑ² > 0`) and build the network on `4N` inputs with the
     /// given `f^U` bound. With `N = 2` the `x` and `y` entries of the gains are used.
     pub fn new(g: &NnGains, k_c: SVector<f64, N>, fu: FuBound, h: f64) -> Result<Self, ModelError> {
+        // Planar gains are validated on all three outputs, whatever N.
         for j in 0..3 {
             positive(&format!("gains.k2[{j}]"), g.k2[j])?;
             crate::error::non_negative(&format!("gains.k_r[{j}]"), g.k_r[j])?;
             positive(&format!("gains.theta[{j}]"), g.theta[j])?;
             positive(&format!("gains.sigma[{j}]"), g.sigma[j])?;
         }
+        Self::with_axes(&g.axes::<N>(), g, k_c, fu, h)
+    }
+
+    /// [`AdaptiveNn::new`] with the per-output gains `axes` (any `N`, e.g. six outputs in SE(3));
+    /// the shared settings (`ϖ`, `ϑ²`, levels, switching, network structure) come from `g`, whose
+    /// per-output arrays are ignored. Errors name `gains.k2[j]` etc.
+    pub fn with_axes(
+        axes: &NnAxes<N>,
+        g: &NnGains,
+        k_c: SVector<f64, N>,
+        fu: FuBound,
+        h: f64,
+    ) -> Result<Self, ModelError> {
+        for j in 0..N {
+            positive(&format!("gains.k2[{j}]"), axes.k2[j])?;
+            crate::error::non_negative(&format!("gains.k_r[{j}]"), axes.k_r[j])?;
+            positive(&format!("gains.theta[{j}]"), axes.theta[j])?;
+            positive(&format!("gains.sigma[{j}]"), axes.sigma[j])?;
+        }
+        if fu.a.len() != N || fu.b.len() != N || fu.c.len() != N || fu.d.len() != N {
+            return Err(ModelError::geometry(
+                "fu",
+                format!("the f^U bound has {} outputs, the law {N}", fu.a.len()),
+            ));
+        }
         positive("gains.varpi", g.varpi)?;
         positive("gains.fu_safety", g.fu_safety)?;
-        let k1 = SVector::<f64, N>::from_fn(|j, _| g.k1[j]);
+        let k1 = SVector::<f64, N>::from(axes.k1);
         let iblf = Iblf::new(k_c, k1).map_err(|e| prefix_gains(e, "k1", "kappa1"))?;
         let sw = SwitchParams::new(g.d1, g.d2, g.omega).map_err(|e| prefix_gains(e, "", ""))?;
         let switching = Switching::uniform(4 * N, sw)?;
@@ -313,8 +404,8 @@ impl<const N: usize> AdaptiveNn<N> {
                 "needs at least one centre level",
             ));
         }
-        let theta = SVector::from_fn(|j, _| g.theta[j]);
-        let sigma = SVector::from_fn(|j, _| g.sigma[j]);
+        let theta = SVector::from(axes.theta);
+        let sigma = SVector::from(axes.sigma);
         let update = NnUpdate::new(theta, sigma, h).map_err(|e| prefix_gains(e, "", ""))?;
         let network = if g.network.is_full_grid() {
             let levels = vec![g.levels.clone(); 4 * N];
@@ -331,11 +422,11 @@ impl<const N: usize> AdaptiveNn<N> {
             switching,
             network,
             update,
-            k2: SVector::from_fn(|j, _| g.k2[j]),
-            k_r: SVector::from_fn(|j, _| g.k_r[j]),
+            k2: SVector::from(axes.k2),
+            k_r: SVector::from(axes.k_r),
             varpi: g.varpi,
             fu,
-            theta: g.theta,
+            theta: axes.theta,
             z: vec![0.0; 4 * N],
             w_n2: [0.0; N],
             ticks: 0,
@@ -370,13 +461,13 @@ impl<const N: usize> AdaptiveNn<N> {
         }
     }
     /// The adaptation gains `Θ_j`.
-    pub fn theta(&self) -> [f64; 3] {
+    pub fn theta(&self) -> [f64; N] {
         self.theta
     }
 
     /// One tick of (42)–(44): `(x_1, x_2, x_r, ẋ_r, ẍ_r) → τ` and the weight update over the
-    /// control period; writes `z2, α, α̇, Q, ‖Ŵ‖` and the event flags into `rec` (first `N`
-    /// components). No allocation.
+    /// control period; writes `z2, α, α̇, Q, ‖Ŵ‖` and the event flags into `out`. No
+    /// allocation.
     pub fn wrench(
         &mut self,
         x1: &SVector<f64, N>,
@@ -384,12 +475,12 @@ impl<const N: usize> AdaptiveNn<N> {
         x_r: &SVector<f64, N>,
         xd_r: &SVector<f64, N>,
         xdd_r: &SVector<f64, N>,
-        rec: &mut TickRecord,
+        out: &mut NnInternals<N>,
     ) -> SVector<f64, N> {
         // Step 1: α, α̇ with barrier saturation (never NaN).
         let ev = self.iblf.eval(x1, x2, x_r, xd_r, xdd_r);
-        rec.barrier_hit |= ev.saturation.iter().any(|s| s.x1 || s.x_r);
-        rec.non_finite |= ev.saturation.iter().any(|s| s.non_finite);
+        out.barrier_hit = ev.saturation.iter().any(|s| s.x1 || s.x_r);
+        out.non_finite = ev.saturation.iter().any(|s| s.non_finite);
         let z2 = x2 - ev.alpha;
         // Z = [x1, x2, α, α̇] (SPEC §3.4).
         for j in 0..N {
@@ -443,12 +534,12 @@ impl<const N: usize> AdaptiveNn<N> {
             };
             tau[j] = -ev.gain[j] * ev.z1[j] - self.k2[j] * z2[j] + q * phi_a[j] + (1.0 - q) * phi_b
                 - self.k_r[j] * sgn;
-            rec.z2[j] = z2[j];
-            rec.alpha[j] = ev.alpha[j];
-            rec.alpha_dot[j] = ev.alpha_dot[j];
-            rec.w_norm[j] = norms[j];
+            out.w_norm[j] = norms[j];
         }
-        rec.q_switch = rec.q_switch.min(q);
+        out.z2 = z2;
+        out.alpha = ev.alpha;
+        out.alpha_dot = ev.alpha_dot;
+        out.q = q;
         tau
     }
 }
@@ -489,7 +580,7 @@ mod tests {
         let k_c = Vector3::repeat(0.35);
         let fu = FuBound::from_model(&plant, k_c, [0.02, 0.02, 0.0], 1.5).unwrap();
         let mut nn = AdaptiveNn::<3>::new(&NnGains::paper(), k_c, fu, 1e-3).unwrap();
-        let mut rec = TickRecord::default();
+        let mut rec = NnInternals::default();
         for k in 0..2500 {
             let t = k as f64 * 1e-3;
             let x1 = Vector3::new(

@@ -22,7 +22,7 @@
 use nalgebra::{Rotation2, SVector, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::adaptive::{AdaptiveNn, FuBound, NnGains};
+use crate::adaptive::{AdaptiveNn, FuBound, NnGains, NnInternals};
 use crate::admittance::{Admittance, AdmittanceParams, AdmittanceState, AdmittanceWarning};
 use crate::ctc::{Ctc, CtcGains, nominal_params};
 use crate::error::{ModelError, non_negative, positive};
@@ -189,6 +189,20 @@ pub struct TickRecord {
     pub torque_clipped: bool,
     /// This tick replaced a non-finite law output or measurement.
     pub non_finite: bool,
+}
+
+impl TickRecord {
+    /// Take the NN law's internals (3 outputs) into the record: `z2, α, α̇, ‖Ŵ‖`, `Q` (the
+    /// smallest seen this tick) and the event flags (or-ed).
+    fn note_nn(&mut self, o: &NnInternals<3>) {
+        self.z2 = o.z2;
+        self.alpha = o.alpha;
+        self.alpha_dot = o.alpha_dot;
+        self.w_norm = o.w_norm;
+        self.q_switch = self.q_switch.min(o.q);
+        self.barrier_hit |= o.barrier_hit;
+        self.non_finite |= o.non_finite;
+    }
 }
 
 /// Counters of events since the start (SPEC §3.3: a barrier hit is recorded and counted).
@@ -624,7 +638,12 @@ impl Controller {
                     }
                 }
             }
-            Law::Nn(nn) => nn.wrench(&x1, &x2, &x_r, &xd_r, &xdd_r, rec),
+            Law::Nn(nn) => {
+                let mut o = NnInternals::default();
+                let w = nn.wrench(&x1, &x2, &x_r, &xd_r, &xdd_r, &mut o);
+                rec.note_nn(&o);
+                w
+            }
             Law::PerArmPd(_) | Law::PerArmNn(_) => {
                 rec.z2 = z1_dot;
                 self.per_arm_forces(rec);
@@ -719,10 +738,7 @@ impl Controller {
     /// grasp (the internal force responds one-to-one to the commands: per-tick gain ≈ 1); it
     /// diverged within 1 ms in tandem's runs, so it is not offered. Writes `τ_x,i`.
     fn per_arm_forces(&mut self, rec: &mut TickRecord) {
-        let mut sub = TickRecord {
-            q_switch: 1.0,
-            ..TickRecord::default()
-        };
+        let mut sub = NnInternals::<2>::default();
         let mut wn = Vector3::zeros();
         for i in 0..self.tau_x.len() {
             let t = &self.ws.terms[i];
@@ -742,7 +758,7 @@ impl Controller {
                     }
                     rec.barrier_hit |= sub.barrier_hit;
                     rec.non_finite |= sub.non_finite;
-                    rec.q_switch = rec.q_switch.min(sub.q_switch);
+                    rec.q_switch = rec.q_switch.min(sub.q);
                     Vector2::new(f[0], f[1])
                 }
                 _ => Vector2::zeros(),
