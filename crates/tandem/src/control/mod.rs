@@ -31,6 +31,8 @@ use crate::pd::{Pd, PdGains};
 use crate::plant::{Plant, PlantParams, PlantWorkspace};
 use crate::trajectory::Path;
 
+pub mod spatial;
+
 /// Which tracking law, with its gains (plain data).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
