@@ -62,29 +62,38 @@ impl SpatialNnGains {
     /// Gains for the dual-UR5 scenario (SPEC-spatial S6), from the linearised loop per axis
     /// (module doc): `K1 = 8` (as planar `tuned`: `α̇ ≈ K1² z1(0)` stays inside `d1` from the 1 cm
     /// start), the adaptive-bias pair `𝓜_j s² + K2_j s + γ_j` at `ω_n = 20` rad/s and `ζ = 0.8`
-    /// on the heaviest diagonal entry of the chart-space inertia over the path, rounded up.
+    /// on the diagonal of the chart-space inertia, rounded up from its largest value along the
+    /// path (18.3, 12.3, 11.0 kg; 0.020, 0.65, 0.76 kg m² at the start: the box alone about its
+    /// long axis, along which the wrists' last joints turn freely).
     pub fn dual_ur5() -> Self {
-        Self::from_design([40.0, 40.0, 40.0, 1.0, 1.0, 1.0], 8.0, 20.0, 0.8)
+        Self::from_design([20.0, 15.0, 12.0, 0.03, 0.8, 0.9], 8.0, 20.0, 0.8)
     }
 
     /// Gains for the dual-Franka scenario (two 7-DOF arms, grasps from above), designed as
-    /// [`SpatialNnGains::dual_ur5`] on that set-up's inertia.
+    /// [`SpatialNnGains::dual_ur5`] on that set-up's inertia (23.9, 10.3, 11.4 kg; 0.66, 2.08,
+    /// 0.16 kg m² at the start).
     pub fn dual_franka() -> Self {
-        Self::from_design([20.0, 20.0, 20.0, 0.5, 0.5, 0.5], 8.0, 20.0, 0.8)
+        Self::from_design([26.0, 12.0, 12.0, 0.7, 2.2, 0.2], 8.0, 20.0, 0.8)
     }
 
     /// The per-axis design of the module doc: for inertia `m[j]` (kg or kg m², chart axes),
     /// `K1 = k1`, `γ_j = m_j ω_n²`, `K2_j = 2 ζ m_j ω_n`, `Θ_j = γ_j / ‖S_j(0)‖²` on the default
-    /// per-axis network; `K_r = 0.001`, `σ = 0.001`, `ϖ = 0.05`, `ϑ² = 50`, levels `±1`,
-    /// `d1 = 1`, `d2 = 1.5`, `ω = 1`, `f^U` safety 1.5 (SPEC §3.4 defaults).
+    /// per-axis network; `K_r = 0.001`, `ϖ = 0.05`, `ϑ² = 50`, levels `±1`, `d1 = 1`,
+    /// `d2 = 1.5`, `ω = 1`, `f^U` safety 1.5 (SPEC §3.4 defaults).
+    ///
+    /// `σ` is the planar `0.001` scaled by `‖S_j(0)‖² / ‖S_grid(0)‖² = 13.6/2535`: at the
+    /// σ-modification's equilibrium `Ŵ_j = −Q S z_2j/σ_j`, so the network leaves
+    /// `z_2j = −σ_j f̂_j/‖S_j‖²`, and with 186× fewer basis energy the paper's `σ` would leave
+    /// 186× the planar error (0.9 mm against a 110 N gravity load on the S6 set-up).
     pub fn from_design(m: [f64; 6], k1: f64, omega_n: f64, zeta: f64) -> Self {
         let s2 = per_axis_norm2();
+        let sigma = 0.001 * s2 / crate::rbf_structured::grid_norm2_at_zero(&[-1.0, 1.0], 50.0, 12);
         SpatialNnGains {
             k1: [k1; 6],
             k2: std::array::from_fn(|j| 2.0 * zeta * m[j] * omega_n),
             k_r: [0.001; 6],
             theta: std::array::from_fn(|j| m[j] * omega_n * omega_n / s2),
-            sigma: [0.001; 6],
+            sigma: [sigma; 6],
             varpi: 0.05,
             fu_safety: 1.5,
             width2: 50.0,
