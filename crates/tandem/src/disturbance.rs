@@ -3,40 +3,69 @@
 //! `F_d(t) = a ∘ sin(ω t + φ) − Σ push_k(t)`: sinusoids per axis (the paper's
 //! `F_d = (0.02 sin t, 0.02 cos t, 0)`) plus timed pushes. A push is given as the force *on* the
 //! object (what a person pushing feels), so it enters `F_d` with a minus sign.
+//!
+//! One model for both plants: `N = 3` channels `(f_x, f_y, τ)` in the plane, `N = 6`
+//! channels `[f; τ]` (world axes, about the object's centre of mass) in space
+//! ([`SpatialDisturbance`], SPEC-spatial S3).
 
-use nalgebra::Vector3;
-use serde::{Deserialize, Serialize};
+use nalgebra::SVector;
 
 use crate::error::{ModelError, non_negative};
 
 /// A constant force/torque applied to the object during `[t0, t0 + duration)`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Push {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Push<const N: usize = 3> {
     /// Start, s.
     pub t0: f64,
     /// Duration, s (> 0).
     pub duration: f64,
-    /// Wrench on the object, (N, N, N m).
-    pub wrench: [f64; 3],
+    /// Wrench on the object, (N, N, N m) in the plane; `[f; τ]` (N, N m) in space.
+    pub wrench: [f64; N],
 }
 
 /// Disturbance parameters (plain data).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Disturbance {
+#[derive(Clone, Debug, PartialEq)]
+pub struct Disturbance<const N: usize = 3> {
     /// Sinusoid amplitudes `a`, (N, N, N m).
-    pub amplitude: [f64; 3],
+    pub amplitude: [f64; N],
     /// Angular frequencies `ω`, rad/s.
-    pub frequency: [f64; 3],
+    pub frequency: [f64; N],
     /// Phases `φ`, rad.
-    pub phase: [f64; 3],
+    pub phase: [f64; N],
     /// Timed pushes.
-    #[serde(default)]
-    pub pushes: Vec<Push>,
+    pub pushes: Vec<Push<N>>,
 }
 
-impl Disturbance {
+/// The 6-D disturbance of the spatial plant: `[f; τ]` in world axes about the object's centre.
+pub type SpatialDisturbance = Disturbance<6>;
+
+impl SpatialDisturbance {
+    /// The SPEC-spatial S6 scenario's "small environment disturbance": `0.2 sin t`,
+    /// `0.2 cos t` N along world x and y, `0.02 sin 2t` N m about world z (the planar paper's
+    /// pattern, ten times larger for a three times heavier object on stiffer arms).
+    pub fn spec_s6() -> Self {
+        Disturbance {
+            amplitude: [0.2, 0.2, 0.0, 0.0, 0.0, 0.02],
+            frequency: [1.0, 1.0, 0.0, 0.0, 0.0, 2.0],
+            phase: [0.0, std::f64::consts::FRAC_PI_2, 0.0, 0.0, 0.0, 0.0],
+            pushes: vec![],
+        }
+    }
+}
+
+impl<const N: usize> Disturbance<N> {
+    /// No disturbance.
+    pub fn zero() -> Self {
+        Disturbance {
+            amplitude: [0.0; N],
+            frequency: [0.0; N],
+            phase: [0.0; N],
+            pushes: vec![],
+        }
+    }
+}
+
+impl Disturbance<3> {
     /// The paper's `F_d = (0.02 sin t, 0.02 cos t, 0)`.
     pub fn paper() -> Self {
         Disturbance {
@@ -48,16 +77,14 @@ impl Disturbance {
     }
     /// No disturbance.
     pub fn none() -> Self {
-        Disturbance {
-            amplitude: [0.0; 3],
-            frequency: [0.0; 3],
-            phase: [0.0; 3],
-            pushes: vec![],
-        }
+        Self::zero()
     }
+}
+
+impl<const N: usize> Disturbance<N> {
     /// Validate (finite values, non-negative amplitudes, positive push durations).
     pub fn validate(&self) -> Result<(), ModelError> {
-        for j in 0..3 {
+        for j in 0..N {
             non_negative(&format!("disturbance.amplitude[{j}]"), self.amplitude[j])?;
             for (n, v) in [("frequency", self.frequency[j]), ("phase", self.phase[j])] {
                 if !v.is_finite() {
@@ -84,7 +111,7 @@ impl Disturbance {
                     "must be finite and > 0",
                 ));
             }
-            for j in 0..3 {
+            for j in 0..N {
                 if !p.wrench[j].is_finite() {
                     return Err(ModelError::invalid(
                         format!("disturbance.pushes[{k}].wrench[{j}]"),
@@ -97,24 +124,24 @@ impl Disturbance {
         Ok(())
     }
     /// `F_d(t)`.
-    pub fn at(&self, t: f64) -> Vector3<f64> {
-        let mut f = Vector3::zeros();
-        for j in 0..3 {
+    pub fn at(&self, t: f64) -> SVector<f64, N> {
+        let mut f = SVector::<f64, N>::zeros();
+        for j in 0..N {
             if self.amplitude[j] != 0.0 {
                 f[j] = self.amplitude[j] * (self.frequency[j] * t + self.phase[j]).sin();
             }
         }
         for p in &self.pushes {
             if t >= p.t0 && t < p.t0 + p.duration {
-                f -= Vector3::from(p.wrench);
+                f -= SVector::<f64, N>::from(p.wrench);
             }
         }
         f
     }
     /// Bound of `|F_d,j|` over all time (enters the NN law's `f^U`).
-    pub fn bound(&self) -> [f64; 3] {
+    pub fn bound(&self) -> [f64; N] {
         let mut b = self.amplitude;
-        for j in 0..3 {
+        for j in 0..N {
             b[j] += self
                 .pushes
                 .iter()
