@@ -5,16 +5,15 @@
 //! - **sensor dropout bursts:** bursts start at random ticks (rate `dropout_rate` per second,
 //!   seeded by `seed`) and last `dropout_length` s; during a burst every reading (encoders,
 //!   rates, forces) holds its last value;
-//! - **force-sensor saturation** at `±force_limit` N per component and **delay** of
-//!   `force_delay` s (a whole number of control periods);
+//! - **force-sensor saturation** at `±force_limit` N per force component (the torque channels
+//!   of a spatial wrist sensor are not saturated) and **delay** of `force_delay` s (a whole
+//!   number of control periods) of every wrench channel;
 //! - **encoder quantisation:** joint angles rounded to multiples of `encoder_resolution` rad;
 //! - **actuator limits:** torques saturated at `±torque_limit` N m and rate-limited to
 //!   `torque_rate` N m/s (the driver does not know).
 //!
 //! The payload mismatch (true object differs from the controller's nominal one) is a plant
 //! parameter, not an injection: give the simulation and the controller different objects.
-
-use nalgebra::Vector2;
 
 use crate::error::{ModelError, non_negative, positive};
 use crate::fixtures::splitmix64;
@@ -52,13 +51,16 @@ pub(crate) struct FaultState {
     burst_ticks: usize,
     /// Ticks left in the current burst.
     left: usize,
-    /// Delay in ticks and the ring of past force readings (`delay + 1` per arm).
+    /// Delay in ticks and the ring of past wrench readings (`delay + 1` rows of `W n_arms`).
     delay: usize,
-    ring: Vec<Vector2<f64>>,
+    ring: Vec<f64>,
+    /// Channels per wrench `W` (2 planar, 6 spatial).
+    width: usize,
     /// What the driver sees.
     pub q: Vec<f64>,
     pub qd: Vec<f64>,
-    pub forces: Vec<Vector2<f64>>,
+    /// Wrench readings, flat (`W` per arm).
+    pub wrenches: Vec<f64>,
     /// The previous applied torques (rate limit).
     tau_prev: Vec<f64>,
     started: bool,
@@ -75,12 +77,14 @@ impl Faults {
     }
 
     /// Validate against the control period `h` and size the buffers for `n_q` joints and
-    /// `n_arms` arms. Errors name the field (`faults.force_delay`, ...).
+    /// `n_arms` wrist sensors of `width` channels. Errors name the field (`faults.force_delay`,
+    /// ...).
     pub(crate) fn state(
         &self,
         h: f64,
         n_q: usize,
         n_arms: usize,
+        width: usize,
     ) -> Result<FaultState, ModelError> {
         non_negative("faults.dropout_rate", self.dropout_rate)?;
         non_negative("faults.dropout_length", self.dropout_length)?;
@@ -136,10 +140,11 @@ impl Faults {
             burst_ticks: burst.round() as usize,
             left: 0,
             delay,
-            ring: vec![Vector2::zeros(); (delay + 1) * n_arms],
+            ring: vec![0.0; (delay + 1) * n_arms * width],
+            width,
             q: vec![0.0; n_q],
             qd: vec![0.0; n_q],
-            forces: vec![Vector2::zeros(); n_arms],
+            wrenches: vec![0.0; n_arms * width],
             tau_prev: vec![0.0; n_q],
             started: false,
         })
@@ -147,18 +152,21 @@ impl Faults {
 }
 
 impl FaultState {
-    /// Sensors → what the driver sees at tick `k`: `(q, q̇, F)` readings in, the faulted ones into
-    /// `self.q`, `self.qd`, `self.forces`. No allocation.
-    pub(crate) fn sense(&mut self, k: usize, q: &[f64], qd: &[f64], forces: &[Vector2<f64>]) {
-        let n_arms = forces.len();
-        // The force delay line: slot k mod (delay + 1) holds the reading of tick k.
+    /// Sensors → what the driver sees at tick `k`: `(q, q̇, wrenches)` readings in (flat, `W`
+    /// per arm), the faulted ones into `self.q`, `self.qd`, `self.wrenches`. No allocation.
+    pub(crate) fn sense(&mut self, k: usize, q: &[f64], qd: &[f64], wrenches: &[f64]) {
+        let n = wrenches.len();
+        let w = self.width;
+        // The delay line: slot k mod (delay + 1) holds the reading of tick k.
         let slots = self.delay + 1;
-        for (i, f) in forces.iter().enumerate() {
-            let mut f = *f;
-            if let Some(l) = self.f.force_limit {
-                f = f.map(|v| v.clamp(-l, l));
+        for (c, v) in wrenches.iter().enumerate() {
+            let mut v = *v;
+            // Planar: both channels are forces; spatial: the first three of each six.
+            match self.f.force_limit {
+                Some(l) if w == 2 || c % 6 < 3 => v = v.clamp(-l, l),
+                _ => {}
             }
-            self.ring[(k % slots) * n_arms + i] = f;
+            self.ring[(k % slots) * n + c] = v;
         }
         let old = k.saturating_sub(self.delay);
         // Dropout bursts: a seeded uniform per tick decides whether one starts.
@@ -174,9 +182,8 @@ impl FaultState {
             return; // hold every reading
         }
         self.started = true;
-        for i in 0..n_arms {
-            self.forces[i] = self.ring[(old % slots) * n_arms + i];
-        }
+        self.wrenches
+            .copy_from_slice(&self.ring[(old % slots) * n..(old % slots + 1) * n]);
         let r = self.f.encoder_resolution;
         for (m, v) in self.q.iter_mut().zip(q) {
             *m = if r > 0.0 { (v / r).round() * r } else { *v };

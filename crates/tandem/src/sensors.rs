@@ -494,6 +494,73 @@ impl Sensors {
         self.wrench_dim
     }
 
+    /// [`reset`](Self::reset) / [`reset_wrenches`](Self::reset_wrenches) from flat wrenches
+    /// (`wrench_dim` channels per arm, arm order: planar `[F_x, F_y]`, spatial `[f; τ]` in the
+    /// sensors' axes), so one loop serves both plants.
+    ///
+    /// # Panics
+    /// On a length mismatch.
+    pub fn reset_flat(&mut self, q: &[f64], qd: &[f64], wrenches: &[f64]) {
+        let w = self.wrench_dim;
+        assert_eq!(
+            wrenches.len(),
+            w * self.n_arms,
+            "Sensors: wrenches has the wrong length"
+        );
+        self.check_dims(q, qd, wrenches.len() / w);
+        if w == 2 {
+            self.reset_inner(q, qd, |c| wrenches[c], |_| 0.0);
+        } else {
+            self.reset_inner(
+                q,
+                qd,
+                |c| wrenches[6 * (c / 3) + c % 3],
+                |c| wrenches[6 * (c / 3) + 3 + c % 3],
+            );
+        }
+    }
+
+    /// [`sample`](Self::sample) / [`sample_wrenches`](Self::sample_wrenches) from flat
+    /// wrenches (as in [`reset_flat`](Self::reset_flat)); the same readings, bit for bit. No
+    /// allocation.
+    ///
+    /// # Panics
+    /// On a length mismatch.
+    pub fn sample_flat(&mut self, q: &[f64], qd: &[f64], wrenches: &[f64]) {
+        if !self.primed {
+            self.reset_flat(q, qd, wrenches);
+        }
+        let w = self.wrench_dim;
+        assert_eq!(
+            wrenches.len(),
+            w * self.n_arms,
+            "Sensors: wrenches has the wrong length"
+        );
+        self.check_dims(q, qd, wrenches.len() / w);
+        self.q.sample(|c| q[c]);
+        self.qd.sample(|c| qd[c]);
+        if w == 2 {
+            self.force.sample(|c| wrenches[c]);
+        } else {
+            self.force.sample(|c| wrenches[6 * (c / 3) + c % 3]);
+            let Sensors { force, torque, .. } = self;
+            torque.sample_with(|c| wrenches[6 * (c / 3) + 3 + c % 3], Some(&force.dropped));
+        }
+    }
+
+    /// Every wrist reading, flat (`wrench_dim` channels per arm, as
+    /// [`reset_flat`](Self::reset_flat) takes them). No allocation.
+    pub fn read_wrenches(&self, out: &mut [f64]) {
+        if self.wrench_dim == 2 {
+            out.copy_from_slice(&self.force.reading);
+        } else {
+            for i in 0..self.n_arms {
+                out[6 * i..6 * i + 3].copy_from_slice(&self.force.reading[3 * i..3 * i + 3]);
+                out[6 * i + 3..6 * i + 6].copy_from_slice(&self.torque.reading[3 * i..3 * i + 3]);
+            }
+        }
+    }
+
     /// Take one sample of the true `q`, `q̇` (rad, rad/s, length [`n_joints`](Self::n_joints))
     /// and end-effector forces `F_i` (N, length [`n_arms`](Self::n_arms)); call once every
     /// [`h_sample`](Self::h_sample) seconds. `(q, q̇, F_i)` → readings.

@@ -145,16 +145,9 @@ impl ControllerParams {
     }
 }
 
-/// What the controller reads at a tick (sensor outputs, never the plant state).
-#[derive(Clone, Copy, Debug)]
-pub struct Measurements<'a> {
-    /// Encoder angles, stacked over arms, rad.
-    pub q: &'a [f64],
-    /// Encoder rates, rad/s.
-    pub qd: &'a [f64],
-    /// Force sensor readings `F_i` (the object on end-effector `i`), N.
-    pub forces: &'a [Vector2<f64>],
-}
+/// What the controller reads at a tick (sensor outputs, never the plant state); defined with
+/// the simulation's driver trait ([`crate::sim::Drive`]).
+pub use crate::sim::Measurements;
 
 /// The controller's internals at one tick (SPEC §5 columns). `Copy`, fixed size.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -799,7 +792,7 @@ impl Controller {
                 a += adm.e_ddot(st, self.f_ref[i]);
                 p += st.e;
                 v += st.e_dot;
-                if !adm.step(st, meas.forces[i], self.f_ref[i]) {
+                if !adm.step(st, meas.force(i), self.f_ref[i]) {
                     rec.non_finite = true;
                 }
             }

@@ -7,9 +7,82 @@
 //! one loop, one sensor model and one set of health checks serve both. See the crate docs,
 //! "Architecture".
 
+use nalgebra::{Isometry3, Vector3, Vector6};
+use serde::{Deserialize, Serialize};
+
+use crate::error::ModelError;
 use crate::integrate::Rk4;
 
-use super::Energy;
+use super::spatial::{SpatialPlant, SpatialWorkspace};
+use super::{Energy, ReducedOde};
+
+/// Which plant formulation integrates the truth (SPEC §2.4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Formulation {
+    /// Joints + object with Lagrange multipliers (default; any arms; both plants).
+    #[default]
+    Constrained,
+    /// Object coordinates only, (14) (planar 2-link arms).
+    Reduced,
+}
+
+/// Why the loop's evaluation or step of a plant failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ChainFault {
+    /// The state (or the derivative) became non-finite.
+    NonFinite,
+    /// The reduced formulation could not be evaluated (IK out of reach or a singular arm).
+    Reduced,
+}
+
+/// The simulation loop's integrator of a plant: the formulation, the RK4 buffers and a
+/// derivative scratch, sized once ([`ClosedChain::stepper`]). The planar reduced formulation
+/// (14) needs no state of its own: its 6-state `(x_o, ẋ_o)` is read from and written back into
+/// the object part of the flat state, bit for bit, and the joints follow by the analytic IK.
+#[derive(Clone, Debug)]
+pub struct Stepper {
+    formulation: Formulation,
+    rk: Rk4,
+    rk_red: Rk4,
+    dy: Vec<f64>,
+}
+
+impl Stepper {
+    /// The formulation this stepper integrates.
+    pub fn formulation(&self) -> Formulation {
+        self.formulation
+    }
+}
+
+/// Where a planar run starts: the object pose at rest, `q_guess` for arms that are not 2-link.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanarStart {
+    /// Object pose `(x, y, θ)`, (m, m, rad).
+    pub x_o: [f64; 3],
+    /// Initial joint guess (stacked n_q) for the numerical IK of arms with more than 2 links.
+    pub q_guess: Option<Vec<f64>>,
+}
+
+/// Where a spatial run starts: the object pose at rest and a joint guess for the IK.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpatialStart {
+    /// Object pose `X_WO`.
+    pub x_wo: Isometry3<f64>,
+    /// Initial joint guess (stacked n_q) of each arm's Newton–Raphson IK.
+    pub q_guess: Vec<f64>,
+}
+
+/// The environment disturbance of the spatial plant: `F_d(t) = [f; τ]` on the object about its
+/// centre of mass, world axes (N, N m), or none.
+pub type SpatialDisturbance = Option<fn(f64) -> Vector6<f64>>;
+
+/// `(name, unit)` of a log column.
+pub type ColumnSpec = (String, String);
+
+fn col(name: impl Into<String>, unit: &str) -> ColumnSpec {
+    (name.into(), unit.to_string())
+}
 
 /// A closed-chain plant as the simulation loop sees it.
 pub trait ClosedChain {
@@ -67,7 +140,81 @@ pub trait ClosedChain {
     fn min_singular_value(&self, y: &[f64], ws: &mut Self::Workspace) -> f64;
     /// Mechanical energy of a state, J.
     fn energy(&self, y: &[f64], ws: &mut Self::Workspace) -> Energy;
+
+    // --- What the simulation loop needs beyond the dynamics (crate::sim). ---
+
+    /// Where a run starts (the object pose and what the inverse kinematics needs).
+    type Start;
+    /// The environment disturbance on the object (planar: [`crate::disturbance::Disturbance`];
+    /// spatial: [`SpatialDisturbance`]).
+    type Disturbance;
+
+    /// A consistent state at rest at `start` (IK of every arm); errors name the arm or field.
+    fn start_state(&self, start: &Self::Start) -> Result<Vec<f64>, ModelError>;
+    /// Validate a disturbance (errors name the field).
+    fn check_disturbance(&self, d: &Self::Disturbance) -> Result<(), ModelError>;
+    /// Set the input's disturbance to `F_d(t)`; the name of its first non-finite channel
+    /// (`the disturbance F_d.x`), if any (allocates only then).
+    fn disturb(&self, d: &Self::Disturbance, t: f64, input: &mut Self::Input) -> Option<String>;
+    /// The loop's integrator for a formulation; errors name `formulation` when the plant has
+    /// no such formulation (the reduced one is planar, 2-link arms only).
+    fn stepper(&self, formulation: Formulation) -> Result<Stepper, ModelError>;
+    /// **The grasp wrenches of a state**: evaluate the plant at `(y, input)` in the stepper's
+    /// formulation and write the grasp wrenches (the object on tool `i`, world axes) flat
+    /// into `out` (`WRENCH_DIM` per arm: planar `(F_x, F_y)` N; spatial `[f; τ]` (N, N m)
+    /// about the tool origin). Leaves that evaluation in `ws`, so
+    /// [`sensor_wrenches`](Self::sensor_wrenches) then gives the wrist readings of the same
+    /// state. No allocation.
+    fn grasp_wrenches(
+        &self,
+        st: &mut Stepper,
+        y: &[f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        out: &mut [f64],
+    ) -> Result<(), ChainFault>;
+    /// Advance `n` plant steps of size `h` from `(t, y)` with the input held, in the stepper's
+    /// formulation. On `Err` the state is not a new good one (the loop reports the last good
+    /// state it kept). No allocation.
+    fn step_with(
+        &self,
+        st: &mut Stepper,
+        t: f64,
+        y: &mut [f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        h: f64,
+        n: usize,
+    ) -> Result<(), ChainFault>;
+    /// Grasp-constraint drift of a state `(position, m; rotation, rad)`; the planar point
+    /// grasps constrain no rotation (0).
+    fn drift(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64);
+    /// Evaluations so far that needed a regularised grasp-space solve.
+    fn regularised(ws: &Self::Workspace) -> u64;
+    /// The object's pose of a state for a fault report: planar `(x, y, θ)`; spatial
+    /// `(p_WO, q_WO = (w, x, y, z))` (allocates).
+    fn object_pose(&self, y: &[f64]) -> Vec<f64>;
+    /// Log columns of the object's true state (planar `x_o.{x,y,theta}`; spatial pose and
+    /// twist), with units.
+    fn object_columns(&self) -> Vec<ColumnSpec>;
+    /// Write the [`object_columns`](Self::object_columns) of a state.
+    fn write_object(&self, y: &[f64], out: &mut [f64]);
+    /// Log columns of the joints' true state (planar `q*`; spatial `q*` and `qd*`).
+    fn joint_columns(&self) -> Vec<ColumnSpec>;
+    /// Write the [`joint_columns`](Self::joint_columns) of a state.
+    fn write_joints(&self, y: &[f64], out: &mut [f64]);
+    /// Units of the joint torques `tau_q*` (N m; N for a prismatic joint).
+    fn torque_units(&self) -> Vec<String>;
+    /// `(suffix, unit)` of one wrench's channels: planar `x, y` (N); spatial `fx … tz`
+    /// (N, N m). The log names them `F{i}.{suffix}` (grasp, world axes) and
+    /// `F_meas{i}.{suffix}` (wrist reading).
+    fn wrench_channels(&self) -> Vec<(&'static str, &'static str)>;
+    /// Drift columns: planar `drift` (m); spatial `drift` (m) and `drift_rot` (rad).
+    fn drift_columns(&self) -> Vec<ColumnSpec>;
 }
+
+const AX3: [&str; 3] = ["x", "y", "theta"];
+const AX6: [&str; 6] = ["fx", "fy", "fz", "tx", "ty", "tz"];
 
 impl ClosedChain for super::Plant {
     type Workspace = super::PlantWorkspace;
@@ -138,6 +285,166 @@ impl ClosedChain for super::Plant {
     fn energy(&self, y: &[f64], ws: &mut Self::Workspace) -> Energy {
         super::Plant::energy(self, y, ws)
     }
+
+    type Start = PlanarStart;
+    type Disturbance = crate::disturbance::Disturbance;
+
+    fn start_state(&self, start: &PlanarStart) -> Result<Vec<f64>, ModelError> {
+        self.initial_state(
+            Vector3::from(start.x_o),
+            Vector3::zeros(),
+            start.q_guess.as_deref(),
+        )
+    }
+    fn check_disturbance(&self, d: &Self::Disturbance) -> Result<(), ModelError> {
+        d.validate()
+    }
+    fn disturb(&self, d: &Self::Disturbance, t: f64, input: &mut Self::Input) -> Option<String> {
+        input.f_d = d.at(t);
+        input
+            .f_d
+            .iter()
+            .position(|v| !v.is_finite())
+            .map(|j| format!("the disturbance F_d.{}", AX3[j]))
+    }
+    /// Constrained: any arms; reduced (14): 2-link arms only.
+    fn stepper(&self, formulation: Formulation) -> Result<Stepper, ModelError> {
+        if formulation == Formulation::Reduced && self.arms().iter().any(|a| a.dof() != 2) {
+            return Err(ModelError::geometry(
+                "formulation",
+                "the reduced formulation needs 2-link arms",
+            ));
+        }
+        let n = super::Plant::state_dim(self);
+        Ok(Stepper {
+            formulation,
+            rk: Rk4::new(n),
+            rk_red: Rk4::new(6),
+            dy: vec![0.0; n],
+        })
+    }
+    fn grasp_wrenches(
+        &self,
+        st: &mut Stepper,
+        y: &[f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        out: &mut [f64],
+    ) -> Result<(), ChainFault> {
+        let ok = match st.formulation {
+            Formulation::Constrained => super::Plant::derivative(self, y, input, ws, &mut st.dy),
+            Formulation::Reduced => {
+                let mut d = [0.0; 6];
+                self.reduced_derivative(&reduced_state(self, y), input, ws, &mut d)
+                    .is_ok()
+            }
+        };
+        self.sensor_wrenches(ws, out);
+        // A failed evaluation is reported as the reduced formulation's failure in both
+        // formulations (the constrained one fails only for an inertia that is not positive
+        // definite, never for a validated model).
+        if ok { Ok(()) } else { Err(ChainFault::Reduced) }
+    }
+    fn step_with(
+        &self,
+        st: &mut Stepper,
+        t: f64,
+        y: &mut [f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        h: f64,
+        n: usize,
+    ) -> Result<(), ChainFault> {
+        match st.formulation {
+            Formulation::Constrained => {
+                if self.advance(&mut st.rk, t, y, input, ws, h, n) {
+                    Ok(())
+                } else {
+                    Err(ChainFault::NonFinite)
+                }
+            }
+            Formulation::Reduced => {
+                let mut y_red = reduced_state(self, y);
+                let mut sys = ReducedOde {
+                    plant: self,
+                    ws: &mut *ws,
+                    input,
+                };
+                st.rk_red.substeps(&mut sys, t, &mut y_red, h * n as f64, n);
+                if !y_red.iter().all(|v| v.is_finite()) {
+                    return Err(ChainFault::NonFinite);
+                }
+                // The joints follow the object (for sensors and logs).
+                let nq = super::Plant::n_q(self);
+                let x = Vector3::new(y_red[0], y_red[1], y_red[2]);
+                let xd = Vector3::new(y_red[3], y_red[4], y_red[5]);
+                let (q, rest) = y.split_at_mut(nq);
+                let (xo, rest) = rest.split_at_mut(3);
+                let (qd, xdo) = rest.split_at_mut(nq);
+                xo.copy_from_slice(x.as_slice());
+                xdo.copy_from_slice(xd.as_slice());
+                self.arms_from_object(&x, &xd, q, qd, ws)
+                    .map_err(|_| ChainFault::Reduced)?;
+                if y.iter().all(|v| v.is_finite()) {
+                    Ok(())
+                } else {
+                    Err(ChainFault::NonFinite)
+                }
+            }
+        }
+    }
+    fn drift(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64) {
+        (super::Plant::constraint_residual(self, y, ws).0, 0.0)
+    }
+    fn regularised(ws: &Self::Workspace) -> u64 {
+        ws.regularised
+    }
+    fn object_pose(&self, y: &[f64]) -> Vec<f64> {
+        let n = super::Plant::n_q(self);
+        y[n..n + 3].to_vec()
+    }
+    fn object_columns(&self) -> Vec<ColumnSpec> {
+        vec![
+            col("x_o.x", "m"),
+            col("x_o.y", "m"),
+            col("x_o.theta", "rad"),
+        ]
+    }
+    fn write_object(&self, y: &[f64], out: &mut [f64]) {
+        let n = super::Plant::n_q(self);
+        out[..3].copy_from_slice(&y[n..n + 3]);
+    }
+    fn joint_columns(&self) -> Vec<ColumnSpec> {
+        (0..super::Plant::n_q(self))
+            .map(|k| col(format!("q{}", k + 1), "rad"))
+            .collect()
+    }
+    fn write_joints(&self, y: &[f64], out: &mut [f64]) {
+        let n = super::Plant::n_q(self);
+        out[..n].copy_from_slice(&y[..n]);
+    }
+    fn torque_units(&self) -> Vec<String> {
+        vec!["N m".into(); super::Plant::n_q(self)]
+    }
+    fn wrench_channels(&self) -> Vec<(&'static str, &'static str)> {
+        vec![("x", "N"), ("y", "N")]
+    }
+    fn drift_columns(&self) -> Vec<ColumnSpec> {
+        vec![col("drift", "m")]
+    }
+}
+
+/// The reduced formulation's state `(x_o, ẋ_o)`: the object part of a planar flat state.
+fn reduced_state(p: &super::Plant, y: &[f64]) -> [f64; 6] {
+    let n = super::Plant::n_q(p);
+    [
+        y[n],
+        y[n + 1],
+        y[n + 2],
+        y[2 * n + 3],
+        y[2 * n + 4],
+        y[2 * n + 5],
+    ]
 }
 
 impl ClosedChain for super::spatial::SpatialPlant {
@@ -202,5 +509,154 @@ impl ClosedChain for super::spatial::SpatialPlant {
     }
     fn energy(&self, y: &[f64], ws: &mut Self::Workspace) -> Energy {
         super::spatial::SpatialPlant::energy(self, y, ws)
+    }
+
+    type Start = SpatialStart;
+    type Disturbance = SpatialDisturbance;
+
+    fn start_state(&self, start: &SpatialStart) -> Result<Vec<f64>, ModelError> {
+        self.initial_state(&start.x_wo, &Vector6::zeros(), &start.q_guess)
+    }
+    fn check_disturbance(&self, _d: &Self::Disturbance) -> Result<(), ModelError> {
+        Ok(())
+    }
+    fn disturb(&self, d: &Self::Disturbance, t: f64, input: &mut Self::Input) -> Option<String> {
+        input.f_d = d.map_or_else(Vector6::zeros, |f| f(t));
+        input
+            .f_d
+            .iter()
+            .position(|v| !v.is_finite())
+            .map(|j| format!("the disturbance F_d.{}", AX6[j]))
+    }
+    /// Constrained only (welds or compliant grasps).
+    fn stepper(&self, formulation: Formulation) -> Result<Stepper, ModelError> {
+        if formulation != Formulation::Constrained {
+            return Err(ModelError::geometry(
+                "formulation",
+                "the reduced formulation is planar only (2-link arms); the spatial plant integrates the constrained one",
+            ));
+        }
+        let n = SpatialPlant::state_dim(self);
+        Ok(Stepper {
+            formulation,
+            rk: Rk4::new(n),
+            rk_red: Rk4::new(6),
+            dy: vec![0.0; n],
+        })
+    }
+    fn grasp_wrenches(
+        &self,
+        st: &mut Stepper,
+        y: &[f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        out: &mut [f64],
+    ) -> Result<(), ChainFault> {
+        let ok = SpatialPlant::derivative(self, y, input, ws, &mut st.dy);
+        world_wrenches(ws, out);
+        if ok {
+            Ok(())
+        } else {
+            Err(ChainFault::NonFinite)
+        }
+    }
+    fn step_with(
+        &self,
+        st: &mut Stepper,
+        t: f64,
+        y: &mut [f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        h: f64,
+        n: usize,
+    ) -> Result<(), ChainFault> {
+        self.step(&mut st.rk, t, y, input, ws, h, n)
+            .map_err(|_| ChainFault::NonFinite)
+    }
+    fn drift(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64) {
+        SpatialPlant::constraint_residual(self, y, ws)
+    }
+    fn regularised(ws: &Self::Workspace) -> u64 {
+        ws.regularised
+    }
+    fn object_pose(&self, y: &[f64]) -> Vec<f64> {
+        let n = SpatialPlant::n_q(self);
+        y[n..n + 7].to_vec()
+    }
+    fn object_columns(&self) -> Vec<ColumnSpec> {
+        let mut c = Vec::with_capacity(13);
+        for a in ["x", "y", "z"] {
+            c.push(col(format!("x_o.{a}"), "m"));
+        }
+        for a in ["qw", "qx", "qy", "qz"] {
+            c.push(col(format!("x_o.{a}"), "1"));
+        }
+        for a in ["x", "y", "z"] {
+            c.push(col(format!("v_o.{a}"), "m/s"));
+        }
+        for a in ["x", "y", "z"] {
+            c.push(col(format!("w_o.{a}"), "rad/s"));
+        }
+        c
+    }
+    fn write_object(&self, y: &[f64], out: &mut [f64]) {
+        let n = SpatialPlant::n_q(self);
+        out[..7].copy_from_slice(&y[n..n + 7]);
+        out[7..13].copy_from_slice(&y[2 * n + 7..2 * n + 13]);
+    }
+    fn joint_columns(&self) -> Vec<ColumnSpec> {
+        let kinds = joint_kinds(self);
+        let mut c: Vec<ColumnSpec> = kinds
+            .iter()
+            .enumerate()
+            .map(|(k, p)| col(format!("q{}", k + 1), if *p { "m" } else { "rad" }))
+            .collect();
+        c.extend(
+            kinds
+                .iter()
+                .enumerate()
+                .map(|(k, p)| col(format!("qd{}", k + 1), if *p { "m/s" } else { "rad/s" })),
+        );
+        c
+    }
+    fn write_joints(&self, y: &[f64], out: &mut [f64]) {
+        let n = SpatialPlant::n_q(self);
+        out[..n].copy_from_slice(&y[..n]);
+        out[n..2 * n].copy_from_slice(&y[n + 7..2 * n + 7]);
+    }
+    fn torque_units(&self) -> Vec<String> {
+        joint_kinds(self)
+            .iter()
+            .map(|p| if *p { "N" } else { "N m" }.to_string())
+            .collect()
+    }
+    fn wrench_channels(&self) -> Vec<(&'static str, &'static str)> {
+        vec![
+            ("fx", "N"),
+            ("fy", "N"),
+            ("fz", "N"),
+            ("tx", "N m"),
+            ("ty", "N m"),
+            ("tz", "N m"),
+        ]
+    }
+    fn drift_columns(&self) -> Vec<ColumnSpec> {
+        vec![col("drift", "m"), col("drift_rot", "rad")]
+    }
+}
+
+/// Whether each joint (stacked) is prismatic.
+fn joint_kinds(p: &SpatialPlant) -> Vec<bool> {
+    p.arms()
+        .iter()
+        .flat_map(|a| a.chain.joints.iter())
+        .map(|j| j.kind == crate::model::JointKind::Prismatic)
+        .collect()
+}
+
+/// The grasp wrenches of the last evaluation in world axes, flat (6 per arm).
+fn world_wrenches(ws: &SpatialWorkspace, out: &mut [f64]) {
+    for (i, w) in ws.wrenches.iter().enumerate() {
+        out[6 * i..6 * i + 6].copy_from_slice(w.as_slice());
     }
 }

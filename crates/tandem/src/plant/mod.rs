@@ -27,7 +27,10 @@ pub mod spatial;
 use nalgebra::{DMatrix, Matrix2, Matrix2x3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-pub use chain::ClosedChain;
+pub use chain::{
+    ChainFault, ClosedChain, ColumnSpec, Formulation, PlanarStart, SpatialDisturbance,
+    SpatialStart, Stepper,
+};
 
 use crate::arm::{Arm, ArmParams, ArmTerms, Cartesian, IkFailure, TwoLinkArm};
 use crate::error::{ModelError, non_negative};

@@ -1,0 +1,677 @@
+//! The simulation loop (SPEC §3 step order, §2.4 integration, §5 outputs), one loop for both
+//! plants: [`Simulation`] is generic over the plant ([`ClosedChain`]: the planar [`Plant`] or
+//! the spatial [`SpatialPlant`](crate::plant::spatial::SpatialPlant)) and its driver
+//! ([`Drive`]: tandem's [`Controller`](crate::control::Controller), a torque [`Replay`], or a
+//! user's own law).
+//!
+//! Per control tick `k` at `t_k = k h_c`:
+//! 1. grasp wrenches at `(y(t_k), u_{k−1})` (the input still held,
+//!    [`ClosedChain::grasp_wrenches`]) → wrist sensors; encoders;
+//! 2. the driver ([`Drive::tick`] on the [`Measurements`]) → joint torques `u_k`, actuator
+//!    limits;
+//! 3. `F_d(t_k)`; the plant advances `h_c / h_p` RK4 substeps with `(u_k, F_d)` held (ZOH,
+//!    [`ClosedChain::step_with`]);
+//! 4. health checks (non-finite state, constraint drift, singular arms) → a [`Fault`] stops the
+//!    run cleanly with the time and the state;
+//! 5. every `log_period`, one row into the preallocated [`Log`] ([`log::layout`]).
+//!
+//! Formulations: the planar plant integrates the constrained form or the reduced one (14)
+//! ([`Formulation`], SPEC §2.4); the choice lives in the plant's [`Stepper`], which keeps
+//! the reduced 6-state in the object part of the flat state (bit for bit), so the loop has
+//! one state `y` whatever the formulation. The spatial plant has the constrained form only.
+//!
+//! Deterministic: the only randomness is in the seeded sensors. A tick allocates nothing.
+
+pub mod drive;
+pub mod fault;
+pub mod log;
+pub mod replay;
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::control::ControlEvents;
+use crate::disturbance::Disturbance;
+use crate::error::{ModelError, positive};
+use crate::faults::{FaultState, Faults};
+use crate::plant::{ChainFault, ClosedChain, PlanarStart, Plant, PlantParams, Stepper};
+use crate::sensors::{SensorParams, Sensors};
+
+pub use crate::plant::{Formulation, SpatialDisturbance, SpatialStart};
+pub use drive::{Drive, Driver, Measurements, NoRecord, Record};
+pub use fault::{Fault, FaultKind};
+pub use log::{Column, Log};
+pub use replay::Replay;
+
+use fault::short;
+
+/// Run settings (plain data).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimParams {
+    /// Duration, s.
+    pub duration: f64,
+    /// Plant RK4 step, s (the control period must be a whole multiple).
+    pub plant_step: f64,
+    /// Control period, s.
+    pub control_period: f64,
+    /// Logging period, s (a whole multiple of the control period).
+    pub log_period: f64,
+    /// Start pose of the planar object, (m, m, rad); at rest. Read by the planar
+    /// [`Simulation::new`]; [`Simulation::with_plant`] takes its start from its `start`
+    /// argument instead.
+    pub start: [f64; 3],
+    /// Plant formulation.
+    #[serde(default)]
+    pub formulation: Formulation,
+    /// Largest grasp-constraint drift tolerated before the run stops, m (and rad for the
+    /// rotation of the spatial welds).
+    #[serde(default = "default_drift")]
+    pub max_drift: f64,
+    /// Smallest arm-Jacobian singular value tolerated before the run stops, m/rad.
+    #[serde(default = "default_sigma")]
+    pub min_sigma: f64,
+}
+
+/// Most control ticks a run may have (10⁹: 11.6 simulated days at 1 kHz, about an hour of wall
+/// time), so that every run ends in bounded time.
+pub const MAX_TICKS: f64 = 1e9;
+
+/// Most plant steps per control tick (a tiny plant step must not make the run endless).
+pub const MAX_SUBSTEPS: usize = 1000;
+
+/// Most memory the preallocated log may take, bytes (512 MiB): a longer log is refused at
+/// validation with its size, never allocated.
+pub const MAX_LOG_BYTES: f64 = 512.0 * 1024.0 * 1024.0;
+
+fn default_drift() -> f64 {
+    1e-6
+}
+fn default_sigma() -> f64 {
+    1e-3
+}
+
+impl SimParams {
+    /// The paper's run: 90 s, 1 kHz control, 1 ms plant step, log every 30 ms, start
+    /// `(0.19, 0, 0)` (SPEC §4).
+    pub fn paper() -> Self {
+        SimParams {
+            duration: 90.0,
+            plant_step: 1e-3,
+            control_period: 1e-3,
+            log_period: 0.03,
+            start: [0.19, 0.0, 0.0],
+            formulation: Formulation::Constrained,
+            max_drift: default_drift(),
+            min_sigma: default_sigma(),
+        }
+    }
+
+    /// Validate periods and their ratios; returns (substeps per tick, ticks per log row, ticks).
+    pub fn validate(&self) -> Result<(usize, usize, usize), ModelError> {
+        let d = positive("duration", self.duration)?;
+        let hp = positive("plant_step", self.plant_step)?;
+        let hc = positive("control_period", self.control_period)?;
+        let hl = positive("log_period", self.log_period)?;
+        positive("max_drift", self.max_drift)?;
+        positive("min_sigma", self.min_sigma)?;
+        let ratio = |a: f64, b: f64, what: &str, of: &str| -> Result<usize, ModelError> {
+            let r = a / b;
+            let n = r.round();
+            if n < 1.0 || (r - n).abs() > 1e-9 * n {
+                Err(ModelError::invalid(
+                    what,
+                    a,
+                    format!("must be a whole multiple of {of} ({})", short(b)),
+                ))
+            } else {
+                Ok(n as usize)
+            }
+        };
+        if hl > d {
+            return Err(ModelError::invalid(
+                "log_period",
+                hl,
+                format!(
+                    "must not exceed the duration ({} s): the log would hold one row",
+                    short(d)
+                ),
+            ));
+        }
+        if !(hc / hp < MAX_SUBSTEPS as f64 + 0.5) {
+            return Err(ModelError::invalid(
+                "plant_step",
+                hp,
+                format!(
+                    "gives {:.3e} plant steps per control period, more than {MAX_SUBSTEPS} (the run would never end)",
+                    hc / hp
+                ),
+            ));
+        }
+        let sub = ratio(hc, hp, "control_period", "plant_step")?;
+        let per_log = ratio(hl, hc, "log_period", "control_period")?;
+        if !((d / hc).round() <= MAX_TICKS) {
+            return Err(ModelError::invalid(
+                "duration",
+                d,
+                format!(
+                    "is {:.3e} control ticks of {hc} s, more than the {MAX_TICKS:.0e} a run may have",
+                    (d / hc).round()
+                ),
+            ));
+        }
+        let ticks = (d / hc).round() as usize;
+        for (j, v) in self.start.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(ModelError::invalid(
+                    format!("start[{j}]"),
+                    *v,
+                    "must be finite",
+                ));
+            }
+        }
+        Ok((sub, per_log, ticks))
+    }
+}
+
+/// The result of a run.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The log (rows up to the stop).
+    pub log: Log,
+    /// Why the run stopped early, if it did.
+    pub fault: Option<Fault>,
+    /// Driver event counters (zero for a replay).
+    pub events: ControlEvents,
+    /// Ticks simulated.
+    pub ticks: usize,
+    /// Simulated time reached, s.
+    pub t_end: f64,
+    /// Wall time of the loop (outputs excluded), s.
+    pub wall_time: f64,
+    /// Largest constraint drift seen (position), m.
+    pub max_drift: f64,
+    /// Largest rotational drift of the spatial welds seen, rad (0 for the planar plant).
+    pub max_drift_rot: f64,
+    /// Evaluations that needed a regularised grasp-space solve.
+    pub regularised: u64,
+    /// Smallest constraint margin `1 − max_j |x_o,j|/k_cj` of the true pose over every control
+    /// tick (not only logged rows); `None` for a driver without bounds (a replay).
+    pub min_margin: Option<f64>,
+    /// Control ticks that ended with the true pose on or outside the bound.
+    pub violation_ticks: u64,
+}
+
+/// Lengths of the log row's segments (see [`log::layout`]).
+#[derive(Clone, Copy, Debug)]
+struct Segments {
+    object: usize,
+    head: usize,
+    joints: usize,
+    tail: usize,
+    drift: usize,
+}
+
+/// The planar simulation the CLI runs: the planar plant driven by a [`Driver`].
+pub type PlanarSimulation = Simulation<Plant, Driver>;
+
+/// A simulation: plant, sensors, driver, state, scratch and the log. One loop for every
+/// [`ClosedChain`] plant and every [`Drive`]r; the defaults are the planar plant and the
+/// planar [`Driver`] enum.
+pub struct Simulation<P: ClosedChain = Plant, D: Drive<P> = Driver> {
+    plant: P,
+    params: SimParams,
+    sensors: Sensors,
+    driver: D,
+    disturbance: P::Disturbance,
+    y: Vec<f64>,
+    y_prev: Vec<f64>,
+    ws: P::Workspace,
+    stepper: Stepper,
+    input: P::Input,
+    /// Grasp wrenches of the tick's state, world axes, flat (`W` per arm).
+    wrenches: Vec<f64>,
+    /// The same wrenches as the wrist sensors see them (truth, sensor axes).
+    sensor_truth: Vec<f64>,
+    /// Wrist readings of the tick, flat.
+    meas: Vec<f64>,
+    rec: D::Record,
+    log: Log,
+    row: Vec<f64>,
+    seg: Segments,
+    substeps: usize,
+    per_log: usize,
+    ticks: usize,
+    /// Whether the driver keeps output bounds (per-tick margin tracking).
+    has_bounds: bool,
+    min_margin: f64,
+    violation_ticks: u64,
+    /// Injected sensor and actuator faults ([`Simulation::with_faults`]).
+    faults: Option<Box<FaultState>>,
+}
+
+impl<D: Drive<Plant>> Simulation<Plant, D> {
+    /// Build a planar run: validates every part, places the chain at the start pose
+    /// `params.start` (analytic IK for 2-link arms, `q_guess` for others) and starts the driver.
+    pub fn new(
+        plant: &PlantParams,
+        sensors: &SensorParams,
+        driver: D,
+        disturbance: Disturbance,
+        params: SimParams,
+        q_guess: Option<&[f64]>,
+    ) -> Result<Self, ModelError> {
+        params.validate()?;
+        disturbance.validate()?;
+        let plant = Plant::new(plant)?;
+        let start = PlanarStart {
+            x_o: params.start,
+            q_guess: q_guess.map(<[f64]>::to_vec),
+        };
+        Self::with_plant(plant, &start, sensors, driver, disturbance, params)
+    }
+}
+
+fn chain_fault(f: ChainFault) -> FaultKind {
+    match f {
+        ChainFault::NonFinite => FaultKind::NonFinite,
+        ChainFault::Reduced => FaultKind::Reduced,
+    }
+}
+
+impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
+    /// Inject sensor and actuator faults between the plant and the driver (see
+    /// [`crate::faults`]); errors name the field (`faults.force_delay`, ...).
+    pub fn with_faults(mut self, f: &Faults) -> Result<Self, ModelError> {
+        self.faults = if f.any() {
+            let st = f.state(
+                self.params.control_period,
+                self.plant.n_q(),
+                self.plant.n_arms(),
+                P::WRENCH_DIM,
+            )?;
+            Some(Box::new(st))
+        } else {
+            None
+        };
+        Ok(self)
+    }
+
+    /// Build a run of any plant: validates the settings, the disturbance and the formulation,
+    /// places the chain at rest at `start` ([`ClosedChain::start_state`]; `params.start` is not
+    /// read), checks its conditioning, sizes the sensors (`W` = [`ClosedChain::WRENCH_DIM`]
+    /// channels per wrist) and the log, and starts the driver with the true wrist wrenches of
+    /// the start (zero torque held).
+    pub fn with_plant(
+        plant: P,
+        start: &P::Start,
+        sensors: &SensorParams,
+        driver: D,
+        disturbance: P::Disturbance,
+        params: SimParams,
+    ) -> Result<Self, ModelError> {
+        let (substeps, per_log, ticks) = params.validate()?;
+        plant.check_disturbance(&disturbance)?;
+        let stepper = plant.stepper(params.formulation)?;
+        let y = plant.start_state(start)?;
+        let mut ws = plant.workspace();
+        let sigma = plant.min_singular_value(&y, &mut ws);
+        if sigma < params.min_sigma {
+            return Err(ModelError::invalid(
+                "start",
+                sigma,
+                format!(
+                    "puts an arm at a singular configuration (σ_min below min_sigma = {})",
+                    params.min_sigma
+                ),
+            ));
+        }
+        let (n_q, n_arms, w) = (plant.n_q(), plant.n_arms(), P::WRENCH_DIM);
+        let sensors = Sensors::with_wrench_dim(sensors, n_q, n_arms, w, params.control_period)?;
+        let rows = ticks / per_log + 2;
+        let rec = driver.new_record();
+        let layout = log::layout(&plant, &rec);
+        let bytes = rows as f64 * layout.len() as f64 * 8.0;
+        if bytes > MAX_LOG_BYTES {
+            return Err(ModelError::invalid(
+                "duration",
+                params.duration,
+                format!(
+                    "the log would hold {rows} rows × {} columns = {:.1} GB, more than the {:.1} GB limit: \
+                     raise the log period to at least {:.3e} s or shorten the run",
+                    layout.len(),
+                    bytes / 1e9,
+                    MAX_LOG_BYTES / 1e9,
+                    params.log_period * (bytes / MAX_LOG_BYTES).ceil()
+                ),
+            ));
+        }
+        let log = Log::with_layout(&layout, rows);
+        let seg = Segments {
+            object: plant.object_columns().len(),
+            head: rec.head_columns().len(),
+            joints: plant.joint_columns().len(),
+            tail: rec.tail_columns().len(),
+            drift: plant.drift_columns().len(),
+        };
+        let has_bounds = driver.truth_margin(&plant, &y).is_some();
+        let mut sim = Simulation {
+            input: plant.zero_input(),
+            wrenches: vec![0.0; w * n_arms],
+            sensor_truth: vec![0.0; w * n_arms],
+            meas: vec![0.0; w * n_arms],
+            row: vec![0.0; layout.len()],
+            seg,
+            stepper,
+            plant,
+            params,
+            // Reset below, once the initial grasp wrenches are known.
+            sensors,
+            driver,
+            disturbance,
+            y_prev: y.clone(),
+            y,
+            ws,
+            rec,
+            log,
+            substeps,
+            per_log,
+            ticks,
+            has_bounds,
+            min_margin: f64::INFINITY,
+            violation_ticks: 0,
+            faults: None,
+        };
+        // Initial wrenches with zero torque held (the object hanging in the arms' grasp).
+        let _ = sim.eval_wrenches();
+        if let Some(i) = (0..n_arms).find(|&i| {
+            !sim.wrenches[w * i..w * i + w]
+                .iter()
+                .chain(&sim.sensor_truth[w * i..w * i + w])
+                .all(|v| v.is_finite())
+        }) {
+            return Err(ModelError::geometry(
+                "gravity",
+                format!(
+                    "the grasp force of arm {} holding the object at the start is not finite: \
+                     gravity, masses or inertias too large",
+                    i + 1
+                ),
+            ));
+        }
+        let (q, qd) = sim.plant.joints(&sim.y);
+        sim.sensors.reset_flat(q, qd, &sim.sensor_truth);
+        let meas = Measurements {
+            q: sim.sensors.q(),
+            qd: sim.sensors.qd(),
+            wrenches: &sim.sensor_truth,
+        };
+        sim.driver.start(0.0, &meas);
+        Ok(sim)
+    }
+
+    /// The plant model.
+    pub fn plant(&self) -> &P {
+        &self.plant
+    }
+    /// The flat plant state.
+    pub fn state(&self) -> &[f64] {
+        &self.y
+    }
+    /// Total number of control ticks in the run.
+    pub fn total_ticks(&self) -> usize {
+        self.ticks
+    }
+    /// The driver (to inspect a controller after a run).
+    pub fn driver(&self) -> &D {
+        &self.driver
+    }
+    /// The sensors (parameters and the latest readings).
+    pub fn sensors(&self) -> &Sensors {
+        &self.sensors
+    }
+    /// The grasp wrenches (world axes, flat, `W` per arm) of the state at the start of the last
+    /// tick, with the input then held: what the sensors sampled.
+    pub fn last_wrenches(&self) -> &[f64] {
+        &self.wrenches
+    }
+    /// The same wrenches as the wrist sensors see them (truth, sensor axes: planar world axes,
+    /// spatial tool axes).
+    pub fn last_sensor_truth(&self) -> &[f64] {
+        &self.sensor_truth
+    }
+    /// The wrist readings of the last tick (flat, `W` per arm), before any injected fault.
+    pub fn last_readings(&self) -> &[f64] {
+        &self.meas
+    }
+    /// **The grasp wrenches of the current state** with the input held: evaluated now
+    /// ([`ClosedChain::grasp_wrenches`]), not left over from the last integrator stage. World
+    /// axes, flat (`W` per arm). `Err` with the fault when the plant cannot be evaluated there.
+    pub fn grasp_wrenches(&mut self) -> Result<&[f64], FaultKind> {
+        self.eval_wrenches().map_err(chain_fault)?;
+        Ok(&self.wrenches)
+    }
+
+    /// Grasp wrenches at the current state with the held input, world axes and sensor axes.
+    fn eval_wrenches(&mut self) -> Result<(), ChainFault> {
+        let r = self.plant.grasp_wrenches(
+            &mut self.stepper,
+            &self.y,
+            &self.input,
+            &mut self.ws,
+            &mut self.wrenches,
+        );
+        self.plant.sensor_wrenches(&self.ws, &mut self.sensor_truth);
+        r
+    }
+
+    /// A fault record at `t` with the last good state.
+    fn fault(&self, t: f64, kind: FaultKind) -> Fault {
+        let n = self.plant.n_q();
+        let y = &self.y_prev;
+        Fault {
+            t,
+            kind,
+            x_o: self.plant.object_pose(y),
+            q: y[..n].to_vec(),
+        }
+    }
+
+    /// Advance one control tick; `Err` stops the run.
+    pub fn tick(&mut self, k: usize) -> Result<(), Fault> {
+        let hc = self.params.control_period;
+        let t = k as f64 * hc;
+        self.y_prev.copy_from_slice(&self.y);
+        // 1. Sensors.
+        if let Err(e) = self.eval_wrenches() {
+            return Err(self.fault(t, chain_fault(e)));
+        }
+        {
+            let (q, qd) = self.plant.joints(&self.y);
+            self.sensors.sample_flat(q, qd, &self.sensor_truth);
+            self.sensors.read_wrenches(&mut self.meas);
+        }
+        // 2. Driver.
+        {
+            let tau = P::torques_mut(&mut self.input);
+            match &mut self.faults {
+                Some(fs) => {
+                    fs.sense(k, self.sensors.q(), self.sensors.qd(), &self.meas);
+                    let meas = Measurements {
+                        q: &fs.q,
+                        qd: &fs.qd,
+                        wrenches: &fs.wrenches,
+                    };
+                    self.driver.tick(t, &meas, tau, &mut self.rec);
+                }
+                None => {
+                    let meas = Measurements {
+                        q: self.sensors.q(),
+                        qd: self.sensors.qd(),
+                        wrenches: &self.meas,
+                    };
+                    self.driver.tick(t, &meas, tau, &mut self.rec);
+                }
+            }
+        }
+        self.driver
+            .record_truth(&self.plant, &self.y, &mut self.rec);
+        if let Some(fs) = &mut self.faults {
+            fs.actuate(hc, P::torques_mut(&mut self.input));
+        }
+        let disturbance = self.plant.disturb(&self.disturbance, t, &mut self.input);
+        // Every value of the tick must be finite before it is logged or integrated.
+        if let Some(signal) = self.non_finite_signal().or(disturbance) {
+            return Err(self.fault(t, FaultKind::NonFiniteSignal { signal }));
+        }
+        // 5 (before advancing): log the state at t_k with the torque chosen at t_k.
+        if k % self.per_log == 0 {
+            self.log_row(t);
+        }
+        // 3. Plant substeps with the input held.
+        let t1 = t + hc;
+        if let Err(e) = self.plant.step_with(
+            &mut self.stepper,
+            t,
+            &mut self.y,
+            &self.input,
+            &mut self.ws,
+            self.params.plant_step,
+            self.substeps,
+        ) {
+            return Err(self.fault(t1, chain_fault(e)));
+        }
+        // 4. Health.
+        if !self.y.iter().all(|v| v.is_finite()) {
+            return Err(self.fault(t1, FaultKind::NonFinite));
+        }
+        // The output bound on the true pose, every tick.
+        if self.has_bounds {
+            if let Some(m) = self.driver.truth_margin(&self.plant, &self.y) {
+                self.min_margin = self.min_margin.min(m);
+                if m <= 0.0 {
+                    self.violation_ticks += 1;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The first non-finite signal of the tick (grasp wrenches, sensor readings, the driver's
+    /// record and torques), named as its log column; `None` if all are finite. Allocates only
+    /// when it finds one.
+    fn non_finite_signal(&mut self) -> Option<String> {
+        let w = P::WRENCH_DIM;
+        let fin = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        for i in 0..self.plant.n_arms() {
+            if !fin(&self.wrenches[w * i..w * i + w]) || !fin(&self.sensor_truth[w * i..w * i + w])
+            {
+                return Some(format!("the grasp force F{}", i + 1));
+            }
+        }
+        for i in 0..self.plant.n_arms() {
+            if !fin(&self.meas[w * i..w * i + w]) {
+                return Some(format!("the force-sensor reading F_meas{}", i + 1));
+            }
+        }
+        if let Some(k) = self.sensors.q().iter().position(|v| !v.is_finite()) {
+            return Some(format!("the encoder reading q{}", k + 1));
+        }
+        if let Some(k) = self.sensors.qd().iter().position(|v| !v.is_finite()) {
+            return Some(format!("the joint-rate reading qd{}", k + 1));
+        }
+        if let Some(s) = self.rec.non_finite() {
+            return Some(s);
+        }
+        if let Some(k) = P::torques_mut(&mut self.input)
+            .iter()
+            .position(|v| !v.is_finite())
+        {
+            return Some(format!("tau_q{}", k + 1));
+        }
+        None
+    }
+
+    fn log_row(&mut self, t: f64) {
+        let drift = self.plant.drift(&self.y, &mut self.ws);
+        let s = self.seg;
+        let row = &mut self.row;
+        row[0] = t;
+        let mut c = 1;
+        self.plant.write_object(&self.y, &mut row[c..c + s.object]);
+        c += s.object;
+        self.rec.write_head(&mut row[c..c + s.head]);
+        c += s.head;
+        let tau = P::torques_mut(&mut self.input);
+        row[c..c + tau.len()].copy_from_slice(tau);
+        c += tau.len();
+        self.plant.write_joints(&self.y, &mut row[c..c + s.joints]);
+        c += s.joints;
+        row[c..c + self.wrenches.len()].copy_from_slice(&self.wrenches);
+        c += self.wrenches.len();
+        row[c..c + self.meas.len()].copy_from_slice(&self.meas);
+        c += self.meas.len();
+        self.rec.write_tail(&mut row[c..c + s.tail]);
+        c += s.tail;
+        let d = [drift.0, drift.1];
+        row[c..c + s.drift].copy_from_slice(&d[..s.drift]);
+        for (col, v) in self.log.columns.iter_mut().zip(row.iter()) {
+            col.data.push(*v);
+        }
+    }
+
+    /// Run to the end (or the first fault). `progress(fraction)` is called about 200 times.
+    pub fn run(mut self, mut progress: impl FnMut(f64)) -> (Outcome, Self) {
+        let start = Instant::now();
+        let mut fault = None;
+        let mut max_drift: f64 = 0.0;
+        let mut max_drift_rot: f64 = 0.0;
+        let every = (self.ticks / 200).max(1);
+        let mut k = 0;
+        while k < self.ticks {
+            if let Err(f) = self.tick(k) {
+                fault = Some(f);
+                break;
+            }
+            k += 1;
+            // Drift and singularity checks every 10 ticks (kinematics only).
+            if k % 10 == 0 {
+                let t = k as f64 * self.params.control_period;
+                let (d, r) = self.plant.drift(&self.y, &mut self.ws);
+                max_drift = max_drift.max(d);
+                max_drift_rot = max_drift_rot.max(r);
+                if d > self.params.max_drift || r > self.params.max_drift {
+                    self.y_prev.copy_from_slice(&self.y);
+                    let rotation = (self.seg.drift > 1).then_some(r);
+                    fault = Some(self.fault(t, FaultKind::ConstraintDrift { drift: d, rotation }));
+                    break;
+                }
+                let s = self.plant.min_singular_value(&self.y, &mut self.ws);
+                if s < self.params.min_sigma {
+                    self.y_prev.copy_from_slice(&self.y);
+                    fault = Some(self.fault(t, FaultKind::Singular { sigma: s }));
+                    break;
+                }
+            }
+            if k % every == 0 {
+                progress(k as f64 / self.ticks as f64);
+            }
+        }
+        let wall_time = start.elapsed().as_secs_f64();
+        let out = Outcome {
+            log: std::mem::take(&mut self.log),
+            fault,
+            events: self.driver.events(),
+            ticks: k,
+            t_end: k as f64 * self.params.control_period,
+            wall_time,
+            max_drift,
+            max_drift_rot,
+            regularised: P::regularised(&self.ws),
+            min_margin: self.has_bounds.then_some(self.min_margin),
+            violation_ticks: self.violation_ticks,
+        };
+        (out, self)
+    }
+}
