@@ -73,9 +73,7 @@ pub struct SpatialStart {
     pub q_guess: Vec<f64>,
 }
 
-/// The environment disturbance of the spatial plant: `F_d(t) = [f; τ]` on the object about its
-/// centre of mass, world axes (N, N m), or none.
-pub type SpatialDisturbance = Option<fn(f64) -> Vector6<f64>>;
+pub use crate::disturbance::SpatialDisturbance;
 
 /// `(name, unit)` of a log column.
 pub type ColumnSpec = (String, String);
@@ -517,11 +515,11 @@ impl ClosedChain for super::spatial::SpatialPlant {
     fn start_state(&self, start: &SpatialStart) -> Result<Vec<f64>, ModelError> {
         self.initial_state(&start.x_wo, &Vector6::zeros(), &start.q_guess)
     }
-    fn check_disturbance(&self, _d: &Self::Disturbance) -> Result<(), ModelError> {
-        Ok(())
+    fn check_disturbance(&self, d: &Self::Disturbance) -> Result<(), ModelError> {
+        d.validate()
     }
     fn disturb(&self, d: &Self::Disturbance, t: f64, input: &mut Self::Input) -> Option<String> {
-        input.f_d = d.map_or_else(Vector6::zeros, |f| f(t));
+        input.f_d = d.at(t);
         input
             .f_d
             .iter()

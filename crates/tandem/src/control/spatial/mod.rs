@@ -50,23 +50,7 @@ use crate::reference::admittance_se3::{
 };
 use crate::reference::se3_path::Se3Path;
 use crate::se3::{Chart, PoseSample};
-/// TEMPORARY until the generic loop lands.
-#[derive(Clone, Copy, Debug)]
-pub struct Measurements<'a> {
-    /// q
-    pub q: &'a [f64],
-    /// qd
-    pub qd: &'a [f64],
-    /// wrenches (tool axes)
-    pub wrenches: &'a [f64],
-}
-impl Measurements<'_> {
-    /// wrench i
-    pub fn wrench(&self, i: usize) -> Vector6<f64> {
-        Vector6::from_column_slice(&self.wrenches[6 * i..6 * i + 6])
-    }
-}
-// use crate::sim::{Drive, Record};
+use crate::sim::{Drive, Measurements, Record};
 use crate::spatial::motion::stack;
 use crate::spatial::so3::log_quat;
 
@@ -176,7 +160,6 @@ impl SpatialTickRecord {
     }
 }
 
-#[cfg(any())]
 impl Record for SpatialTickRecord {
     fn head_columns(&self) -> Vec<(String, String)> {
         let mut c = Vec::new();
@@ -883,7 +866,6 @@ impl SpatialController {
     }
 }
 
-#[cfg(any())]
 impl Drive<SpatialPlant> for SpatialController {
     type Record = SpatialTickRecord;
     fn new_record(&self) -> SpatialTickRecord {
