@@ -603,3 +603,125 @@ fn lyapunov_function_v3_decreases_outside_its_ultimate_bound_on_six_outputs() {
     eprintln!("V3 decreased on all {checked} ticks above 200× its final level");
     assert!(checked > 10);
 }
+
+// ---- set-up checks and bad input -----------------------------------------------------------
+
+fn build(
+    a: Arms,
+    p: &SpatialControllerParams,
+    path: Se3Path,
+) -> Result<(SpatialController, Vec<tandem::control::ControlWarning>), tandem::ModelError> {
+    let s = setup(a);
+    SpatialController::new(p, &s.params, path, 10.0, &s.q_guess)
+}
+
+fn err_param(r: Result<(SpatialController, Vec<tandem::control::ControlWarning>), tandem::ModelError>) -> String {
+    match r {
+        Ok(_) => panic!("expected an error"),
+        Err(e) => {
+            let s = e.to_string();
+            eprintln!("error: {s}");
+            s
+        }
+    }
+}
+
+#[test]
+fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
+    let a = Arms::Ur5;
+    let base = SpatialControllerParams::spec_s6(nn(a));
+    let s6 = Se3Path::spec_s6;
+    // Non-positive gains.
+    let mut g = SpatialNnGains::dual_ur5();
+    g.k2[4] = 0.0;
+    let mut p = base.clone();
+    p.law = SpatialLaw::Nn(g);
+    assert!(err_param(build(a, &p, s6())).contains("gains.k2[4]"));
+    let mut p = base.clone();
+    p.law = SpatialLaw::Pd(SpatialPdGains { k_d: [1.0, 1.0, 1.0, 1.0, -2.0, 1.0], ..SpatialPdGains::paper() });
+    assert!(err_param(build(a, &p, s6())).contains("gains.k_d[4]"));
+    let mut p = base.clone();
+    p.law = SpatialLaw::Ctc(SpatialCtcGains { k_p: [0.0; 6], ..Default::default() });
+    assert!(err_param(build(a, &p, s6())).contains("gains.k_p[0]"));
+    // A rotational bound at or above π; one above π/2 is a warning.
+    let mut p = base.clone();
+    p.k_c[5] = std::f64::consts::PI;
+    assert!(err_param(build(a, &p, s6())).contains("k_c[5]"));
+    let mut p = base.clone();
+    p.law = SpatialLaw::Pd(SpatialPdGains::paper());
+    p.k_c[3] = 1.7;
+    let (_, w) = build(a, &p, s6()).unwrap();
+    assert!(w.iter().any(|w| w.to_string().contains("k_c[3]")), "{w:?}");
+    // A path that leaves the bound.
+    let mut p = base.clone();
+    p.k_c[1] = 0.08; // 10 s of the 60 s circle reach y = 0.1 sin 60° = 0.0866 m
+    let e = err_param(build(a, &p, s6()));
+    assert!(e.contains("k_c[1]") && e.contains("0.0866"), "{e}");
+    // A path out of the arms' reach (a 0.6 m circle).
+    use tandem::reference::se3_path::CircleParams;
+    let mut c = CircleParams::spec_s6();
+    c.radius = 0.6;
+    let mut p = base.clone();
+    p.law = SpatialLaw::Pd(SpatialPdGains::paper());
+    p.k_c = [1.0, 1.0, 0.1, 0.29, 0.29, 0.29];
+    let e = err_param(build(a, &p, Se3Path::circle(&c).unwrap()));
+    assert!(e.contains("path") && e.contains("reach"), "{e}");
+    // The paper's full grid on six outputs; the per-arm scheme with the NN law.
+    let mut g = SpatialNnGains::dual_ur5();
+    g.network = tandem::rbf_structured::NetworkStructure::FullGrid;
+    let mut p = base.clone();
+    p.law = SpatialLaw::Nn(g);
+    assert!(err_param(build(a, &p, s6())).contains("gains.network"));
+    let mut p = base.clone();
+    p.scheme = Scheme::PerArm;
+    assert!(err_param(build(a, &p, s6())).contains("scheme"));
+    // An unreachable posture of a redundant arm (outside a joint's limits).
+    let fr = setup(Arms::Franka);
+    let mut p = SpatialControllerParams::spec_s6(nn(Arms::Franka));
+    let mut q = fr.q_guess.clone();
+    q[3] = 1.0; // panda_joint4 must stay in [−3.07, −0.07]
+    p.posture.q_rest = Some(q);
+    assert!(err_param(build(Arms::Franka, &p, s6())).contains("posture.q_rest[3]"));
+    let mut p = SpatialControllerParams::spec_s6(nn(Arms::Franka));
+    p.posture.kd = 0.0;
+    assert!(err_param(build(Arms::Franka, &p, s6())).contains("posture.kd"));
+    // A risky tuning is a warning with the reason: K2 far below 𝓜 K1.
+    let mut g = SpatialNnGains::dual_ur5();
+    g.k2[0] = 1.0;
+    let mut p = base.clone();
+    p.law = SpatialLaw::Nn(g);
+    let (_, w) = build(a, &p, s6()).unwrap();
+    let w: Vec<String> = w.iter().map(|w| w.to_string()).collect();
+    eprintln!("warnings: {w:?}");
+    assert!(w.iter().any(|w| w.contains("gains.k2[0]") && w.contains("K1")), "{w:?}");
+    // The presets themselves give no warning.
+    for arms in [Arms::Ur5, Arms::Franka] {
+        let (_, w) = build(arms, &SpatialControllerParams::spec_s6(nn(arms)), s6()).unwrap();
+        assert!(w.is_empty(), "preset warnings: {w:?}");
+    }
+}
+
+#[test]
+fn non_finite_measurements_give_zero_torque_and_are_counted_never_nan() {
+    use tandem::sim::Measurements;
+    let a = Arms::Ur5;
+    let s = setup(a);
+    let (mut c, _) = build(a, &SpatialControllerParams::spec_s6(nn(a)), Se3Path::spec_s6()).unwrap();
+    let n = s.q_guess.len();
+    let wr = vec![0.0; 12];
+    let qd = vec![0.0; n];
+    c.start(0.0, &Measurements { q: &s.q_guess, qd: &qd, wrenches: &wr });
+    let mut rec = tandem::control::spatial::SpatialTickRecord::new(2);
+    let mut tau = vec![1.0; n];
+    let mut q = s.q_guess.clone();
+    q[2] = f64::NAN;
+    c.tick(0.0, &Measurements { q: &q, qd: &qd, wrenches: &wr }, &mut tau, &mut rec);
+    assert!(tau.iter().all(|v| *v == 0.0));
+    assert!(c.events().non_finite + c.events().degenerate >= 1);
+    // A NaN wrist reading is held by the admittance; the torques stay finite.
+    let mut wr2 = wr.clone();
+    wr2[4] = f64::NAN;
+    c.tick(1e-3, &Measurements { q: &s.q_guess, qd: &qd, wrenches: &wr2 }, &mut tau, &mut rec);
+    assert!(tau.iter().all(|v| v.is_finite()));
+    assert!(rec.x_r.iter().all(|v| v.is_finite()));
+}

@@ -256,6 +256,7 @@ pub struct SpatialController {
     torque_limit: Vec<f64>,
     posture: PostureTask,
     posture_rest_given: bool,
+    path_inertia: Vector6<f64>,
     events: ControlEvents,
     hint_hat: UnitQuaternion<f64>,
     hint_r: UnitQuaternion<f64>,
@@ -367,8 +368,11 @@ impl SpatialController {
                 ),
             ));
         }
-        // The path inside every arm's reach and limits (IK by continuation).
-        let q_start = check_path_reach(&plant, &path, duration, q_guess)?;
+        // The path inside every arm's reach and limits (IK by continuation), and the chart-space
+        // inertia along it (for the gain check).
+        let obj_model = ObjectModel::new(model)?;
+        let (q_start, path_inertia) =
+            check_path_reach(&plant, &obj_model, &chart, &path, duration, q_guess)?;
         // Posture of redundant arms.
         let q_rest = match &p.posture.q_rest {
             Some(q) => {
@@ -393,7 +397,6 @@ impl SpatialController {
                 .map(|e| if e > 0.0 { e } else { f64::INFINITY })
                 .collect(),
         };
-        let obj_model = ObjectModel::new(model)?;
         let ws = obj_model.workspace();
         let dist = Distribution::new(m, p.metric_length)
             .map_err(|e| rename(e, "metric_length"))?;
@@ -459,14 +462,15 @@ impl SpatialController {
                     &x_wo0,
                     &q_start,
                 )?;
-                // SPEC §3.4: the linearised loop needs roughly K2 > 𝓜 K1 per axis.
+                // SPEC §3.4: the linearised loop needs roughly K2 > 𝓜 K1 per axis, with 𝓜 the
+                // diagonal of the chart-space inertia at the heaviest pose on the path.
                 for j in 0..6 {
-                    let m_j = fu.c[j] / g.fu_safety;
+                    let m_j = path_inertia[j];
                     if g.k2[j] < m_j * g.k1[j] {
                         warnings.push(ControlWarning::Gain {
                             param: format!("gains.k2[{j}]"),
                             reason: format!(
-                                "K2 = {} is below 𝓜 K1 ≈ {:.3} (𝓜 up to {:.3} over the constraint box, K1 = {}): the linearised z2 loop needs roughly K2 > 𝓜 K1 (SPEC §3.4); expect a limit cycle",
+                                "K2 = {} is below 𝓜 K1 ≈ {:.3} (𝓜_jj up to {:.3} along the path, K1 = {}): the linearised z2 loop needs roughly K2 > 𝓜 K1 (SPEC §3.4); expect a limit cycle",
                                 g.k2[j],
                                 m_j * g.k1[j],
                                 m_j,
@@ -506,6 +510,7 @@ impl SpatialController {
                 torque_limit,
                 posture,
                 posture_rest_given: p.posture.q_rest.is_some(),
+                path_inertia,
                 events: ControlEvents::default(),
                 hint_hat: s0.r,
                 hint_r: s0.r,
@@ -542,6 +547,11 @@ impl SpatialController {
     /// The desired path.
     pub fn path(&self) -> &Se3Path {
         &self.path
+    }
+    /// The largest diagonal entries of the chart-space inertia `M_x = E⁻ᵀ 𝓜 E⁻¹` along the
+    /// desired path (kg ×3, kg m² ×3): the `𝓜_j` of the per-axis gain design.
+    pub fn path_inertia(&self) -> Vector6<f64> {
+        self.path_inertia
     }
     /// The commanded squeeze, N.
     pub fn squeeze(&self) -> f64 {
@@ -912,9 +922,12 @@ fn rename(e: ModelError, to: &str) -> ModelError {
     }
 }
 
-/// The centre of the desired positions' bounding box over `[0, duration]` (sampled every 50 ms,
-/// at most 4000 samples; the whole path's for a zero duration).
+/// The default chart centre: a circle's centre; for other paths the centre of the desired
+/// positions' bounding box over `[0, duration]` (sampled every 50 ms, at most 4000 samples).
 fn path_centre(path: &Se3Path, duration: f64) -> Vector3<f64> {
+    if let Se3Path::Circle(c) = path {
+        return c.center();
+    }
     let n = ((duration / PATH_CHECK_STEP).ceil() as usize).clamp(1, MAX_PATH_SAMPLES);
     let (mut lo, mut hi) = (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY));
     for k in 0..=n {
@@ -927,17 +940,23 @@ fn path_centre(path: &Se3Path, duration: f64) -> Vector3<f64> {
 
 /// The arms reach the desired path within their joint limits and away from singularities:
 /// inverse kinematics of the closed chain by continuation along the path (every 50 ms, at most
-/// 4000 samples), from `q_guess` at `t = 0`. Returns the configuration at `t = 0`.
+/// 4000 samples), from `q_guess` at `t = 0`. Returns the configuration at `t = 0` and the
+/// largest diagonal entries of the chart-space inertia along the path.
 fn check_path_reach(
     plant: &SpatialPlant,
+    model: &ObjectModel,
+    chart: &Chart,
     path: &Se3Path,
     duration: f64,
     q_guess: &[f64],
-) -> Result<Vec<f64>, ModelError> {
+) -> Result<(Vec<f64>, Vector6<f64>), ModelError> {
     let n = ((duration / PATH_CHECK_STEP).ceil() as usize).clamp(1, MAX_PATH_SAMPLES);
     let mut q = q_guess.to_vec();
+    let zero = vec![0.0; q.len()];
     let mut ws = plant.workspace();
+    let mut mws = model.workspace();
     let mut q0 = None;
+    let mut inertia = Vector6::zeros();
     for k in 0..=n {
         let t = duration * k as f64 / n as f64;
         let s = path.sample(t);
@@ -963,11 +982,17 @@ fn check_path_reach(
                 ),
             ));
         }
+        model.kinematics(&q, &zero, &mut mws);
+        if let Some(d) = model.dynamics(&q, &zero, &x, &Vector6::zeros(), &mut mws) {
+            let ei = chart.sample(&PoseSample::at_rest(s.p, s.r)).jac.e_inv();
+            let mx = ei.transpose() * d.m * ei;
+            inertia = inertia.sup(&mx.diagonal());
+        }
         if q0.is_none() {
             q0 = Some(q.clone());
         }
     }
-    Ok(q0.unwrap_or_else(|| q_guess.to_vec()))
+    Ok((q0.unwrap_or_else(|| q_guess.to_vec()), inertia))
 }
 
 /// A posture must be finite and inside every joint's limits.

@@ -252,7 +252,8 @@ pub struct SpatialControllerParams {
     pub scheme: Scheme,
     /// Output bounds `k_c` on `x_1 = (p − c, φ)`, (m ×3, rad ×3); `k_c,rot < π`.
     pub k_c: [f64; 6],
-    /// Chart centre `c`, m; `None` = the centre of the desired path's bounding box over the run.
+    /// Chart centre `c`, m; `None` = the circle's centre, or for other paths the centre of the
+    /// desired positions' bounding box over the run.
     pub centre: Option<Vector3<f64>>,
     /// Chart reference orientation `R_ref`; `None` = the desired orientation at `t = 0`.
     pub r_ref: Option<UnitQuaternion<f64>>,
