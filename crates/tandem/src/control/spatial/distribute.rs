@@ -236,17 +236,20 @@ impl PostureTask {
         Ok(PostureTask { kp, kd, q_rest })
     }
 
-    /// Defaults for a Franka-class 7-DOF arm holding the SPEC-spatial box: `K_p = 10 N m/rad`,
-    /// `K_d = 4 N m s/rad`. The self-motion's effective inertia is
-    /// `I_ns = (nᵀ M⁻¹ n)⁻¹ ≈ 0.3–0.6 kg m²` at the dual-Franka grasp (`n` the unit null vector
-    /// of `J`; measured in `tests/spatial_control_model.rs`), so `ω_n = √(K_p/I_ns) ≈ 4–6 rad/s`
-    /// (a posture time constant of about 0.2 s, slower than the object loop so it never fights
-    /// it) and `ζ = K_d/(2√(K_p I_ns)) ≈ 0.8–1.2` (well damped; the planar controller's
-    /// [`crate::control::NULL_SPACE_DAMPING`] is 2 N m s/rad for lighter arms).
+    /// Defaults for a Franka-class 7-DOF arm holding the SPEC-spatial box: `K_p = 1 N m/rad`,
+    /// `K_d = 0.4 N m s/rad`. The self-motion's effective inertia is
+    /// `I_ns = (nᵀ M⁻¹ n)⁻¹ = 0.027–0.035 kg m²` near the dual-Franka grasp (`n` the unit null
+    /// vector of `J`, mostly the forearm and wrist; measured by
+    /// `null_space_torques_do_not_move_the_tool` in `tests/spatial_control_model.rs`), so
+    /// `ω_n = √(K_p/I_ns) = 5.3–6.1 rad/s` (a posture time constant `1/ω_n ≈ 0.17 s`, slower
+    /// than the object loop's `1/K_1 = 0.125 s`, though the two are decoupled anyway by the
+    /// dynamically consistent projector) and `ζ = K_d/(2√(K_p I_ns)) = 1.07–1.22` (no
+    /// overshoot of the self-motion; a stiffer `K_p` would only hold the elbow harder against
+    /// the uncompensated null-space Coriolis torques, which are small at these speeds).
     pub fn franka(q_rest: Vec<f64>) -> Self {
         PostureTask {
-            kp: 10.0,
-            kd: 4.0,
+            kp: 1.0,
+            kd: 0.4,
             q_rest,
         }
     }

@@ -247,6 +247,20 @@ impl ObjectModel {
         twist: &Vector6<f64>,
         ws: &mut ModelWorkspace,
     ) -> Option<ObjectDynamics> {
+        self.dynamics_with(q, qd, x_wo, twist, ws, true)
+    }
+
+    /// [`Self::dynamics`]; `extras = false` skips `g_i(q)` (so `g_x,i` and `𝓖` are left
+    /// stale) and `σ_min` (for the bound's repeated evaluations at one configuration).
+    pub(crate) fn dynamics_with(
+        &self,
+        q: &[f64],
+        qd: &[f64],
+        x_wo: &Isometry3<f64>,
+        twist: &Vector6<f64>,
+        ws: &mut ModelWorkspace,
+        extras: bool,
+    ) -> Option<ObjectDynamics> {
         let r_wo = *x_wo.rotation.to_rotation_matrix().matrix();
         let p_wo = x_wo.translation.vector;
         let (v, w) = (lin(twist), ang(twist));
@@ -271,9 +285,9 @@ impl ObjectModel {
             let (s, n) = (self.offsets[i], arm.chain.dof());
             let (qi, qdi) = (&q[s..s + n], &qd[s..s + n]);
             let ok = match n {
-                6 => arm_terms(6, arm, qi, qdi, &self.g_W, ws, i),
-                7 => arm_terms(7, arm, qi, qdi, &self.g_W, ws, i),
-                _ => arm_terms(n, arm, qi, qdi, &self.g_W, ws, i),
+                6 => arm_terms(6, arm, qi, qdi, &self.g_W, ws, i, extras),
+                7 => arm_terms(7, arm, qi, qdi, &self.g_W, ws, i, extras),
+                _ => arm_terms(n, arm, qi, qdi, &self.g_W, ws, i, extras),
             };
             if !ok {
                 return None;
@@ -324,6 +338,7 @@ pub fn transport_t(r: &Vector3<f64>) -> Matrix6<f64> {
 /// One arm's `terms`, gravity, Cholesky, `[u_b | u_g | Z]` and `Λ, μ, g_x, σ_min` (inlined so a
 /// constant `n` unrolls). `false` if `M` or `Λ⁻¹` is not positive definite.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn arm_terms(
     n: usize,
     arm: &SpatialArm,
@@ -332,10 +347,13 @@ fn arm_terms(
     g_W: &Vector3<f64>,
     ws: &mut ModelWorkspace,
     i: usize,
+    extras: bool,
 ) -> bool {
     let d = &mut ws.data[i];
     let grav = &mut ws.grav[i][..n];
-    dynamics::gravity(arm, q, g_W, grav, d);
+    if extras {
+        dynamics::gravity(arm, q, g_W, grav, d);
+    }
     dynamics::terms(arm, q, qd, g_W, d);
     let l = &mut ws.chol[i][..n * n];
     // M is symmetric: column-major storage = row-major storage.
@@ -374,7 +392,9 @@ fn arm_terms(
     t.lambda = lambda;
     t.mu = lambda * (jmb - d.jdqd);
     t.g_x = lambda * jmg;
-    t.sigma_min = jjt_sigma_min(d);
+    if extras {
+        t.sigma_min = jjt_sigma_min(d);
+    }
     true
 }
 
