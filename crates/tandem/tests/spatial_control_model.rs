@@ -502,6 +502,32 @@ fn nominal_params_scale_the_model() {
     assert!((a.h - a.g).norm() < 1e-12 * a.g.norm(), "at rest 𝓱 = 𝓖");
 }
 
+/// A singular arm (UR5 wrist singularity, `q5 = 0`: joints 4 and 6 aligned) has no `Λ`:
+/// `dynamics` says so instead of returning a huge inertia; near it (`q5 = 1e-3`) it still
+/// answers, and `σ_min` shows how close it is.
+#[test]
+fn singular_arm_has_no_operational_space_inertia() {
+    let s = fixtures::dual_ur5();
+    let model = ObjectModel::new(&s.params).unwrap();
+    let mut ws = model.workspace();
+    let mut q = s.q_guess.clone();
+    q[4] = 0.0;
+    let qd = vec![0.0; 12];
+    assert!(
+        model
+            .dynamics(&q, &qd, &s.x_wo, &Vector6::zeros(), &mut ws)
+            .is_none()
+    );
+    q[4] = 1e-3;
+    assert!(
+        model
+            .dynamics(&q, &qd, &s.x_wo, &Vector6::zeros(), &mut ws)
+            .is_some()
+    );
+    println!("UR5 at q5 = 1e-3: σ_min(J) = {:.2e}", ws.arms[0].sigma_min);
+    assert!(ws.arms[0].sigma_min < 1e-2 && ws.arms[1].sigma_min > 0.1);
+}
+
 /// No allocation in `kinematics`, `dynamics`, `distribute`, `internal_part`, `joint_torques`.
 #[test]
 fn per_tick_functions_do_not_allocate() {

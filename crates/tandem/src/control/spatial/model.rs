@@ -80,6 +80,10 @@ use crate::plant::spatial::{RigidObject, SpatialPlant, SpatialPlantParams};
 use crate::spatial::motion::{ang, lin, stack};
 use crate::spatial::so3::hat;
 
+/// Smallest pivot of `Λ_i⁻¹ = J M⁻¹ Jᵀ`'s Cholesky relative to its largest diagonal entry for
+/// which [`ObjectModel::dynamics`] still forms `Λ_i` (below it the arm counts as singular).
+pub const LAMBDA_PIVOT: f64 = 1e-12;
+
 /// Columns of the per-arm right-hand side `[b | g | Jᵀ]`.
 pub(crate) const RHS: usize = 8;
 
@@ -238,7 +242,8 @@ impl ObjectModel {
     ///
     /// Recomputes the kinematics (the fused `terms` pass), so calling [`Self::kinematics`]
     /// first is not required for correctness. `None` if some `M_i` or `Λ_i⁻¹` is not positive
-    /// definite (an arm at a singularity: `Λ_i` does not exist). No allocation.
+    /// definite, or `Λ_i⁻¹`'s smallest Cholesky pivot is below [`LAMBDA_PIVOT`] times its
+    /// largest diagonal entry (an arm at a singularity: `Λ_i` does not exist). No allocation.
     pub fn dynamics(
         &self,
         q: &[f64],
@@ -387,6 +392,17 @@ fn arm_terms(
     let Some(ch) = lam_inv.cholesky() else {
         return false;
     };
+    // A rank-deficient J (a singular arm) leaves a round-off pivot: treat a pivot ratio below
+    // LAMBDA_PIVOT (condition of Λ⁻¹ above 1e12) as "Λ does not exist".
+    let l = ch.l_dirty();
+    let (mut pmin, mut dmax) = (f64::INFINITY, 0.0f64);
+    for k in 0..6 {
+        pmin = pmin.min(l[(k, k)] * l[(k, k)]);
+        dmax = dmax.max(lam_inv[(k, k)]);
+    }
+    if !(pmin > LAMBDA_PIVOT * dmax) {
+        return false;
+    }
     let lambda = ch.inverse();
     let t = &mut ws.arms[i];
     t.lambda = lambda;
