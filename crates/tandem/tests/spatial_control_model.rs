@@ -604,6 +604,16 @@ fn bad_input_names_the_field() {
         "posture.q_rest[1]",
     );
     let model = ObjectModel::new(&s.params).unwrap();
+    let post = PostureTask::new(1.0, 1.0, vec![0.0; 7]).unwrap();
+    names(post.check(&model, 0).unwrap_err(), "posture.q_rest");
+    let post = PostureTask::new(1.0, 1.0, vec![0.0, 0.0, 0.0, 0.0, 0.0, 100.0]).unwrap();
+    names(post.check(&model, 1).unwrap_err(), "posture.q_rest[5]");
+    names(post.check(&model, 2).unwrap_err(), "arm");
+    let f = fixtures::dual_franka();
+    let fm = ObjectModel::new(&f.params).unwrap();
+    PostureTask::franka(f.q_guess[..7].to_vec())
+        .check(&fm, 1)
+        .unwrap();
     let chart = Chart::new(Vector3::new(0.0, 0.0, 0.3), UnitQuaternion::identity());
     let k = Vector6::new(0.1, 0.1, 0.05, 0.1, 0.2, 0.1);
     let d = [0.0; 6];
