@@ -61,7 +61,18 @@
 //! forward substitution with eight right-hand sides `[u_b | u_g | Z] = L⁻¹ [b_i | g_i | J_iᵀ]`;
 //! `Λ_i⁻¹ = Zᵀ Z`, `J M⁻¹ b = Zᵀ u_b`, `J M⁻¹ g = Zᵀ u_g`; `Λ_i` by a 6 × 6 Cholesky.
 //! `L` and `Z` stay in the workspace for the null-space projector of
-//! [`super::distribute::joint_torques`].
+//! [`super::distribute::joint_torques`]. `σ_min(J_i)` from the eigenvalues of `J_i J_iᵀ`
+//! (about a third of the cost). Measured: [`ObjectModel::dynamics`] ≈ 15–17 µs for two
+//! Franka arms on the loaded shared VM (kinematics alone 1–2 µs).
+//!
+//! # Validation
+//! `tests/spatial_control_model.rs` holds the model against the closed-chain KKT plant
+//! ([`crate::plant::spatial`], a different algorithm: multipliers of the welds by a Schur
+//! complement) at random consistent states with object twists up to 0.3 m/s and 0.8 rad/s,
+//! random self-motion on the Frankas, random `w_i`, posture torques and disturbance: object
+//! acceleration and grasp wrenches agree to ≤ 7e-12 and ≤ 4.5e-11 relative (dual UR5, dual
+//! Franka, three UR5, with and without damping), with Baumgarte off; with `ω_b = 20` the IK's
+//! 1e-12 residuals add up to 1.7e-10 on the wrenches.
 //!
 //! # References
 //! 1. The paper's (14) (object-level dynamics of the closed chain) and (3)–(4) (Cartesian arm
