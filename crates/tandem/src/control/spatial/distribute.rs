@@ -131,7 +131,8 @@ impl Distribution {
     /// axes, m), `f` the object wrench about the centre of mass (N, N m), `squeeze` N (> 0
     /// pushes inward). Writes `w` (m entries, the wrench each arm applies to the object at its
     /// tool origin). Returns `false` (and writes zeros) if the grasp map is degenerate (a
-    /// non-finite input). No allocation.
+    /// non-finite input). `r` and `w` need at least `m` entries (shorter slices panic: a
+    /// programming error). No allocation.
     pub fn distribute(
         &mut self,
         r: &[Vector3<f64>],
@@ -236,17 +237,52 @@ impl PostureTask {
         Ok(PostureTask { kp, kd, q_rest })
     }
 
-    /// Defaults for a Franka-class 7-DOF arm holding the SPEC-spatial box: `K_p = 10 N m/rad`,
-    /// `K_d = 4 N m s/rad`. The self-motion's effective inertia is
-    /// `I_ns = (nᵀ M⁻¹ n)⁻¹ ≈ 0.3–0.6 kg m²` at the dual-Franka grasp (`n` the unit null vector
-    /// of `J`; measured in `tests/spatial_control_model.rs`), so `ω_n = √(K_p/I_ns) ≈ 4–6 rad/s`
-    /// (a posture time constant of about 0.2 s, slower than the object loop so it never fights
-    /// it) and `ζ = K_d/(2√(K_p I_ns)) ≈ 0.8–1.2` (well damped; the planar controller's
-    /// [`crate::control::NULL_SPACE_DAMPING`] is 2 N m s/rad for lighter arms).
+    /// Check the task against arm `arm` of `model`: `q_rest` has one entry per joint and lies
+    /// within the joint limits. Errors name `posture.q_rest` or `posture.q_rest[k]`.
+    pub fn check(&self, model: &ObjectModel, arm: usize) -> Result<(), ModelError> {
+        let a = model.arms().get(arm).ok_or_else(|| {
+            ModelError::geometry("arm", format!("no arm {arm} ({} arms)", model.arms().len()))
+        })?;
+        let n = a.chain.dof();
+        if self.q_rest.len() != n {
+            return Err(ModelError::geometry(
+                "posture.q_rest",
+                format!(
+                    "has {} entries, arm {arm} has {n} joints",
+                    self.q_rest.len()
+                ),
+            ));
+        }
+        for (k, j) in a.chain.joints.iter().enumerate() {
+            let v = self.q_rest[k];
+            if !(v >= j.limits.lower && v <= j.limits.upper) {
+                return Err(ModelError::invalid(
+                    format!("posture.q_rest[{k}]"),
+                    v,
+                    format!(
+                        "outside joint {}'s limits [{:.4}, {:.4}]",
+                        j.name, j.limits.lower, j.limits.upper
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Defaults for a Franka-class 7-DOF arm holding the SPEC-spatial box: `K_p = 1 N m/rad`,
+    /// `K_d = 0.4 N m s/rad`. The self-motion's effective inertia is
+    /// `I_ns = (nᵀ M⁻¹ n)⁻¹ = 0.027–0.035 kg m²` near the dual-Franka grasp (`n` the unit null
+    /// vector of `J`, mostly the forearm and wrist; measured by
+    /// `null_space_torques_do_not_move_the_tool` in `tests/spatial_control_model.rs`), so
+    /// `ω_n = √(K_p/I_ns) = 5.3–6.1 rad/s` (a posture time constant `1/ω_n ≈ 0.17 s`, slower
+    /// than the object loop's `1/K_1 = 0.125 s`, though the two are decoupled anyway by the
+    /// dynamically consistent projector) and `ζ = K_d/(2√(K_p I_ns)) = 1.07–1.22` (no
+    /// overshoot of the self-motion; a stiffer `K_p` would only hold the elbow harder against
+    /// the uncompensated null-space Coriolis torques, which are small at these speeds).
     pub fn franka(q_rest: Vec<f64>) -> Self {
         PostureTask {
-            kp: 10.0,
-            kd: 4.0,
+            kp: 1.0,
+            kd: 0.4,
             q_rest,
         }
     }
@@ -256,7 +292,8 @@ impl PostureTask {
 /// more than six joints and `posture` is `Some`. `w` is what the arm applies to the object at
 /// its tool origin (world axes); `q`, `qd` and `tau` are **stacked** over all arms (n_q), and
 /// only arm `arm`'s entries of `tau` are written. Needs `ws` from [`ObjectModel::dynamics`] at
-/// the same `q, q̇` (`J`, the factor of `M`, `Λ`, `g`). No allocation.
+/// the same `q, q̇` (`J`, the factor of `M`, `Λ`, `g`). The posture task should pass
+/// [`PostureTask::check`] for this arm (a shorter `q_rest` panics). No allocation.
 #[allow(clippy::too_many_arguments)]
 pub fn joint_torques(
     model: &ObjectModel,

@@ -61,7 +61,18 @@
 //! forward substitution with eight right-hand sides `[u_b | u_g | Z] = L⁻¹ [b_i | g_i | J_iᵀ]`;
 //! `Λ_i⁻¹ = Zᵀ Z`, `J M⁻¹ b = Zᵀ u_b`, `J M⁻¹ g = Zᵀ u_g`; `Λ_i` by a 6 × 6 Cholesky.
 //! `L` and `Z` stay in the workspace for the null-space projector of
-//! [`super::distribute::joint_torques`].
+//! [`super::distribute::joint_torques`]. `σ_min(J_i)` from the eigenvalues of `J_i J_iᵀ`
+//! (about a third of the cost). Measured: [`ObjectModel::dynamics`] ≈ 15–17 µs for two
+//! Franka arms on the loaded shared VM (kinematics alone 1–2 µs).
+//!
+//! # Validation
+//! `tests/spatial_control_model.rs` holds the model against the closed-chain KKT plant
+//! ([`crate::plant::spatial`], a different algorithm: multipliers of the welds by a Schur
+//! complement) at random consistent states with object twists up to 0.3 m/s and 0.8 rad/s,
+//! random self-motion on the Frankas, random `w_i`, posture torques and disturbance: object
+//! acceleration and grasp wrenches agree to ≤ 7e-12 and ≤ 4.5e-11 relative (dual UR5, dual
+//! Franka, three UR5, with and without damping), with Baumgarte off; with `ω_b = 20` the IK's
+//! 1e-12 residuals add up to 1.7e-10 on the wrenches.
 //!
 //! # References
 //! 1. The paper's (14) (object-level dynamics of the closed chain) and (3)–(4) (Cartesian arm
@@ -79,6 +90,10 @@ use crate::model::SpatialArm;
 use crate::plant::spatial::{RigidObject, SpatialPlant, SpatialPlantParams};
 use crate::spatial::motion::{ang, lin, stack};
 use crate::spatial::so3::hat;
+
+/// Smallest pivot of `Λ_i⁻¹ = J M⁻¹ Jᵀ`'s Cholesky relative to its largest diagonal entry for
+/// which [`ObjectModel::dynamics`] still forms `Λ_i` (below it the arm counts as singular).
+pub const LAMBDA_PIVOT: f64 = 1e-12;
 
 /// Columns of the per-arm right-hand side `[b | g | Jᵀ]`.
 pub(crate) const RHS: usize = 8;
@@ -238,7 +253,8 @@ impl ObjectModel {
     ///
     /// Recomputes the kinematics (the fused `terms` pass), so calling [`Self::kinematics`]
     /// first is not required for correctness. `None` if some `M_i` or `Λ_i⁻¹` is not positive
-    /// definite (an arm at a singularity: `Λ_i` does not exist). No allocation.
+    /// definite, or `Λ_i⁻¹`'s smallest Cholesky pivot is below [`LAMBDA_PIVOT`] times its
+    /// largest diagonal entry (an arm at a singularity: `Λ_i` does not exist). No allocation.
     pub fn dynamics(
         &self,
         q: &[f64],
@@ -246,6 +262,20 @@ impl ObjectModel {
         x_wo: &Isometry3<f64>,
         twist: &Vector6<f64>,
         ws: &mut ModelWorkspace,
+    ) -> Option<ObjectDynamics> {
+        self.dynamics_with(q, qd, x_wo, twist, ws, true)
+    }
+
+    /// [`Self::dynamics`]; `extras = false` skips `g_i(q)` (so `g_x,i` and `𝓖` are left
+    /// stale) and `σ_min` (for the bound's repeated evaluations at one configuration).
+    pub(crate) fn dynamics_with(
+        &self,
+        q: &[f64],
+        qd: &[f64],
+        x_wo: &Isometry3<f64>,
+        twist: &Vector6<f64>,
+        ws: &mut ModelWorkspace,
+        extras: bool,
     ) -> Option<ObjectDynamics> {
         let r_wo = *x_wo.rotation.to_rotation_matrix().matrix();
         let p_wo = x_wo.translation.vector;
@@ -271,9 +301,9 @@ impl ObjectModel {
             let (s, n) = (self.offsets[i], arm.chain.dof());
             let (qi, qdi) = (&q[s..s + n], &qd[s..s + n]);
             let ok = match n {
-                6 => arm_terms(6, arm, qi, qdi, &self.g_W, ws, i),
-                7 => arm_terms(7, arm, qi, qdi, &self.g_W, ws, i),
-                _ => arm_terms(n, arm, qi, qdi, &self.g_W, ws, i),
+                6 => arm_terms(6, arm, qi, qdi, &self.g_W, ws, i, extras),
+                7 => arm_terms(7, arm, qi, qdi, &self.g_W, ws, i, extras),
+                _ => arm_terms(n, arm, qi, qdi, &self.g_W, ws, i, extras),
             };
             if !ok {
                 return None;
@@ -324,6 +354,7 @@ pub fn transport_t(r: &Vector3<f64>) -> Matrix6<f64> {
 /// One arm's `terms`, gravity, Cholesky, `[u_b | u_g | Z]` and `Λ, μ, g_x, σ_min` (inlined so a
 /// constant `n` unrolls). `false` if `M` or `Λ⁻¹` is not positive definite.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn arm_terms(
     n: usize,
     arm: &SpatialArm,
@@ -332,10 +363,13 @@ fn arm_terms(
     g_W: &Vector3<f64>,
     ws: &mut ModelWorkspace,
     i: usize,
+    extras: bool,
 ) -> bool {
     let d = &mut ws.data[i];
     let grav = &mut ws.grav[i][..n];
-    dynamics::gravity(arm, q, g_W, grav, d);
+    if extras {
+        dynamics::gravity(arm, q, g_W, grav, d);
+    }
     dynamics::terms(arm, q, qd, g_W, d);
     let l = &mut ws.chol[i][..n * n];
     // M is symmetric: column-major storage = row-major storage.
@@ -369,12 +403,25 @@ fn arm_terms(
     let Some(ch) = lam_inv.cholesky() else {
         return false;
     };
+    // A rank-deficient J (a singular arm) leaves a round-off pivot: treat a pivot ratio below
+    // LAMBDA_PIVOT (condition of Λ⁻¹ above 1e12) as "Λ does not exist".
+    let l = ch.l_dirty();
+    let (mut pmin, mut dmax) = (f64::INFINITY, 0.0f64);
+    for k in 0..6 {
+        pmin = pmin.min(l[(k, k)] * l[(k, k)]);
+        dmax = dmax.max(lam_inv[(k, k)]);
+    }
+    if !(pmin > LAMBDA_PIVOT * dmax) {
+        return false;
+    }
     let lambda = ch.inverse();
     let t = &mut ws.arms[i];
     t.lambda = lambda;
     t.mu = lambda * (jmb - d.jdqd);
     t.g_x = lambda * jmg;
-    t.sigma_min = jjt_sigma_min(d);
+    if extras {
+        t.sigma_min = jjt_sigma_min(d);
+    }
     true
 }
 
