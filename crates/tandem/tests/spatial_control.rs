@@ -725,3 +725,33 @@ fn non_finite_measurements_give_zero_torque_and_are_counted_never_nan() {
     assert!(tau.iter().all(|v| v.is_finite()));
     assert!(rec.x_r.iter().all(|v| v.is_finite()));
 }
+
+#[test]
+fn the_path_chart_rates_and_the_controller_chart_agree() {
+    // Two implementations of the S5 chart's rates: `se3_path::chart_rates` (the desired path's,
+    // up to the third derivative, by the left-Jacobian series) and `se3::Chart::sample` (what the
+    // controller uses on every pose sample). On a circle whose orientation swings by 0.8 rad
+    // about a tilted axis, with a chart about an arbitrary R_ref (so φ and ω are not parallel),
+    // x_1, ẋ_1 and ẍ_1 agree to round-off.
+    use nalgebra::UnitQuaternion;
+    use tandem::reference::admittance_se3::pose_sample;
+    use tandem::reference::se3_path::{CircleParams, chart_rates};
+    use tandem::se3::Chart;
+    let mut cp = CircleParams::spec_s6();
+    cp.axis = Vector3::new(1.0, 2.0, 3.0).normalize();
+    cp.amplitude = 0.8;
+    let path = Se3Path::circle(&cp).unwrap();
+    let r_ref = UnitQuaternion::from_scaled_axis(Vector3::new(0.3, -0.2, 0.5));
+    let chart = Chart::new(Vector3::new(0.01, -0.02, 0.3), r_ref);
+    let mut worst: f64 = 0.0;
+    for k in 0..600 {
+        let s = path.sample(0.1 * k as f64);
+        let a = chart_rates(&s, &chart.c, &chart.r_ref);
+        let b = chart.sample(&pose_sample(&s));
+        for (x, y) in [(a[0], b.x1), (a[1], b.x1_dot), (a[2], b.x1_ddot)] {
+            worst = worst.max((x - y).amax() / (1.0 + y.amax()));
+        }
+    }
+    eprintln!("chart_rates vs Chart::sample: max relative difference {worst:.2e}");
+    assert!(worst > 0.0 && worst < 1e-13, "{worst:.2e}");
+}

@@ -1,0 +1,93 @@
+//! A closed-loop run of the spatial controller on the SPEC-spatial S6 scenario, through the
+//! simulation loop: `cargo run --release -p tandem --example spatial_run -- [nn|pd|ctc]
+//! [ur5|franka] [seconds]`. Prints the tracking error every second and the real-time factor
+//! (also the target of `valgrind --tool=callgrind` for instruction counts).
+
+use nalgebra::{Isometry3, Translation3, Vector3};
+use tandem::control::spatial::{
+    SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
+    SpatialPdGains,
+};
+use tandem::disturbance::SpatialDisturbance;
+use tandem::plant::spatial::SpatialPlant;
+use tandem::reference::se3_path::Se3Path;
+use tandem::sensors::SensorParams;
+use tandem::sim::{Formulation, SimParams, Simulation, SpatialStart};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let law = args.get(1).map_or("nn", String::as_str);
+    let franka = args.get(2).is_some_and(|s| s == "franka");
+    let duration: f64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(10.0);
+    let setup = if franka {
+        tandem::fixtures::dual_franka()
+    } else {
+        tandem::fixtures::dual_ur5()
+    };
+    let law = match law {
+        "pd" => SpatialLaw::Pd(SpatialPdGains::paper()),
+        "ctc" => SpatialLaw::Ctc(SpatialCtcGains::default()),
+        _ if franka => SpatialLaw::Nn(SpatialNnGains::dual_franka()),
+        _ => SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
+    };
+    let p = SpatialControllerParams::spec_s6(law);
+    let path = Se3Path::spec_s6();
+    let t0 = std::time::Instant::now();
+    let (c, warnings) =
+        SpatialController::new(&p, &setup.params, path.clone(), duration, &setup.q_guess)
+            .expect("controller");
+    println!(
+        "set-up {:.3} s; path inertia (chart diagonal) {:.3?}; warnings: {warnings:?}",
+        t0.elapsed().as_secs_f64(),
+        c.path_inertia().as_slice()
+    );
+    let d0 = path.sample(0.0);
+    let start = SpatialStart {
+        x_wo: Isometry3::from_parts(Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)), d0.r),
+        q_guess: setup.q_guess.clone(),
+    };
+    let sim = Simulation::with_plant(
+        SpatialPlant::new(&setup.params).expect("plant"),
+        &start,
+        &SensorParams::default(),
+        c,
+        SpatialDisturbance::spec_s6(),
+        SimParams {
+            duration,
+            plant_step: 1e-3,
+            control_period: 1e-3,
+            log_period: 0.01,
+            start: [0.0; 3],
+            formulation: Formulation::Constrained,
+            max_drift: 1e-6,
+            min_sigma: 1e-3,
+        },
+    )
+    .expect("simulation");
+    let (out, _) = sim.run(|_| {});
+    let log = &out.log;
+    let t = log.get("t").unwrap();
+    let g = |n: &str| log.get(n).unwrap();
+    for k in (0..log.len()).step_by(100) {
+        let zp = Vector3::new(g("z1.x")[k], g("z1.y")[k], g("z1.z")[k]).norm();
+        let zr = Vector3::new(g("z1.rx")[k], g("z1.ry")[k], g("z1.rz")[k]).norm();
+        println!(
+            "t = {:5.2} s  ‖z1_p‖ = {:9.3e} m  |z1_φ| = {:9.3e} rad  Q = {:.3}  margin = {:.3}",
+            t[k],
+            zp,
+            zr,
+            g("Q")[k],
+            g("margin")[k]
+        );
+    }
+    println!(
+        "{duration} s simulated in {:.3} s: {:.1}× real time ({:.1} µs per 1 ms tick); fault {:?}; events {:?}; drift {:.2e} m, {:.2e} rad",
+        out.wall_time,
+        duration / out.wall_time,
+        out.wall_time / out.ticks as f64 * 1e6,
+        out.fault,
+        out.events,
+        out.max_drift,
+        out.max_drift_rot
+    );
+}
