@@ -70,13 +70,17 @@ use crate::spatial::motion::{ang, lin, stack};
 
 /// The distribution of an object wrench over `m` grasps (constant metric, no scratch that
 /// grows).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct Distribution {
     m: usize,
     /// `L`, m.
     metric_length: f64,
     /// `L²`.
     l2: f64,
+    /// The lever arms of the last factorisation and its factor: a tick distributes several
+    /// wrenches over the same grasps, and `A` depends on `r` only.
+    last_r: Vec<Vector3<f64>>,
+    last: Option<nalgebra::Cholesky<f64, nalgebra::U6>>,
 }
 
 impl Distribution {
@@ -91,6 +95,8 @@ impl Distribution {
             m,
             metric_length,
             l2: metric_length * metric_length,
+            last_r: vec![Vector3::zeros(); m],
+            last: None,
         })
     }
 
@@ -110,8 +116,19 @@ impl Distribution {
         stack(&lin(x), &(ang(x) * self.l2))
     }
 
-    /// `A = Σ G_iᵀ W⁻¹ G_i` factored, or `None` if non-finite.
-    fn factor(&self, r: &[Vector3<f64>]) -> Option<nalgebra::Cholesky<f64, nalgebra::U6>> {
+    /// `A = Σ G_iᵀ W⁻¹ G_i` factored, or `None` if non-finite; reused while `r` is bitwise the
+    /// same as at the last call.
+    fn factor(&mut self, r: &[Vector3<f64>]) -> Option<nalgebra::Cholesky<f64, nalgebra::U6>> {
+        if self.last.is_some() && r[..self.m] == self.last_r[..] {
+            return self.last.clone();
+        }
+        let ch = self.factor_new(r);
+        self.last_r.copy_from_slice(&r[..self.m]);
+        self.last = ch.clone();
+        ch
+    }
+
+    fn factor_new(&self, r: &[Vector3<f64>]) -> Option<nalgebra::Cholesky<f64, nalgebra::U6>> {
         let mut a = Matrix6::zeros();
         let mut wi = Matrix6::identity();
         for k in 3..6 {

@@ -730,15 +730,25 @@ impl SpatialController {
         let (x_r, xd_r, xdd_r) = (rs.x1, rs.x1_dot, rs.x1_ddot);
         let z1 = x1 - x_r;
         let z1_dot = x2 - xd_r;
-        // Object-level model at the measurements (gravity feed-forward, null space, CTC, PD).
-        let dynamics = self
-            .model
-            .dynamics(meas.q, meas.qd, &obj.pose(), &obj.twist, &mut self.ws);
-        let Some(od) = dynamics else {
+        // Object-level model at the measurements: the full one where a law or the null space
+        // needs it (computed torque, redundant arms), otherwise only the arms' operational-space
+        // gravity (the feed-forward of step 5 and PD's gravity term), five times cheaper.
+        let full = self.needs_full_model();
+        if full {
+            if self
+                .model
+                .dynamics(meas.q, meas.qd, &obj.pose(), &obj.twist, &mut self.ws)
+                .is_none()
+            {
+                self.events.degenerate += 1;
+                tau.fill(0.0);
+                return;
+            }
+        } else if !self.model.operational_gravity(meas.q, &mut self.ws) {
             self.events.degenerate += 1;
             tau.fill(0.0);
             return;
-        };
+        }
         // 4. Law → object wrench F (world axes, about the estimated object origin).
         let mut f = match &mut self.law {
             Law::Nn(nn) => {
@@ -759,7 +769,7 @@ impl SpatialController {
                     - Vector6::from(g.k_d).component_mul(&z1_dot);
                 let mut f = cs.jac.wrench_from_chart(&tx);
                 if g.gravity_compensation {
-                    f += od.g;
+                    f += self.gravity_wrench();
                 }
                 f
             }
@@ -850,6 +860,22 @@ impl SpatialController {
         if rec.non_finite {
             self.events.non_finite += 1;
         }
+    }
+
+    /// Whether the tick needs the full object-level model ([`ObjectModel::dynamics`]): computed
+    /// torque, or an arm that is not square (its null-space projector needs `M_i` and `Λ_i`).
+    fn needs_full_model(&self) -> bool {
+        matches!(self.law, Law::Ctc(..)) || self.model.arms().iter().any(|a| a.chain.dof() != 6)
+    }
+
+    /// `𝓖 = [−m g; 0] + Σ G_iᵀ g_x,i`: the object's and the arms' weight as an object wrench, at
+    /// the estimated grasp lever arms (after the model step of the tick).
+    fn gravity_wrench(&self) -> Vector6<f64> {
+        let mut g = stack(&(-self.object.mass * self.gravity), &Vector3::zeros());
+        for (r, a) in self.r.iter().zip(&self.ws.arms) {
+            g += model::transport_t(r) * a.g_x;
+        }
+        g
     }
 
     /// Per-arm scheme, step 4: a 6-D PD per tool on its reference tool pose (the desired one

@@ -61,9 +61,8 @@
 //! forward substitution with eight right-hand sides `[u_b | u_g | Z] = L⁻¹ [b_i | g_i | J_iᵀ]`;
 //! `Λ_i⁻¹ = Zᵀ Z`, `J M⁻¹ b = Zᵀ u_b`, `J M⁻¹ g = Zᵀ u_g`; `Λ_i` by a 6 × 6 Cholesky.
 //! `L` and `Z` stay in the workspace for the null-space projector of
-//! [`super::distribute::joint_torques`]. `σ_min(J_i)` from the eigenvalues of `J_i J_iᵀ`
-//! (about a third of the cost). Measured: [`ObjectModel::dynamics`] ≈ 15–17 µs for two
-//! Franka arms on the loaded shared VM (kinematics alone 1–2 µs).
+//! [`super::distribute::joint_torques`]. `σ_min(J_i)` (from the eigenvalues of `J_i J_iᵀ`, about
+//! half the cost again) is computed on demand only ([`ObjectModel::sigma_min`]).
 //!
 //! # Validation
 //! `tests/spatial_control_model.rs` holds the model against the closed-chain KKT plant
@@ -123,8 +122,6 @@ pub struct ArmTerms {
     pub g_x: Vector6<f64>,
     /// `r_i = p_WTi − p_WO`, world axes, m.
     pub r: Vector3<f64>,
-    /// `σ_min(J_i)` (mixed m and rad units), from the eigenvalues of `J_i J_iᵀ`.
-    pub sigma_min: f64,
 }
 
 impl Default for ArmTerms {
@@ -134,7 +131,6 @@ impl Default for ArmTerms {
             mu: Vector6::zeros(),
             g_x: Vector6::zeros(),
             r: Vector3::zeros(),
-            sigma_min: 0.0,
         }
     }
 }
@@ -249,7 +245,7 @@ impl ObjectModel {
 
     /// The object-level model at the measured `(q, q̇)` (stacked, n_q) and the estimated object
     /// pose `x_wo` and twist `twist` (world axes): per arm `M_i`, `b_i`, `Λ_i`, `μ_i`, `g_x,i`,
-    /// `r_i`, `σ_min(J_i)` into `ws`, and `𝓜, 𝓱, 𝓖` returned (module doc).
+    /// `r_i` into `ws` (`σ_min(J_i)` on demand: [`Self::sigma_min`]), and `𝓜, 𝓱, 𝓖` returned (module doc).
     ///
     /// Recomputes the kinematics (the fused `terms` pass), so calling [`Self::kinematics`]
     /// first is not required for correctness. `None` if some `M_i` or `Λ_i⁻¹` is not positive
@@ -267,7 +263,7 @@ impl ObjectModel {
     }
 
     /// [`Self::dynamics`]; `extras = false` skips `g_i(q)` (so `g_x,i` and `𝓖` are left
-    /// stale) and `σ_min` (for the bound's repeated evaluations at one configuration).
+    /// stale), for the bound's repeated evaluations at one configuration.
     pub(crate) fn dynamics_with(
         &self,
         q: &[f64],
@@ -351,7 +347,7 @@ pub fn transport_t(r: &Vector3<f64>) -> Matrix6<f64> {
     g
 }
 
-/// One arm's `terms`, gravity, Cholesky, `[u_b | u_g | Z]` and `Λ, μ, g_x, σ_min` (inlined so a
+/// One arm's `terms`, gravity, Cholesky, `[u_b | u_g | Z]` and `Λ, μ, g_x` (inlined so a
 /// constant `n` unrolls). `false` if `M` or `Λ⁻¹` is not positive definite.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -419,10 +415,43 @@ fn arm_terms(
     t.lambda = lambda;
     t.mu = lambda * (jmb - d.jdqd);
     t.g_x = lambda * jmg;
-    if extras {
-        t.sigma_min = jjt_sigma_min(d);
-    }
     true
+}
+
+impl ObjectModel {
+    /// The arms' operational-space gravity `g_x,i` alone, for arms with exactly six joints:
+    /// `g_x,i = Λ_i J_i M_i⁻¹ g_i = J_i⁻ᵀ g_i` (square `J_i`), by the gravity pass and one 6 × 6
+    /// LU solve, without `M_i` (a fifth of [`Self::dynamics`]). Needs `ws.data[i].J` from
+    /// [`Self::kinematics`] at the same `q`; writes `ws.arms[i].g_x`. `false` (nothing
+    /// usable written) if an arm has other than six joints or a singular Jacobian. No
+    /// allocation.
+    pub fn operational_gravity(&self, q: &[f64], ws: &mut ModelWorkspace) -> bool {
+        for (i, arm) in self.arms.iter().enumerate() {
+            let (s, n) = (self.offsets[i], arm.chain.dof());
+            if n != 6 {
+                return false;
+            }
+            let d = &mut ws.data[i];
+            let grav = &mut ws.grav[i][..6];
+            dynamics::gravity(arm, &q[s..s + 6], &self.g_W, grav, d);
+            let jt = d.J.fixed_view::<6, 6>(0, 0).transpose();
+            let Some(x) = jt.lu().solve(&Vector6::from_column_slice(grav)) else {
+                return false;
+            };
+            if !x.iter().all(|v| v.is_finite()) {
+                return false;
+            }
+            ws.arms[i].g_x = x;
+        }
+        true
+    }
+
+    /// `σ_min(J_i)` of arm `i`'s tool Jacobian in `ws` (after [`Self::kinematics`] or
+    /// [`Self::dynamics`]), mixed m and rad units, from the eigenvalues of `J_i J_iᵀ`. Not part of
+    /// the per-tick [`Self::dynamics`] (a 6 × 6 symmetric eigenproblem costs a third of it).
+    pub fn sigma_min(&self, ws: &ModelWorkspace, i: usize) -> f64 {
+        jjt_sigma_min(&ws.data[i])
+    }
 }
 
 /// `σ_min(J)` of the 6 × n tool Jacobian in `d` (0 for `n < 6`), from the eigenvalues of `J Jᵀ`.

@@ -231,9 +231,11 @@ pub struct PostureParams {
 }
 
 impl Default for PostureParams {
-    /// `K_p = 20` N m/rad, `K_d = 4` N m s/rad: with the Franka's distal joint inertias
-    /// (0.01–0.1 kg m² along the self-motion) a 1–2 Hz, well-damped posture loop, far below the
-    /// object loop, and a few degrees of sag at most against unmodelled null-space loads.
+    /// `K_p = 20` N m/rad, `K_d = 4` N m s/rad: on the Franka's self-motion inertia
+    /// (0.027–0.035 kg m², measured in `tests/spatial_control_model.rs`) a stiff, overdamped
+    /// posture loop (`√(K_p/I) ≈ 26` rad/s, `ζ ≈ 2.5`), so that the uncompensated null-space
+    /// Coriolis torques move the posture by a few hundredths of a radian at most (measured 0.03
+    /// rad along S6, `docs/spatial-control.md`).
     fn default() -> Self {
         PostureParams {
             kp: 20.0,
