@@ -1,0 +1,104 @@
+//! The spatial controller (SPEC-spatial S5) on the S6 scenario: one controller tick per law
+//! (at a state of a running loop), and one closed-loop tick (plant RK4 step + wrench evaluation
+//! + sensors + controller + log) for the NN law on two UR5 and two Franka arms. The 60 s run's
+//! real-time factor is `1 ms / closed-loop tick`.
+use criterion::{Criterion, criterion_group, criterion_main};
+use nalgebra::{Isometry3, Translation3, Vector3};
+use std::hint::black_box;
+use tandem::control::spatial::{
+    SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
+    SpatialPdGains, SpatialTickRecord,
+};
+use tandem::disturbance::SpatialDisturbance;
+use tandem::fixtures;
+use tandem::plant::spatial::SpatialPlant;
+use tandem::reference::se3_path::Se3Path;
+use tandem::sensors::SensorParams;
+use tandem::sim::{Formulation, Measurements, SimParams, Simulation, SpatialStart};
+
+fn sim(franka: bool, law: SpatialLaw, duration: f64) -> Simulation<SpatialPlant, SpatialController> {
+    let s = if franka { fixtures::dual_franka() } else { fixtures::dual_ur5() };
+    let p = SpatialControllerParams::spec_s6(law);
+    let path = Se3Path::spec_s6();
+    let (c, _) = SpatialController::new(&p, &s.params, path.clone(), duration, &s.q_guess).unwrap();
+    let d0 = path.sample(0.0);
+    let start = SpatialStart {
+        x_wo: Isometry3::from_parts(Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)), d0.r),
+        q_guess: s.q_guess.clone(),
+    };
+    Simulation::with_plant(
+        SpatialPlant::new(&s.params).unwrap(),
+        &start,
+        &SensorParams::default(),
+        c,
+        SpatialDisturbance::spec_s6(),
+        SimParams {
+            duration,
+            plant_step: 1e-3,
+            control_period: 1e-3,
+            log_period: 0.01,
+            start: [0.0; 3],
+            formulation: Formulation::Constrained,
+            max_drift: 1e-6,
+            min_sigma: 1e-3,
+        },
+    )
+    .unwrap()
+}
+
+fn bench(c: &mut Criterion) {
+    // Controller ticks alone, at the state reached after 1 s of the closed loop.
+    for (name, franka, law) in [
+        ("nn_dual_ur5", false, SpatialLaw::Nn(SpatialNnGains::dual_ur5())),
+        ("pd_dual_ur5", false, SpatialLaw::Pd(SpatialPdGains::paper())),
+        ("ctc_dual_ur5", false, SpatialLaw::Ctc(SpatialCtcGains::default())),
+        ("nn_dual_franka", true, SpatialLaw::Nn(SpatialNnGains::dual_franka())),
+    ] {
+        let law2 = law.clone();
+        let mut s = sim(franka, law, 2.0);
+        for k in 0..1000 {
+            s.tick(k).unwrap();
+        }
+        let n = s.plant().n_q();
+        let y = s.state().to_vec();
+        let (q, qd) = (y[..n].to_vec(), y[n + 7..2 * n + 7].to_vec());
+        let wr = s.last_readings().to_vec();
+        let s2 = if franka { fixtures::dual_franka() } else { fixtures::dual_ur5() };
+        let (mut controller, _) = SpatialController::new(
+            &SpatialControllerParams::spec_s6(law2),
+            &s2.params,
+            Se3Path::spec_s6(),
+            2.0,
+            &s2.q_guess,
+        )
+        .unwrap();
+        let meas = Measurements { q: &q, qd: &qd, wrenches: &wr };
+        controller.start(1.0, &meas);
+        let mut tau = vec![0.0; n];
+        let mut rec = SpatialTickRecord::new(2);
+        let mut t = 1.0;
+        c.bench_function(&format!("spatial_control/{name}/tick"), |b| {
+            b.iter(|| {
+                t += 1e-3;
+                controller.tick(t, black_box(&meas), &mut tau, &mut rec);
+            })
+        });
+    }
+    // Closed-loop ticks (the real-time factor of a run).
+    for (name, franka, law) in [
+        ("nn_dual_ur5", false, SpatialLaw::Nn(SpatialNnGains::dual_ur5())),
+        ("nn_dual_franka", true, SpatialLaw::Nn(SpatialNnGains::dual_franka())),
+    ] {
+        let mut s = sim(franka, law, 120.0);
+        let mut k = 0;
+        c.bench_function(&format!("spatial_control/{name}/closed_loop_tick"), |b| {
+            b.iter(|| {
+                s.tick(k).unwrap();
+                k += 1;
+            })
+        });
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
