@@ -5,7 +5,7 @@ use std::hint::black_box;
 use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
 use tandem::fixtures;
-use tandem::nalgebra::{Vector2, Vector3};
+use tandem::nalgebra::Vector3;
 use tandem::pd::PdGains;
 use tandem::plant::Plant;
 use tandem::rbf::{NnUpdate, Rbf, RbfNetwork};
