@@ -255,8 +255,8 @@ fn faults() -> tandem::faults::Faults {
 
 #[test]
 fn generic_loop_ticks_allocate_nothing() {
-    use tandem::plant::spatial::SpatialPlant;
     use tandem::plant::SpatialStart;
+    use tandem::plant::spatial::SpatialPlant;
     use tandem::sim::Replay;
     let plant = fixtures::paper();
     let sensors = SensorParams {
@@ -283,7 +283,10 @@ fn generic_loop_ticks_allocate_nothing() {
             sim.tick(k).unwrap();
         }
     });
-    assert_eq!(n, 0, "planar controller (generic) ticks allocated {n} times");
+    assert_eq!(
+        n, 0,
+        "planar controller (generic) ticks allocated {n} times"
+    );
     // The replay, through the Driver enum (planar record) and on its own, linear.
     let times: Vec<f64> = (0..100).map(|k| k as f64 * 0.01).collect();
     let rows = vec![vec![0.0; 4]; 100];
@@ -331,17 +334,11 @@ fn generic_loop_ticks_allocate_nothing() {
         q0: vec![0.0; hold.len()],
         hold: hold.clone(),
     };
-    let mut sim = Simulation::with_plant(
-        sp_plant.clone(),
-        &start,
-        &sensors,
-        drv,
-        None,
-        ssp.clone(),
-    )
-    .unwrap()
-    .with_faults(&faults())
-    .unwrap();
+    let mut sim =
+        Simulation::with_plant(sp_plant.clone(), &start, &sensors, drv, None, ssp.clone())
+            .unwrap()
+            .with_faults(&faults())
+            .unwrap();
     sim.tick(0).unwrap();
     let n = count(|| {
         for k in 1..100 {

@@ -146,10 +146,7 @@ fn planar_pd(plant: &Plant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &mut [f64]
 
 /// The spatial law: arm gravity from `dynamics::gravity`; the object's share is the plant's
 /// holding torques at the start minus the arms' own gravity there.
-fn spatial_pd(
-    plant: &SpatialPlant,
-    y0: &[f64],
-) -> JointPd<impl FnMut(&[f64], &mut [f64]) + use<>> {
+fn spatial_pd(plant: &SpatialPlant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &mut [f64]) + use<>> {
     let n = plant.n_q();
     let mut hold = vec![0.0; n];
     plant.holding_torques(y0, &mut plant.workspace(), &mut hold);
@@ -234,7 +231,10 @@ fn a_user_joint_pd_holds_the_planar_paper_plant() {
     assert!(dev < 2e-5, "the object left its start by {dev} m");
     assert!(out.max_drift < 1e-9, "drift {}", out.max_drift);
     assert!(col(log, "drift").iter().all(|d| *d < 1e-9));
-    assert!(out.min_margin.is_none(), "a PD without bounds has no margin");
+    assert!(
+        out.min_margin.is_none(),
+        "a PD without bounds has no margin"
+    );
     // Ideal sensors read the plant's grasp forces exactly (planar: world axes both).
     for i in 1..=2 {
         for a in ["x", "y"] {
@@ -276,7 +276,11 @@ fn the_same_user_law_holds_the_spatial_dual_ur5() {
         sim_params(2.0, 5e-4),
     )
     .unwrap();
-    assert_eq!(sim.state(), &y0[..], "the start is the plant's initial state");
+    assert_eq!(
+        sim.state(),
+        &y0[..],
+        "the start is the plant's initial state"
+    );
     // The accessor evaluates the wrenches for the state: at the start, zero torque held.
     let w0 = sim.grasp_wrenches().unwrap().to_vec();
     assert_eq!(w0.len(), 12);
@@ -341,13 +345,20 @@ fn the_same_user_law_holds_the_spatial_dual_ur5() {
     assert!(e_max > 0.0, "the push moves the joints");
     assert!(dev < 5e-4, "the object left its start by {dev} m");
     assert!(out.max_drift < 1e-9, "drift {}", out.max_drift);
-    assert!(out.max_drift_rot < 1e-9, "rotational drift {}", out.max_drift_rot);
+    assert!(
+        out.max_drift_rot < 1e-9,
+        "rotational drift {}",
+        out.max_drift_rot
+    );
     // The world-axes grasp wrenches carry the object's weight; the tool-axes readings have
     // the same magnitudes per arm.
     let k = log.len() - 1;
     let fz = col(log, "F1.fz")[k] + col(log, "F2.fz")[k];
     let weight = s.params.object.mass * 9.81;
-    assert!((fz + weight).abs() < 1e-3 * weight, "ΣF_z = {fz}, weight {weight}");
+    assert!(
+        (fz + weight).abs() < 1e-3 * weight,
+        "ΣF_z = {fz}, weight {weight}"
+    );
     for i in 1..=2 {
         let norm = |g: &str, a: [&str; 3]| {
             a.iter()
@@ -359,7 +370,10 @@ fn the_same_user_law_holds_the_spatial_dual_ur5() {
             norm("F", ["fx", "fy", "fz"]),
             norm("F_meas", ["fx", "fy", "fz"]),
         );
-        assert!((fw - fm).abs() < 1e-9 * fw.max(1.0), "arm {i}: {fw} vs {fm}");
+        assert!(
+            (fw - fm).abs() < 1e-9 * fw.max(1.0),
+            "arm {i}: {fw} vs {fm}"
+        );
     }
     let _ = sim;
 }
