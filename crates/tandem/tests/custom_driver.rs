@@ -377,3 +377,124 @@ fn the_same_user_law_holds_the_spatial_dual_ur5() {
     }
     let _ = sim;
 }
+
+/// A driver that applies constant torques (optionally a NaN on one joint) and keeps the
+/// largest force and torque channel it read.
+struct Probe {
+    tau: Vec<f64>,
+    nan_at: Option<usize>,
+    max_f: f64,
+    max_t: f64,
+}
+
+impl<P: ClosedChain> Drive<P> for Probe {
+    type Record = tandem::sim::NoRecord;
+    fn new_record(&self) -> Self::Record {
+        tandem::sim::NoRecord
+    }
+    fn start(&mut self, _t0: f64, _meas: &Measurements<'_>) {}
+    fn tick(&mut self, t: f64, meas: &Measurements<'_>, tau: &mut [f64], _: &mut Self::Record) {
+        tau.copy_from_slice(&self.tau);
+        if let Some(j) = self.nan_at {
+            if t >= 0.05 {
+                tau[j] = f64::NAN;
+            }
+        }
+        for (c, v) in meas.wrenches.iter().enumerate() {
+            if c % 6 < 3 {
+                self.max_f = self.max_f.max(v.abs());
+            } else {
+                self.max_t = self.max_t.max(v.abs());
+            }
+        }
+    }
+}
+
+#[test]
+fn spatial_runs_check_health_and_inject_faults() {
+    use tandem::faults::Faults;
+    use tandem::sim::{FaultKind, Formulation};
+    let s = fixtures::dual_ur5();
+    let plant = SpatialPlant::new(&s.params).unwrap();
+    let y0 = plant
+        .initial_state(&s.x_wo, &nalgebra::Vector6::zeros(), &s.q_guess)
+        .unwrap();
+    let mut hold = vec![0.0; plant.n_q()];
+    plant.holding_torques(&y0, &mut plant.workspace(), &mut hold);
+    let probe = |nan_at| Probe {
+        tau: hold.clone(),
+        nan_at,
+        max_f: 0.0,
+        max_t: 0.0,
+    };
+    let start = SpatialStart {
+        x_wo: s.x_wo,
+        q_guess: s.q_guess.clone(),
+    };
+    let build = |p: SimParams, d: Probe| {
+        Simulation::with_plant(plant.clone(), &start, &ideal(), d, None, p)
+    };
+    // The reduced formulation is planar only: an error naming the field.
+    let mut p = sim_params(0.5, 5e-4);
+    p.formulation = Formulation::Reduced;
+    let e = build(p, probe(None))
+        .err()
+        .expect("reduced must be refused");
+    assert!(e.to_string().starts_with("formulation"), "{e}");
+    // A drift bound below the round-off stops the run at the first check, with both drifts.
+    let mut p = sim_params(0.5, 5e-4);
+    p.max_drift = 1e-16;
+    let (out, _) = build(p, probe(None)).unwrap().run(|_| {});
+    let f = out.fault.expect("drift fault");
+    assert!(
+        matches!(
+            f.kind,
+            FaultKind::ConstraintDrift {
+                rotation: Some(_),
+                ..
+            }
+        ),
+        "{f}"
+    );
+    assert_eq!(f.x_o.len(), 7, "pose + quaternion");
+    assert_eq!(f.q.len(), 12);
+    assert!(
+        (f.t - 0.01).abs() < 1e-12 && f.to_string().contains(" rad at t = 0.0100 s"),
+        "{f}"
+    );
+    // A non-finite torque is named as its log column, the state is the last good one.
+    let (out, _) = build(sim_params(0.5, 5e-4), probe(Some(2)))
+        .unwrap()
+        .run(|_| {});
+    let f = out.fault.expect("non-finite fault");
+    assert_eq!(
+        f.kind,
+        FaultKind::NonFiniteSignal {
+            signal: "tau_q3".into()
+        }
+    );
+    assert!(f.x_o.iter().chain(&f.q).all(|v| v.is_finite()));
+    // Injected faults act on all six wrist channels: saturation on the three forces only.
+    let (_, clean) = build(sim_params(0.2, 5e-4), probe(None))
+        .unwrap()
+        .run(|_| {});
+    let faults = Faults {
+        force_limit: Some(5.0),
+        force_delay: 0.002,
+        ..Faults::default()
+    };
+    let (out, sat) = build(sim_params(0.2, 5e-4), probe(None))
+        .unwrap()
+        .with_faults(&faults)
+        .unwrap()
+        .run(|_| {});
+    assert!(out.fault.is_none());
+    let (c, d) = (clean.driver(), sat.driver());
+    println!(
+        "wrist readings: clean max |f| {:.3} N, |τ| {:.3} N m; saturated max |f| {:.3} N, |τ| {:.3} N m",
+        c.max_f, c.max_t, d.max_f, d.max_t
+    );
+    assert!(c.max_f > 5.0, "the clean forces exceed the limit");
+    assert_eq!(d.max_f, 5.0);
+    assert!(d.max_t > 0.0 && (d.max_t - c.max_t).abs() < 1e-6 * c.max_t);
+}
