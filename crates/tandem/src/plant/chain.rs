@@ -1,7 +1,7 @@
 //! What the simulation loop needs from a closed-chain plant, planar or spatial.
 //!
 //! One trait, two implementations ([`Plant`](super::Plant): planar arms with point grasps and
-//! 2-D grasp forces; [`SpatialPlant`](super::spatial::SpatialPlant): URDF arms with welds and
+//! 2-D grasp forces; [`SpatialPlant`]: URDF arms with welds and
 //! 6-D grasp wrenches). Both keep a flat state `y` (the integrators' view), hold the input over
 //! a step (zero-order hold), and report their grasp wrenches as the wrist sensors read them, so
 //! one loop, one sensor model and one set of health checks serve both. See the crate docs,
