@@ -228,6 +228,7 @@ fn a_user_joint_pd_holds_the_planar_paper_plant() {
         out.max_drift
     );
     assert!(e_max > 0.0, "the disturbance moves the joints");
+    // Measured: 5.4e-6 m (joint errors ≤ 1.5e-5 rad), drift ≤ 8e-16 m.
     assert!(dev < 2e-5, "the object left its start by {dev} m");
     assert!(out.max_drift < 1e-9, "drift {}", out.max_drift);
     assert!(col(log, "drift").iter().all(|d| *d < 1e-9));
@@ -267,7 +268,35 @@ fn the_same_user_law_holds_the_spatial_dual_ur5() {
         x_wo: s.x_wo,
         q_guess: s.q_guess.clone(),
     };
-    let mut sim = Simulation::with_plant(
+    {
+        // One tick by hand on a twin run.
+        let mut sim = Simulation::with_plant(
+            plant.clone(),
+            &start,
+            &ideal(),
+            spatial_pd(&plant, &y0),
+            Some(push),
+            sim_params(2.0, 5e-4),
+        )
+        .unwrap();
+        assert_eq!(
+            sim.state(),
+            &y0[..],
+            "the start is the plant's initial state"
+        );
+        // The accessor evaluates the wrenches for the state (zero torque held at the start).
+        let w0 = sim.grasp_wrenches().unwrap().to_vec();
+        assert_eq!(w0.len(), 12);
+        sim.tick(0).unwrap();
+        // Ideal sensors: the readings are the plant's wrenches in tool axes.
+        assert_eq!(sim.last_readings(), sim.last_sensor_truth());
+        assert_eq!(
+            sim.last_wrenches(),
+            &w0[..],
+            "tick 0 samples the start's wrenches"
+        );
+    }
+    let sim = Simulation::with_plant(
         plant,
         &start,
         &ideal(),
@@ -276,17 +305,6 @@ fn the_same_user_law_holds_the_spatial_dual_ur5() {
         sim_params(2.0, 5e-4),
     )
     .unwrap();
-    assert_eq!(
-        sim.state(),
-        &y0[..],
-        "the start is the plant's initial state"
-    );
-    // The accessor evaluates the wrenches for the state: at the start, zero torque held.
-    let w0 = sim.grasp_wrenches().unwrap().to_vec();
-    assert_eq!(w0.len(), 12);
-    sim.tick(0).unwrap();
-    // Ideal sensors: the readings are the plant's wrenches in tool axes.
-    assert_eq!(sim.last_readings(), sim.last_sensor_truth());
     let (out, sim) = sim.run(|_| {});
     assert!(out.fault.is_none(), "{:?}", out.fault);
     assert_eq!(out.ticks, 2000);
@@ -343,6 +361,8 @@ fn the_same_user_law_holds_the_spatial_dual_ur5() {
         out.max_drift, out.max_drift_rot, out.wall_time
     );
     assert!(e_max > 0.0, "the push moves the joints");
+    // Measured: 2.4e-4 m under the 2 N push (joint errors ≤ 5.3e-4 rad), drift ≤ 1.5e-13 m
+    // and 5e-15 rad.
     assert!(dev < 5e-4, "the object left its start by {dev} m");
     assert!(out.max_drift < 1e-9, "drift {}", out.max_drift);
     assert!(
@@ -497,4 +517,54 @@ fn spatial_runs_check_health_and_inject_faults() {
     assert!(c.max_f > 5.0, "the clean forces exceed the limit");
     assert_eq!(d.max_f, 5.0);
     assert!(d.max_t > 0.0 && (d.max_t - c.max_t).abs() < 1e-6 * c.max_t);
+}
+
+#[test]
+fn tandems_controller_is_a_driver_itself() {
+    // The planar controller as `D` directly and through the CLI's `Driver` enum: the same run.
+    use tandem::adaptive::NnGains;
+    use tandem::control::{Controller, ControllerParams, LawParams};
+    use tandem::sim::Driver;
+    use tandem::trajectory::Path;
+    let params = fixtures::paper();
+    let ctl = || {
+        Controller::new(
+            &ControllerParams::paper(LawParams::Nn(NnGains::tuned())),
+            &params,
+            Path::paper(),
+            2.0,
+        )
+        .unwrap()
+        .0
+    };
+    let sp = SimParams {
+        duration: 2.0,
+        ..SimParams::paper()
+    };
+    let run_a = Simulation::new(
+        &params,
+        &ideal(),
+        ctl(),
+        Disturbance::paper(),
+        sp.clone(),
+        None,
+    )
+    .unwrap()
+    .run(|_| {})
+    .0;
+    let run_b = Simulation::new(
+        &params,
+        &ideal(),
+        Driver::Controller(Box::new(ctl())),
+        Disturbance::paper(),
+        sp,
+        None,
+    )
+    .unwrap()
+    .run(|_| {})
+    .0;
+    assert_eq!(run_a.log, run_b.log);
+    assert_eq!(run_a.min_margin, run_b.min_margin);
+    assert!(run_a.min_margin.is_some_and(|m| m > 0.0));
+    assert_eq!(run_a.log.names().len(), 1 + 3 + 27 + 4 + 4 + 4 + 4 + 2 + 1);
 }
