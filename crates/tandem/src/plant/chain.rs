@@ -583,6 +583,8 @@ impl ClosedChain for super::spatial::SpatialPlant {
         let n = SpatialPlant::n_q(self);
         y[n..n + 7].to_vec()
     }
+    /// SPEC-spatial S7 (the planar §5 columns on six outputs): `x_o.{x,y,z}` (m),
+    /// `x_o.{qw,qx,qy,qz}` (1), `v_o.*` (m/s), `w_o.*` (rad/s, world axes).
     fn object_columns(&self) -> Vec<ColumnSpec> {
         let mut c = Vec::with_capacity(13);
         for a in ["x", "y", "z"] {
@@ -640,6 +642,7 @@ impl ClosedChain for super::spatial::SpatialPlant {
             ("tz", "N m"),
         ]
     }
+    /// Both weld residuals (SPEC-spatial S4: drift < 1e-9 m and 1e-9 rad).
     fn drift_columns(&self) -> Vec<ColumnSpec> {
         vec![col("drift", "m"), col("drift_rot", "rad")]
     }
