@@ -479,7 +479,7 @@ fn fault_message_prints_a_diverged_state_readably() {
     let f = Fault {
         t: 0.006,
         kind: FaultKind::NonFinite,
-        x_o: [1.7e96, -3.0e300, 0.25],
+        x_o: vec![1.7e96, -3.0e300, 0.25],
         q: vec![1e300, 0.5, -2e-9, 0.0],
     };
     let s = f.to_string();

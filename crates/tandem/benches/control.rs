@@ -5,7 +5,7 @@ use std::hint::black_box;
 use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
 use tandem::fixtures;
-use tandem::nalgebra::{Vector2, Vector3};
+use tandem::nalgebra::Vector3;
 use tandem::pd::PdGains;
 use tandem::plant::Plant;
 use tandem::rbf::{NnUpdate, Rbf, RbfNetwork};
@@ -21,11 +21,11 @@ fn bench(c: &mut Criterion) {
         )
         .unwrap();
     let (q, _, qd, _) = plant.split(&y);
-    let forces = [Vector2::new(1.3, -1.2), Vector2::new(-1.5, -7.4)];
+    let forces = [1.3, -1.2, -1.5, -7.4];
     let meas = Measurements {
         q,
         qd,
-        forces: &forces,
+        wrenches: &forces,
     };
     for (name, law, scheme) in [
         (

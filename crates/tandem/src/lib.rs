@@ -16,7 +16,7 @@
 //! | closed chain (10)–(14) | [`plant`] (constrained, reduced) | [`plant::spatial`] (welds, compliant grasps) | [`plant::ClosedChain`] |
 //! | reference generation (15)–(21) | [`trajectory`], [`admittance`] | [`reference`](mod@reference) (SE(3) paths), [`se3`] (output chart, reference pose fit) | |
 //! | control laws (22)–(44) | [`iblf`], [`rbf`], [`switching`], [`adaptive`], [`pd`], [`ctc`], [`control`] | (next) | [`rbf_structured`] (network structures that scale to 24 inputs) |
-//! | simulation | [`sim`], [`report`] | [`plant::spatial::SpatialPlant::step`] | [`integrate`], [`sensors`], [`disturbance`], [`faults`] |
+//! | simulation | [`report`], [`sim::Driver`] | [`plant::spatial::SpatialPlant::step`] | [`sim`] (one loop, [`sim::Drive`]), [`integrate`], [`sensors`], [`disturbance`], [`faults`] |
 //!
 //! **How planar and spatial share one loop: one trait, two implementations.** The two plants
 //! differ in more than a dimension: the spatial state lives on a manifold (a unit quaternion,
@@ -34,12 +34,18 @@
 //!   of 2 (planar force) or 6 (spatial force/torque) channels, same channel model, same
 //!   seeding.
 //! * [`integrate`] works on flat slices ([`integrate::OdeSystem`]) and serves both.
-//! * The loop ([`sim`]) steps the plant, samples the sensors, calls the driver (time,
-//!   encoders, wrench readings → joint torques and a record), checks health and logs. Today it
-//!   drives the planar plant; it becomes generic over [`plant::ClosedChain`] and a driver trait
-//!   when the spatial controller (SPEC-spatial S5) lands, which then plugs in as one more
-//!   driver, not as a second loop. Until then the spatial plant is stepped directly
-//!   ([`plant::spatial::SpatialPlant::step`]).
+//! * The loop ([`sim::Simulation`]) is **one loop, generic over the plant and the driver**:
+//!   `Simulation<P: ClosedChain, D: Drive<P>>` steps the plant ([`plant::ClosedChain::step_with`],
+//!   in the formulation of the plant's [`plant::Stepper`]), evaluates the grasp wrenches of the
+//!   state ([`plant::ClosedChain::grasp_wrenches`]), samples the sensors, calls the driver
+//!   ([`sim::Drive::tick`]: time and [`sim::Measurements`] → joint torques and a
+//!   [`sim::Record`]), checks health and logs; the plant supplies its log columns (object and
+//!   joint truth, wrench channels, drift), the driver its record's. A driver is tandem's planar
+//!   [`control::Controller`], the torque [`sim::Replay`] (any plant), the CLI's
+//!   [`sim::Driver`] enum, or a user's own law (README, "Your own controller"); the spatial
+//!   controller (SPEC-spatial S5) plugs in as one more driver, not as a second loop. The
+//!   planar reduced formulation (14) lives in the planar plant's stepper, which reads and
+//!   writes its 6-state in the object part of the one flat state, so the loop keeps one state.
 #![warn(missing_docs)]
 
 pub mod error;

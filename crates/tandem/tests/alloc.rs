@@ -1,7 +1,7 @@
 //! A counting global allocator proves that plant steps, controller ticks and simulation ticks
 //! allocate nothing once built (STYLE habit 5; Drake's LimitMalloc, Pinocchio's test_crba_malloc).
 
-use nalgebra::{Vector2, Vector3};
+use nalgebra::Vector3;
 use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams, Measurements, TickRecord};
 use tandem::disturbance::Disturbance;
@@ -84,7 +84,7 @@ fn controller_ticks_allocate_nothing() {
         .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let (q, _, qd, _) = plant.split(&y);
-    let forces = [Vector2::new(1.0, -5.0), Vector2::new(-1.0, -5.0)];
+    let forces = [1.0, -5.0, -1.0, -5.0];
     for law in [
         LawParams::Nn(NnGains::tuned()),
         LawParams::Pd(PdGains::paper()),
@@ -96,7 +96,7 @@ fn controller_ticks_allocate_nothing() {
         let meas = Measurements {
             q,
             qd,
-            forces: &forces,
+            wrenches: &forces,
         };
         c.start(0.0, &meas);
         let mut tau = vec![0.0; plant.n_q()];
@@ -215,4 +215,144 @@ fn spatial_plant_steps_allocate_nothing() {
             );
         }
     }
+}
+
+/// A minimal user driver for the generic-loop test: the start's holding torques plus a joint PD.
+struct HoldPd {
+    q0: Vec<f64>,
+    hold: Vec<f64>,
+}
+
+impl<P: tandem::plant::ClosedChain> tandem::sim::Drive<P> for HoldPd {
+    type Record = tandem::sim::NoRecord;
+    fn new_record(&self) -> Self::Record {
+        tandem::sim::NoRecord
+    }
+    fn start(&mut self, _t0: f64, meas: &Measurements<'_>) {
+        self.q0.copy_from_slice(meas.q);
+    }
+    fn tick(&mut self, _t: f64, meas: &Measurements<'_>, tau: &mut [f64], _rec: &mut Self::Record) {
+        for k in 0..tau.len() {
+            tau[k] = self.hold[k] + 400.0 * (self.q0[k] - meas.q[k]) - 20.0 * meas.qd[k];
+        }
+        // Read the wrist channels too (spatial: 6 per arm).
+        std::hint::black_box(meas.wrench(0));
+    }
+}
+
+fn faults() -> tandem::faults::Faults {
+    tandem::faults::Faults {
+        dropout_rate: 5.0,
+        dropout_length: 0.01,
+        force_limit: Some(30.0),
+        force_delay: 0.003,
+        encoder_resolution: 1e-4,
+        torque_limit: Some(100.0),
+        torque_rate: Some(1e5),
+        seed: 3,
+    }
+}
+
+#[test]
+fn generic_loop_ticks_allocate_nothing() {
+    use tandem::plant::SpatialStart;
+    use tandem::plant::spatial::SpatialPlant;
+    use tandem::sim::Replay;
+    let plant = fixtures::paper();
+    let sensors = SensorParams {
+        seed: 7,
+        ..Default::default()
+    };
+    let mut sp = SimParams::paper();
+    sp.duration = 1.0;
+    // The planar controller as the driver itself (not through the Driver enum), with faults.
+    let (c, _) = Controller::new(
+        &params(LawParams::Pd(PdGains::paper())),
+        &plant,
+        Path::paper(),
+        1.0,
+    )
+    .unwrap();
+    let mut sim = Simulation::new(&plant, &sensors, c, Disturbance::paper(), sp.clone(), None)
+        .unwrap()
+        .with_faults(&faults())
+        .unwrap();
+    sim.tick(0).unwrap();
+    let n = count(|| {
+        for k in 1..300 {
+            sim.tick(k).unwrap();
+        }
+    });
+    assert_eq!(
+        n, 0,
+        "planar controller (generic) ticks allocated {n} times"
+    );
+    // The replay, through the Driver enum (planar record) and on its own, linear.
+    let times: Vec<f64> = (0..100).map(|k| k as f64 * 0.01).collect();
+    let rows = vec![vec![0.0; 4]; 100];
+    for linear in [false, true] {
+        let mut r = Replay::new(times.clone(), rows.clone(), 4).unwrap();
+        if linear {
+            r = r.linear();
+        }
+        let mut a = Simulation::new(
+            &plant,
+            &sensors,
+            Driver::Replay(r.clone()),
+            Disturbance::paper(),
+            sp.clone(),
+            None,
+        )
+        .unwrap();
+        let mut b =
+            Simulation::new(&plant, &sensors, r, Disturbance::paper(), sp.clone(), None).unwrap();
+        a.tick(0).unwrap();
+        b.tick(0).unwrap();
+        let n = count(|| {
+            for k in 1..100 {
+                a.tick(k).unwrap();
+                b.tick(k).unwrap();
+            }
+        });
+        assert_eq!(n, 0, "replay ticks allocated {n} times (linear: {linear})");
+    }
+    // The spatial plant with a user driver, with faults, and a spatial replay.
+    let s = fixtures::dual_ur5();
+    let sp_plant = SpatialPlant::new(&s.params).unwrap();
+    let y0 = sp_plant
+        .initial_state(&s.x_wo, &nalgebra::Vector6::zeros(), &s.q_guess)
+        .unwrap();
+    let mut hold = vec![0.0; sp_plant.n_q()];
+    sp_plant.holding_torques(&y0, &mut sp_plant.workspace(), &mut hold);
+    let start = SpatialStart {
+        x_wo: s.x_wo,
+        q_guess: s.q_guess.clone(),
+    };
+    let mut ssp = sp.clone();
+    ssp.plant_step = 5e-4;
+    let drv = HoldPd {
+        q0: vec![0.0; hold.len()],
+        hold: hold.clone(),
+    };
+    let mut sim =
+        Simulation::with_plant(sp_plant.clone(), &start, &sensors, drv, None, ssp.clone())
+            .unwrap()
+            .with_faults(&faults())
+            .unwrap();
+    sim.tick(0).unwrap();
+    let n = count(|| {
+        for k in 1..100 {
+            sim.tick(k).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "spatial user-driver ticks allocated {n} times");
+    let r = Replay::new(vec![0.0], vec![hold.clone()], hold.len()).unwrap();
+    let mut sim = Simulation::with_plant(sp_plant, &start, &sensors, r, None, ssp).unwrap();
+    sim.tick(0).unwrap();
+    let n = count(|| {
+        for k in 1..100 {
+            sim.tick(k).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "spatial replay ticks allocated {n} times");
 }

@@ -462,7 +462,7 @@ fn ticks_allocate_nothing() {
         .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let (q, _, qd, _) = plant.split(&y);
-    let forces = [Vector2::new(1.0, -5.0), Vector2::new(-1.0, -5.0)];
+    let forces = [1.0, -5.0, -1.0, -5.0];
     for s in [
         NetworkStructure::per_axis(),
         NetworkStructure::QuasiRandom { n: 256, seed: 1 },
@@ -472,7 +472,7 @@ fn ticks_allocate_nothing() {
         let meas = Measurements {
             q,
             qd,
-            forces: &forces,
+            wrenches: &forces,
         };
         c.start(0.0, &meas);
         let mut tau = vec![0.0; q.len()];

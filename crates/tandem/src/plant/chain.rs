@@ -1,7 +1,7 @@
 //! What the simulation loop needs from a closed-chain plant, planar or spatial.
 //!
 //! One trait, two implementations ([`Plant`](super::Plant): planar arms with point grasps and
-//! 2-D grasp forces; [`SpatialPlant`](super::spatial::SpatialPlant): URDF arms with welds and
+//! 2-D grasp forces; [`SpatialPlant`]: URDF arms with welds and
 //! 6-D grasp wrenches). Both keep a flat state `y` (the integrators' view), hold the input over
 //! a step (zero-order hold), and report their grasp wrenches as the wrist sensors read them, so
 //! one loop, one sensor model and one set of health checks serve both. See the crate docs,
@@ -581,6 +581,8 @@ impl ClosedChain for super::spatial::SpatialPlant {
         let n = SpatialPlant::n_q(self);
         y[n..n + 7].to_vec()
     }
+    /// SPEC-spatial S7 (the planar §5 columns on six outputs): `x_o.{x,y,z}` (m),
+    /// `x_o.{qw,qx,qy,qz}` (1), `v_o.*` (m/s), `w_o.*` (rad/s, world axes).
     fn object_columns(&self) -> Vec<ColumnSpec> {
         let mut c = Vec::with_capacity(13);
         for a in ["x", "y", "z"] {
@@ -638,6 +640,7 @@ impl ClosedChain for super::spatial::SpatialPlant {
             ("tz", "N m"),
         ]
     }
+    /// Both weld residuals (SPEC-spatial S4: drift < 1e-9 m and 1e-9 rad).
     fn drift_columns(&self) -> Vec<ColumnSpec> {
         vec![col("drift", "m"), col("drift_rot", "rad")]
     }
