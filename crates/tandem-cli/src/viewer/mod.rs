@@ -29,7 +29,6 @@ use serde_json::{Value, json};
 use tandem::dynamics::{self, ChainData};
 use tandem::plant::spatial::SpatialPlant;
 
-pub use snapshot::write_snapshots;
 
 /// The page template (the data and the script are substituted in).
 const HTML_TEMPLATE: &str = include_str!("viewer.html");
@@ -331,6 +330,15 @@ pub fn write_viewer_file(scene: &Scene3d, dir: &Path) -> Result<std::path::PathB
     let path = dir.join("viewer.html");
     crate::output::write_text_atomic(&path, &write_viewer(scene))?;
     Ok(path)
+}
+
+/// Writes `snapshot_front`, `snapshot_side` and `snapshot_top` (`.png` and `.svg`, each whole
+/// or not at all) into `dir`: orthographic views (front looks along +y, side along −x, top
+/// along −z) of the first valid frame (faded) and the last (solid), with the box, the desired
+/// and traced paths, the end pose's tool frames, metre axes and a legend. Errors if no frame
+/// is valid.
+pub fn write_snapshots(scene: &Scene3d, dir: &Path) -> Result<()> {
+    snapshot::write(scene, dir)
 }
 
 fn html_escape(s: &str) -> String {

@@ -43,7 +43,7 @@ const VIEWS: [View; 3] = [
 ];
 
 /// Palette indices: arms (cycled), box, desired, traced.
-const ARM_COLOURS: [usize; 4] = [2, 4, 9, 6];
+const ARM_COLOURS: [usize; 4] = [4, 8, 7, 6];
 const BOX_COLOUR: usize = 5;
 
 /// `c` mixed with white (`a` = share of white), for the faded start pose.
@@ -117,9 +117,8 @@ fn arm_points(scene: &Scene3d, a: usize, k: usize) -> Vec<[f64; 3]> {
     pts
 }
 
-/// Writes `snapshot_front`, `snapshot_side` and `snapshot_top` (`.png` and `.svg`) into `dir`:
-/// the first valid frame faded, the last valid frame solid. Errors if no frame is valid.
-pub fn write_snapshots(scene: &Scene3d, dir: &Path) -> Result<()> {
+/// See [`super::write_snapshots`].
+pub fn write(scene: &Scene3d, dir: &Path) -> Result<()> {
     let valid: Vec<usize> = (0..scene.times.len())
         .filter(|&k| frame_valid(scene, k))
         .collect();
@@ -251,7 +250,21 @@ pub fn write_snapshots(scene: &Scene3d, dir: &Path) -> Result<()> {
         } else {
             format!("{}: t = {t0:.2} s (faded) and {t1:.2} s", scene.title)
         };
-        plot::panels_sized(&dir.join(view.stem), &title, &[panel], 1, (900, 900))?;
+        // Size the figure to the data's aspect (the axes are equally scaled), so the view is
+        // not padded with empty metres: about 200 px of titles, legend and labels above and
+        // below the axes, 100 px beside them.
+        let mut ext = [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
+        for (_, l, _) in &bufs {
+            for (x, y) in l.x.iter().zip(&l.y) {
+                if x.is_finite() && y.is_finite() {
+                    ext = [ext[0].min(*x), ext[1].max(*x), ext[2].min(*y), ext[3].max(*y)];
+                }
+            }
+        }
+        let aspect = ((ext[3] - ext[2]) / (ext[1] - ext[0]).max(1e-6)).clamp(0.3, 1.6);
+        let legend_rows = bufs.len().div_ceil(4) as f64;
+        let height = (150.0 + 21.0 * legend_rows + 800.0 * aspect).round() as u32;
+        plot::panels_sized(&dir.join(view.stem), &title, &[panel], 1, (900, height))?;
     }
     Ok(())
 }

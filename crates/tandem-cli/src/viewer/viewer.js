@@ -14,16 +14,17 @@
     play: play,
     pause: pause,
     time: function () { return cur; },
-    setView: setView
+    setView: setView,
+    armScreenBox: armScreenBox
   };
   window.tandemViewer = api;
 
   // ---------------------------------------------------------------------------------------
   // Colours (matplotlib tab10, as the figures and snapshots).
-  var ARM_COLOURS = [[44, 160, 44], [148, 103, 189], [23, 190, 207], [227, 119, 194]];
+  var ARM_COLOURS = [[148, 103, 189], [188, 189, 34], [127, 127, 127], [227, 119, 194]];
   var C = {
     box: [140, 86, 75], desired: [255, 127, 14], traced: [31, 119, 180], joint: [70, 70, 74],
-    base: [110, 110, 116], force: [200, 20, 150], torque: [150, 150, 20],
+    base: [110, 110, 116], force: [200, 20, 150], torque: [0, 128, 128],
     x: [214, 39, 40], y: [44, 160, 44], z: [31, 119, 180], grid: [190, 196, 205], grid10: [160, 166, 176]
   };
   function rgb(c) { return [c[0] / 255, c[1] / 255, c[2] / 255]; }
@@ -422,6 +423,7 @@
 
     if (frame) {
       // Arms: base pedestal, links as capsules (cylinders + joint spheres), tool frames.
+      var tools = [];
       S.arms.forEach(function (a, i) {
         var col = ARM_COLOURS[i % ARM_COLOURS.length];
         var ja = a.joints[frame.k], jb = a.joints[frame.k2];
@@ -434,27 +436,30 @@
           cylinder(pts[s], pts[s + 1], r, col);
           if (s > 0) sphere(pts[s], r * 1.18, C.joint);
         }
-        var L = 0.09, ar = 0.0045;
-        cylinder(tool.p, add(tool.p, qrot(tool.q, [L, 0, 0])), ar, C.x);
-        cylinder(tool.p, add(tool.p, qrot(tool.q, [0, L, 0])), ar, C.y);
-        cylinder(tool.p, add(tool.p, qrot(tool.q, [0, 0, L])), ar, C.z);
-        sphere(tool.p, 0.009, [30, 30, 30]);
-        // Grasp wrench on the tool: force and torque arrows at the tool origin.
-        if (hasWrench) {
-          var wf = S.wrenches[frame.k], ws = wf && wf[i];
-          if (ws && ws[0] !== null && ws[1] !== null && ws[2] !== null) {
-            arrow(tool.p, scl([ws[0], ws[1], ws[2]], 0.1 / fPer01), 0.007, C.force);
-          }
-          if (ws && ws[3] !== null && ws[4] !== null && ws[5] !== null && tMax > 0) {
-            arrow(tool.p, scl([ws[3], ws[4], ws[5]], 0.1 / tPer01), 0.005, C.torque);
-          }
-        }
+        tools.push(tool);
       });
       // The object box, slightly transparent so that the tool frames inside stay visible.
       var ob = poseAt(S.object, frame), bs = S.box;
       gl.enable(gl.BLEND); gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA); gl.depthMask(false);
       drawMesh(CUBE, basis(ob.p, scl(qrot(ob.q, [1, 0, 0]), bs[0]), scl(qrot(ob.q, [0, 1, 0]), bs[1]), scl(qrot(ob.q, [0, 0, 1]), bs[2])), C.box, 0.78);
       gl.depthMask(true); gl.disable(gl.BLEND);
+      // Tool frames and grasp wrenches after the box (which writes no depth), so that they
+      // stay readable inside it; the arms still hide them.
+      tools.forEach(function (tool, i) {
+        var L = 0.09, ar = 0.0045;
+        cylinder(tool.p, add(tool.p, qrot(tool.q, [L, 0, 0])), ar, C.x);
+        cylinder(tool.p, add(tool.p, qrot(tool.q, [0, L, 0])), ar, C.y);
+        cylinder(tool.p, add(tool.p, qrot(tool.q, [0, 0, L])), ar, C.z);
+        sphere(tool.p, 0.009, [30, 30, 30]);
+        if (!hasWrench) return;
+        var wf = S.wrenches[frame.k], ws = wf && wf[i];
+        if (ws && ws[0] !== null && ws[1] !== null && ws[2] !== null && fMax > 0) {
+          arrow(tool.p, scl([ws[0], ws[1], ws[2]], 0.1 / fPer01), 0.007, C.force);
+        }
+        if (ws && ws[3] !== null && ws[4] !== null && ws[5] !== null && tMax > 0) {
+          arrow(tool.p, scl([ws[3], ws[4], ws[5]], 0.1 / tPer01), 0.005, C.torque);
+        }
+      });
     }
     updateHud();
     dirty = false;
@@ -463,6 +468,10 @@
   // ---------------------------------------------------------------------------------------
   // HUD, legend and controls.
   function esc(s) { return String(s).replace(/[&<>"]/g, function (c) { return { '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;' }[c]; }); }
+  function vnorm(w, o) { // |w[o..o+3]|, NaN if a component is missing (null)
+    if (w[o] === null || w[o + 1] === null || w[o + 2] === null) return NaN;
+    return norm([w[o], w[o + 1], w[o + 2]]);
+  }
   function fmt(v) {
     if (v === null || v === undefined || !isFinite(v)) return 'n/a';
     var a = Math.abs(v);
@@ -477,7 +486,12 @@
       var v = f && f.k2 !== f.k ? (s.values[f.k] === null || s.values[f.k2] === null ? null : s.values[f.k] + (s.values[f.k2] - s.values[f.k]) * f.s) : s.values[k];
       rows.push('<div class="num">' + esc(s.name) + ' = ' + fmt(v) + (s.unit ? ' ' + esc(s.unit) : '') + '</div>');
     });
-    if (hasWrench && fMax > 0) rows.push('<div class="num">force arrows: 0.1 m = ' + fmt(fPer01) + ' N' + (tMax > 0 ? ' · torque arrows: 0.1 m = ' + fmt(tPer01) + ' N m' : '') + '</div>');
+    if (hasWrench && fMax > 0) rows.push('<div class="num">force arrows: 0.1 m = ' + Number(fPer01.toPrecision(3)) + ' N' + (tMax > 0 ? ' · torque arrows: 0.1 m = ' + Number(tPer01.toPrecision(3)) + ' N m' : '') + '</div>');
+    if (f && hasWrench) S.arms.forEach(function (a, i) {
+      var wf = S.wrenches[f.k], w = wf && wf[i];
+      if (!w) return;
+      rows.push('<div class="num">' + esc(a.name) + ': |f| = ' + fmt(vnorm(w, 0)) + ' N, |τ| = ' + fmt(vnorm(w, 3)) + ' N m</div>');
+    });
     if (!hasWrench) rows.push('<div class="num">no grasp wrenches in this run</div>');
     if (firstValid < 0) rows.push('<div class="warn">no frame with finite values: nothing to draw</div>');
     else if (f && f.skipped) rows.push('<div class="warn">the frame at this time has non-finite values: frame ' + (f.k + 1) + ' is shown</div>');
@@ -501,6 +515,25 @@
       return '<div><i style="background:' + css(it[0]) + '"></i>' + esc(it[1]) + '</div>';
     }).join('');
   })();
+
+  // CSS-pixel bounding box {x0, y0, x1, y1} of the arms' points at the current time (tests).
+  function armScreenBox() {
+    var f = frameAt(cur), box = { x0: Infinity, y0: Infinity, x1: -Infinity, y1: -Infinity };
+    if (!f || !VP) return null;
+    S.arms.forEach(function (a) {
+      var pts = [a.base].concat(a.joints[f.k], [a.tool[f.k]]);
+      pts.forEach(function (p) {
+        var x = VP[0] * p[0] + VP[4] * p[1] + VP[8] * p[2] + VP[12];
+        var y = VP[1] * p[0] + VP[5] * p[1] + VP[9] * p[2] + VP[13];
+        var w = VP[3] * p[0] + VP[7] * p[1] + VP[11] * p[2] + VP[15];
+        if (!(w > 0)) return;
+        var sx = (x / w * 0.5 + 0.5) * canvas.clientWidth, sy = (0.5 - y / w * 0.5) * canvas.clientHeight;
+        box.x0 = Math.min(box.x0, sx); box.y0 = Math.min(box.y0, sy);
+        box.x1 = Math.max(box.x1, sx); box.y1 = Math.max(box.y1, sy);
+      });
+    });
+    return isFinite(box.x0) ? box : null;
+  }
 
   function seek(t) {
     var v = Number(t);
