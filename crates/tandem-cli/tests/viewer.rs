@@ -58,12 +58,7 @@ fn listing(dir: &Path) -> Vec<String> {
 fn ur5_scene(seconds: f64, fps: f64) -> Scene3d {
     let path = Se3Path::spec_s6();
     let pb = demo::play(&tandem::fixtures::dual_ur5(), &path, seconds, fps).expect("playback");
-    demo::scene(
-        "dual UR5, S6 path, kinematic playback",
-        &pb,
-        &path,
-        BOX,
-    )
+    demo::scene("dual UR5, S6 path, kinematic playback", &pb, &path, BOX)
 }
 
 /// The S6 circle about the Franka set-up's start (box at z = 0.35 m), played kinematically.
@@ -72,12 +67,7 @@ fn franka_scene(seconds: f64, fps: f64) -> Scene3d {
     c.center = Vector3::new(-0.1, 0.0, 0.35);
     let path = Se3Path::circle(&c).expect("circle");
     let pb = demo::play(&tandem::fixtures::dual_franka(), &path, seconds, fps).expect("playback");
-    demo::scene(
-        "dual Franka, kinematic playback",
-        &pb,
-        &path,
-        BOX,
-    )
+    demo::scene("dual Franka, kinematic playback", &pb, &path, BOX)
 }
 
 /// The JSON embedded in a page.
@@ -118,7 +108,10 @@ fn write_all(scene: &Scene3d, name: &str) -> (PathBuf, String) {
         let png = fs::read(dir.join(format!("snapshot_{v}.png"))).expect("png");
         assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{name}: {v} is a PNG");
         let svg = fs::read_to_string(dir.join(format!("snapshot_{v}.svg"))).expect("svg");
-        assert!(svg.contains("<svg") && svg.contains("[m]"), "{name}: {v} svg");
+        assert!(
+            svg.contains("<svg") && svg.contains("[m]"),
+            "{name}: {v} svg"
+        );
     }
     (html_path, html)
 }
@@ -135,16 +128,25 @@ fn dual_ur5_playback_page_and_snapshots() {
     for k in [0, 450, 900, 1800] {
         let (p, _) = scene.object.poses[k];
         let d = Se3Path::spec_s6().sample(scene.times[k]).p;
-        assert!((Vector3::from(p) - d).norm() < 1e-12, "frame {k}: box on the path");
+        assert!(
+            (Vector3::from(p) - d).norm() < 1e-12,
+            "frame {k}: box on the path"
+        );
         for a in &scene.arms {
             let t = Vector3::from(a.tool[k].0);
-            assert!(((t - Vector3::from(p)).norm() - 0.2).abs() < 1e-6, "frame {k}");
+            assert!(
+                ((t - Vector3::from(p)).norm() - 0.2).abs() < 1e-6,
+                "frame {k}"
+            );
         }
     }
     let (path, html) = write_all(&scene, "ur5");
     let size = fs::metadata(&path).unwrap().len();
     println!("dual UR5, 60 s at 30 fps: viewer.html {size} bytes");
-    assert!(size < 2_000_000, "a minute at 30 fps stays small ({size} B)");
+    assert!(
+        size < 2_000_000,
+        "a minute at 30 fps stays small ({size} B)"
+    );
     let data = page_data(&html);
     assert_eq!(data["times"].as_array().unwrap().len(), 1801);
     assert_eq!(data["arms"][0]["joints"][0].as_array().unwrap().len(), 6);
@@ -326,7 +328,10 @@ fn renders_in_headless_chromium() {
         if name == "nan-state" {
             // t = T/2 = 2 s is frame 20, whose state holds an infinity: the HUD says so.
             let hud = r["hud_text"][1].as_str().unwrap();
-            assert!(hud.contains("non-finite values: frame 20 is shown"), "{hud}");
+            assert!(
+                hud.contains("non-finite values: frame 20 is shown"),
+                "{hud}"
+            );
         }
         if name == "single-frame" {
             assert_eq!(r["arm_box_diff_share"], 0.0, "one frame: nothing moves");

@@ -14,7 +14,7 @@ use tandem::fixtures::SpatialSetup;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::reference::se3_path::Se3Path;
 
-use super::{Scene3d, ScalarTrack, scene_from_states};
+use super::{ScalarTrack, Scene3d, scene_from_states};
 
 /// A kinematic playback: the plant, the frame times and the flat states.
 pub struct Playback {
@@ -30,7 +30,10 @@ pub struct Playback {
 /// least one frame). Errors name the frame whose pose the chain cannot reach.
 pub fn play(setup: &SpatialSetup, path: &Se3Path, t_end: f64, fps: f64) -> Result<Playback> {
     let plant = SpatialPlant::new(&setup.params).context("the set-up's plant is invalid")?;
-    let frames = ((t_end * fps).round() as usize).max(0) + 1;
+    if !(t_end >= 0.0 && t_end.is_finite() && fps > 0.0 && fps.is_finite()) {
+        anyhow::bail!("kinematic playback needs t_end ≥ 0 and fps > 0 (got {t_end} s, {fps} /s)");
+    }
+    let frames = (t_end * fps).round() as usize + 1;
     let mut q = setup.q_guess.clone();
     let mut times = Vec::with_capacity(frames);
     let mut states = Vec::with_capacity(frames);

@@ -29,7 +29,6 @@ use serde_json::{Value, json};
 use tandem::dynamics::{self, ChainData};
 use tandem::plant::spatial::SpatialPlant;
 
-
 /// The page template (the data and the script are substituted in).
 const HTML_TEMPLATE: &str = include_str!("viewer.html");
 /// The viewer's script (plain WebGL, no library).
@@ -228,8 +227,7 @@ fn pose7(x: &([f64; 3], [f64; 4])) -> Value {
 /// Whether every value of a frame's geometry is finite.
 fn frame_valid(scene: &Scene3d, k: usize) -> bool {
     let fin3 = |p: &[f64; 3]| p.iter().all(|v| v.is_finite());
-    let fin_pose =
-        |x: &([f64; 3], [f64; 4])| fin3(&x.0) && x.1.iter().all(|v| v.is_finite());
+    let fin_pose = |x: &([f64; 3], [f64; 4])| fin3(&x.0) && x.1.iter().all(|v| v.is_finite());
     scene.object.poses.get(k).is_some_and(fin_pose)
         && scene.arms.iter().all(|a| {
             a.joints.get(k).is_some_and(|j| j.iter().all(fin3))

@@ -11,7 +11,7 @@ use std::path::Path;
 use anyhow::{Result, bail};
 
 use super::{Scene3d, frame_valid};
-use crate::plot::{self, Colour, Panel, PALETTE, Series, Style};
+use crate::plot::{self, Colour, PALETTE, Panel, Series, Style};
 
 /// One orthographic view: file stem, title, the two world axes shown (index, label).
 struct View {
@@ -76,8 +76,16 @@ impl Lines {
 fn rotate(q: &[f64; 4], v: [f64; 3]) -> [f64; 3] {
     let (w, x, y, z) = (q[0], q[1], q[2], q[3]);
     // v + 2 w (u × v) + 2 u × (u × v), u = (x, y, z).
-    let c1 = [y * v[2] - z * v[1], z * v[0] - x * v[2], x * v[1] - y * v[0]];
-    let c2 = [y * c1[2] - z * c1[1], z * c1[0] - x * c1[2], x * c1[1] - y * c1[0]];
+    let c1 = [
+        y * v[2] - z * v[1],
+        z * v[0] - x * v[2],
+        x * v[1] - y * v[0],
+    ];
+    let c2 = [
+        y * c1[2] - z * c1[1],
+        z * c1[0] - x * c1[2],
+        x * c1[1] - y * c1[0],
+    ];
     [
         v[0] + 2.0 * (w * c1[0] + c2[0]),
         v[1] + 2.0 * (w * c1[1] + c2[1]),
@@ -147,7 +155,7 @@ pub fn write(scene: &Scene3d, dir: &Path) -> Result<()> {
                     }
                 }
             }
-            let pad = 0.1 * (hi - lo).max(0.2);
+            let pad = 0.3;
             let l = Lines {
                 x: vec![lo - pad, hi + pad],
                 y: vec![0.0, 0.0],
@@ -253,15 +261,25 @@ pub fn write(scene: &Scene3d, dir: &Path) -> Result<()> {
         // Size the figure to the data's aspect (the axes are equally scaled), so the view is
         // not padded with empty metres: about 200 px of titles, legend and labels above and
         // below the axes, 100 px beside them.
-        let mut ext = [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
+        let mut ext = [
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
         for (_, l, _) in &bufs {
             for (x, y) in l.x.iter().zip(&l.y) {
                 if x.is_finite() && y.is_finite() {
-                    ext = [ext[0].min(*x), ext[1].max(*x), ext[2].min(*y), ext[3].max(*y)];
+                    ext = [
+                        ext[0].min(*x),
+                        ext[1].max(*x),
+                        ext[2].min(*y),
+                        ext[3].max(*y),
+                    ];
                 }
             }
         }
-        let aspect = ((ext[3] - ext[2]) / (ext[1] - ext[0]).max(1e-6)).clamp(0.3, 1.6);
+        let aspect = ((ext[3] - ext[2]) / (ext[1] - ext[0]).max(1e-6)).clamp(0.35, 1.0);
         let legend_rows = bufs.len().div_ceil(4) as f64;
         let height = (150.0 + 21.0 * legend_rows + 800.0 * aspect).round() as u32;
         plot::panels_sized(&dir.join(view.stem), &title, &[panel], 1, (900, height))?;
