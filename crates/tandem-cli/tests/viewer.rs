@@ -316,6 +316,21 @@ fn renders_in_headless_chromium() {
         "the arms moved on screen ({d} of {} pixels differ)",
         r["arm_box_pixels"]
     );
+    // The controls: space plays (at 4× for 0.5 s) and pauses; buttons, orbit, zoom and pan
+    // change the picture.
+    let c = &r["controls"];
+    let played = c["space_played_s"].as_f64().unwrap();
+    assert!(played > 0.5 && played < 4.0, "played {played} s of the run");
+    for k in [
+        "space_paused",
+        "top_button",
+        "reset_button",
+        "orbit",
+        "zoom",
+        "pan",
+    ] {
+        assert_eq!(c[k], true, "control {k}: {c}");
+    }
     // The 7-DOF pair and the edge cases render without error too.
     let (html, _) = write_all(&franka_scene(20.0, 10.0), "browser-franka");
     let r = check_in_browser(&exe, &dir, &html);

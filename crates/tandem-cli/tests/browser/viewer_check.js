@@ -130,7 +130,50 @@ function inside(r, x, y) { return r && x >= r.x && x < r.x + r.width && y >= r.y
         }
       }
     }
+    // Controls: the space bar plays and pauses, 4× speed advances time, the view buttons and
+    // a left drag (orbit), a wheel turn (zoom) and a right drag (pan) change the picture.
+    const sample = () => page.evaluate(() => {
+      const c = document.getElementById('gl'), g = c.getContext('webgl');
+      const px = new Uint8Array(4 * 64 * 64);
+      g.readPixels(c.width / 2 - 32, c.height / 2 - 32, 64, 64, g.RGBA, g.UNSIGNED_BYTE, px);
+      let h = 0;
+      for (let i = 0; i < px.length; i++) h = (h * 31 + px[i]) >>> 0;
+      return h;
+    });
+    const controls = {};
+    if (info.frames > 1) {
+      await page.evaluate(() => window.tandemViewer.seek(0));
+      await page.selectOption('#speed', '4');
+      await page.mouse.click(600, 400); // focus the page (a click without a drag)
+      await page.keyboard.press(' ');
+      await page.waitForTimeout(500);
+      await page.keyboard.press(' ');
+      const t1 = await page.evaluate(() => window.tandemViewer.time());
+      await page.waitForTimeout(200);
+      const t2 = await page.evaluate(() => window.tandemViewer.time());
+      controls.space_played_s = t1;
+      controls.space_paused = t1 === t2;
+    }
+    const changes = async (act) => {
+      const before = await sample();
+      await act();
+      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+      return (await sample()) !== before;
+    };
+    controls.top_button = await changes(() => page.click('button[data-view=top]'));
+    controls.reset_button = await changes(() => page.click('#reset'));
+    controls.orbit = await changes(async () => {
+      await page.mouse.move(600, 420); await page.mouse.down();
+      await page.mouse.move(700, 380, { steps: 5 }); await page.mouse.up();
+    });
+    controls.zoom = await changes(async () => { await page.mouse.move(600, 420); await page.mouse.wheel(0, 400); });
+    controls.pan = await changes(async () => {
+      await page.mouse.move(600, 420); await page.mouse.down({ button: 'right' });
+      await page.mouse.move(520, 470, { steps: 5 }); await page.mouse.up({ button: 'right' });
+    });
+
     const report = {
+      controls,
       frames: info.frames, duration: info.duration, t: [a.t, b.t], arms: [a.arms, b.arms], box,
       hud: a.hud, hud_text: [a.hudText, b.hudText], requests, problems,
       arm_box_pixels: inBox, arm_box_diff_share: inBox ? diffInBox / inBox : 0, hud_diff_pixels: diffHud,
