@@ -335,6 +335,15 @@ fn renders_in_headless_chromium() {
     let (html, _) = write_all(&franka_scene(20.0, 10.0), "browser-franka");
     let r = check_in_browser(&exe, &dir, &html);
     assert!(r["arm_box_diff_share"].as_f64().unwrap() > 0.05, "{r}");
+    // No frame at all: the page still loads without error (the snapshots refuse, see above).
+    let empty = Scene3d {
+        title: "empty".into(),
+        ..Scene3d::default()
+    };
+    let html = viewer::write_viewer_file(&empty, &scratch("browser-empty")).unwrap();
+    let r = check_in_browser(&exe, &dir, &html);
+    let hud = r["hud_text"][0].as_str().unwrap();
+    assert!(hud.contains("no frame with finite values"), "{hud}");
     for (name, scene) in edge_scenes() {
         let (html, _) = write_all(&scene, &format!("browser-{name}"));
         let r = check_in_browser(&exe, &dir, &html);
