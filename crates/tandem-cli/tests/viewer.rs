@@ -215,6 +215,23 @@ fn edge_cases_write_whole_pages() {
 }
 
 #[test]
+fn state_of_the_wrong_length_is_a_skipped_frame() {
+    let setup = tandem::fixtures::dual_ur5();
+    let plant = tandem::plant::spatial::SpatialPlant::new(&setup.params).unwrap();
+    let good = plant
+        .initial_state(&setup.x_wo, &Default::default(), &setup.q_guess)
+        .unwrap();
+    let states = vec![good.clone(), vec![0.0; 3], good];
+    let scene = viewer::scene_from_states("short state", &plant, BOX, &[0.0, 0.1, 0.2], &states);
+    assert!(scene.arms[0].joints[1].iter().all(|p| p[0].is_nan()));
+    assert!(scene.object.poses[1].0[0].is_nan());
+    let data = viewer::scene_json(&scene);
+    assert_eq!(data["valid"], serde_json::json!([true, false, true]));
+    assert!(data["object"][1].is_null() && data["arms"][1]["tool"][1].is_null());
+    assert_eq!(data["arms"][0]["name"], "arm 1 (ur5)");
+}
+
+#[test]
 fn no_frame_at_all() {
     let scene = Scene3d {
         title: "empty".into(),

@@ -25,7 +25,7 @@
   var C = {
     box: [140, 86, 75], desired: [255, 127, 14], traced: [31, 119, 180], joint: [70, 70, 74],
     base: [110, 110, 116], force: [200, 20, 150], torque: [0, 128, 128],
-    x: [214, 39, 40], y: [44, 160, 44], z: [31, 119, 180], grid: [190, 196, 205], grid10: [160, 166, 176]
+    x: [214, 39, 40], y: [44, 160, 44], z: [40, 70, 235], grid: [190, 196, 205], grid10: [160, 166, 176]
   };
   function rgb(c) { return [c[0] / 255, c[1] / 255, c[2] / 255]; }
   function css(c) { return 'rgb(' + c[0] + ',' + c[1] + ',' + c[2] + ')'; }
@@ -402,12 +402,7 @@
     lines(GRID_MINOR, C.grid, 1, gl.LINES);
     lines(GRID_MAJOR, C.grid10, 1, gl.LINES);
     lines(AXES[0], C.x, 1, gl.LINES); lines(AXES[1], C.y, 1, gl.LINES); lines(AXES[2], C.z, 1, gl.LINES);
-    if (DESIRED.count > 1) lines(DESIRED, C.desired, 1, gl.LINE_STRIP);
     frame = frameAt(cur);
-    if (frame && N > 0) {
-      var upto = Math.min(N, frame.k + 1);
-      if (upto > 1) lines(TRACED, C.traced, 1, gl.LINE_STRIP, upto);
-    }
 
     gl.useProgram(meshProg.p);
     gl.enableVertexAttribArray(0); gl.enableVertexAttribArray(1);
@@ -460,6 +455,17 @@
           arrow(tool.p, scl([ws[3], ws[4], ws[5]], 0.1 / tPer01), 0.005, C.torque);
         }
       });
+    }
+    // The paths after the box too: they run through its centre.
+    gl.useProgram(lineProg.p);
+    gl.enableVertexAttribArray(0); gl.disableVertexAttribArray(1);
+    // The desired path writes no depth, so the traced one shows on top where they coincide.
+    gl.depthMask(false);
+    if (DESIRED.count > 1) lines(DESIRED, C.desired, 1, gl.LINE_STRIP);
+    gl.depthMask(true);
+    if (frame && N > 0) {
+      var upto = Math.min(N, frame.k + 1);
+      if (upto > 1) lines(TRACED, C.traced, 1, gl.LINE_STRIP, upto);
     }
     updateHud();
     dirty = false;
