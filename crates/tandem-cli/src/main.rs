@@ -19,6 +19,9 @@ mod scenario;
 mod scene;
 mod suggest;
 mod table;
+// The 3-D viewer: the spatial `run` command will call it; its tests and example use it now.
+#[allow(dead_code)]
+mod viewer;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
