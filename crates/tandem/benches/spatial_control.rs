@@ -16,14 +16,25 @@ use tandem::reference::se3_path::Se3Path;
 use tandem::sensors::SensorParams;
 use tandem::sim::{Formulation, Measurements, SimParams, Simulation, SpatialStart};
 
-fn sim(franka: bool, law: SpatialLaw, duration: f64) -> Simulation<SpatialPlant, SpatialController> {
-    let s = if franka { fixtures::dual_franka() } else { fixtures::dual_ur5() };
+fn sim(
+    franka: bool,
+    law: SpatialLaw,
+    duration: f64,
+) -> Simulation<SpatialPlant, SpatialController> {
+    let s = if franka {
+        fixtures::dual_franka()
+    } else {
+        fixtures::dual_ur5()
+    };
     let p = SpatialControllerParams::spec_s6(law);
     let path = Se3Path::spec_s6();
     let (c, _) = SpatialController::new(&p, &s.params, path.clone(), duration, &s.q_guess).unwrap();
     let d0 = path.sample(0.0);
     let start = SpatialStart {
-        x_wo: Isometry3::from_parts(Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)), d0.r),
+        x_wo: Isometry3::from_parts(
+            Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)),
+            d0.r,
+        ),
         q_guess: s.q_guess.clone(),
     };
     Simulation::with_plant(
@@ -49,10 +60,26 @@ fn sim(franka: bool, law: SpatialLaw, duration: f64) -> Simulation<SpatialPlant,
 fn bench(c: &mut Criterion) {
     // Controller ticks alone, at the state reached after 1 s of the closed loop.
     for (name, franka, law) in [
-        ("nn_dual_ur5", false, SpatialLaw::Nn(SpatialNnGains::dual_ur5())),
-        ("pd_dual_ur5", false, SpatialLaw::Pd(SpatialPdGains::paper())),
-        ("ctc_dual_ur5", false, SpatialLaw::Ctc(SpatialCtcGains::default())),
-        ("nn_dual_franka", true, SpatialLaw::Nn(SpatialNnGains::dual_franka())),
+        (
+            "nn_dual_ur5",
+            false,
+            SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
+        ),
+        (
+            "pd_dual_ur5",
+            false,
+            SpatialLaw::Pd(SpatialPdGains::paper()),
+        ),
+        (
+            "ctc_dual_ur5",
+            false,
+            SpatialLaw::Ctc(SpatialCtcGains::default()),
+        ),
+        (
+            "nn_dual_franka",
+            true,
+            SpatialLaw::Nn(SpatialNnGains::dual_franka()),
+        ),
     ] {
         let law2 = law.clone();
         let mut s = sim(franka, law, 2.0);
@@ -63,7 +90,11 @@ fn bench(c: &mut Criterion) {
         let y = s.state().to_vec();
         let (q, qd) = (y[..n].to_vec(), y[n + 7..2 * n + 7].to_vec());
         let wr = s.last_readings().to_vec();
-        let s2 = if franka { fixtures::dual_franka() } else { fixtures::dual_ur5() };
+        let s2 = if franka {
+            fixtures::dual_franka()
+        } else {
+            fixtures::dual_ur5()
+        };
         let (mut controller, _) = SpatialController::new(
             &SpatialControllerParams::spec_s6(law2),
             &s2.params,
@@ -72,7 +103,11 @@ fn bench(c: &mut Criterion) {
             &s2.q_guess,
         )
         .unwrap();
-        let meas = Measurements { q: &q, qd: &qd, wrenches: &wr };
+        let meas = Measurements {
+            q: &q,
+            qd: &qd,
+            wrenches: &wr,
+        };
         controller.start(1.0, &meas);
         let mut tau = vec![0.0; n];
         let mut rec = SpatialTickRecord::new(2);
@@ -86,8 +121,16 @@ fn bench(c: &mut Criterion) {
     }
     // Closed-loop ticks (the real-time factor of a run).
     for (name, franka, law) in [
-        ("nn_dual_ur5", false, SpatialLaw::Nn(SpatialNnGains::dual_ur5())),
-        ("nn_dual_franka", true, SpatialLaw::Nn(SpatialNnGains::dual_franka())),
+        (
+            "nn_dual_ur5",
+            false,
+            SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
+        ),
+        (
+            "nn_dual_franka",
+            true,
+            SpatialLaw::Nn(SpatialNnGains::dual_franka()),
+        ),
     ] {
         let mut s = sim(franka, law, 120.0);
         let mut k = 0;

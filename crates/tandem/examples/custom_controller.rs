@@ -157,9 +157,13 @@ fn spatial_law(
 }
 
 /// A 2 N / 0.2 N m sinusoidal push on the spatial object (world axes).
-fn push(t: f64) -> Vector6<f64> {
-    let s = (2.0 * t).sin();
-    Vector6::new(2.0 * s, 0.0, 0.0, 0.0, 0.0, 0.2 * s)
+fn push() -> tandem::disturbance::SpatialDisturbance {
+    tandem::disturbance::Disturbance {
+        amplitude: [2.0, 0.0, 0.0, 0.0, 0.0, 0.2],
+        frequency: [2.0; 6],
+        phase: [0.0; 6],
+        pushes: vec![],
+    }
 }
 
 fn largest_offset(log: &Log, axes: &[&str], start: &[f64]) -> f64 {
@@ -225,7 +229,7 @@ fn main() -> Result<(), ModelError> {
         x_wo: s.x_wo,
         q_guess: s.q_guess.clone(),
     };
-    let sim = Simulation::with_plant(plant, &start, &ideal, law, Some(push), run(5e-4))?;
+    let sim = Simulation::with_plant(plant, &start, &ideal, law, push(), run(5e-4))?;
     let (out, _) = sim.run(|_| {});
     let p0 = s.x_wo.translation.vector;
     report(

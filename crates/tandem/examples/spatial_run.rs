@@ -43,7 +43,10 @@ fn main() {
     );
     let d0 = path.sample(0.0);
     let start = SpatialStart {
-        x_wo: Isometry3::from_parts(Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)), d0.r),
+        x_wo: Isometry3::from_parts(
+            Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)),
+            d0.r,
+        ),
         q_guess: setup.q_guess.clone(),
     };
     let sim = Simulation::with_plant(

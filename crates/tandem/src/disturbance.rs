@@ -9,18 +9,61 @@
 //! ([`SpatialDisturbance`], SPEC-spatial S3).
 
 use nalgebra::SVector;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, non_negative};
 
 /// A constant force/torque applied to the object during `[t0, t0 + duration)`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, bound = "")]
 pub struct Push<const N: usize = 3> {
     /// Start, s.
     pub t0: f64,
     /// Duration, s (> 0).
     pub duration: f64,
     /// Wrench on the object, (N, N, N m) in the plane; `[f; τ]` (N, N m) in space.
+    #[serde(with = "exact_array")]
     pub wrench: [f64; N],
+}
+
+/// Serde for `[f64; N]` of any `N` (serde's own impls stop at fixed sizes): a sequence of
+/// exactly `N` numbers, anything else an "invalid length" error as serde's arrays give.
+mod exact_array {
+    use serde::de::{Error, SeqAccess, Visitor};
+    use serde::{Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer, const N: usize>(v: &[f64; N], s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(v.iter())
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>, const N: usize>(
+        d: D,
+    ) -> Result<[f64; N], D::Error> {
+        struct V<const N: usize>;
+        impl<'de, const N: usize> Visitor<'de> for V<N> {
+            type Value = [f64; N];
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                write!(f, "an array of length {N}")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<[f64; N], A::Error> {
+                let mut out = [0.0; N];
+                for (k, v) in out.iter_mut().enumerate() {
+                    *v = seq
+                        .next_element()?
+                        .ok_or_else(|| Error::invalid_length(k, &self))?;
+                }
+                let mut extra = 0;
+                while seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+                    extra += 1;
+                }
+                if extra > 0 {
+                    return Err(Error::invalid_length(N + extra, &self));
+                }
+                Ok(out)
+            }
+        }
+        d.deserialize_seq(V::<N>)
+    }
 }
 
 /// Disturbance parameters (plain data).

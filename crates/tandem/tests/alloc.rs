@@ -334,11 +334,17 @@ fn generic_loop_ticks_allocate_nothing() {
         q0: vec![0.0; hold.len()],
         hold: hold.clone(),
     };
-    let mut sim =
-        Simulation::with_plant(sp_plant.clone(), &start, &sensors, drv, None, ssp.clone())
-            .unwrap()
-            .with_faults(&faults())
-            .unwrap();
+    let mut sim = Simulation::with_plant(
+        sp_plant.clone(),
+        &start,
+        &sensors,
+        drv,
+        tandem::disturbance::SpatialDisturbance::zero(),
+        ssp.clone(),
+    )
+    .unwrap()
+    .with_faults(&faults())
+    .unwrap();
     sim.tick(0).unwrap();
     let n = count(|| {
         for k in 1..100 {
@@ -347,7 +353,15 @@ fn generic_loop_ticks_allocate_nothing() {
     });
     assert_eq!(n, 0, "spatial user-driver ticks allocated {n} times");
     let r = Replay::new(vec![0.0], vec![hold.clone()], hold.len()).unwrap();
-    let mut sim = Simulation::with_plant(sp_plant, &start, &sensors, r, None, ssp).unwrap();
+    let mut sim = Simulation::with_plant(
+        sp_plant,
+        &start,
+        &sensors,
+        r,
+        tandem::disturbance::SpatialDisturbance::zero(),
+        ssp,
+    )
+    .unwrap();
     sim.tick(0).unwrap();
     let n = count(|| {
         for k in 1..100 {

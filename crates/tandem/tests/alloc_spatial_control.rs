@@ -33,34 +33,91 @@ fn the_counter_counts() {
 #[test]
 fn every_spatial_law_and_scheme_ticks_without_allocating() {
     let noisy = SensorParams {
-        force: ChannelNoise { std_dev: 0.05, ..Default::default() },
-        torque: ChannelNoise { std_dev: 0.005, ..Default::default() },
-        encoder_q: ChannelNoise { std_dev: 1e-6, ..Default::default() },
+        force: ChannelNoise {
+            std_dev: 0.05,
+            ..Default::default()
+        },
+        torque: ChannelNoise {
+            std_dev: 0.005,
+            ..Default::default()
+        },
+        encoder_q: ChannelNoise {
+            std_dev: 1e-6,
+            ..Default::default()
+        },
         seed: 3,
         ..Default::default()
     };
     for (name, franka, law, scheme, torque_limit) in [
-        ("nn ur5", false, SpatialLaw::Nn(SpatialNnGains::dual_ur5()), Scheme::Object, None),
-        ("pd ur5", false, SpatialLaw::Pd(SpatialPdGains::paper()), Scheme::Object, Some(20.0)),
-        ("ctc ur5", false, SpatialLaw::Ctc(SpatialCtcGains::default()), Scheme::Object, None),
-        ("pd per-arm ur5", false, SpatialLaw::Pd(SpatialPdGains::paper()), Scheme::PerArm, None),
-        ("nn franka", true, SpatialLaw::Nn(SpatialNnGains::dual_franka()), Scheme::Object, None),
-        ("ctc franka", true, SpatialLaw::Ctc(SpatialCtcGains::default()), Scheme::Object, None),
+        (
+            "nn ur5",
+            false,
+            SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
+            Scheme::Object,
+            None,
+        ),
+        (
+            "pd ur5",
+            false,
+            SpatialLaw::Pd(SpatialPdGains::paper()),
+            Scheme::Object,
+            Some(20.0),
+        ),
+        (
+            "ctc ur5",
+            false,
+            SpatialLaw::Ctc(SpatialCtcGains::default()),
+            Scheme::Object,
+            None,
+        ),
+        (
+            "pd per-arm ur5",
+            false,
+            SpatialLaw::Pd(SpatialPdGains::paper()),
+            Scheme::PerArm,
+            None,
+        ),
+        (
+            "nn franka",
+            true,
+            SpatialLaw::Nn(SpatialNnGains::dual_franka()),
+            Scheme::Object,
+            None,
+        ),
+        (
+            "ctc franka",
+            true,
+            SpatialLaw::Ctc(SpatialCtcGains::default()),
+            Scheme::Object,
+            None,
+        ),
     ] {
-        let s = if franka { fixtures::dual_franka() } else { fixtures::dual_ur5() };
+        let s = if franka {
+            fixtures::dual_franka()
+        } else {
+            fixtures::dual_ur5()
+        };
         let mut p = SpatialControllerParams::spec_s6(law);
         p.scheme = scheme;
         p.torque_limit = torque_limit;
         let path = Se3Path::spec_s6();
         let duration = 0.3;
-        let (c, _) = SpatialController::new(&p, &s.params, path.clone(), duration, &s.q_guess).unwrap();
+        let (c, _) =
+            SpatialController::new(&p, &s.params, path.clone(), duration, &s.q_guess).unwrap();
         let d0 = path.sample(0.0);
         let start = SpatialStart {
-            x_wo: Isometry3::from_parts(Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)), d0.r),
+            x_wo: Isometry3::from_parts(
+                Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)),
+                d0.r,
+            ),
             q_guess: s.q_guess.clone(),
         };
         let mut dist = SpatialDisturbance::spec_s6();
-        dist.pushes = vec![Push { t0: 0.1, duration: 0.1, wrench: [5.0, 0.0, 0.0, 0.0, 0.0, 0.5] }];
+        dist.pushes = vec![Push {
+            t0: 0.1,
+            duration: 0.1,
+            wrench: [5.0, 0.0, 0.0, 0.0, 0.0, 0.5],
+        }];
         let mut sim = Simulation::with_plant(
             SpatialPlant::new(&s.params).unwrap(),
             &start,

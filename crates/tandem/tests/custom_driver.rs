@@ -251,9 +251,13 @@ fn a_user_joint_pd_holds_the_planar_paper_plant() {
 }
 
 /// A sinusoidal push on the spatial object: 2 N along x, 0.2 N m about z (world axes).
-fn push(t: f64) -> nalgebra::Vector6<f64> {
-    let s = (2.0 * t).sin();
-    nalgebra::Vector6::new(2.0 * s, 0.0, 0.0, 0.0, 0.0, 0.2 * s)
+fn push() -> tandem::disturbance::SpatialDisturbance {
+    tandem::disturbance::Disturbance {
+        amplitude: [2.0, 0.0, 0.0, 0.0, 0.0, 0.2],
+        frequency: [2.0; 6],
+        phase: [0.0; 6],
+        pushes: vec![],
+    }
 }
 
 #[test]
@@ -275,7 +279,7 @@ fn the_same_user_law_holds_the_spatial_dual_ur5() {
             &start,
             &ideal(),
             spatial_pd(&plant, &y0),
-            Some(push),
+            push(),
             sim_params(2.0, 5e-4),
         )
         .unwrap();
@@ -296,15 +300,8 @@ fn the_same_user_law_holds_the_spatial_dual_ur5() {
             "tick 0 samples the start's wrenches"
         );
     }
-    let sim = Simulation::with_plant(
-        plant,
-        &start,
-        &ideal(),
-        pd,
-        Some(push),
-        sim_params(2.0, 5e-4),
-    )
-    .unwrap();
+    let sim =
+        Simulation::with_plant(plant, &start, &ideal(), pd, push(), sim_params(2.0, 5e-4)).unwrap();
     let (out, sim) = sim.run(|_| {});
     assert!(out.fault.is_none(), "{:?}", out.fault);
     assert_eq!(out.ticks, 2000);
@@ -452,7 +449,14 @@ fn spatial_runs_check_health_and_inject_faults() {
         q_guess: s.q_guess.clone(),
     };
     let build = |p: SimParams, d: Probe| {
-        Simulation::with_plant(plant.clone(), &start, &ideal(), d, None, p)
+        Simulation::with_plant(
+            plant.clone(),
+            &start,
+            &ideal(),
+            d,
+            tandem::disturbance::SpatialDisturbance::zero(),
+            p,
+        )
     };
     // The reduced formulation is planar only: an error naming the field.
     let mut p = sim_params(0.5, 5e-4);

@@ -14,7 +14,10 @@ struct Smooth6 {
 
 impl Smooth6 {
     fn x(&self, j: usize, t: f64) -> f64 {
-        self.c[j] + (0..3).map(|i| self.a[j][i] * (self.w[j][i] * t + i as f64).sin()).sum::<f64>()
+        self.c[j]
+            + (0..3)
+                .map(|i| self.a[j][i] * (self.w[j][i] * t + i as f64).sin())
+                .sum::<f64>()
     }
     fn v(&self, j: usize, t: f64) -> f64 {
         (0..3)
@@ -23,7 +26,9 @@ impl Smooth6 {
     }
     fn a(&self, j: usize, t: f64) -> f64 {
         (0..3)
-            .map(|i| -self.a[j][i] * self.w[j][i] * self.w[j][i] * (self.w[j][i] * t + i as f64).sin())
+            .map(|i| {
+                -self.a[j][i] * self.w[j][i] * self.w[j][i] * (self.w[j][i] * t + i as f64).sin()
+            })
             .sum()
     }
 }
@@ -154,7 +159,10 @@ fn run_path(
         SpatialController::new(p, &s.params, path.clone(), duration, &s.q_guess).unwrap();
     let d0 = path.sample(0.0);
     let start = SpatialStart {
-        x_wo: Isometry3::from_parts(Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)), d0.r),
+        x_wo: Isometry3::from_parts(
+            Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)),
+            d0.r,
+        ),
         q_guess: s.q_guess.clone(),
     };
     let mut dist = SpatialDisturbance::spec_s6();
@@ -271,8 +279,16 @@ fn a_push_and_a_twist_make_the_reference_comply_and_it_returns() {
     let a = Arms::Ur5;
     let p = SpatialControllerParams::spec_s6(nn(a));
     let pushes = vec![
-        Push { t0: 3.0, duration: 2.0, wrench: [5.0, 0.0, 0.0, 0.0, 0.0, 0.0] },
-        Push { t0: 9.0, duration: 2.0, wrench: [0.0, 0.0, 0.0, 0.0, 0.0, 0.5] },
+        Push {
+            t0: 3.0,
+            duration: 2.0,
+            wrench: [5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        },
+        Push {
+            t0: 9.0,
+            duration: 2.0,
+            wrench: [0.0, 0.0, 0.0, 0.0, 0.0, 0.5],
+        },
     ];
     let (out, sim) = run_with(a, &p, 16.0, pushes.clone());
     assert_clean("push", &out);
@@ -297,7 +313,12 @@ fn a_push_and_a_twist_make_the_reference_comply_and_it_returns() {
         // The prediction at the end of the push (t1), on the desired pose there.
         let t1 = push.t0 + push.duration;
         let d = path.sample(t1);
-        let r: Vec<Vector3<f64>> = s.params.grasps.iter().map(|g| d.r * g.translation.vector).collect();
+        let r: Vec<Vector3<f64>> = s
+            .params
+            .grasps
+            .iter()
+            .map(|g| d.r * g.translation.vector)
+            .collect();
         let mut share = vec![Vector6::zeros(); 2];
         assert!(dist.distribute(&r, &Vector6::from(push.wrench), 0.0, &mut share));
         let y = second_order_step(adm.m_e[0], adm.c_e[0], adm.k_e[0], push.duration);
@@ -328,7 +349,11 @@ fn a_push_and_a_twist_make_the_reference_comply_and_it_returns() {
         // Every axis within 10 % of the predicted excursion's size (what is left of an earlier
         // push is below 1 % of it).
         let j = want.iamax();
-        assert!(before.amax() < 0.01 * want[j].abs(), "before the push {:?}", before.as_slice());
+        assert!(
+            before.amax() < 0.01 * want[j].abs(),
+            "before the push {:?}",
+            before.as_slice()
+        );
         assert!(
             (got - want).amax() < 0.1 * want[j].abs(),
             "moved {:?} (predicted {:?})",
@@ -356,12 +381,27 @@ fn pd_tracks_worse_than_nn_and_every_law_stays_stable_with_the_admittance_on() {
     let mut rms = Vec::new();
     for (name, law, scheme) in [
         ("nn", nn(a), Scheme::Object),
-        ("pd", SpatialLaw::Pd(SpatialPdGains::paper()), Scheme::Object),
-        ("ctc", SpatialLaw::Ctc(SpatialCtcGains::default()), Scheme::Object),
-        ("pd per-arm", SpatialLaw::Pd(SpatialPdGains::paper()), Scheme::PerArm),
+        (
+            "pd",
+            SpatialLaw::Pd(SpatialPdGains::paper()),
+            Scheme::Object,
+        ),
+        (
+            "ctc",
+            SpatialLaw::Ctc(SpatialCtcGains::default()),
+            Scheme::Object,
+        ),
+        (
+            "pd per-arm",
+            SpatialLaw::Pd(SpatialPdGains::paper()),
+            Scheme::PerArm,
+        ),
         (
             "pd+g",
-            SpatialLaw::Pd(SpatialPdGains { gravity_compensation: true, ..SpatialPdGains::paper() }),
+            SpatialLaw::Pd(SpatialPdGains {
+                gravity_compensation: true,
+                ..SpatialPdGains::paper()
+            }),
             Scheme::Object,
         ),
     ] {
@@ -380,13 +420,19 @@ fn pd_tracks_worse_than_nn_and_every_law_stays_stable_with_the_admittance_on() {
         rms.push((name, r, zr));
     }
     let (nn_rms, pd_rms) = (rms[0].1, rms[1].1);
-    assert!(pd_rms > 10.0 * nn_rms, "PD RMS {pd_rms:.2e} vs NN {nn_rms:.2e}");
+    assert!(
+        pd_rms > 10.0 * nn_rms,
+        "PD RMS {pd_rms:.2e} vs NN {nn_rms:.2e}"
+    );
     // The per-arm PD also sags; computed torque and PD with gravity compensation (model-based)
     // track within a tenth of a millimetre on this slow path, the NN without a model as well.
     assert!(rms[3].1 > 10.0 * nn_rms);
     for (name, r, zr) in &rms[2..] {
         if *name != "pd per-arm" {
-            assert!(*r < 1e-4 && *zr < 1e-3, "{name}: RMS {r:.2e} m, max |z1_φ| {zr:.2e}");
+            assert!(
+                *r < 1e-4 && *zr < 1e-3,
+                "{name}: RMS {r:.2e} m, max |z1_φ| {zr:.2e}"
+            );
         }
     }
 }
@@ -435,7 +481,12 @@ fn nn_tracks_on_two_franka_with_the_self_motion_bounded_and_damped() {
     let sm = self_motion(&out.log, a);
     let t = col(&out.log, "t");
     let peak_v = sm.iter().map(|x| x.0).fold(0.0, f64::max);
-    let late_v = sm.iter().zip(t).filter(|(_, t)| **t >= 10.0).map(|(x, _)| x.0).fold(0.0, f64::max);
+    let late_v = sm
+        .iter()
+        .zip(t)
+        .filter(|(_, t)| **t >= 10.0)
+        .map(|(x, _)| x.0)
+        .fold(0.0, f64::max);
     let drift = sm.iter().map(|x| x.1).fold(0.0, f64::max);
     eprintln!(
         "nn/franka: after 2 s max ‖z1_p‖ {:.1} µm, max |z1_φ| {:.1} µrad, RMS {:.1} µm, min margin {:.3}; self-motion speed peak {peak_v:.2e} rad/s, after 10 s {late_v:.2e}; posture drift in the null space ≤ {drift:.2e} rad; events {:?}",
@@ -452,17 +503,33 @@ fn nn_tracks_on_two_franka_with_the_self_motion_bounded_and_damped() {
     // out (the posture task's damping) instead of drifting.
     let d0 = Se3Path::spec_s6().sample(0.0);
     let rz = nalgebra::UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 10f64.to_radians());
-    let ptp =
-        Se3Path::point_to_point(d0.p, d0.r, d0.p + Vector3::new(0.0, 0.05, 0.0), rz * d0.r, 0.5, 3.0)
-            .unwrap();
+    let ptp = Se3Path::point_to_point(
+        d0.p,
+        d0.r,
+        d0.p + Vector3::new(0.0, 0.05, 0.0),
+        rz * d0.r,
+        0.5,
+        3.0,
+    )
+    .unwrap();
     let mut p = SpatialControllerParams::spec_s6(nn(a));
     p.k_c = [0.1, 0.1, 0.1, 0.29, 0.29, 0.29];
     let (out, _) = run_path(a, &p, ptp, 8.0, vec![]);
     assert_clean("nn/franka ptp", &out);
     let sm = self_motion(&out.log, a);
     let t = col(&out.log, "t");
-    let during = sm.iter().zip(t).filter(|(_, t)| **t < 3.5).map(|(x, _)| x.0).fold(0.0, f64::max);
-    let late = sm.iter().zip(t).filter(|(_, t)| **t >= 6.5).map(|(x, _)| x.0).fold(0.0, f64::max);
+    let during = sm
+        .iter()
+        .zip(t)
+        .filter(|(_, t)| **t < 3.5)
+        .map(|(x, _)| x.0)
+        .fold(0.0, f64::max);
+    let late = sm
+        .iter()
+        .zip(t)
+        .filter(|(_, t)| **t >= 6.5)
+        .map(|(x, _)| x.0)
+        .fold(0.0, f64::max);
     let (zp, zr, _) = after(&out.log, 5.0);
     eprintln!(
         "nn/franka point-to-point: self-motion speed peak {during:.2e} rad/s during the move, ≤ {late:.2e} from 3 s after it; after 5 s ‖z1_p‖ ≤ {:.1} µm, |z1_φ| ≤ {:.1} µrad",
@@ -470,7 +537,10 @@ fn nn_tracks_on_two_franka_with_the_self_motion_bounded_and_damped() {
         zr * 1e6
     );
     assert!(during < 0.05);
-    assert!(late < 0.05 * during, "self-motion not damped: {late:.2e} vs {during:.2e}");
+    assert!(
+        late < 0.05 * during,
+        "self-motion not damped: {late:.2e} vs {during:.2e}"
+    );
     assert!(zp < 1e-3 && zr < 1e-3);
 }
 
@@ -485,7 +555,10 @@ fn run_ticks(ticks: usize, mut each: impl FnMut(usize, &[f64])) -> (Log, tandem:
     let (c, _) = SpatialController::new(&p, &s.params, path.clone(), duration, &s.q_guess).unwrap();
     let d0 = path.sample(0.0);
     let start = SpatialStart {
-        x_wo: Isometry3::from_parts(Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)), d0.r),
+        x_wo: Isometry3::from_parts(
+            Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)),
+            d0.r,
+        ),
         q_guess: s.q_guess.clone(),
     };
     let mut sp = sim_params(duration);
@@ -543,8 +616,15 @@ fn lyapunov_function_v3_decreases_outside_its_ultimate_bound_on_six_outputs() {
     let mut ws = model.workspace();
     let k_c = SpatialControllerParams::spec_s6(nn(Arms::Ur5)).k_c;
     let ax = ["x", "y", "z", "rx", "ry", "rz"];
-    let get = |g: &str| -> Vec<&[f64]> { ax.iter().map(|a| col(&log, &format!("{g}.{a}"))).collect() };
-    let (xh, z1, xr, z2, xdh) = (get("x_hat"), get("z1"), get("x_r"), get("z2"), get("xd_hat"));
+    let get =
+        |g: &str| -> Vec<&[f64]> { ax.iter().map(|a| col(&log, &format!("{g}.{a}"))).collect() };
+    let (xh, z1, xr, z2, xdh) = (
+        get("x_hat"),
+        get("z1"),
+        get("x_r"),
+        get("z2"),
+        get("xd_hat"),
+    );
     let nq = model.n_q();
     let q: Vec<&[f64]> = (0..nq).map(|k| col(&log, &format!("q{}", k + 1))).collect();
     let mut v3 = vec![0.0; ticks];
@@ -554,9 +634,15 @@ fn lyapunov_function_v3_decreases_outside_its_ultimate_bound_on_six_outputs() {
         let x1d = Vector6::from_fn(|j, _| xdh[j][k]);
         let qk: Vec<f64> = (0..nq).map(|i| q[i][k]).collect();
         let pose = chart.pose(&x1);
-        let jac = chart.jacobian(&x1.fixed_rows::<3>(3).into_owned(), &x1d.fixed_rows::<3>(3).into_owned());
+        let jac = chart.jacobian(
+            &x1.fixed_rows::<3>(3).into_owned(),
+            &x1d.fixed_rows::<3>(3).into_owned(),
+        );
         model.kinematics(&qk, &vec![0.0; nq], &mut ws);
-        let m = model.dynamics(&qk, &vec![0.0; nq], &pose, &Vector6::zeros(), &mut ws).unwrap().m;
+        let m = model
+            .dynamics(&qk, &vec![0.0; nq], &pose, &Vector6::zeros(), &mut ws)
+            .unwrap()
+            .m;
         let ei = jac.e_inv();
         let mx = ei.transpose() * m * ei;
         let z2k = Vector6::from_fn(|j, _| z2[j][k]);
@@ -567,7 +653,10 @@ fn lyapunov_function_v3_decreases_outside_its_ultimate_bound_on_six_outputs() {
         "V3(0) = {:.3e}, V3(0.5 s) = {:.3e}, level over the last 0.2 s {:.3e}",
         v3[0], v3[500], ultimate
     );
-    assert!(v3[0] > 100.0 * ultimate, "V3 should fall by two orders of magnitude");
+    assert!(
+        v3[0] > 100.0 * ultimate,
+        "V3 should fall by two orders of magnitude"
+    );
     // Above 200× the final level V3 decreases on every tick. Below it, during the transient
     // (220–265 ms, at 136–166× the final level), V3 rises by about 20 %: the weights move away
     // from W* while the network, an adaptive bias here (ϑ² = 50), takes in the transient force
@@ -590,7 +679,12 @@ fn lyapunov_function_v3_decreases_outside_its_ultimate_bound_on_six_outputs() {
     }
     for k in 1..ticks {
         if v3[k - 1] > 200.0 * ultimate {
-            assert!(v3[k] < v3[k - 1], "V3 rose at t = {k} ms: {} -> {}", v3[k - 1], v3[k]);
+            assert!(
+                v3[k] < v3[k - 1],
+                "V3 rose at t = {k} ms: {} -> {}",
+                v3[k - 1],
+                v3[k]
+            );
             checked += 1;
         }
     }
@@ -599,7 +693,11 @@ fn lyapunov_function_v3_decreases_outside_its_ultimate_bound_on_six_outputs() {
         100.0 * largest_excursion,
         worst_rise
     );
-    assert!(largest_excursion < 0.3, "V3 rose by {:.1} %", 100.0 * largest_excursion);
+    assert!(
+        largest_excursion < 0.3,
+        "V3 rose by {:.1} %",
+        100.0 * largest_excursion
+    );
     eprintln!("V3 decreased on all {checked} ticks above 200× its final level");
     assert!(checked > 10);
 }
@@ -615,7 +713,9 @@ fn build(
     SpatialController::new(p, &s.params, path, 10.0, &s.q_guess)
 }
 
-fn err_param(r: Result<(SpatialController, Vec<tandem::control::ControlWarning>), tandem::ModelError>) -> String {
+fn err_param(
+    r: Result<(SpatialController, Vec<tandem::control::ControlWarning>), tandem::ModelError>,
+) -> String {
     match r {
         Ok(_) => panic!("expected an error"),
         Err(e) => {
@@ -638,10 +738,16 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
     p.law = SpatialLaw::Nn(g);
     assert!(err_param(build(a, &p, s6())).contains("gains.k2[4]"));
     let mut p = base.clone();
-    p.law = SpatialLaw::Pd(SpatialPdGains { k_d: [1.0, 1.0, 1.0, 1.0, -2.0, 1.0], ..SpatialPdGains::paper() });
+    p.law = SpatialLaw::Pd(SpatialPdGains {
+        k_d: [1.0, 1.0, 1.0, 1.0, -2.0, 1.0],
+        ..SpatialPdGains::paper()
+    });
     assert!(err_param(build(a, &p, s6())).contains("gains.k_d[4]"));
     let mut p = base.clone();
-    p.law = SpatialLaw::Ctc(SpatialCtcGains { k_p: [0.0; 6], ..Default::default() });
+    p.law = SpatialLaw::Ctc(SpatialCtcGains {
+        k_p: [0.0; 6],
+        ..Default::default()
+    });
     assert!(err_param(build(a, &p, s6())).contains("gains.k_p[0]"));
     // A rotational bound at or above π; one above π/2 is a warning.
     let mut p = base.clone();
@@ -693,7 +799,11 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
     let (_, w) = build(a, &p, s6()).unwrap();
     let w: Vec<String> = w.iter().map(|w| w.to_string()).collect();
     eprintln!("warnings: {w:?}");
-    assert!(w.iter().any(|w| w.contains("gains.k2[0]") && w.contains("K1")), "{w:?}");
+    assert!(
+        w.iter()
+            .any(|w| w.contains("gains.k2[0]") && w.contains("K1")),
+        "{w:?}"
+    );
     // The presets themselves give no warning.
     for arms in [Arms::Ur5, Arms::Franka] {
         let (_, w) = build(arms, &SpatialControllerParams::spec_s6(nn(arms)), s6()).unwrap();
@@ -706,22 +816,52 @@ fn non_finite_measurements_give_zero_torque_and_are_counted_never_nan() {
     use tandem::sim::Measurements;
     let a = Arms::Ur5;
     let s = setup(a);
-    let (mut c, _) = build(a, &SpatialControllerParams::spec_s6(nn(a)), Se3Path::spec_s6()).unwrap();
+    let (mut c, _) = build(
+        a,
+        &SpatialControllerParams::spec_s6(nn(a)),
+        Se3Path::spec_s6(),
+    )
+    .unwrap();
     let n = s.q_guess.len();
     let wr = vec![0.0; 12];
     let qd = vec![0.0; n];
-    c.start(0.0, &Measurements { q: &s.q_guess, qd: &qd, wrenches: &wr });
+    c.start(
+        0.0,
+        &Measurements {
+            q: &s.q_guess,
+            qd: &qd,
+            wrenches: &wr,
+        },
+    );
     let mut rec = tandem::control::spatial::SpatialTickRecord::new(2);
     let mut tau = vec![1.0; n];
     let mut q = s.q_guess.clone();
     q[2] = f64::NAN;
-    c.tick(0.0, &Measurements { q: &q, qd: &qd, wrenches: &wr }, &mut tau, &mut rec);
+    c.tick(
+        0.0,
+        &Measurements {
+            q: &q,
+            qd: &qd,
+            wrenches: &wr,
+        },
+        &mut tau,
+        &mut rec,
+    );
     assert!(tau.iter().all(|v| *v == 0.0));
     assert!(c.events().non_finite + c.events().degenerate >= 1);
     // A NaN wrist reading is held by the admittance; the torques stay finite.
     let mut wr2 = wr.clone();
     wr2[4] = f64::NAN;
-    c.tick(1e-3, &Measurements { q: &s.q_guess, qd: &qd, wrenches: &wr2 }, &mut tau, &mut rec);
+    c.tick(
+        1e-3,
+        &Measurements {
+            q: &s.q_guess,
+            qd: &qd,
+            wrenches: &wr2,
+        },
+        &mut tau,
+        &mut rec,
+    );
     assert!(tau.iter().all(|v| v.is_finite()));
     assert!(rec.x_r.iter().all(|v| v.is_finite()));
 }

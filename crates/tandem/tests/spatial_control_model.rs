@@ -618,7 +618,10 @@ fn singular_arm_has_no_operational_space_inertia() {
             .dynamics(&q, &qd, &s.x_wo, &Vector6::zeros(), &mut ws)
             .is_some()
     );
-    println!("UR5 at q5 = 1e-3: σ_min(J) = {:.2e}", model.sigma_min(&ws, 0));
+    println!(
+        "UR5 at q5 = 1e-3: σ_min(J) = {:.2e}",
+        model.sigma_min(&ws, 0)
+    );
     assert!(model.sigma_min(&ws, 0) < 1e-2 && model.sigma_min(&ws, 1) > 0.1);
 }
 

@@ -303,10 +303,7 @@ impl SpatialController {
         let mut k_c = Vector6::zeros();
         for j in 0..6 {
             k_c[j] = positive(&format!("k_c[{j}]"), p.k_c[j])?;
-            non_negative(
-                &format!("disturbance_bound[{j}]"),
-                p.disturbance_bound[j],
-            )?;
+            non_negative(&format!("disturbance_bound[{j}]"), p.disturbance_bound[j])?;
         }
         for j in 3..6 {
             if !(k_c[j] < std::f64::consts::PI) {
@@ -398,8 +395,7 @@ impl SpatialController {
                 .collect(),
         };
         let ws = obj_model.workspace();
-        let dist = Distribution::new(m, p.metric_length)
-            .map_err(|e| rename(e, "metric_length"))?;
+        let dist = Distribution::new(m, p.metric_length).map_err(|e| rename(e, "metric_length"))?;
         let adm = match &p.admittance {
             Some(a) => {
                 let (g, w) = AdmittanceSe3::new(a, h)?;
@@ -623,7 +619,12 @@ impl SpatialController {
         let i_w = rot * self.object.inertia * rot.transpose();
         let (w, wd) = (des.w(), des.w_dot());
         let m = self.object.mass;
-        let f = m * (des.v_dot() - self.gravity) + self.object.damping.fixed_rows::<3>(0).component_mul(&des.v());
+        let f = m * (des.v_dot() - self.gravity)
+            + self
+                .object
+                .damping
+                .fixed_rows::<3>(0)
+                .component_mul(&des.v());
         let tq = i_w * wd
             + w.cross(&(i_w * w))
             + self.object.damping.fixed_rows::<3>(3).component_mul(&w);
@@ -672,7 +673,12 @@ impl SpatialController {
     }
 
     /// Step 3: the reference pose sample (object level) at this tick; advances the generators.
-    fn reference(&mut self, des: &PoseSample, meas: &Measurements<'_>, rec: &mut SpatialTickRecord) -> PoseSample {
+    fn reference(
+        &mut self,
+        des: &PoseSample,
+        meas: &Measurements<'_>,
+        rec: &mut SpatialTickRecord,
+    ) -> PoseSample {
         self.expected_wrenches(des);
         let Some(adm) = &self.adm else {
             return *des;
@@ -910,7 +916,13 @@ impl Drive<SpatialPlant> for SpatialController {
     fn start(&mut self, t0: f64, meas: &Measurements<'_>) {
         SpatialController::start(self, t0, meas);
     }
-    fn tick(&mut self, t: f64, meas: &Measurements<'_>, tau: &mut [f64], rec: &mut SpatialTickRecord) {
+    fn tick(
+        &mut self,
+        t: f64,
+        meas: &Measurements<'_>,
+        tau: &mut [f64],
+        rec: &mut SpatialTickRecord,
+    ) {
         SpatialController::tick(self, t, meas, tau, rec);
     }
     fn events(&self) -> ControlEvents {
@@ -955,7 +967,10 @@ fn path_centre(path: &Se3Path, duration: f64) -> Vector3<f64> {
         return c.center();
     }
     let n = ((duration / PATH_CHECK_STEP).ceil() as usize).clamp(1, MAX_PATH_SAMPLES);
-    let (mut lo, mut hi) = (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY));
+    let (mut lo, mut hi) = (
+        Vector3::repeat(f64::INFINITY),
+        Vector3::repeat(f64::NEG_INFINITY),
+    );
     for k in 0..=n {
         let p = path.sample(duration * k as f64 / n as f64).p;
         lo = lo.inf(&p);
@@ -1052,4 +1067,3 @@ fn check_posture(plant: &SpatialPlant, q: &[f64]) -> Result<(), ModelError> {
     }
     Ok(())
 }
-

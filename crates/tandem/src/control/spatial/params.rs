@@ -14,8 +14,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::adaptive::{NnAxes, NnGains};
 use crate::control::Scheme;
-use crate::reference::admittance_se3::AdmittanceSe3Params;
 use crate::rbf_structured::NetworkStructure;
+use crate::reference::admittance_se3::AdmittanceSe3Params;
 
 /// Gains of the NN law on six outputs (plain data).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -162,7 +162,14 @@ impl SpatialPdGains {
     pub fn paper() -> Self {
         let l2 = 0.04;
         SpatialPdGains {
-            k_p: [5000.0, 5000.0, 5000.0, 5000.0 * l2, 5000.0 * l2, 5000.0 * l2],
+            k_p: [
+                5000.0,
+                5000.0,
+                5000.0,
+                5000.0 * l2,
+                5000.0 * l2,
+                5000.0 * l2,
+            ],
             k_d: [450.0, 450.0, 450.0, 450.0 * l2, 450.0 * l2, 450.0 * l2],
             gravity_compensation: false,
         }
