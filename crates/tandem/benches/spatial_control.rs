@@ -1,7 +1,7 @@
 //! The spatial controller (SPEC-spatial S5) on the S6 scenario: one controller tick per law
-//! (at a state of a running loop), and one closed-loop tick (plant RK4 step + wrench evaluation
-//! + sensors + controller + log) for the NN law on two UR5 and two Franka arms. The 60 s run's
-//! real-time factor is `1 ms / closed-loop tick`.
+//! (at a state of a running loop), and one closed-loop tick (the plant's RK4 step, the wrench
+//! evaluation, the sensors, the controller and the log) for the NN law on two UR5 and two
+//! Franka arms. A run's real-time factor is 1 ms over the closed-loop tick.
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Isometry3, Translation3, Vector3};
 use std::hint::black_box;

@@ -120,11 +120,11 @@ impl Distribution {
     /// same as at the last call.
     fn factor(&mut self, r: &[Vector3<f64>]) -> Option<nalgebra::Cholesky<f64, nalgebra::U6>> {
         if self.last.is_some() && r[..self.m] == self.last_r[..] {
-            return self.last.clone();
+            return self.last;
         }
         let ch = self.factor_new(r);
         self.last_r.copy_from_slice(&r[..self.m]);
-        self.last = ch.clone();
+        self.last = ch;
         ch
     }
 

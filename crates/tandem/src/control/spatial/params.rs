@@ -203,6 +203,7 @@ impl Default for SpatialCtcGains {
 /// Which law, with its gains.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+#[allow(clippy::large_enum_variant)] // plain data, built once per run
 pub enum SpatialLaw {
     /// iBLF backstepping + adaptive RBF network with switching on six outputs (SPEC-spatial S5).
     Nn(SpatialNnGains),
