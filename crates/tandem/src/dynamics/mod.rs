@@ -101,7 +101,7 @@ pub use crba::crba;
 pub use energy::energy;
 pub use forward::forward_dynamics;
 pub use kinematics::kinematics;
-pub use rnea::{gravity, rnea};
+pub use rnea::{gravity, gravity_at_placements, rnea};
 pub use terms::terms;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Matrix6, Matrix6xX, Vector3, Vector6};

@@ -109,6 +109,13 @@ pub fn gravity(
 ) {
     check_len(arm, d, "out", out);
     placements(arm, q, d);
+    gravity_at_placements(arm, g_W, out, d);
+}
+
+/// [`gravity`] at the placements already in `d` (from [`super::kinematics`] or any algorithm
+/// at the same `q`): the composite pass only, no forward kinematics.
+pub fn gravity_at_placements(arm: &SpatialArm, g_W: &Vector3<f64>, out: &mut [f64], d: &ChainData) {
+    check_len(arm, d, "out", out);
     let n = d.S.len();
     let (mut m, mut h) = (0.0, Vector3::zeros());
     for k in (0..n).rev() {

@@ -645,7 +645,7 @@ impl SpatialController {
 
     /// Step 1: the object's pose and twist from the encoders; `None` if degenerate.
     fn estimate(&mut self, meas: &Measurements<'_>) -> Option<PoseSample> {
-        self.model.kinematics(meas.q, meas.qd, &mut self.ws);
+        self.model.poses(meas.q, &mut self.ws);
         for i in 0..self.tools.len() {
             let d = &self.ws.data[i];
             let off = self.model.offset(i);
@@ -750,7 +750,7 @@ impl SpatialController {
                 tau.fill(0.0);
                 return;
             }
-        } else if !self.model.operational_gravity(meas.q, &mut self.ws) {
+        } else if !self.model.operational_gravity(&mut self.ws) {
             self.events.degenerate += 1;
             tau.fill(0.0);
             return;

@@ -243,6 +243,16 @@ impl ObjectModel {
         }
     }
 
+    /// Forward kinematics and tool Jacobian of every arm (into `ws.data[i]`: `X_WT`, `J`),
+    /// without the velocity pass (`J̇ q̇` is set to zero): what the estimate needs. No
+    /// allocation.
+    pub fn poses(&self, q: &[f64], ws: &mut ModelWorkspace) {
+        for (i, arm) in self.arms.iter().enumerate() {
+            let (s, n) = (self.offsets[i], arm.chain.dof());
+            dynamics::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
+        }
+    }
+
     /// The object-level model at the measured `(q, q̇)` (stacked, n_q) and the estimated object
     /// pose `x_wo` and twist `twist` (world axes): per arm `M_i`, `b_i`, `Λ_i`, `μ_i`, `g_x,i`,
     /// `r_i` into `ws` (`σ_min(J_i)` on demand: [`Self::sigma_min`]), and `𝓜, 𝓱, 𝓖` returned (module doc).
@@ -421,19 +431,19 @@ fn arm_terms(
 impl ObjectModel {
     /// The arms' operational-space gravity `g_x,i` alone, for arms with exactly six joints:
     /// `g_x,i = Λ_i J_i M_i⁻¹ g_i = J_i⁻ᵀ g_i` (square `J_i`), by the gravity pass and one 6 × 6
-    /// LU solve, without `M_i` (a fifth of [`Self::dynamics`]). Needs `ws.data[i].J` from
-    /// [`Self::kinematics`] at the same `q`; writes `ws.arms[i].g_x`. `false` (nothing
+    /// LU solve, without `M_i` (a fifth of [`Self::dynamics`]). Needs the placements and
+    /// `ws.data[i].J` from [`Self::kinematics`] or [`Self::poses`] at the same `q`; writes
+    /// `ws.arms[i].g_x`. `false` (nothing
     /// usable written) if an arm has other than six joints or a singular Jacobian. No
     /// allocation.
-    pub fn operational_gravity(&self, q: &[f64], ws: &mut ModelWorkspace) -> bool {
+    pub fn operational_gravity(&self, ws: &mut ModelWorkspace) -> bool {
         for (i, arm) in self.arms.iter().enumerate() {
-            let (s, n) = (self.offsets[i], arm.chain.dof());
-            if n != 6 {
+            if arm.chain.dof() != 6 {
                 return false;
             }
-            let d = &mut ws.data[i];
+            let d = &ws.data[i];
             let grav = &mut ws.grav[i][..6];
-            dynamics::gravity(arm, &q[s..s + 6], &self.g_W, grav, d);
+            dynamics::gravity_at_placements(arm, &self.g_W, grav, d);
             let jt = d.J.fixed_view::<6, 6>(0, 0).transpose();
             let Some(x) = jt.lu().solve(&Vector6::from_column_slice(grav)) else {
                 return false;
