@@ -58,7 +58,8 @@ fn sim(
 }
 
 fn bench(c: &mut Criterion) {
-    // Controller ticks alone, at the state reached after 1 s of the closed loop.
+    // Controller ticks alone, replaying the measurements of 2 s of the closed loop (so the
+    // controller sees a consistent trajectory; one jump back per 2000 ticks).
     for (name, franka, law) in [
         (
             "nn_dual_ur5",
@@ -82,14 +83,17 @@ fn bench(c: &mut Criterion) {
         ),
     ] {
         let law2 = law.clone();
-        let mut s = sim(franka, law, 2.0);
-        for k in 0..1000 {
-            s.tick(k).unwrap();
-        }
+        let mut s = sim(franka, law, 3.0);
         let n = s.plant().n_q();
-        let y = s.state().to_vec();
-        let (q, qd) = (y[..n].to_vec(), y[n + 7..2 * n + 7].to_vec());
-        let wr = s.last_readings().to_vec();
+        let ticks = 2000;
+        let mut rec_q = Vec::with_capacity(ticks);
+        let mut rec_w = Vec::with_capacity(ticks);
+        for k in 0..ticks {
+            s.tick(k).unwrap();
+            let y = s.state();
+            rec_q.push((y[..n].to_vec(), y[n + 7..2 * n + 7].to_vec()));
+            rec_w.push(s.last_readings().to_vec());
+        }
         let s2 = if franka {
             fixtures::dual_franka()
         } else {
@@ -99,23 +103,31 @@ fn bench(c: &mut Criterion) {
             &SpatialControllerParams::spec_s6(law2),
             &s2.params,
             Se3Path::spec_s6(),
-            2.0,
+            3.0,
             &s2.q_guess,
         )
         .unwrap();
-        let meas = Measurements {
-            q: &q,
-            qd: &qd,
-            wrenches: &wr,
-        };
-        controller.start(1.0, &meas);
+        controller.start(
+            0.0,
+            &Measurements {
+                q: &rec_q[0].0,
+                qd: &rec_q[0].1,
+                wrenches: &rec_w[0],
+            },
+        );
         let mut tau = vec![0.0; n];
         let mut rec = SpatialTickRecord::new(2);
-        let mut t = 1.0;
+        let mut k = 0;
         c.bench_function(&format!("spatial_control/{name}/tick"), |b| {
             b.iter(|| {
-                t += 1e-3;
-                controller.tick(t, black_box(&meas), &mut tau, &mut rec);
+                let i = k % ticks;
+                let meas = Measurements {
+                    q: &rec_q[i].0,
+                    qd: &rec_q[i].1,
+                    wrenches: &rec_w[i],
+                };
+                controller.tick(i as f64 * 1e-3, black_box(&meas), &mut tau, &mut rec);
+                k += 1;
             })
         });
     }

@@ -63,7 +63,7 @@
 
 use nalgebra::{Matrix6, Vector3, Vector6};
 
-use super::model::{ModelWorkspace, ObjectModel, RHS, transport_t};
+use super::model::{ModelWorkspace, ObjectModel, RHS};
 use crate::error::{ModelError, positive};
 use crate::linalg::forward_rows;
 use crate::spatial::motion::{ang, lin, stack};
@@ -110,10 +110,11 @@ impl Distribution {
         self.metric_length
     }
 
-    /// `W⁻¹ x = [f; L² τ]`.
+    /// `W⁻¹ G_i λ = [λ_f − r_i × λ_τ; L² λ_τ]` (`G_i = [[I, −[r_i]×], [0, I]]`).
     #[inline]
-    fn w_inv(&self, x: &Vector6<f64>) -> Vector6<f64> {
-        stack(&lin(x), &(ang(x) * self.l2))
+    fn share(&self, r: &Vector3<f64>, lam: &Vector6<f64>) -> Vector6<f64> {
+        let (lf, lt) = (lin(lam), ang(lam));
+        stack(&(lf - r.cross(&lt)), &(lt * self.l2))
     }
 
     /// `A = Σ G_iᵀ W⁻¹ G_i` factored, or `None` if non-finite; reused while `r` is bitwise the
@@ -128,16 +129,25 @@ impl Distribution {
         ch
     }
 
+    /// `A` in closed form: with `G_iᵀ = [[I, 0], [[r_i]×, I]]`,
+    /// `G_iᵀ W⁻¹ G_i = [[I, −[r_i]×], [[r_i]×, L² I − [r_i]×²]]` and `−[r]×² = |r|² I − r rᵀ`, so
+    /// `A = [[m I, −[Σr]×], [[Σr]×, m L² I + Σ(|r_i|² I − r_i r_iᵀ)]]`.
     fn factor_new(&self, r: &[Vector3<f64>]) -> Option<nalgebra::Cholesky<f64, nalgebra::U6>> {
-        let mut a = Matrix6::zeros();
-        let mut wi = Matrix6::identity();
-        for k in 3..6 {
-            wi[(k, k)] = self.l2;
-        }
+        let m = self.m as f64;
+        let mut sum = Vector3::zeros();
+        let mut lower = nalgebra::Matrix3::from_diagonal_element(m * self.l2);
         for ri in &r[..self.m] {
-            let gt = transport_t(ri);
-            a += gt * wi * gt.transpose();
+            sum += ri;
+            lower +=
+                nalgebra::Matrix3::from_diagonal_element(ri.norm_squared()) - ri * ri.transpose();
         }
+        let c = crate::spatial::so3::hat(&sum);
+        let mut a = Matrix6::zeros();
+        a.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&nalgebra::Matrix3::from_diagonal_element(m));
+        a.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-c));
+        a.fixed_view_mut::<3, 3>(3, 0).copy_from(&c);
+        a.fixed_view_mut::<3, 3>(3, 3).copy_from(&lower);
         if !a.iter().all(|v| v.is_finite()) {
             return None;
         }
@@ -178,12 +188,12 @@ impl Distribution {
                 Vector6::zeros()
             };
             w[i] = s;
-            net_s += transport_t(&r[i]) * s;
+            net_s += stack(&lin(&s), &(ang(&s) + r[i].cross(&lin(&s))));
         }
         // w_i = s_i + W⁻¹ G_i A⁻¹ (F − G s): min-norm share plus the projected squeeze.
         let lam = ch.solve(&(f - net_s));
         for i in 0..m {
-            w[i] += self.w_inv(&(transport_t(&r[i]).transpose() * lam));
+            w[i] += self.share(&r[i], &lam);
         }
         w[..m].iter().all(|x| x.iter().all(|v| v.is_finite()))
     }
@@ -204,7 +214,7 @@ impl Distribution {
         };
         let lam = ch.solve(&Self::net(&r[..m], &w[..m]));
         for i in 0..m {
-            out[i] = w[i] - self.w_inv(&(transport_t(&r[i]).transpose() * lam));
+            out[i] = w[i] - self.share(&r[i], &lam);
         }
         true
     }
