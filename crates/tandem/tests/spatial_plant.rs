@@ -636,3 +636,44 @@ fn a_non_finite_step_is_undone_and_reported() {
     );
     assert!(f.to_string().contains("non-finite"));
 }
+
+#[test]
+fn reusing_the_state_only_part_gives_bitwise_the_full_evaluation() {
+    // The derivative reuses terms, the arms' factors and the factored K when the same state
+    // comes back with another input (the loop's wrench evaluation, then the first RK4 stage).
+    // That must be bitwise what a fresh workspace computes, for every set-up, and a state
+    // query in between (which rewrites the kinematics) must not leave it stale.
+    for s in [
+        fixtures::dual_ur5(),
+        fixtures::dual_franka(),
+        fixtures::three_ur5(),
+    ] {
+        let plant = SpatialPlant::new(&s.params).unwrap();
+        let twist = nalgebra::Vector6::new(0.02, -0.01, 0.03, 0.1, -0.05, 0.2);
+        let y = plant.initial_state(&s.x_wo, &twist, &s.q_guess).unwrap();
+        let mut u1 = plant.zero_input();
+        let mut u2 = plant.zero_input();
+        for (k, t) in u1.tau.iter_mut().enumerate() {
+            *t = (k as f64 * 0.9).sin() * 10.0;
+        }
+        for (k, t) in u2.tau.iter_mut().enumerate() {
+            *t = (k as f64 * 1.7).cos() * 7.0;
+        }
+        u2.f_d = nalgebra::Vector6::new(1.0, -2.0, 0.5, 0.1, 0.0, -0.2);
+        let n = plant.state_dim();
+        let (mut d_fresh, mut d_hit, mut d_after) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let mut fresh = plant.workspace();
+        assert!(plant.derivative(&y, &u2, &mut fresh, &mut d_fresh));
+        let mut ws = plant.workspace();
+        let mut scratch = vec![0.0; n];
+        assert!(plant.derivative(&y, &u1, &mut ws, &mut scratch));
+        assert!(plant.derivative(&y, &u2, &mut ws, &mut d_hit));
+        assert_eq!(d_hit, d_fresh, "cache hit differs from a fresh evaluation");
+        for i in 0..plant.arms().len() {
+            assert_eq!(ws.wrenches[i], fresh.wrenches[i]);
+        }
+        let _ = plant.constraint_residual(&y, &mut ws);
+        assert!(plant.derivative(&y, &u2, &mut ws, &mut d_after));
+        assert_eq!(d_after, d_fresh, "after a state query");
+    }
+}

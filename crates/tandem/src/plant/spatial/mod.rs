@@ -132,7 +132,9 @@ pub struct SpatialPlant {
     n_q: usize,
 }
 
-/// Scratch and the secondary results of the last evaluation.
+/// Scratch and the secondary results of the last evaluation. The public fields are outputs:
+/// read them, do not write them (the workspace reuses its state-only part when the same state
+/// comes back).
 #[derive(Clone, Debug)]
 pub struct SpatialWorkspace {
     /// Per-arm kinematics and dynamics of the last evaluation.
@@ -164,6 +166,16 @@ pub struct SpatialWorkspace {
     pub locked: LockedEvents,
     /// The state at the start of the current step (to undo a non-finite step).
     y_prev: Vec<f64>,
+    /// The state of the last successful weld evaluation, whose state-only part (terms, `L_i`,
+    /// `Z_i`, the factored `K`) the workspace still holds ([`SpatialPlant::derivative`] reuses
+    /// it for the same state with another input).
+    cache_y: Vec<f64>,
+    /// `cache_y` is valid.
+    cache_valid: bool,
+    /// That evaluation's `K` needed regularisation.
+    cache_regularised: bool,
+    /// Per arm `u = L⁻¹(τ − b)` scratch (cache hits).
+    u: Vec<Vec<f64>>,
 }
 
 impl SpatialWorkspace {
@@ -394,6 +406,10 @@ impl SpatialPlant {
                 first_state: vec![0.0; self.state_dim()],
             },
             y_prev: vec![0.0; self.state_dim()],
+            cache_y: vec![0.0; self.state_dim()],
+            cache_valid: false,
+            cache_regularised: false,
+            u: self.arms.iter().map(|a| vec![0.0; a.chain.dof()]).collect(),
         }
     }
 
@@ -466,6 +482,7 @@ impl SpatialPlant {
     /// Largest weld residual over the grasps: (position, m; rotation, rad). Runs the
     /// kinematics of every arm into `ws.data`.
     pub fn constraint_residual(&self, y: &[f64], ws: &mut SpatialWorkspace) -> (f64, f64) {
+        ws.cache_valid = false;
         let (q, o, _) = self.split(y);
         let x_wo = o.pose();
         let (mut lin, mut ang) = (0.0f64, 0.0f64);
@@ -482,6 +499,7 @@ impl SpatialPlant {
 
     /// Velocity-level weld residual `max_i |J_i q̇_i − Ad_i V_o|` (linear, angular).
     pub fn velocity_residual(&self, y: &[f64], ws: &mut SpatialWorkspace) -> (f64, f64) {
+        ws.cache_valid = false;
         let (q, o, qd) = self.split(y);
         let (mut lin, mut ang) = (0.0f64, 0.0f64);
         let r_wo = o.q;
@@ -501,6 +519,7 @@ impl SpatialPlant {
     /// Smallest singular value over the arms' tool Jacobians (6 × n, mixed m and rad units),
     /// from the eigenvalues of `J Jᵀ`. Runs the kinematics into `ws.data`.
     pub fn min_singular_value(&self, y: &[f64], ws: &mut SpatialWorkspace) -> f64 {
+        ws.cache_valid = false;
         let (q, _, _) = self.split(y);
         let mut s = f64::INFINITY;
         for (i, arm) in self.arms.iter().enumerate() {
@@ -515,6 +534,7 @@ impl SpatialPlant {
     /// Kinetic and potential energy `(T, V)` of the whole chain (arms + object; plus the grasp
     /// springs' potential for compliant grasps), J. Runs the arms' dynamics into `ws.data`.
     pub fn energy(&self, y: &[f64], ws: &mut SpatialWorkspace) -> Energy {
+        ws.cache_valid = false;
         let (q, o, qd) = self.split(y);
         let mut t = 0.0;
         let mut v = 0.0;
@@ -648,6 +668,7 @@ impl SpatialPlant {
     /// Writes `tau` (n_q) and the wrenches into `ws.wrenches`; runs the kinematics into
     /// `ws.data`. For set-up, not the hot path (it allocates a small scratch).
     pub fn holding_torques(&self, y: &[f64], ws: &mut SpatialWorkspace, tau: &mut [f64]) {
+        ws.cache_valid = false;
         let (q, o, _) = self.split(y);
         let m = self.arms.len();
         // G = [Ad_1ᵀ … Ad_mᵀ] (6 × 6m); min-norm F = Gᵀ (G Gᵀ)⁻¹ w.
