@@ -15,7 +15,7 @@
 //! | arm dynamics (1)–(4) | [`arm`] (closed forms + general n-link) | [`dynamics`] (FK, J, J̇q̇, CRBA, RNEA, ABA) | |
 //! | closed chain (10)–(14) | [`plant`] (constrained, reduced) | [`plant::spatial`] (welds, compliant grasps) | [`plant::ClosedChain`] |
 //! | reference generation (15)–(21) | [`trajectory`], [`admittance`] | [`reference`](mod@reference) (SE(3) paths), [`se3`] (output chart, reference pose fit) | |
-//! | control laws (22)–(44) | [`iblf`], [`rbf`], [`switching`], [`adaptive`], [`pd`], [`ctc`], [`control`] | (next) | [`rbf_structured`] (network structures that scale to 24 inputs) |
+//! | control laws (22)–(44) | [`iblf`], [`rbf`], [`switching`], [`adaptive`], [`pd`], [`ctc`], [`control`] | [`control::spatial`] (iBLF + NN, PD, computed torque on six outputs; object-level model, distribution, `f^U`) | [`rbf_structured`] (network structures that scale to 24 inputs) |
 //! | simulation | [`report`], [`sim::Driver`] | [`plant::spatial::SpatialPlant::step`] | [`sim`] (one loop, [`sim::Drive`]), [`integrate`], [`sensors`], [`disturbance`], [`faults`] |
 //!
 //! **How planar and spatial share one loop: one trait, two implementations.** The two plants
