@@ -895,3 +895,48 @@ fn the_path_chart_rates_and_the_controller_chart_agree() {
     eprintln!("chart_rates vs Chart::sample: max relative difference {worst:.2e}");
     assert!(worst > 0.0 && worst < 1e-13, "{worst:.2e}");
 }
+
+#[test]
+fn pd_and_computed_torque_stay_stable_on_two_franka() {
+    // The baselines on the 7-DOF set-up (posture task in the null space), admittance on.
+    for (name, law) in [
+        ("pd/franka", SpatialLaw::Pd(SpatialPdGains::paper())),
+        (
+            "pd+g/franka",
+            SpatialLaw::Pd(SpatialPdGains {
+                gravity_compensation: true,
+                ..SpatialPdGains::paper()
+            }),
+        ),
+        ("ctc/franka", SpatialLaw::Ctc(SpatialCtcGains::default())),
+    ] {
+        let (out, _) = run_with(
+            Arms::Franka,
+            &SpatialControllerParams::spec_s6(law),
+            6.0,
+            vec![],
+        );
+        let (zp, zr, rms) = after(&out.log, 2.0);
+        let log = &out.log;
+        let worst: Vec<String> = ["x", "y", "z", "rx", "ry", "rz"]
+            .iter()
+            .map(|a| {
+                let c = col(log, &format!("x_hat.{a}"));
+                format!("{a} {:.4}", c.iter().fold(0.0f64, |m, v| m.max(v.abs())))
+            })
+            .collect();
+        eprintln!(
+            "{name}: after 2 s max ‖z1_p‖ {:.1} µm, max |z1_φ| {:.1} µrad, RMS {:.1} µm, min margin {:.3}, violation ticks {}, max |x_1j| {worst:?}",
+            zp * 1e6,
+            zr * 1e6,
+            rms * 1e6,
+            out.min_margin.unwrap(),
+            out.violation_ticks
+        );
+        assert!(out.fault.is_none(), "{name}: {:?}", out.fault);
+        if name != "pd/franka" {
+            assert_clean(name, &out);
+            assert!(zp < 1e-3 && zr < 1e-2, "{name}");
+        }
+    }
+}
