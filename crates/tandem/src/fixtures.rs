@@ -267,3 +267,52 @@ pub fn dual_franka() -> SpatialSetup {
         q_guess,
     }
 }
+
+/// The SPEC-spatial S6 closed loop on a set-up: `truth` is the simulated plant (its grasps may
+/// be compliant, its object heavier), `model` the controller's (welds assumed); the S6 path,
+/// the given law with the `spec_s6` controller settings, the S6 disturbance, ideal sensors, a
+/// start at rest 1 cm inside the circle, 1 kHz control with `plant_step`, logged every 10 ms;
+/// the run stops when the grasps separate by more than `max_drift` m (a weld's drift, or a
+/// compliant grasp's deflection: a slip).
+pub fn spatial_s6_simulation(
+    truth: &crate::plant::spatial::SpatialPlantParams,
+    model: &SpatialSetup,
+    law: crate::control::spatial::SpatialLaw,
+    duration: f64,
+    plant_step: f64,
+    max_drift: f64,
+) -> Result<
+    Simulation<crate::plant::spatial::SpatialPlant, crate::control::spatial::SpatialController>,
+    ModelError,
+> {
+    use crate::control::spatial::{SpatialController, SpatialControllerParams};
+    use crate::reference::se3_path::Se3Path;
+    let path = Se3Path::spec_s6();
+    let p = SpatialControllerParams::spec_s6(law);
+    let (c, _) = SpatialController::new(&p, &model.params, path.clone(), duration, &model.q_guess)?;
+    let d0 = path.sample(0.0);
+    let start = crate::sim::SpatialStart {
+        x_wo: nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)),
+            d0.r,
+        ),
+        q_guess: model.q_guess.clone(),
+    };
+    Simulation::with_plant(
+        crate::plant::spatial::SpatialPlant::new(truth)?,
+        &start,
+        &SensorParams::default(),
+        c,
+        crate::disturbance::SpatialDisturbance::spec_s6(),
+        SimParams {
+            duration,
+            plant_step,
+            control_period: 1e-3,
+            log_period: 0.01,
+            start: [0.0; 3],
+            formulation: crate::sim::Formulation::Constrained,
+            max_drift,
+            min_sigma: 1e-3,
+        },
+    )
+}
