@@ -232,6 +232,21 @@ pub fn load_doc(doc: &Table, base: &Source, label: &str) -> Result<scenario::Sce
     scenario::parse(&src).map_err(|e| loader_message(&e))
 }
 
+/// Parse a scenario document and run every validation of a run (nothing is simulated).
+pub fn check_doc(doc: &Table, base: &Source, label: &str) -> Result<(), String> {
+    let sc = load_doc(doc, base, label)?;
+    let src = Source {
+        name: base.name.clone(),
+        display: label.to_string(),
+        text: toml::to_string(doc).map_err(|e| e.to_string())?,
+        dir: base.dir.clone(),
+        file: None,
+    };
+    crate::runner::prepare(sc, &src)
+        .map(|_| ())
+        .map_err(|e| loader_message(&e))
+}
+
 impl Sweep {
     /// Read, resolve and check a sweep file.
     pub fn load(path: &Path) -> Result<Sweep, ScenarioError> {
@@ -351,7 +366,7 @@ impl Sweep {
             }
             fields::set(&mut doc, "run.duration", d.clone())
                 .map_err(|e| cx.err(&["duration"], e))?;
-            load_doc(&doc, &base, display).map_err(|e| cx.err(&["duration"], e))?;
+            check_doc(&doc, &base, display).map_err(|e| cx.err(&["duration"], e))?;
         }
         // Known paths for suggestions: the base document, its resolved form, derived fields.
         let mut known = fields::all_paths(&doc);
@@ -383,7 +398,7 @@ impl Sweep {
             |doc: &Table, keys: &[&str], path: &str, v: &Value| -> Result<(), ScenarioError> {
                 let mut d = doc.clone();
                 fields::set(&mut d, path, v.clone()).map_err(|e| cx.err(keys, e))?;
-                load_doc(&d, &base, display).map_err(|e| {
+                check_doc(&d, &base, display).map_err(|e| {
                     let mut m = if e.contains("unknown field") {
                         let mut m = format!("`{path}` is not a field of the scenario ({e})");
                         if let Some(s) = suggest::closest(path, known.iter().map(String::as_str)) {
