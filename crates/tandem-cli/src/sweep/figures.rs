@@ -1,6 +1,7 @@
 //! Sweep figures, from the table alone (so `merge` draws the same ones):
 //!
-//! - `sweep_rms_z1_after.png/.svg`: the RMS tracking error after the transient against each
+//! - `sweep_rms_z1_after.png/.svg` (or `sweep_rms_z1` for runs shorter than the transient): the
+//!   RMS tracking error against each
 //!   varied field (one `+` per completed run; a field whose values are not numbers, such as a
 //!   vector gain, is plotted against its position in the grid or choice list);
 //! - `sweep_histograms.png/.svg`: a histogram of the drawn values of each random field.
@@ -13,8 +14,12 @@ use serde_json::Value as Json;
 use super::run::Row;
 use crate::plot::{self, Panel, Series, Style};
 
-/// The plotted metric: (column, scale, axis label).
-const METRIC: (&str, f64, &str) = ("rms_z1_after", 1e3, "RMS ‖z1_xy‖ after the transient [mm]");
+/// The plotted metric: (column, scale, axis label); the whole-run RMS when the runs are shorter
+/// than the transient window.
+const METRICS: [(&str, f64, &str); 2] = [
+    ("rms_z1_after", 1e3, "RMS ‖z1_xy‖ after the transient [mm]"),
+    ("rms_z1", 1e3, "RMS ‖z1_xy‖, whole run [mm]"),
+];
 
 /// `+` markers as one line series (non-finite points break the line).
 fn crosses(pts: &[(f64, f64)]) -> (Vec<f64>, Vec<f64>) {
@@ -73,7 +78,15 @@ fn histogram(v: &[f64]) -> (Vec<f64>, Vec<f64>) {
 pub fn write(dir: &Path, resolved: &Json, header: &[String], rows: &[Row]) -> Result<()> {
     let vary = resolved["vary"].as_array().cloned().unwrap_or_default();
     let col = |name: &str| header.iter().position(|h| h == name);
-    let (Some(status), Some(metric)) = (col("status"), col(METRIC.0)) else {
+    let Some(status) = col("status") else {
+        return Ok(());
+    };
+    let Some((metric, shown)) = METRICS.iter().find_map(|m| {
+        let c = col(m.0)?;
+        rows.iter()
+            .any(|r| r.cells[status] == "completed" && r.cells[c].parse::<f64>().is_ok())
+            .then_some((c, *m))
+    }) else {
         return Ok(());
     };
     let mut scatter_data: Vec<(String, String, Vec<f64>, Vec<f64>)> = Vec::new();
@@ -108,7 +121,7 @@ pub fn write(dir: &Path, resolved: &Json, header: &[String], rows: &[Row]) -> Re
                 continue;
             }
             if let (Some(x), Ok(y)) = (x_of(&r.cells[c]), r.cells[metric].parse::<f64>()) {
-                pts.push((x, y * METRIC.1));
+                pts.push((x, y * shown.1));
             }
         }
         let x_label = if numeric {
@@ -136,13 +149,13 @@ pub fn write(dir: &Path, resolved: &Json, header: &[String], rows: &[Row]) -> Re
         let panels: Vec<Panel> = scatter_data
             .iter()
             .map(|(path, xl, x, y)| {
-                Panel::new(format!("{} against {path}", METRIC.0), xl.clone(), METRIC.2)
+                Panel::new(format!("{} against {path}", shown.0), xl.clone(), shown.2)
                     .with(Series::new("completed runs", x, y, Style::solid(0)))
             })
             .collect();
         plot::panels(
-            &dir.join(format!("sweep_{}", METRIC.0)),
-            &format!("sweep: {} against each varied field", METRIC.0),
+            &dir.join(format!("sweep_{}", shown.0)),
+            &format!("sweep: {} against each varied field", shown.0),
             &panels,
             panels.len().min(2),
         )?;

@@ -82,7 +82,7 @@ pub struct Sweep {
     pub base: Source,
     /// The base scenario's document with the sweep's fixed overrides applied.
     pub doc: Table,
-    /// The varied fields, in file order.
+    /// The varied fields, in alphabetical order of their paths.
     pub params: Vec<Param>,
     /// Random draws per grid point (1 when nothing is random).
     pub draws: u64,
@@ -577,7 +577,7 @@ impl Sweep {
     }
 
     /// The varied values of run `index`. Runs are ordered grid point by grid point (the first
-    /// grid field slowest), each with `draws` random draws.
+    /// grid field in path order slowest), each with `draws` random draws.
     pub fn values(&self, index: u64) -> RunValues {
         let mut point = index / self.draws;
         let seed = self.run_seed(index);
