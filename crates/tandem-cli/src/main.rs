@@ -18,6 +18,7 @@ mod runner;
 mod scenario;
 mod scene;
 mod suggest;
+mod sweep;
 mod table;
 // The 3-D viewer: the spatial `run` command will call it; its tests and example use it now.
 #[allow(dead_code)]
@@ -99,6 +100,16 @@ enum Command {
     /// robustness.md, figures/robustness.png/.svg and results.json (the report in
     /// docs/robustness.md is `tandem robustness --out docs --force`... see the README).
     Robustness(RobustnessArgs),
+    /// Run a parameter sweep (grids and random draws over scenario fields) across cores.
+    ///
+    /// Writes runs.csv (one row per run: index, seed, the varied values, status, the summary
+    /// metrics), sweep.json (the resolved sweep and its hash) and figures (a metric against each
+    /// varied field, histograms of the random draws); see docs/sweeps.md. A faulted run is a row
+    /// with its fault. With --shard I/N (or inside a Slurm job array) only the runs with
+    /// index % N == I run; `tandem merge` joins the shard folders.
+    Sweep(SweepArgs),
+    /// Join the folders of a sharded sweep into one (runs.csv identical to an unsharded run).
+    Merge(MergeArgs),
     /// The embedded scenarios.
     Scenario {
         #[command(subcommand)]
@@ -179,6 +190,47 @@ struct RobustnessArgs {
 }
 
 #[derive(Args)]
+struct SweepArgs {
+    /// The sweep file (TOML; see docs/sweeps.md).
+    file: PathBuf,
+    /// Output folder [default: out/<sweep file stem>-sweep, plus -shard-I-of-N for a shard].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Worker threads [default: every core].
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+    /// Run only the runs with index % N == I (I from 0). Without it, SLURM_ARRAY_TASK_ID and
+    /// SLURM_ARRAY_TASK_COUNT are used when set.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<String>,
+    /// Also write every run's outputs (time series, summary, scenario) to DIR/runs/<index>/.
+    #[arg(long)]
+    keep_runs: bool,
+    /// Replace the output folder if tandem wrote it.
+    #[arg(long)]
+    force: bool,
+    /// Write no figures.
+    #[arg(long)]
+    no_figures: bool,
+}
+
+#[derive(Args)]
+struct MergeArgs {
+    /// The shard folders (one per shard, any order).
+    #[arg(required = true)]
+    dirs: Vec<PathBuf>,
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Replace the output folder if tandem wrote it.
+    #[arg(long)]
+    force: bool,
+    /// Write no figures.
+    #[arg(long)]
+    no_figures: bool,
+}
+
+#[derive(Args)]
 struct CompareArgs {
     /// Scenario file or embedded scenario name [default: paper].
     scenario: Option<String>,
@@ -212,6 +264,8 @@ fn main() -> ExitCode {
         Command::Compare(a) => cmd_compare(a),
         Command::Robustness(a) => cmd_robustness(a),
         Command::Validate { scenario } => cmd_validate(&scenario),
+        Command::Sweep(a) => cmd_sweep(a),
+        Command::Merge(a) => cmd_merge(a),
         Command::Scenario { command } => cmd_scenario(command),
     };
     match result {
@@ -645,6 +699,96 @@ fn cmd_robustness(a: RobustnessArgs) -> Result<ExitCode> {
         count("degraded"),
         count("fault"),
         dir.join("robustness.md").display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_sweep(a: SweepArgs) -> Result<ExitCode> {
+    let sw = sweep::Sweep::load(&a.file)?;
+    let shard = match &a.shard {
+        Some(s) => Some(sweep::Shard::parse(s, "--shard")?),
+        None => sweep::Shard::from_env()?,
+    };
+    let out_dir = a.out.clone().unwrap_or_else(|| {
+        let stem = a
+            .file
+            .file_stem()
+            .map_or_else(|| "sweep".into(), |s| s.to_string_lossy().into_owned());
+        let mut name = format!("{stem}-sweep");
+        if let Some(s) = shard {
+            name.push_str(&format!("-shard-{}-of-{}", s.index, s.count));
+        }
+        PathBuf::from("out").join(name)
+    });
+    let mut protected = vec![a.file.clone()];
+    protected.extend(sw.base.file.iter().cloned());
+    check_out(&out_dir, a.force, &protected)?;
+    let threads = match a.threads {
+        Some(0) => return Err(BadInput::msg("--threads 0: give at least 1").into()),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
+    let out = OutputDir::create(&out_dir, a.force, &p)?;
+    let keep = a.keep_runs.then(|| out.tmp_dir().join("runs"));
+    let idx = sweep::run::indices(&sw, shard);
+    let t0 = Instant::now();
+    let results = sweep::run::run_all(&sw, &idx, threads, keep.as_deref())?;
+    let elapsed = t0.elapsed().as_secs_f64();
+    let header = sweep::run::header(&sw);
+    let status = 2 + sw.params.len();
+    let count = |s: &str| results.iter().filter(|r| r.row.cells[status] == s).count();
+    let (ok, faulted, invalid) = (count("completed"), count("fault"), count("invalid"));
+    let rows: Vec<sweep::run::Row> = results.into_iter().map(|r| r.row).collect();
+    let problems = sweep::merge::write_folder(
+        out.tmp_dir(),
+        &sw.resolved_json(),
+        &sw.hash(),
+        shard,
+        &header,
+        &rows,
+        !a.no_figures,
+    )?;
+    for p in &problems {
+        eprintln!("warning: {p}");
+    }
+    let dir = out.commit()?;
+    println!(
+        "{} runs{} in {} s on {threads} thread{}: {ok} completed, {faulted} faulted, {invalid} invalid; table {}",
+        rows.len(),
+        shard.map_or_else(String::new, |s| format!(
+            " (shard {}/{} of {} runs)",
+            s.index, s.count, sw.total
+        )),
+        table::num(elapsed, 3),
+        if threads == 1 { "" } else { "s" },
+        dir.join("runs.csv").display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_merge(a: MergeArgs) -> Result<ExitCode> {
+    check_out(&a.out, a.force, &[])?;
+    let m = sweep::merge::merge(&a.dirs)?;
+    let out = OutputDir::create(&a.out, a.force, &[])?;
+    let problems = sweep::merge::write_folder(
+        out.tmp_dir(),
+        &m.resolved,
+        &m.hash,
+        None,
+        &m.header,
+        &m.rows,
+        !a.no_figures,
+    )?;
+    for p in &problems {
+        eprintln!("warning: {p}");
+    }
+    let dir = out.commit()?;
+    println!(
+        "merged {} folders, {} runs: table {}",
+        a.dirs.len(),
+        m.rows.len(),
+        dir.join("runs.csv").display()
     );
     Ok(ExitCode::SUCCESS)
 }
