@@ -555,8 +555,8 @@ pub struct RbfNetwork<const M: usize> {
     n_nodes: usize,
     /// Node-major: `w[k·M + j]` is node `k`, output `j`.
     w: Vec<f64>,
-    /// Use the AVX2 build of the kernels (detected once, at construction).
-    avx2: bool,
+    /// The weight-pass kernel (chosen once, at construction; see [`Kernel`]).
+    kernel: Kernel,
 }
 
 impl<const M: usize> RbfNetwork<M> {
@@ -574,8 +574,21 @@ impl<const M: usize> RbfNetwork<M> {
         Ok(Self {
             n_nodes,
             w: vec![0.0; n_nodes * M],
-            avx2: detect_avx2(),
+            kernel: Kernel::from_env()?,
         })
+    }
+
+    /// The weight-pass kernel in use.
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
+    }
+
+    /// Use `kernel` from now on; an error (listing the kernels this CPU can run) if the CPU
+    /// lacks it. The weights are kept.
+    pub fn set_kernel(&mut self, kernel: Kernel) -> Result<(), ModelError> {
+        kernel.check_available()?;
+        self.kernel = kernel;
+        Ok(())
     }
 
     /// A zero network sized for `rbf`.
@@ -745,10 +758,15 @@ impl<const M: usize> RbfNetwork<M> {
         assert_eq!(rbf.n_nodes(), self.n_nodes, "rbf_network: basis size");
         let c = coefficients(q, z2, upd);
         #[cfg(target_arch = "x86_64")]
-        if self.avx2 && rbf.eval_factors(z, ws) && ws.b.len() % BLOCK == 0 {
-            // SAFETY: `avx2` is true only if the CPU reported AVX2 (`detect_avx2`).
+        if self.kernel != Kernel::Portable && rbf.eval_factors(z, ws) && ws.b.len() % BLOCK == 0 {
+            let (w, a, b, s, e) = (&mut self.w, &ws.a, &ws.b, &mut ws.s, &upd.decay);
+            // SAFETY: a kernel is stored only after `Kernel::check_available` found its
+            // features on this CPU.
             return unsafe {
-                avx2::tick_grid::<M, NORM>(&mut self.w, &ws.a, &ws.b, &mut ws.s, &upd.decay, &c)
+                match self.kernel {
+                    Kernel::Avx2Fma => avx2::tick_grid_fma::<M, NORM>(w, a, b, s, e, &c),
+                    _ => avx2::tick_grid::<M, NORM>(w, a, b, s, e, &c),
+                }
             };
         }
         rbf.eval_into(z, ws);
@@ -763,9 +781,11 @@ impl<const M: usize> RbfNetwork<M> {
         c: &[f64; M],
     ) -> ([f64; M], [f64; M]) {
         #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: `avx2` is true only if the CPU reported AVX2 (`detect_avx2`).
-            return unsafe { avx2::tick::<M, OUT>(&mut self.w, s, e, c) };
+        // SAFETY: a kernel is stored only after `Kernel::check_available` found its features.
+        match self.kernel {
+            Kernel::Avx2 => return unsafe { avx2::tick::<M, OUT>(&mut self.w, s, e, c) },
+            Kernel::Avx2Fma => return unsafe { avx2::tick_fma::<M, OUT>(&mut self.w, s, e, c) },
+            Kernel::Portable => {}
         }
         kernel_tick::<M, OUT>(&mut self.w, s, e, c)
     }
@@ -773,9 +793,13 @@ impl<const M: usize> RbfNetwork<M> {
     #[inline]
     fn dispatch_read<const OUT: bool, const NORM: bool>(&self, s: &[f64]) -> ([f64; M], [f64; M]) {
         #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: as in `dispatch_tick`.
-            return unsafe { avx2::read::<M, OUT, NORM>(&self.w, s, self.n_nodes) };
+        // SAFETY: as in `dispatch_tick`.
+        match self.kernel {
+            Kernel::Avx2 => return unsafe { avx2::read::<M, OUT, NORM>(&self.w, s, self.n_nodes) },
+            Kernel::Avx2Fma => {
+                return unsafe { avx2::read_fma::<M, OUT, NORM>(&self.w, s, self.n_nodes) };
+            }
+            Kernel::Portable => {}
         }
         kernel_read::<M, OUT, NORM>(&self.w, s, self.n_nodes)
     }
@@ -792,6 +816,134 @@ fn detect_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Name of the environment variable that forces a weight-pass kernel.
+pub const KERNEL_ENV: &str = "TANDEM_KERNEL";
+
+/// The weight-pass kernel of [`RbfNetwork`], chosen once at set-up (never one the CPU lacks).
+///
+/// Determinism policy (`docs/performance.md`): the same binary on the same machine with the
+/// same kernel gives bitwise-identical runs. [`Kernel::Portable`] and [`Kernel::Avx2`] use the
+/// same IEEE operations in the same order and give the same bits (the planar reference results
+/// are pinned to them). [`Kernel::Avx2Fma`] fuses `acc + w·S`, `e·w − c·S` and `n2 + w²` into
+/// single-rounding FMAs: each weight update differs by at most about one ulp per tick, and the
+/// results agree with the portable reference to a relative tolerance (tested: `1e-12` on the
+/// weights and outputs after 1000 ticks of the paper network).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// Plain Rust, any CPU; the reference.
+    Portable,
+    /// AVX2, no FMA: bit-identical to [`Kernel::Portable`]. The default where available.
+    Avx2,
+    /// AVX2 with FMA: faster, not bit-identical (within the stated tolerance).
+    Avx2Fma,
+}
+
+impl Kernel {
+    /// Every kernel, in order of preference for bit-identity.
+    pub const ALL: [Kernel; 3] = [Kernel::Portable, Kernel::Avx2, Kernel::Avx2Fma];
+
+    /// The name `TANDEM_KERNEL` accepts: `portable`, `avx2`, `avx2fma`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Portable => "portable",
+            Kernel::Avx2 => "avx2",
+            Kernel::Avx2Fma => "avx2fma",
+        }
+    }
+
+    /// Whether this CPU can run the kernel.
+    pub fn is_available(self) -> bool {
+        match self {
+            Kernel::Portable => true,
+            Kernel::Avx2 => detect_avx2(),
+            Kernel::Avx2Fma => detect_avx2() && detect_fma(),
+        }
+    }
+
+    /// Whether the kernel gives the same bits as [`Kernel::Portable`].
+    pub fn is_bit_identical_to_portable(self) -> bool {
+        !matches!(self, Kernel::Avx2Fma)
+    }
+
+    /// The default: AVX2 (bit-identical to the reference) where the CPU has it, else portable.
+    pub fn default_for_cpu() -> Kernel {
+        if Kernel::Avx2.is_available() {
+            Kernel::Avx2
+        } else {
+            Kernel::Portable
+        }
+    }
+
+    /// `Ok` if the CPU can run the kernel, else an error naming [`KERNEL_ENV`] and listing the
+    /// kernels it can run.
+    pub fn check_available(self) -> Result<Kernel, ModelError> {
+        if self.is_available() {
+            Ok(self)
+        } else {
+            Err(ModelError::geometry(
+                KERNEL_ENV,
+                format!(
+                    "kernel `{}` needs CPU features this machine lacks; available: {}",
+                    self.name(),
+                    Self::available_list()
+                ),
+            ))
+        }
+    }
+
+    /// A kernel by name; an unknown name, or one this CPU cannot run, is an error that names
+    /// [`KERNEL_ENV`] and lists the valid (available) names.
+    pub fn parse(name: &str) -> Result<Kernel, ModelError> {
+        let name = name.trim();
+        match Self::ALL.into_iter().find(|k| k.name() == name) {
+            Some(k) => k.check_available(),
+            None => Err(ModelError::geometry(
+                KERNEL_ENV,
+                format!(
+                    "unknown kernel `{name}`; valid: {} (available on this CPU: {})",
+                    Self::ALL.map(Kernel::name).join(", "),
+                    Self::available_list()
+                ),
+            )),
+        }
+    }
+
+    /// The kernel `TANDEM_KERNEL` forces, or [`Kernel::default_for_cpu`] if it is unset or empty.
+    pub fn from_env() -> Result<Kernel, ModelError> {
+        match std::env::var(KERNEL_ENV) {
+            Ok(v) if !v.trim().is_empty() => Self::parse(&v),
+            _ => Ok(Self::default_for_cpu()),
+        }
+    }
+
+    fn available_list() -> String {
+        Self::ALL
+            .into_iter()
+            .filter(|k| k.is_available())
+            .map(Kernel::name)
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+impl std::fmt::Display for Kernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Whether the CPU has FMA.
+fn detect_fma() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("fma")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -945,10 +1097,27 @@ fn kernel_read<const M: usize, const OUT: bool, const NORM: bool>(
 mod avx2 {
     use super::{BLOCK, MAX_LANES, MAX_OUTPUTS, reduce, s_tail};
     use std::arch::x86_64::{
-        __m256d, __m256i, _mm256_add_pd, _mm256_castpd_si256, _mm256_castsi256_pd, _mm256_loadu_pd,
-        _mm256_loadu_si256, _mm256_mul_pd, _mm256_permutevar8x32_epi32, _mm256_set1_pd,
-        _mm256_setzero_pd, _mm256_storeu_pd, _mm256_sub_pd,
+        __m256d, __m256i, _mm256_add_pd, _mm256_castpd_si256, _mm256_castsi256_pd, _mm256_fmadd_pd,
+        _mm256_fnmadd_pd, _mm256_loadu_pd, _mm256_loadu_si256, _mm256_mul_pd,
+        _mm256_permutevar8x32_epi32, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+        _mm256_sub_pd,
     };
+
+    /// `acc + x·y`: two roundings, or one FMA if `FMA`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 (and FMA if `FMA`).
+    #[inline(always)]
+    unsafe fn mul_add<const FMA: bool>(x: __m256d, y: __m256d, acc: __m256d) -> __m256d {
+        // SAFETY: caller's contract.
+        unsafe {
+            if FMA {
+                _mm256_fmadd_pd(x, y, acc)
+            } else {
+                _mm256_add_pd(acc, _mm256_mul_pd(x, y))
+            }
+        }
+    }
 
     /// Per-register constants and accumulators of one pass.
     struct Regs<const M: usize> {
@@ -1048,7 +1217,7 @@ mod avx2 {
     /// # Safety
     /// The CPU must support AVX2.
     #[inline(always)]
-    unsafe fn tick_block<const M: usize, const OUT: bool, const NORM: bool>(
+    unsafe fn tick_block<const M: usize, const OUT: bool, const NORM: bool, const FMA: bool>(
         wb: &mut [f64],
         sv: __m256d,
         r: &mut Regs<M>,
@@ -1059,12 +1228,16 @@ mod avx2 {
                 let sq = spread(sv, r.idx[q]);
                 let old = load(wq);
                 if OUT {
-                    r.acc[q] = _mm256_add_pd(r.acc[q], _mm256_mul_pd(old, sq));
+                    r.acc[q] = mul_add::<FMA>(old, sq, r.acc[q]);
                 }
-                let new = _mm256_sub_pd(_mm256_mul_pd(r.e[q], old), _mm256_mul_pd(r.c[q], sq));
+                let new = if FMA {
+                    _mm256_fnmadd_pd(r.c[q], sq, _mm256_mul_pd(r.e[q], old))
+                } else {
+                    _mm256_sub_pd(_mm256_mul_pd(r.e[q], old), _mm256_mul_pd(r.c[q], sq))
+                };
                 store(wq, new);
                 if NORM {
-                    r.n2[q] = _mm256_add_pd(r.n2[q], _mm256_mul_pd(new, new));
+                    r.n2[q] = mul_add::<FMA>(new, new, r.n2[q]);
                 }
             }
         }
@@ -1082,6 +1255,36 @@ mod avx2 {
         c: &[f64; M],
     ) -> ([f64; M], [f64; M]) {
         // SAFETY: AVX2 (caller's contract).
+        unsafe { tick_body::<M, OUT, false>(w, s, e, c) }
+    }
+
+    /// [`tick`] with FMA.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn tick_fma<const M: usize, const OUT: bool>(
+        w: &mut [f64],
+        s: &[f64],
+        e: &[f64; M],
+        c: &[f64; M],
+    ) -> ([f64; M], [f64; M]) {
+        // SAFETY: AVX2 and FMA (caller's contract).
+        unsafe { tick_body::<M, OUT, true>(w, s, e, c) }
+    }
+
+    /// The body of [`tick`] and [`tick_fma`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 (and FMA if `FMA`).
+    #[inline(always)]
+    unsafe fn tick_body<const M: usize, const OUT: bool, const FMA: bool>(
+        w: &mut [f64],
+        s: &[f64],
+        e: &[f64; M],
+        c: &[f64; M],
+    ) -> ([f64; M], [f64; M]) {
+        // SAFETY: AVX2 (caller's contract).
         unsafe {
             let mut r = regs(e, c);
             let full = s.len() / BLOCK;
@@ -1090,12 +1293,12 @@ mod avx2 {
                 .chunks_exact_mut(BLOCK * M)
                 .zip(s.chunks_exact(BLOCK))
             {
-                tick_block::<M, OUT, true>(wb, load(sb), &mut r);
+                tick_block::<M, OUT, true, FMA>(wb, load(sb), &mut r);
             }
             if !w_tail.is_empty() {
                 let mut tmp = [0.0; MAX_LANES];
                 tmp[..w_tail.len()].copy_from_slice(w_tail);
-                tick_block::<M, OUT, true>(&mut tmp, load(&s_tail(s)), &mut r);
+                tick_block::<M, OUT, true, FMA>(&mut tmp, load(&s_tail(s)), &mut r);
                 w_tail.copy_from_slice(&tmp[..w_tail.len()]);
             }
             (sums(&r.acc), sums(&r.n2))
@@ -1110,6 +1313,40 @@ mod avx2 {
     /// `s.len() = a.len()·b.len()` and `w.len() = s.len()·M`.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn tick_grid<const M: usize, const NORM: bool>(
+        w: &mut [f64],
+        a: &[f64],
+        b: &[f64],
+        s: &mut [f64],
+        e: &[f64; M],
+        c: &[f64; M],
+    ) -> ([f64; M], [f64; M]) {
+        // SAFETY: AVX2 (caller's contract).
+        unsafe { tick_grid_body::<M, NORM, false>(w, a, b, s, e, c) }
+    }
+
+    /// [`tick_grid`] with FMA.
+    ///
+    /// # Safety
+    /// As [`tick_grid`], and the CPU must support FMA.
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn tick_grid_fma<const M: usize, const NORM: bool>(
+        w: &mut [f64],
+        a: &[f64],
+        b: &[f64],
+        s: &mut [f64],
+        e: &[f64; M],
+        c: &[f64; M],
+    ) -> ([f64; M], [f64; M]) {
+        // SAFETY: AVX2 and FMA (caller's contract).
+        unsafe { tick_grid_body::<M, NORM, true>(w, a, b, s, e, c) }
+    }
+
+    /// The body of [`tick_grid`] and [`tick_grid_fma`].
+    ///
+    /// # Safety
+    /// As [`tick_grid`] (and FMA if `FMA`).
+    #[inline(always)]
+    unsafe fn tick_grid_body<const M: usize, const NORM: bool, const FMA: bool>(
         w: &mut [f64],
         a: &[f64],
         b: &[f64],
@@ -1132,7 +1369,7 @@ mod avx2 {
                     // S = a_i · b_j, the product `eval_into` forms.
                     let sv = _mm256_mul_pd(av, load(bb));
                     store(sb, sv);
-                    tick_block::<M, true, NORM>(wb, sv, &mut r);
+                    tick_block::<M, true, NORM, FMA>(wb, sv, &mut r);
                 }
             }
             (sums(&r.acc), sums(&r.n2))
@@ -1144,7 +1381,7 @@ mod avx2 {
     /// # Safety
     /// The CPU must support AVX2.
     #[inline(always)]
-    unsafe fn read_block<const M: usize, const OUT: bool, const NORM: bool>(
+    unsafe fn read_block<const M: usize, const OUT: bool, const NORM: bool, const FMA: bool>(
         wb: &[f64],
         sv: __m256d,
         r: &mut Regs<M>,
@@ -1154,10 +1391,10 @@ mod avx2 {
             unsafe {
                 let x = load(wq);
                 if OUT {
-                    r.acc[q] = _mm256_add_pd(r.acc[q], _mm256_mul_pd(x, spread(sv, r.idx[q])));
+                    r.acc[q] = mul_add::<FMA>(x, spread(sv, r.idx[q]), r.acc[q]);
                 }
                 if NORM {
-                    r.n2[q] = _mm256_add_pd(r.n2[q], _mm256_mul_pd(x, x));
+                    r.n2[q] = mul_add::<FMA>(x, x, r.n2[q]);
                 }
             }
         }
@@ -1174,6 +1411,34 @@ mod avx2 {
         n_nodes: usize,
     ) -> ([f64; M], [f64; M]) {
         // SAFETY: AVX2 (caller's contract).
+        unsafe { read_body::<M, OUT, NORM, false>(w, s, n_nodes) }
+    }
+
+    /// [`read`] with FMA.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn read_fma<const M: usize, const OUT: bool, const NORM: bool>(
+        w: &[f64],
+        s: &[f64],
+        n_nodes: usize,
+    ) -> ([f64; M], [f64; M]) {
+        // SAFETY: AVX2 and FMA (caller's contract).
+        unsafe { read_body::<M, OUT, NORM, true>(w, s, n_nodes) }
+    }
+
+    /// The body of [`read`] and [`read_fma`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 (and FMA if `FMA`).
+    #[inline(always)]
+    unsafe fn read_body<const M: usize, const OUT: bool, const NORM: bool, const FMA: bool>(
+        w: &[f64],
+        s: &[f64],
+        n_nodes: usize,
+    ) -> ([f64; M], [f64; M]) {
+        // SAFETY: AVX2 (caller's contract).
         unsafe {
             let mut r = regs(&[0.0; M], &[0.0; M]);
             let zero = _mm256_setzero_pd();
@@ -1185,13 +1450,13 @@ mod avx2 {
                 } else {
                     zero
                 };
-                read_block::<M, OUT, NORM>(wb, sv, &mut r);
+                read_block::<M, OUT, NORM, FMA>(wb, sv, &mut r);
             }
             if !w_tail.is_empty() {
                 let mut tmp = [0.0; MAX_LANES];
                 tmp[..w_tail.len()].copy_from_slice(w_tail);
                 let sv = if OUT { load(&s_tail(s)) } else { zero };
-                read_block::<M, OUT, NORM>(&tmp, sv, &mut r);
+                read_block::<M, OUT, NORM, FMA>(&tmp, sv, &mut r);
             }
             (sums(&r.acc), sums(&r.n2))
         }
@@ -1410,7 +1675,7 @@ mod tests {
             *w = rng.range(-1.0, 1.0);
         }
         let mut b = a.clone();
-        b.avx2 = false;
+        b.kernel = Kernel::Portable;
         let mut c = a.clone();
         let mut reference = a.weights_matrix();
         for _ in 0..5 {
@@ -1456,12 +1721,12 @@ mod tests {
         let mut rng = Rng(5);
         let upd = paper_update();
         let mut a = random_network(rbf.n_nodes(), &mut rng);
-        if !a.avx2 {
+        if a.set_kernel(Kernel::Avx2).is_err() {
             eprintln!("no AVX2 on this CPU: nothing to compare");
             return;
         }
         let mut b = a.clone();
-        b.avx2 = false;
+        b.kernel = Kernel::Portable;
         let mut rbf_portable = rbf.clone();
         rbf_portable.avx2 = false;
         let mut ws_b = rbf_portable.workspace();
@@ -1476,6 +1741,71 @@ mod tests {
             assert_eq!(a.output(ws.s()), b.output(ws.s()));
             assert_eq!(a.norms(), b.norms());
         }
+    }
+
+    /// Determinism policy: every kernel this CPU can run against the portable reference on
+    /// the paper network, 1000 ticks of the fused grid path. Bit-identical kernels must agree
+    /// bitwise; FMA kernels within a relative `1e-12` (each FMA saves one rounding of at most
+    /// ½ ulp ≈ 1.1e-16 per operation; the decay `e < 1` damps old differences, so they stay
+    /// near a few ulps of the largest weight, far below `1e-12`).
+    #[test]
+    fn every_available_kernel_agrees_with_the_portable_reference() {
+        let rbf = Rbf::paper();
+        let upd = paper_update();
+        for kernel in Kernel::ALL.into_iter().filter(|k| k.is_available()) {
+            let mut rng = Rng(21);
+            let mut net = RbfNetwork::<3>::for_basis(&rbf).unwrap();
+            net.set_kernel(kernel).unwrap();
+            let mut reference = net.clone();
+            reference.set_kernel(Kernel::Portable).unwrap();
+            let (mut ws, mut ws_r) = (rbf.workspace(), rbf.workspace());
+            let (mut worst_w, mut worst_f) = (0.0f64, 0.0f64);
+            for _ in 0..1000 {
+                let z: Vec<f64> = (0..12).map(|_| rng.range(-1.5, 1.5)).collect();
+                let z2 = Vector3::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), 0.01);
+                let t = net.tick_at(&rbf, &z, &mut ws, 0.9, &z2, &upd);
+                let tr = reference.tick_at(&rbf, &z, &mut ws_r, 0.9, &z2, &upd);
+                if kernel.is_bit_identical_to_portable() {
+                    assert_eq!(t, tr, "{kernel}");
+                }
+                for j in 0..3 {
+                    let scale = tr.f_hat.abs().max() + 1e-300;
+                    worst_f = worst_f.max((t.f_hat[j] - tr.f_hat[j]).abs() / scale);
+                }
+            }
+            let wmax = reference
+                .weights()
+                .iter()
+                .fold(0.0f64, |m, v| m.max(v.abs()));
+            for (a, b) in net.weights().iter().zip(reference.weights()) {
+                worst_w = worst_w.max((a - b).abs() / wmax);
+            }
+            eprintln!("{kernel}: max rel. diff weights {worst_w:.2e}, outputs {worst_f:.2e}");
+            if kernel.is_bit_identical_to_portable() {
+                assert_eq!(net.weights(), reference.weights(), "{kernel}");
+            }
+            assert!(worst_w <= 1e-12 && worst_f <= 1e-12, "{kernel}");
+        }
+    }
+
+    #[test]
+    fn kernel_names_and_errors() {
+        for k in Kernel::ALL {
+            match Kernel::parse(k.name()) {
+                Ok(got) => assert_eq!(got, k),
+                Err(e) => {
+                    assert!(!k.is_available());
+                    assert!(e.to_string().contains(KERNEL_ENV), "{e}");
+                }
+            }
+        }
+        let e = Kernel::parse("sse9").unwrap_err().to_string();
+        assert!(
+            e.contains(KERNEL_ENV) && e.contains("portable") && e.contains("avx2fma"),
+            "{e}"
+        );
+        assert!(Kernel::default_for_cpu().is_available());
+        assert!(Kernel::default_for_cpu().is_bit_identical_to_portable());
     }
 
     #[test]
