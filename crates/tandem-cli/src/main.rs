@@ -17,6 +17,7 @@ mod robustness;
 mod runner;
 mod scenario;
 mod scene;
+mod spatial;
 mod suggest;
 mod table;
 // The 3-D viewer: the spatial `run` command will call it; its tests and example use it now.
@@ -298,6 +299,21 @@ fn print_warnings(label: &str, w: &[String]) {
 }
 
 fn cmd_run(a: RunArgs) -> Result<ExitCode> {
+    if let Some(name) = a.scenario.as_deref().filter(|n| spatial::is_preset(n)) {
+        let out_dir = a
+            .common
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("out").join(format!("{name}-nn")));
+        check_out(&out_dir, a.common.force, &[])?;
+        let out = OutputDir::create(&out_dir, a.common.force, &[])?;
+        let ok = spatial::cmd_run(name, a.common.duration, out)?;
+        return Ok(if ok {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::from(1)
+        });
+    }
     let o = Overrides {
         controller: a.controller,
         gains: a.gains,
@@ -706,6 +722,9 @@ fn cmd_scenario(c: ScenarioCommand) -> Result<ExitCode> {
                         ""
                     }
                 );
+            }
+            for (n, d) in spatial::PRESETS {
+                println!("{n:w$}  {d} (spatial preset: `tandem run {n}`)");
             }
             println!("\nShow one with `tandem scenario show NAME`; copy it to start your own.");
         }
