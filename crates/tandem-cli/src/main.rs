@@ -17,6 +17,7 @@ mod robustness;
 mod runner;
 mod scenario;
 mod scene;
+mod spatial;
 mod suggest;
 mod sweep;
 mod table;
@@ -352,6 +353,21 @@ fn print_warnings(label: &str, w: &[String]) {
 }
 
 fn cmd_run(a: RunArgs) -> Result<ExitCode> {
+    if let Some(name) = a.scenario.as_deref().filter(|n| spatial::is_preset(n)) {
+        let out_dir = a
+            .common
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("out").join(format!("{name}-nn")));
+        check_out(&out_dir, a.common.force, &[])?;
+        let out = OutputDir::create(&out_dir, a.common.force, &[])?;
+        let ok = spatial::cmd_run(name, a.common.duration, out)?;
+        return Ok(if ok {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::from(1)
+        });
+    }
     let o = Overrides {
         controller: a.controller,
         gains: a.gains,
@@ -850,6 +866,9 @@ fn cmd_scenario(c: ScenarioCommand) -> Result<ExitCode> {
                         ""
                     }
                 );
+            }
+            for (n, d) in spatial::PRESETS {
+                println!("{n:w$}  {d} (spatial preset: `tandem run {n}`)");
             }
             println!("\nShow one with `tandem scenario show NAME`; copy it to start your own.");
         }
