@@ -3,16 +3,8 @@
 //! [ur5|franka] [seconds]`. Prints the tracking error every second and the real-time factor
 //! (also the target of `valgrind --tool=callgrind` for instruction counts).
 
-use nalgebra::{Isometry3, Translation3, Vector3};
-use tandem::control::spatial::{
-    SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
-    SpatialPdGains,
-};
-use tandem::disturbance::SpatialDisturbance;
-use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
-use tandem::sensors::SensorParams;
-use tandem::sim::{Formulation, SimParams, Simulation, SpatialStart};
+use nalgebra::Vector3;
+use tandem::control::spatial::{SpatialCtcGains, SpatialLaw, SpatialNnGains, SpatialPdGains};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -30,43 +22,15 @@ fn main() {
         _ if franka => SpatialLaw::Nn(SpatialNnGains::dual_franka()),
         _ => SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
     };
-    let p = SpatialControllerParams::spec_s6(law);
-    let path = Se3Path::spec_s6();
     let t0 = std::time::Instant::now();
-    let (c, warnings) =
-        SpatialController::new(&p, &setup.params, path.clone(), duration, &setup.q_guess)
-            .expect("controller");
+    let (sim, warnings) =
+        tandem::fixtures::spatial_s6_simulation(&setup.params, &setup, law, duration, 1e-3, 1e-6)
+            .expect("simulation");
     println!(
         "set-up {:.3} s; path inertia (chart diagonal) {:.3?}; warnings: {warnings:?}",
         t0.elapsed().as_secs_f64(),
-        c.path_inertia().as_slice()
+        sim.driver().path_inertia().as_slice()
     );
-    let d0 = path.sample(0.0);
-    let start = SpatialStart {
-        x_wo: Isometry3::from_parts(
-            Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)),
-            d0.r,
-        ),
-        q_guess: setup.q_guess.clone(),
-    };
-    let sim = Simulation::with_plant(
-        SpatialPlant::new(&setup.params).expect("plant"),
-        &start,
-        &SensorParams::default(),
-        c,
-        SpatialDisturbance::spec_s6(),
-        SimParams {
-            duration,
-            plant_step: 1e-3,
-            control_period: 1e-3,
-            log_period: 0.01,
-            start: [0.0; 3],
-            formulation: Formulation::Constrained,
-            max_drift: 1e-6,
-            min_sigma: 1e-3,
-        },
-    )
-    .expect("simulation");
     let (out, _) = sim.run(|_| {});
     let log = &out.log;
     let t = log.get("t").unwrap();

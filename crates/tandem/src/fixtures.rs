@@ -273,7 +273,7 @@ pub fn dual_franka() -> SpatialSetup {
 /// the given law with the `spec_s6` controller settings, the S6 disturbance, ideal sensors, a
 /// start at rest 1 cm inside the circle, 1 kHz control with `plant_step`, logged every 10 ms;
 /// the run stops when the grasps separate by more than `max_drift` m (a weld's drift, or a
-/// compliant grasp's deflection: a slip).
+/// compliant grasp's deflection: a slip). Returns the controller's set-up warnings too.
 pub fn spatial_s6_simulation(
     truth: &crate::plant::spatial::SpatialPlantParams,
     model: &SpatialSetup,
@@ -282,14 +282,18 @@ pub fn spatial_s6_simulation(
     plant_step: f64,
     max_drift: f64,
 ) -> Result<
-    Simulation<crate::plant::spatial::SpatialPlant, crate::control::spatial::SpatialController>,
+    (
+        Simulation<crate::plant::spatial::SpatialPlant, crate::control::spatial::SpatialController>,
+        Vec<ControlWarning>,
+    ),
     ModelError,
 > {
     use crate::control::spatial::{SpatialController, SpatialControllerParams};
     use crate::reference::se3_path::Se3Path;
     let path = Se3Path::spec_s6();
     let p = SpatialControllerParams::spec_s6(law);
-    let (c, _) = SpatialController::new(&p, &model.params, path.clone(), duration, &model.q_guess)?;
+    let (c, warnings) =
+        SpatialController::new(&p, &model.params, path.clone(), duration, &model.q_guess)?;
     let d0 = path.sample(0.0);
     let start = crate::sim::SpatialStart {
         x_wo: nalgebra::Isometry3::from_parts(
@@ -298,7 +302,7 @@ pub fn spatial_s6_simulation(
         ),
         q_guess: model.q_guess.clone(),
     };
-    Simulation::with_plant(
+    let sim = Simulation::with_plant(
         crate::plant::spatial::SpatialPlant::new(truth)?,
         &start,
         &SensorParams::default(),
@@ -314,5 +318,6 @@ pub fn spatial_s6_simulation(
             max_drift,
             min_sigma: 1e-3,
         },
-    )
+    )?;
+    Ok((sim, warnings))
 }

@@ -6,17 +6,13 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use nalgebra::{Isometry3, Translation3, Vector3};
+use nalgebra::Vector3;
 use serde_json::json;
-use tandem::control::spatial::{
-    SpatialController, SpatialControllerParams, SpatialLaw, SpatialNnGains,
-};
-use tandem::disturbance::SpatialDisturbance;
+use tandem::control::spatial::{SpatialLaw, SpatialNnGains};
 use tandem::fixtures::SpatialSetup;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::reference::se3_path::Se3Path;
-use tandem::sensors::SensorParams;
-use tandem::sim::{Formulation, Outcome, SimParams, Simulation, SpatialStart};
+use tandem::sim::Outcome;
 
 use crate::output::{OutputDir, write_csv, write_json_atomic};
 use crate::viewer::{ScalarTrack, scene_from_states, write_snapshots, write_viewer_file};
@@ -71,39 +67,19 @@ fn setup(name: &str) -> (SpatialSetup, SpatialNnGains, [f64; 3]) {
 /// Runs preset `name` for `duration` s (the path's S6 start, 1 cm inside the circle).
 pub fn run(name: &str, duration: f64) -> Result<Finished> {
     let (s, gains, box_size) = setup(name);
-    let p = SpatialControllerParams::spec_s6(SpatialLaw::Nn(gains));
     let path = Se3Path::spec_s6();
-    let (c, warnings) = SpatialController::new(&p, &s.params, path.clone(), duration, &s.q_guess)
-        .context("spatial controller")?;
+    let (sim, warnings) = tandem::fixtures::spatial_s6_simulation(
+        &s.params,
+        &s,
+        SpatialLaw::Nn(gains),
+        duration,
+        1e-3,
+        1e-6,
+    )
+    .context("spatial simulation")?;
     for w in &warnings {
         eprintln!("warning ({name}): {w:?}");
     }
-    let d0 = path.sample(0.0);
-    let start = SpatialStart {
-        x_wo: Isometry3::from_parts(
-            Translation3::from(d0.p - Vector3::new(0.01, 0.0, 0.0)),
-            d0.r,
-        ),
-        q_guess: s.q_guess.clone(),
-    };
-    let sim = Simulation::with_plant(
-        SpatialPlant::new(&s.params).context("spatial plant")?,
-        &start,
-        &SensorParams::default(),
-        c,
-        SpatialDisturbance::spec_s6(),
-        SimParams {
-            duration,
-            plant_step: 1e-3,
-            control_period: 1e-3,
-            log_period: 0.01,
-            start: [0.0; 3],
-            formulation: Formulation::Constrained,
-            max_drift: 1e-6,
-            min_sigma: 1e-3,
-        },
-    )
-    .context("spatial simulation")?;
     let (outcome, _) = sim.run(|_| {});
     Ok(Finished {
         outcome,
