@@ -4,28 +4,6 @@
 //! are written with the fault in `summary.json`) or an I/O failure, 2 bad input (command line,
 //! scenario file, replay file, or an output folder that exists without `--force`).
 
-mod anim;
-mod figures;
-// The colleague's output and plotting helpers offer more API than the commands use (their own
-// tests exercise it).
-#[allow(dead_code)]
-mod output;
-#[allow(dead_code)]
-mod plot;
-mod replay;
-mod robustness;
-mod runner;
-mod scenario;
-mod scene;
-mod spatial;
-mod suggest;
-mod sweep;
-mod table;
-// The 3-D viewer: the spatial `run` command will call it; its tests and example use it now.
-#[allow(dead_code)]
-mod viewer;
-
-use std::fmt;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -34,28 +12,14 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::output::OutputDir;
-use crate::runner::{Finished, Outputs};
-use crate::scenario::{ControllerKind, GainPreset, Overrides, Scenario, ScenarioError, Source};
-
-/// Bad input: the command line, a scenario, a replay file or an existing output folder. Exit 2.
-#[derive(Debug)]
-pub struct BadInput(String);
-
-impl BadInput {
-    /// From a message.
-    pub fn msg(s: impl Into<String>) -> Self {
-        BadInput(s.into())
-    }
-}
-
-impl fmt::Display for BadInput {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for BadInput {}
+use tandem_cli::output::OutputDir;
+use tandem_cli::runner::{Finished, Outputs};
+use tandem_cli::scenario::{
+    ControllerKind, GainPreset, Overrides, Scenario, ScenarioError, Source,
+};
+use tandem_cli::{
+    BadInput, figures, output, replay, robustness, runner, scenario, spatial, suggest, sweep, table,
+};
 
 #[derive(Parser)]
 #[command(
