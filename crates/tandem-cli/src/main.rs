@@ -317,20 +317,9 @@ fn print_warnings(label: &str, w: &[String]) {
 }
 
 fn cmd_run(a: RunArgs) -> Result<ExitCode> {
-    if let Some(name) = a.scenario.as_deref().filter(|n| spatial::is_preset(n)) {
-        let out_dir = a
-            .common
-            .out
-            .clone()
-            .unwrap_or_else(|| PathBuf::from("out").join(format!("{name}-nn")));
-        check_out(&out_dir, a.common.force, &[])?;
-        let out = OutputDir::create(&out_dir, a.common.force, &[])?;
-        let ok = spatial::cmd_run(name, a.common.duration, out)?;
-        return Ok(if ok {
-            ExitCode::SUCCESS
-        } else {
-            ExitCode::from(1)
-        });
+    let first = scenario::resolve(a.scenario.as_deref())?;
+    if spatial::scenario::is_spatial(&first.text) {
+        return cmd_run_spatial(a, first);
     }
     let o = Overrides {
         controller: a.controller,
@@ -397,6 +386,78 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
         table::num(times.animation, 3),
     );
     Ok(fault_exit(&[&fin]))
+}
+
+/// The command line's overrides of a spatial scenario (`--gains` names planar presets only).
+fn spatial_overrides(
+    controller: Option<ControllerKind>,
+    gains: Option<GainPreset>,
+    common: &Common,
+    replay: Option<PathBuf>,
+    replay_interpolation: Option<replay::Interpolation>,
+) -> Result<spatial::SpatialOverrides> {
+    use spatial::scenario::SpatialKind;
+    if gains.is_some() {
+        return Err(BadInput::msg(
+            "--gains selects the planar NN presets (paper, tuned); a spatial scenario designs its \
+             NN gains in [controller.nn] (design = { inertia, k1, omega_n, zeta }, or explicit gains)",
+        )
+        .into());
+    }
+    Ok(spatial::SpatialOverrides {
+        controller: controller.map(|k| match k {
+            ControllerKind::Nn => SpatialKind::Nn,
+            ControllerKind::Pd => SpatialKind::Pd,
+            ControllerKind::Ctc => SpatialKind::Ctc,
+            ControllerKind::Replay => SpatialKind::Replay,
+        }),
+        duration: common.duration,
+        seed: common.seed,
+        replay,
+        replay_interpolation,
+    })
+}
+
+/// Resolve, parse and apply the overrides of a spatial scenario; the name from the file.
+fn load_spatial(
+    mut src: Source,
+    o: &spatial::SpatialOverrides,
+) -> Result<(Source, spatial::scenario::SpatialScenario)> {
+    let sc = spatial::load(&src, o)?;
+    if let Some(n) = sc.name.as_ref().filter(|n| !n.trim().is_empty()) {
+        src.name = n.clone();
+    }
+    Ok((src, sc))
+}
+
+/// `tandem run` on a spatial scenario.
+fn cmd_run_spatial(a: RunArgs, src: Source) -> Result<ExitCode> {
+    let o = spatial_overrides(
+        a.controller,
+        a.gains,
+        &a.common,
+        a.replay.clone(),
+        a.replay_interpolation,
+    )?;
+    let (src, sc) = load_spatial(src, &o)?;
+    let slug = spatial::label(&sc).replace([' ', '+'], "-");
+    let out_dir = a
+        .common
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-{slug}", src.name)));
+    let prepared = spatial::prepare(sc, &src)?;
+    let mut protected: Vec<PathBuf> = src.file.iter().cloned().collect();
+    protected.extend(prepared.built.inputs.iter().cloned());
+    check_out(&out_dir, a.common.force, &protected)?;
+    let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
+    let out = OutputDir::create(&out_dir, a.common.force, &p)?;
+    let ok = spatial::cmd_run(prepared, out)?;
+    Ok(if ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
 }
 
 /// Exit code 1 (with a message) when a run faulted.
@@ -774,6 +835,67 @@ fn cmd_merge(a: MergeArgs) -> Result<ExitCode> {
 }
 
 fn cmd_validate(arg: &str) -> Result<ExitCode> {
+    let first = scenario::resolve(Some(arg))?;
+    if spatial::scenario::is_spatial(&first.text) {
+        let (src, sc) = load_spatial(first, &spatial::SpatialOverrides::default())?;
+        let label = spatial::label(&sc);
+        let p = spatial::prepare(sc, &src)?;
+        let b = &p.built;
+        let dofs = spatial::scenario::dofs(b);
+        let ticks = (b.sim.duration / b.sim.control_period).round() as u64;
+        let per_log = (b.sim.log_period / b.sim.control_period).round().max(1.0) as u64;
+        println!("ok: {}", src.display);
+        if !p.sc.description.is_empty() {
+            println!("  {}", p.sc.description);
+        }
+        let arms: Vec<String> = b
+            .plant
+            .arms
+            .iter()
+            .map(|a| {
+                format!(
+                    "{} ({} → {}, {} joints)",
+                    a.chain.name,
+                    a.chain.base_link,
+                    a.chain.tool_link,
+                    a.chain.joints.len()
+                )
+            })
+            .collect();
+        println!("  spatial: {} arms: {}", dofs.len(), arms.join(", "));
+        println!(
+            "  path {:?}, controller {label}{}",
+            p.sc.path.kind,
+            if p.sc.admittance.enabled && p.built.controller.is_some() {
+                ", admittance on"
+            } else {
+                ""
+            }
+        );
+        if let Some(m) = p.ready.path_inertia {
+            println!(
+                "  chart-space inertia along the path (largest): {} kg, {} kg m²",
+                m[..3]
+                    .iter()
+                    .map(|v| table::num(*v, 3))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                m[3..]
+                    .iter()
+                    .map(|v| table::num(*v, 3))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        println!(
+            "  {} s: {} control ticks, {} log rows",
+            table::num(b.sim.duration, 6),
+            ticks,
+            ticks.div_ceil(per_log)
+        );
+        print_warnings(&label, &p.ready.warnings);
+        return Ok(ExitCode::SUCCESS);
+    }
     let (src, sc) = load(Some(arg), &Overrides::default())?;
     let label = runner::label(&sc);
     let p = runner::prepare(sc, &src)?;
@@ -816,6 +938,7 @@ fn cmd_scenario(c: ScenarioCommand) -> Result<ExitCode> {
         ScenarioCommand::List => {
             let w = scenario::EMBEDDED
                 .iter()
+                .chain(spatial::scenario::EMBEDDED.iter())
                 .map(|e| e.name.len())
                 .max()
                 .unwrap_or(0);
@@ -831,14 +954,19 @@ fn cmd_scenario(c: ScenarioCommand) -> Result<ExitCode> {
                     }
                 );
             }
-            for (n, d) in spatial::PRESETS {
-                println!("{n:w$}  {d} (spatial preset: `tandem run {n}`)");
+            for e in spatial::scenario::EMBEDDED {
+                println!("{:w$}  {} (spatial)", e.name, e.summary);
             }
             println!("\nShow one with `tandem scenario show NAME`; copy it to start your own.");
         }
         ScenarioCommand::Show { name } => {
-            let Some(e) = scenario::EMBEDDED.iter().find(|e| e.name == name) else {
-                let names: Vec<&str> = scenario::EMBEDDED.iter().map(|e| e.name).collect();
+            let all = || {
+                scenario::EMBEDDED
+                    .iter()
+                    .chain(spatial::scenario::EMBEDDED.iter())
+            };
+            let Some(e) = all().find(|e| e.name == name) else {
+                let names: Vec<&str> = all().map(|e| e.name).collect();
                 let mut msg = format!("no embedded scenario `{name}`");
                 if let Some(s) = suggest::closest(&name, names.iter().copied()) {
                     msg.push_str(&format!(" — did you mean `{s}`?"));

@@ -125,10 +125,15 @@ pub fn resolve(arg: Option<&str>) -> Result<Source, crate::BadInput> {
             file: Some(p.to_path_buf()),
         });
     }
-    if let Some(e) = EMBEDDED.iter().find(|e| e.name == arg) {
+    let all = || {
+        EMBEDDED
+            .iter()
+            .chain(crate::spatial::scenario::EMBEDDED.iter())
+    };
+    if let Some(e) = all().find(|e| e.name == arg) {
         return Ok(embedded_source(e));
     }
-    let names: Vec<&str> = EMBEDDED.iter().map(|e| e.name).collect();
+    let names: Vec<&str> = all().map(|e| e.name).collect();
     let looks_like_file = arg.ends_with(".toml") || arg.contains('/') || arg.contains('\\');
     let mut msg = if p.exists() {
         format!("scenario {arg} is not a file")
@@ -1038,6 +1043,19 @@ pub fn span_of(text: &str, path: &str) -> Option<(Range<usize>, bool)> {
 
 /// Parse a scenario's text.
 pub fn parse(src: &Source) -> Result<Scenario, ScenarioError> {
+    let sc: Scenario = parse_as(src)?;
+    if let Some(n) = &sc.name {
+        check_name(src, n)?;
+    }
+    Ok(sc)
+}
+
+/// Parse a TOML text into `T` (planar or spatial scenario): syntax errors and serde errors with
+/// the file, line, column, field path and a suggestion for a misspelt field, then the strict
+/// array lengths of [`check_lengths`].
+pub fn parse_as<T: serde::de::DeserializeOwned + Serialize>(
+    src: &Source,
+) -> Result<T, ScenarioError> {
     let err = |message: String, span: Option<Range<usize>>| ScenarioError {
         file: src.display.clone(),
         message,
@@ -1055,7 +1073,7 @@ pub fn parse(src: &Source) -> Result<Scenario, ScenarioError> {
             span,
         )
     })?;
-    let sc = serde_path_to_error::deserialize::<_, Scenario>(de).map_err(|e| {
+    let sc = serde_path_to_error::deserialize::<_, T>(de).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.inner();
         let span = inner.span();
@@ -1063,16 +1081,13 @@ pub fn parse(src: &Source) -> Result<Scenario, ScenarioError> {
         err(describe(&path, &msg, &src.text, &span), span)
     })?;
     check_lengths(src, &sc)?;
-    if let Some(n) = &sc.name {
-        check_name(src, n)?;
-    }
     Ok(sc)
 }
 
 /// A scenario `name` becomes part of the default output folder `out/<name>-...`: it must be a
 /// plain name (no path separators, not `.` or `..`, no leading dot, no control characters, at
 /// most 100 characters), so the folder stays inside `out/`.
-fn check_name(src: &Source, n: &str) -> Result<(), ScenarioError> {
+pub fn check_name(src: &Source, n: &str) -> Result<(), ScenarioError> {
     let why = if n.trim().is_empty() {
         None
     } else if n.contains('/') || n.contains('\\') {
@@ -1097,7 +1112,7 @@ fn check_name(src: &Source, n: &str) -> Result<(), ScenarioError> {
 /// read as `[-0.38, 0.0]`). The parsed scenario is written back and every array of the file
 /// compared with the one at the same path, whatever struct (the CLI's or the library's) it
 /// filled.
-fn check_lengths(src: &Source, sc: &Scenario) -> Result<(), ScenarioError> {
+fn check_lengths<T: Serialize>(src: &Source, sc: &T) -> Result<(), ScenarioError> {
     use toml::de::{DeTable, DeValue};
     let Ok(back) = toml::Value::try_from(sc) else {
         return Ok(());

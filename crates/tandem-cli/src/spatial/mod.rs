@@ -2,37 +2,24 @@
 //! the SPEC-spatial S6 set-ups (`tandem::fixtures`) with the NN law and write `timeseries.csv`,
 //! `summary.json`, `viewer.html` and the snapshots into a marker-protected output folder.
 
+pub mod scenario;
+
 use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
 use nalgebra::Vector3;
 use serde_json::json;
-use tandem::control::spatial::{SpatialLaw, SpatialNnGains};
-use tandem::fixtures::SpatialSetup;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::reference::se3_path::Se3Path;
 use tandem::sim::Outcome;
 
-use crate::output::{OutputDir, write_csv, write_json_atomic};
+use crate::output::{OutputDir, write_csv, write_json_atomic, write_text_atomic};
+use crate::scenario::{ScenarioError, Source};
 use crate::viewer::{ScalarTrack, scene_from_states, write_snapshots, write_viewer_file};
-
-/// The embedded spatial presets: name and one-line description.
-pub const PRESETS: &[(&str, &str)] = &[
-    (
-        "dual-ur5",
-        "SPEC-spatial S6: two UR5-class arms facing each other carry a 3 kg box (NN law)",
-    ),
-    (
-        "dual-franka",
-        "two 7-DOF Franka-class arms grasp a box from above (NN law)",
-    ),
-];
-
-/// True if `name` is a spatial preset.
-pub fn is_preset(name: &str) -> bool {
-    PRESETS.iter().any(|(n, _)| *n == name)
-}
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use scenario::{SpatialBuilt, SpatialKind, SpatialReady, SpatialScenario};
+use std::path::PathBuf;
 
 /// What a spatial run measured.
 pub struct Finished {
@@ -48,45 +35,92 @@ pub struct Finished {
     pub duration: f64,
 }
 
-fn setup(name: &str) -> (SpatialSetup, SpatialNnGains, [f64; 3]) {
-    if name == "dual-franka" {
-        (
-            tandem::fixtures::dual_franka(),
-            SpatialNnGains::dual_franka(),
-            [0.4, 0.2, 0.2],
-        )
-    } else {
-        (
-            tandem::fixtures::dual_ur5(),
-            SpatialNnGains::dual_ur5(),
-            [0.4, 0.2, 0.2],
-        )
-    }
+/// Command-line overrides of a spatial scenario.
+#[derive(Clone, Debug, Default)]
+pub struct SpatialOverrides {
+    /// `--controller`.
+    pub controller: Option<SpatialKind>,
+    /// `--duration`.
+    pub duration: Option<f64>,
+    /// `--seed`.
+    pub seed: Option<u64>,
+    /// `--replay FILE` (relative to the working folder).
+    pub replay: Option<PathBuf>,
+    /// `--replay-interpolation`.
+    pub replay_interpolation: Option<crate::replay::Interpolation>,
 }
 
-/// Runs preset `name` for `duration` s (the path's S6 start, 1 cm inside the circle).
-pub fn run(name: &str, duration: f64) -> Result<Finished> {
-    let (s, gains, box_size) = setup(name);
-    let path = Se3Path::spec_s6();
-    let (sim, warnings) = tandem::fixtures::spatial_s6_simulation(
-        &s.params,
-        &s,
-        SpatialLaw::Nn(gains),
-        duration,
-        1e-3,
-        1e-6,
-    )
-    .context("spatial simulation")?;
-    for w in &warnings {
-        eprintln!("warning ({name}): {w:?}");
+/// Parse a spatial scenario and apply the command line's overrides.
+pub fn load(src: &Source, o: &SpatialOverrides) -> Result<SpatialScenario, ScenarioError> {
+    let mut sc = scenario::parse(src)?;
+    if let Some(d) = o.duration {
+        sc.run.duration = d;
     }
-    let (outcome, _) = sim.run(|_| {});
+    if let Some(s) = o.seed {
+        sc.run.seed = s;
+    }
+    if let Some(k) = o.controller {
+        sc.controller.kind = k;
+    }
+    if let Some(r) = &o.replay {
+        sc.controller.kind = SpatialKind::Replay;
+        // The command line's path is relative to the working folder, the file's to the file.
+        let abs = std::path::absolute(r).unwrap_or_else(|_| r.clone());
+        sc.controller.replay = Some(abs.display().to_string());
+    }
+    if let Some(m) = o.replay_interpolation {
+        sc.controller.replay_interpolation = Some(m);
+    }
+    Ok(sc)
+}
+
+/// A scenario ready to run.
+pub struct Prepared {
+    /// The scenario as run.
+    pub sc: SpatialScenario,
+    /// Its library parameters.
+    pub built: SpatialBuilt,
+    /// The simulation.
+    pub ready: SpatialReady,
+    /// Scenario name.
+    pub name: String,
+}
+
+/// Build and validate (every set-up check; errors name the field).
+pub fn prepare(sc: SpatialScenario, src: &Source) -> Result<Prepared, ScenarioError> {
+    let built = scenario::build(&sc, src)?;
+    let ready = scenario::make_simulation(&sc, &built, src)?;
+    let name = sc.name.clone().unwrap_or_else(|| src.name.clone());
+    Ok(Prepared {
+        sc,
+        built,
+        ready,
+        name,
+    })
+}
+
+/// The label of a run's law (`nn`, `pd`, `pd+g`, `ctc`, `per-arm pd`, `replay`).
+pub fn label(sc: &SpatialScenario) -> String {
+    let c = &sc.controller;
+    let mut l = c.kind.name().to_string();
+    if c.kind == SpatialKind::Pd && c.pd.gravity_compensation {
+        l.push_str("+g");
+    }
+    if c.scheme == scenario::SchemeConfig::PerArm && c.kind != SpatialKind::Replay {
+        l = format!("per-arm {l}");
+    }
+    l
+}
+
+/// Run a prepared scenario, reporting progress in [0, 1].
+pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Result<Finished> {
+    let outcome = p.ready.sim.run(progress);
     Ok(Finished {
         outcome,
-        plant: SpatialPlant::new(&s.params).context("spatial plant")?,
-        box_size,
-        path,
-        duration,
+        plant: SpatialPlant::new(&p.built.plant).context("spatial plant")?,
+        box_size: p.built.box_size,
+        path: p.built.path.clone(),
+        duration: p.built.sim.duration,
     })
 }
 
@@ -226,19 +260,49 @@ pub fn write(dir: &Path, name: &str, f: &Finished) -> Result<serde_json::Value> 
     Ok(s)
 }
 
-/// `tandem run dual-ur5|dual-franka`.
-pub fn cmd_run(name: &str, duration: Option<f64>, out: OutputDir) -> Result<bool> {
-    let duration = duration.unwrap_or(60.0);
-    let f = run(name, duration)?;
+/// `tandem run SPATIAL-SCENARIO`: run, write the outputs into `out`, print the summary.
+pub fn cmd_run(p: Prepared, out: OutputDir) -> Result<bool> {
+    let name = p.name.clone();
+    let label = label(&p.sc);
+    let duration = p.built.sim.duration;
+    for w in &p.ready.warnings {
+        eprintln!("warning ({name}, {label}): {w}");
+    }
+    let toml_text = scenario_toml(&p.sc, &name)?;
+    let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{prefix:>16} [{bar:36}] {percent:>3}% {elapsed:>4} (ETA {eta})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    bar.set_prefix(label.clone());
+    let f = execute(p, |x| bar.set_position((x * 1000.0) as u64))?;
+    bar.finish_and_clear();
     let t0 = Instant::now();
-    let s = write(out.tmp_dir(), name, &f)?;
+    let s = write(out.tmp_dir(), &name, &f)?;
+    write_text_atomic(&out.tmp_dir().join("scenario.toml"), &toml_text)?;
     let w = t0.elapsed().as_secs_f64();
     let dir = out.commit()?;
     println!(
-        "{name} — NN, {duration} s: simulated in {:.3} s, outputs in {} (written in {w:.3} s)",
+        "{name} — {label}, {duration} s: simulated in {:.3} s, outputs in {} (written in {w:.3} s)",
         f.outcome.wall_time,
         dir.display()
     );
     println!("{}", serde_json::to_string_pretty(&s)?);
+    if let Some(e) = &f.outcome.fault {
+        eprintln!("error: the run stopped with a fault: {e}");
+    }
     Ok(f.outcome.fault.is_none())
+}
+
+/// The scenario as run, re-runnable: the resolved TOML with a header.
+pub fn scenario_toml(sc: &SpatialScenario, name: &str) -> Result<String> {
+    let mut sc = sc.clone();
+    sc.name = Some(name.to_string());
+    let body = toml::to_string(&sc).context("writing scenario.toml")?;
+    Ok(format!(
+        "# The scenario of this run as tandem read it (defaults and command-line overrides\n# applied). Re-run it with `tandem run scenario.toml`.\n\n{body}"
+    ))
 }

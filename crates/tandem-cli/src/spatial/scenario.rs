@@ -1,0 +1,1603 @@
+//! Spatial scenario files (SPEC-spatial; issue 9): URDF arms, an SE(3) path and the spatial
+//! controller, in the TOML style of the planar files.
+//!
+//! A scenario file is **spatial** when its arms name a robot model: `model = "ur5"` /
+//! `"franka"` (embedded) or `urdf = "path.urdf"` (a file, relative to the scenario file). Planar
+//! files, whose arms are given by their links, are read as before.
+//!
+//! | table | maps to |
+//! |---|---|
+//! | `[[arms]]` | URDF chain (`model` or `urdf`, `base_link`, `tool_link`), base placement `X_WB`, grasp frame `X_OG`, IK start `q_guess` |
+//! | `[object]` | box `size`, `mass` (uniform-box inertia unless `inertia` is given), `damping` |
+//! | `[plant]` | gravity, Baumgarte, optional compliant grasps |
+//! | `[path]` | [`Se3Path`] (`kind` = circle, point_to_point, spline) |
+//! | `[controller]` (+ `.nn`, `.pd`, `.ctc`, `.posture`) | [`SpatialControllerParams`] or a torque replay |
+//! | `[admittance]` | [`AdmittanceSe3Params`] |
+//! | `[sensors]`, `[disturbance]` | [`SensorParams`], [`SpatialDisturbance`] |
+//! | `[run]` | [`SimParams`], the start offset from the path, the seed |
+//! | `[metrics]` | the transient window of the summary |
+//!
+//! Orientations are given as one of `rpy = [roll, pitch, yaw]` (URDF's fixed-axis x–y–z
+//! convention, rad), `quaternion = [w, x, y, z]` (unit) or `axes = [x, y, z]` (the frame's axes
+//! as columns in the parent's axes; orthonormal, right-handed). Every library error is mapped
+//! back to the file's field path, line and column; URDF errors also carry the URDF's own line.
+
+use std::path::{Path as FsPath, PathBuf};
+
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6};
+use serde::{Deserialize, Serialize};
+use tandem::ModelError;
+use tandem::control::ControlWarning;
+use tandem::control::Scheme;
+use tandem::control::spatial::SpatialController;
+use tandem::control::spatial::{
+    PostureParams, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
+    SpatialPdGains,
+};
+use tandem::disturbance::{Push, SpatialDisturbance};
+use tandem::model::SpatialArm;
+use tandem::model::urdf;
+use tandem::plant::spatial::SpatialPlant;
+use tandem::plant::spatial::{GraspModel, SpatialObjectParams, SpatialPlantParams};
+use tandem::rbf_structured::NetworkStructure;
+use tandem::reference::admittance_se3::AdmittanceSe3Params;
+use tandem::reference::se3_path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};
+use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::sim::{Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
+
+use crate::scenario::{
+    Embedded, MAX_ARMS, MetricsConfig, ScenarioError, Source, num, read_limited,
+};
+
+// ---------------------------------------------------------------------------------------------
+// Embedded spatial scenarios.
+
+/// The spatial scenarios compiled into the binary.
+pub const EMBEDDED: &[Embedded] = &[
+    Embedded {
+        name: "dual-ur5",
+        summary: "SPEC-spatial S6: two UR5-class arms facing each other carry a 3 kg box on a circle while it pitches (NN law)",
+        text: include_str!("../../scenarios/dual-ur5.toml"),
+    },
+    Embedded {
+        name: "dual-franka",
+        summary: "two 7-DOF Franka-class arms grasp the box from above and carry it on the S6 path (NN law)",
+        text: include_str!("../../scenarios/dual-franka.toml"),
+    },
+];
+
+/// Whether a scenario text is spatial: its first arm names a robot model (`model` or `urdf`).
+/// Text that is not TOML is not spatial (the planar parser then reports the syntax error).
+pub fn is_spatial(text: &str) -> bool {
+    use toml::de::DeTable;
+    let Ok(root) = DeTable::parse(text) else {
+        return false;
+    };
+    let top = root.get_ref();
+    let Some((_, arms)) = top.iter().find(|(k, _)| k.get_ref().as_ref() == "arms") else {
+        return false;
+    };
+    let Some(a) = arms.get_ref().as_array() else {
+        return false;
+    };
+    a.iter().any(|arm| {
+        arm.get_ref().as_table().is_some_and(|t| {
+            t.iter()
+                .any(|(k, _)| matches!(k.get_ref().as_ref(), "model" | "urdf"))
+        })
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// The file's structs.
+
+/// A spatial scenario file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpatialScenario {
+    /// Scenario name (outputs, titles); defaults to the file's stem.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Free text.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub description: String,
+    /// The arms, in order (arm 1 first); joint order is arm 1's joints base to tool, then arm 2…
+    pub arms: Vec<ArmConfig>,
+    /// The carried object.
+    pub object: ObjectConfig,
+    /// Gravity, drift control, grasp model.
+    #[serde(default)]
+    pub plant: PlantConfig,
+    /// The desired object pose over time.
+    pub path: PathConfig,
+    /// Environment wrench on the object (default: none).
+    #[serde(default)]
+    pub disturbance: DisturbanceConfig,
+    /// Sensor imperfections (default: ideal).
+    #[serde(default)]
+    pub sensors: SensorsConfig,
+    /// The law and its settings (or a torque replay).
+    pub controller: ControllerConfig,
+    /// The per-arm 6-D admittance generator (default: on, SPEC §3.1 values).
+    #[serde(default)]
+    pub admittance: AdmittanceConfig,
+    /// Timing, start, seed.
+    pub run: RunConfig,
+    /// Summary metrics.
+    #[serde(default = "spatial_metrics")]
+    pub metrics: MetricsConfig,
+}
+
+fn spatial_metrics() -> MetricsConfig {
+    // SPEC-spatial S5's claims are stated "within 2 s".
+    MetricsConfig { transient: 2.0 }
+}
+
+/// An embedded robot model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RobotModel {
+    /// `models/ur5.urdf` (UR5-class, 6 DOF): `base_link` → `tool0`.
+    Ur5,
+    /// `models/franka.urdf` (Franka-class, 7 DOF): `panda_link0` → `panda_link8`.
+    Franka,
+}
+
+impl RobotModel {
+    fn text(self) -> &'static str {
+        match self {
+            RobotModel::Ur5 => urdf::UR5_URDF,
+            RobotModel::Franka => urdf::FRANKA_URDF,
+        }
+    }
+    fn base(self) -> &'static str {
+        match self {
+            RobotModel::Ur5 => urdf::UR5_BASE,
+            RobotModel::Franka => urdf::FRANKA_BASE,
+        }
+    }
+    fn tool(self) -> &'static str {
+        match self {
+            RobotModel::Ur5 => urdf::UR5_TOOL,
+            RobotModel::Franka => urdf::FRANKA_TOOL,
+        }
+    }
+}
+
+/// One arm.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArmConfig {
+    /// An embedded model (`ur5`, `franka`); exactly one of `model` and `urdf`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<RobotModel>,
+    /// A URDF file, relative to the scenario file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub urdf: Option<String>,
+    /// The chain's base link (default: the embedded model's; required with `urdf`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_link: Option<String>,
+    /// The tool link, whose frame is welded to the grasp frame (default: the embedded model's;
+    /// required with `urdf`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_link: Option<String>,
+    /// Base placement `X_WB` in the world (default: the origin).
+    #[serde(default)]
+    pub base: Placement,
+    /// Grasp frame `X_OG` in the object frame (the tool frame is welded to it).
+    pub grasp: Placement,
+    /// Joint angles (rad) from which inverse kinematics starts: picks the branch (elbow up,
+    /// wrist…). Default: the middle of each joint's limits.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q_guess: Option<Vec<f64>>,
+}
+
+/// A pose: position plus at most one orientation form (none = identity).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Placement {
+    /// Position, m.
+    #[serde(default)]
+    pub position: [f64; 3],
+    /// Roll, pitch, yaw (URDF: `R = R_z(yaw) R_y(pitch) R_x(roll)`), rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rpy: Option<[f64; 3]>,
+    /// Unit quaternion `[w, x, y, z]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quaternion: Option<[f64; 4]>,
+    /// The frame's x, y and z axes, each in the parent's axes (the rotation matrix's columns).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axes: Option<[[f64; 3]; 3]>,
+}
+
+/// An orientation: at most one of the forms (none = identity).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Orientation {
+    /// Roll, pitch, yaw (URDF convention), rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rpy: Option<[f64; 3]>,
+    /// Unit quaternion `[w, x, y, z]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quaternion: Option<[f64; 4]>,
+    /// The frame's x, y and z axes as columns.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axes: Option<[[f64; 3]; 3]>,
+}
+
+/// The object: a box (drawn, and its inertia unless `inertia` is given).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectConfig {
+    /// Edge lengths along the object's x, y, z axes, m.
+    pub size: [f64; 3],
+    /// Mass, kg.
+    pub mass: f64,
+    /// Rotational inertia about the centre of mass, body axes, rows, kg m² (default: the
+    /// uniform box `m/12 diag(b² + c², a² + c², a² + b²)`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inertia: Option<[[f64; 3]; 3]>,
+    /// Viscous damping on `[v; ω]`, (N s/m ×3, N m s/rad ×3).
+    #[serde(default)]
+    pub damping: [f64; 6],
+}
+
+/// Plant-wide constants.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlantConfig {
+    /// Gravity in world axes, m/s².
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+    /// Baumgarte natural frequency of the weld drift control, rad/s (0 disables).
+    #[serde(default = "default_baumgarte")]
+    pub baumgarte: f64,
+    /// Compliant grasps (a 6-D spring–damper per grasp, in grasp axes) instead of welds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compliant_grasps: Option<ComplianceConfig>,
+}
+
+fn default_gravity() -> [f64; 3] {
+    [0.0, 0.0, -9.81]
+}
+fn default_baumgarte() -> f64 {
+    20.0
+}
+
+impl Default for PlantConfig {
+    fn default() -> Self {
+        PlantConfig {
+            gravity: default_gravity(),
+            baumgarte: default_baumgarte(),
+            compliant_grasps: None,
+        }
+    }
+}
+
+/// A compliant grasp (every grasp the same).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ComplianceConfig {
+    /// Stiffness, (N/m ×3, N m/rad ×3).
+    pub stiffness: [f64; 6],
+    /// Damping, (N s/m ×3, N m s/rad ×3).
+    pub damping: [f64; 6],
+}
+
+/// Which desired path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PathKind {
+    /// A circle at constant rate plus an orientation oscillation about a fixed axis.
+    Circle,
+    /// Rest to rest from `from` to `to` (quintic time law; geodesic in orientation).
+    PointToPoint,
+    /// A clamped cubic spline through timed poses.
+    Spline,
+}
+
+/// The desired path; fields by `kind`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PathConfig {
+    /// `circle`, `point_to_point` or `spline`.
+    pub kind: PathKind,
+    /// Circle centre, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub center: Option<[f64; 3]>,
+    /// Circle radius, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    /// Rate along the circle, rad/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub omega: Option<f64>,
+    /// Circle phase at t = 0, rad (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase: Option<f64>,
+    /// First in-plane axis (default world x).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plane_x: Option<[f64; 3]>,
+    /// Second in-plane axis (default world y).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plane_y: Option<[f64; 3]>,
+    /// Orientation about which the object oscillates (default identity).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub r0: Option<Orientation>,
+    /// Oscillation axis (default y).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f64; 3]>,
+    /// `world` (default) or `body`: the axes `axis` is given in.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis_frame: Option<AxisFrameConfig>,
+    /// Oscillation amplitude, rad (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub amplitude: Option<f64>,
+    /// Oscillation rate, rad/s (default `omega`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub omega_rot: Option<f64>,
+    /// Oscillation phase, rad (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase_rot: Option<f64>,
+    /// Start pose (point_to_point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from: Option<Placement>,
+    /// End pose (point_to_point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to: Option<Placement>,
+    /// Start time of the move (point_to_point), s (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t0: Option<f64>,
+    /// Duration of the move (point_to_point), s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub duration: Option<f64>,
+    /// Timed poses (spline).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub waypoints: Option<Vec<WaypointConfig>>,
+}
+
+/// `world` or `body`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AxisFrameConfig {
+    /// The axis is fixed in the world.
+    World,
+    /// The axis is fixed in the object (in `r0`'s axes).
+    Body,
+}
+
+/// A timed pose of a spline.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WaypointConfig {
+    /// Time, s.
+    pub t: f64,
+    /// Position, m.
+    pub position: [f64; 3],
+    /// Roll, pitch, yaw, rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rpy: Option<[f64; 3]>,
+    /// Unit quaternion `[w, x, y, z]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quaternion: Option<[f64; 4]>,
+    /// Axes as columns.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axes: Option<[[f64; 3]; 3]>,
+}
+
+/// `F_d(t) = a ∘ sin(ω t + φ) − Σ pushes`, `[f; τ]` in world axes; zero by default.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisturbanceConfig {
+    /// Amplitudes, (N ×3, N m ×3).
+    #[serde(default)]
+    pub amplitude: [f64; 6],
+    /// Angular frequencies, rad/s.
+    #[serde(default)]
+    pub frequency: [f64; 6],
+    /// Phases, rad.
+    #[serde(default)]
+    pub phase: [f64; 6],
+    /// Timed pushes (`t0`, `duration`, `wrench = [f; τ]`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pushes: Vec<Push<6>>,
+}
+
+/// Sensor imperfections (the seed is `run.seed`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorsConfig {
+    /// Joint-angle encoders, rad.
+    #[serde(default)]
+    pub encoder_q: ChannelNoise,
+    /// Joint-rate channels, rad/s.
+    #[serde(default)]
+    pub encoder_qd: ChannelNoise,
+    /// Wrist force channels, N.
+    #[serde(default)]
+    pub force: ChannelNoise,
+    /// Wrist torque channels, N m.
+    #[serde(default)]
+    pub torque: ChannelNoise,
+}
+
+/// Which law drives the joints.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SpatialKind {
+    /// iBLF backstepping + adaptive RBF network on six outputs.
+    Nn,
+    /// PD on six outputs (the paper's baseline; `pd.gravity_compensation` adds the model's 𝓖).
+    Pd,
+    /// Computed torque with a nominal model.
+    Ctc,
+    /// Joint torques replayed from a CSV file (`controller.replay`).
+    Replay,
+}
+
+impl SpatialKind {
+    /// `nn`, `pd`, `ctc`, `replay`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SpatialKind::Nn => "nn",
+            SpatialKind::Pd => "pd",
+            SpatialKind::Ctc => "ctc",
+            SpatialKind::Replay => "replay",
+        }
+    }
+}
+
+/// `object` or `per_arm`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SchemeConfig {
+    /// The law acts on the object; the wrench is distributed (all laws).
+    #[default]
+    Object,
+    /// Each arm tracks its own reference tool pose (PD only).
+    PerArm,
+}
+
+/// The controller.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerConfig {
+    /// `nn`, `pd`, `ctc` or `replay`.
+    pub kind: SpatialKind,
+    /// `object` (default) or `per_arm`.
+    #[serde(default)]
+    pub scheme: SchemeConfig,
+    /// Output bounds `|x_1j| < k_cj` on `(p − c, φ)`, (m ×3, rad ×3); `k_c,rot < π`.
+    pub k_c: [f64; 6],
+    /// Chart centre `c`, m (default: the circle's centre, or the centre of the desired
+    /// positions' bounding box).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub centre: Option<[f64; 3]>,
+    /// Chart reference orientation `R_ref` (default: the desired orientation at t = 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub r_ref: Option<Orientation>,
+    /// Internal squeeze along the grasp map's null space, N.
+    #[serde(default = "default_squeeze")]
+    pub squeeze: f64,
+    /// Length that makes forces and torques commensurate in the wrench share, m.
+    #[serde(default = "default_metric_length")]
+    pub metric_length: f64,
+    /// Joint torque limit, every joint, N m (default: each joint's URDF effort limit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub torque_limit: Option<f64>,
+    /// Known bound of the environment wrench in chart coordinates (enters `f^U`).
+    #[serde(default)]
+    pub disturbance_bound: [f64; 6],
+    /// NN gains.
+    #[serde(default)]
+    pub nn: NnConfig,
+    /// PD gains.
+    #[serde(default)]
+    pub pd: PdConfig,
+    /// Computed-torque gains.
+    #[serde(default)]
+    pub ctc: CtcConfig,
+    /// The null-space posture task of redundant arms.
+    #[serde(default)]
+    pub posture: PostureConfig,
+    /// The torque file of `kind = "replay"`, relative to the scenario file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replay: Option<String>,
+    /// `hold` (default) or `linear` between the replayed rows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replay_interpolation: Option<crate::replay::Interpolation>,
+}
+
+fn default_squeeze() -> f64 {
+    5.0
+}
+fn default_metric_length() -> f64 {
+    0.2
+}
+
+/// NN gains: designed per axis from the chart-space inertia (SPEC §3.4's linearised loop; see
+/// [`SpatialNnGains::from_design`]), then any gain overridden.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NnConfig {
+    /// The per-axis design.
+    #[serde(default)]
+    pub design: DesignConfig,
+    /// `K1` diagonal, 1/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k1: Option<[f64; 6]>,
+    /// `K2` diagonal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k2: Option<[f64; 6]>,
+    /// `K_r` diagonal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_r: Option<[f64; 6]>,
+    /// Adaptation gains `Θ`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub theta: Option<[f64; 6]>,
+    /// σ-modification.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<[f64; 6]>,
+    /// Robust-term smoothing `ϖ`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub varpi: Option<f64>,
+    /// Safety factor on `f^U`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fu_safety: Option<f64>,
+    /// RBF width `ϑ²`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width2: Option<f64>,
+    /// Centre levels per input.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub levels: Option<Vec<f64>>,
+    /// Switching inner radius.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub d1: Option<f64>,
+    /// Switching outer radius.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub d2: Option<f64>,
+    /// Switching shape `ω ≥ 1`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub omega: Option<f64>,
+    /// Network structure (`{ kind = "per_axis" }` by default; `quasi_random` with `n`, `seed`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub network: Option<NetworkStructure>,
+}
+
+/// The per-axis gain design.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DesignConfig {
+    /// Chart-space inertia per axis (kg ×3, kg m² ×3). Default: 1.1 × the largest diagonal of
+    /// the chart-space inertia along the path (computed at set-up), rounded up to two
+    /// significant digits.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inertia: Option<[f64; 6]>,
+    /// `K1`, 1/s.
+    #[serde(default = "default_k1")]
+    pub k1: f64,
+    /// Natural frequency of the adaptive-bias pair, rad/s.
+    #[serde(default = "default_omega_n")]
+    pub omega_n: f64,
+    /// Its damping ratio.
+    #[serde(default = "default_zeta")]
+    pub zeta: f64,
+}
+
+fn default_k1() -> f64 {
+    8.0
+}
+fn default_omega_n() -> f64 {
+    20.0
+}
+fn default_zeta() -> f64 {
+    0.8
+}
+
+impl Default for DesignConfig {
+    fn default() -> Self {
+        DesignConfig {
+            inertia: None,
+            k1: default_k1(),
+            omega_n: default_omega_n(),
+            zeta: default_zeta(),
+        }
+    }
+}
+
+/// PD gains (default: the paper's 5000 N/m, 450 N s/m, scaled to rotation at 0.2 m).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PdConfig {
+    /// `K_P` diagonal, (N/m ×3, N m/rad ×3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_p: Option<[f64; 6]>,
+    /// `K_D` diagonal, (N s/m ×3, N m s/rad ×3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_d: Option<[f64; 6]>,
+    /// Add the model's gravity `𝓖` (off in the paper's baseline).
+    #[serde(default)]
+    pub gravity_compensation: bool,
+}
+
+/// Computed-torque gains (default: ω_n = 20 rad/s, ζ = 1, exact model).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CtcConfig {
+    /// `K_P` diagonal, 1/s².
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_p: Option<[f64; 6]>,
+    /// `K_D` diagonal, 1/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_d: Option<[f64; 6]>,
+    /// Relative error of every mass and inertia of the nominal model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_error: Option<f64>,
+}
+
+/// The posture task of redundant arms (default `K_p = 20`, `K_d = 4`, rest = the start).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PostureConfig {
+    /// Stiffness, N m/rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kp: Option<f64>,
+    /// Damping, N m s/rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kd: Option<f64>,
+    /// Rest posture, all joints stacked over the arms, rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q_rest: Option<Vec<f64>>,
+}
+
+/// The 6-D admittance per arm (SPEC §3.1 on each tool pose's six components).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdmittanceConfig {
+    /// `false` bypasses the generator (`x_r = x_d`).
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Virtual mass / inertia, (kg ×3, kg m² ×3).
+    #[serde(default = "adm_m_e")]
+    pub m_e: [f64; 6],
+    /// Virtual damping, (N s/m ×3, N m s/rad ×3).
+    #[serde(default = "adm_c_e")]
+    pub c_e: [f64; 6],
+    /// Virtual stiffness, (N/m ×3, N m/rad ×3).
+    #[serde(default = "adm_k_e")]
+    pub k_e: [f64; 6],
+    /// Wrench low-pass time constant per axis, s.
+    #[serde(default = "adm_tau_f")]
+    pub tau_f: [f64; 6],
+}
+
+fn yes() -> bool {
+    true
+}
+fn adm_m_e() -> [f64; 6] {
+    AdmittanceSe3Params::default().m_e.into()
+}
+fn adm_c_e() -> [f64; 6] {
+    AdmittanceSe3Params::default().c_e.into()
+}
+fn adm_k_e() -> [f64; 6] {
+    AdmittanceSe3Params::default().k_e.into()
+}
+fn adm_tau_f() -> [f64; 6] {
+    AdmittanceSe3Params::default().tau_f.into()
+}
+
+impl Default for AdmittanceConfig {
+    fn default() -> Self {
+        AdmittanceConfig {
+            enabled: true,
+            m_e: adm_m_e(),
+            c_e: adm_c_e(),
+            k_e: adm_k_e(),
+            tau_f: adm_tau_f(),
+        }
+    }
+}
+
+/// Timing, start and determinism.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// Simulated time, s.
+    pub duration: f64,
+    /// Plant RK4 step, s.
+    #[serde(default = "default_step")]
+    pub plant_step: f64,
+    /// Control period, s (a whole multiple of `plant_step`).
+    #[serde(default = "default_step")]
+    pub control_period: f64,
+    /// Logging period, s (a whole multiple of `control_period`).
+    #[serde(default = "default_log_period")]
+    pub log_period: f64,
+    /// Start pose at rest relative to the desired pose at t = 0: position offset (m, world
+    /// axes) and rotation vector (rad, world axes), `[dx, dy, dz, rx, ry, rz]`.
+    #[serde(default)]
+    pub start_offset: [f64; 6],
+    /// Seed of every random stream.
+    #[serde(default)]
+    pub seed: u64,
+    /// Largest grasp drift before the run stops, m (default 1e-6).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_drift: Option<f64>,
+    /// Smallest arm-Jacobian singular value before the run stops (default 1e-3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_sigma: Option<f64>,
+}
+
+fn default_step() -> f64 {
+    1e-3
+}
+fn default_log_period() -> f64 {
+    0.01
+}
+
+// ---------------------------------------------------------------------------------------------
+// Parsing.
+
+/// Parse a spatial scenario's text (syntax, fields, strict lengths, the name).
+pub fn parse(src: &Source) -> Result<SpatialScenario, ScenarioError> {
+    let sc: SpatialScenario = crate::scenario::parse_as(src)?;
+    if let Some(n) = &sc.name {
+        crate::scenario::check_name(src, n)?;
+    }
+    if sc.arms.len() > MAX_ARMS {
+        return Err(src.error_at(
+            "arms",
+            format!("{} arms: at most {MAX_ARMS} are supported", sc.arms.len()),
+        ));
+    }
+    Ok(sc)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Building.
+
+/// A scenario turned into the library's parameter types (validated by the library when the
+/// simulation is made).
+#[derive(Clone, Debug)]
+pub struct SpatialBuilt {
+    /// The plant.
+    pub plant: SpatialPlantParams,
+    /// The desired path.
+    pub path: Se3Path,
+    /// The controller (`None` for a replay).
+    pub controller: Option<SpatialControllerParams>,
+    /// Sensors (seeded with `run.seed`).
+    pub sensors: SensorParams,
+    /// Environment wrench.
+    pub disturbance: SpatialDisturbance,
+    /// Timing.
+    pub sim: SimParams,
+    /// Start pose and IK guess.
+    pub start: SpatialStart,
+    /// Box edge lengths, m (drawing).
+    pub box_size: [f64; 3],
+    /// URDF and set-up warnings, with their field paths.
+    pub warnings: Vec<String>,
+    /// Files read (the scenario's URDFs and replay): `--force` never replaces a folder that
+    /// holds one.
+    pub inputs: Vec<PathBuf>,
+}
+
+/// Largest URDF file read, bytes (published arm URDFs are 10–100 kB; meshes are not read).
+pub const MAX_URDF_BYTES: u64 = 16 << 20;
+
+fn resolve_file(src: &Source, p: &str) -> PathBuf {
+    let path = FsPath::new(p);
+    if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        src.dir.join(path)
+    }
+}
+
+/// The rotation of an orientation given in one of the three forms; `None` when none is given.
+/// Errors: `(field path, reason)`.
+fn rotation(
+    at: &str,
+    rpy: &Option<[f64; 3]>,
+    quaternion: &Option<[f64; 4]>,
+    axes: &Option<[[f64; 3]; 3]>,
+) -> Result<Option<UnitQuaternion<f64>>, (String, String)> {
+    let given = usize::from(rpy.is_some())
+        + usize::from(quaternion.is_some())
+        + usize::from(axes.is_some());
+    let join = |f: &str| {
+        if at.is_empty() {
+            f.to_string()
+        } else {
+            format!("{at}.{f}")
+        }
+    };
+    if given > 1 {
+        return Err((
+            join(if rpy.is_some() { "rpy" } else { "quaternion" }),
+            "give one of `rpy`, `quaternion` and `axes`, not several".into(),
+        ));
+    }
+    if let Some(r) = rpy {
+        for (j, v) in r.iter().enumerate() {
+            if !v.is_finite() {
+                return Err((format!("{}[{j}]", join("rpy")), "must be finite".into()));
+            }
+        }
+        return Ok(Some(UnitQuaternion::from_euler_angles(r[0], r[1], r[2])));
+    }
+    if let Some(q) = quaternion {
+        let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+        // A unit quaternion typed with 6+ digits (0.707107) is within 1e-6; anything further
+        // off is a typo, not rounding.
+        if !n.is_finite() || (n - 1.0).abs() > 1e-6 {
+            return Err((
+                join("quaternion"),
+                format!(
+                    "[w, x, y, z] must be a unit quaternion: its norm is {} (tolerance 1e-6)",
+                    num(n)
+                ),
+            ));
+        }
+        return Ok(Some(UnitQuaternion::from_quaternion(
+            nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]),
+        )));
+    }
+    if let Some(a) = axes {
+        let m = Matrix3::from_columns(&[
+            Vector3::from(a[0]),
+            Vector3::from(a[1]),
+            Vector3::from(a[2]),
+        ]);
+        let err = (m.transpose() * m - Matrix3::identity()).abs().max();
+        if !err.is_finite() || err > 1e-6 {
+            return Err((
+                join("axes"),
+                format!(
+                    "the axes [x, y, z] must be orthonormal: |RᵀR − I| is {} (tolerance 1e-6)",
+                    num(err)
+                ),
+            ));
+        }
+        if m.determinant() < 0.0 {
+            return Err((
+                join("axes"),
+                "the axes [x, y, z] must be right-handed (x × y = z)".into(),
+            ));
+        }
+        let r = Rotation3::from_matrix_unchecked(m);
+        return Ok(Some(UnitQuaternion::from_rotation_matrix(&r)));
+    }
+    Ok(None)
+}
+
+fn placement(at: &str, p: &Placement) -> Result<Isometry3<f64>, (String, String)> {
+    for (j, v) in p.position.iter().enumerate() {
+        if !v.is_finite() {
+            return Err((format!("{at}.position[{j}]"), "must be finite".into()));
+        }
+    }
+    let r = rotation(at, &p.rpy, &p.quaternion, &p.axes)?.unwrap_or_else(UnitQuaternion::identity);
+    Ok(Isometry3::from_parts(
+        Translation3::from(Vector3::from(p.position)),
+        r,
+    ))
+}
+
+fn orientation(at: &str, o: &Orientation) -> Result<UnitQuaternion<f64>, (String, String)> {
+    Ok(rotation(at, &o.rpy, &o.quaternion, &o.axes)?.unwrap_or_else(UnitQuaternion::identity))
+}
+
+/// Where a library parameter of the spatial set-up lives in the file (`k_c[3]` →
+/// `controller.k_c[3]`, `grasps[1]` → `arms[1].grasp`, `q_guess[8]` → `arms[1].q_guess[2]`).
+fn file_path(sc: &SpatialScenario, dofs: &[usize], param: &str) -> String {
+    let law = sc.controller.kind.name();
+    let (head, rest) = match param.find(['.', '[']) {
+        Some(i) => (&param[..i], &param[i..]),
+        None => (param, ""),
+    };
+    match head {
+        "k_c" | "disturbance_bound" | "squeeze" | "metric_length" | "torque_limit" | "centre"
+        | "scheme" | "posture" => format!("controller.{param}"),
+        "gains" => format!("controller.{law}{rest}"),
+        "control_period" | "duration" | "plant_step" | "log_period" | "max_drift" | "min_sigma" => {
+            format!("run.{param}")
+        }
+        "gravity" | "baumgarte" => format!("plant.{param}"),
+        "grasps" => {
+            // `grasps[i]...` → `arms[i].grasp...`
+            match rest.strip_prefix('[').and_then(|r| r.split_once(']')) {
+                Some((i, tail)) => format!("arms[{i}].grasp{tail}"),
+                None => "arms".into(),
+            }
+        }
+        "q_guess" => {
+            let k: Option<usize> = rest
+                .strip_prefix('[')
+                .and_then(|r| r.split_once(']'))
+                .and_then(|(i, _)| i.parse().ok());
+            match k {
+                Some(mut k) => {
+                    for (i, n) in dofs.iter().enumerate() {
+                        if k < *n {
+                            return format!("arms[{i}].q_guess[{k}]");
+                        }
+                        k -= n;
+                    }
+                    "arms".into()
+                }
+                None => "arms".into(),
+            }
+        }
+        "arms" | "object" | "path" | "admittance" | "run" | "controller" | "plant" => {
+            // `arms[i].joint NAME` → `arms[i].q_guess` (a joint past its limit at the start).
+            if let Some(i) = param.find(".joint ") {
+                return format!("{}.q_guess", &param[..i]);
+            }
+            param.to_string()
+        }
+        "encoder_q" | "encoder_qd" | "force" | "torque" => format!("sensors.{param}"),
+        "frequency" | "phase" | "amplitude" | "pushes" | "disturbance" => {
+            format!("disturbance.{}", param.trim_start_matches("disturbance."))
+        }
+        "m_e" | "c_e" | "k_e" | "tau_f" => format!("admittance.{param}"),
+        "mass" | "inertia" | "damping" => format!("object.{param}"),
+        _ => param.to_string(),
+    }
+}
+
+/// Map a library error of the spatial set-up to the file.
+pub fn model_error(
+    src: &Source,
+    sc: &SpatialScenario,
+    dofs: &[usize],
+    e: ModelError,
+) -> ScenarioError {
+    src.model_error(e, |p| file_path(sc, dofs, p))
+}
+
+fn at(src: &Source) -> impl Fn((String, String)) -> ScenarioError + '_ {
+    move |(path, why)| src.error_at(&path, format!("{path}: {why}"))
+}
+
+fn six(v: [f64; 6]) -> Vector6<f64> {
+    Vector6::from(v)
+}
+
+/// 1.1 × `x` rounded up to two significant digits (the design inertia rule of
+/// [`DesignConfig::inertia`]).
+pub fn round_up_2(x: f64) -> f64 {
+    let x = 1.1 * x;
+    if !(x > 0.0) || !x.is_finite() {
+        return x;
+    }
+    let e = x.log10().floor() - 1.0;
+    let s = 10f64.powf(e);
+    (x / s).ceil() * s
+}
+
+/// Build the library's parameters from a parsed spatial scenario: reads the URDF files (errors
+/// name `arms[i].urdf` and carry the URDF's line), checks the poses, builds the path.
+pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, ScenarioError> {
+    let mut warnings = Vec::new();
+    let mut inputs: Vec<PathBuf> = Vec::new();
+    if sc.arms.is_empty() {
+        return Err(src.error_at("arms", "arms: give at least one arm"));
+    }
+    // Arms.
+    let mut arms = Vec::with_capacity(sc.arms.len());
+    let mut grasps = Vec::with_capacity(sc.arms.len());
+    let mut q_guess = Vec::new();
+    for (i, a) in sc.arms.iter().enumerate() {
+        let here = format!("arms[{i}]");
+        let (text, base_default, tool_default, origin): (
+            String,
+            Option<&str>,
+            Option<&str>,
+            String,
+        ) = match (&a.model, &a.urdf) {
+            (Some(_), Some(_)) => {
+                return Err(src.error_at(
+                    &format!("{here}.urdf"),
+                    format!("{here}: give `model` (embedded) or `urdf` (a file), not both"),
+                ));
+            }
+            (None, None) => {
+                return Err(src.error_at(
+                    &here,
+                    format!(
+                        "{here}: give `model = \"ur5\"` / `\"franka\"` or `urdf = \"file.urdf\"`"
+                    ),
+                ));
+            }
+            (Some(m), None) => (
+                m.text().to_string(),
+                Some(m.base()),
+                Some(m.tool()),
+                format!("embedded model `{}`", serde_name(m)),
+            ),
+            (None, Some(f)) => {
+                let p = resolve_file(src, f);
+                let text = read_limited(&p, MAX_URDF_BYTES).map_err(|e| {
+                    src.error_at(
+                        &format!("{here}.urdf"),
+                        format!("{here}.urdf: cannot read {}: {e}", p.display()),
+                    )
+                })?;
+                let text = match text.strip_prefix('\u{feff}') {
+                    Some(t) => t.to_string(),
+                    None => text,
+                };
+                inputs.push(p.clone());
+                (text, None, None, p.display().to_string())
+            }
+        };
+        let base_link = a.base_link.as_deref().or(base_default).ok_or_else(|| {
+            src.error_at(
+                &format!("{here}.base_link"),
+                format!("{here}.base_link: a URDF arm names its base link (e.g. \"base_link\")"),
+            )
+        })?;
+        let tool_link = a.tool_link.as_deref().or(tool_default).ok_or_else(|| {
+            src.error_at(
+                &format!("{here}.tool_link"),
+                format!("{here}.tool_link: a URDF arm names its tool link (e.g. \"tool0\")"),
+            )
+        })?;
+        let (chain, w) = urdf::load_chain(&text, base_link, tool_link).map_err(|e| {
+            let field = match &e {
+                e if e.to_string().contains(&format!("`{tool_link}`")) && a.tool_link.is_some() => {
+                    format!("{here}.tool_link")
+                }
+                e if e.to_string().contains(&format!("`{base_link}`")) && a.base_link.is_some() => {
+                    format!("{here}.base_link")
+                }
+                _ if a.urdf.is_some() => format!("{here}.urdf"),
+                _ => format!("{here}.model"),
+            };
+            src.error_at(&field, format!("{field}: {origin}: {e}"))
+        })?;
+        for w in w {
+            warnings.push(format!("{here} ({origin}): {w}"));
+        }
+        let base = placement(&format!("{here}.base"), &a.base).map_err(at(src))?;
+        let grasp = placement(&format!("{here}.grasp"), &a.grasp).map_err(at(src))?;
+        let n = chain.joints.len();
+        match &a.q_guess {
+            Some(g) => {
+                if g.len() != n {
+                    return Err(src.error_at(
+                        &format!("{here}.q_guess"),
+                        format!(
+                            "{here}.q_guess has {} entries; the chain {base_link} → {tool_link} has {n} joints",
+                            g.len()
+                        ),
+                    ));
+                }
+                for (k, v) in g.iter().enumerate() {
+                    if !v.is_finite() {
+                        return Err(src.error_at(
+                            &format!("{here}.q_guess[{k}]"),
+                            format!("{here}.q_guess[{k}]: must be finite"),
+                        ));
+                    }
+                }
+                q_guess.extend_from_slice(g);
+            }
+            None => {
+                for j in &chain.joints {
+                    let (lo, hi) = (j.limits.lower, j.limits.upper);
+                    q_guess.push(if lo.is_finite() && hi.is_finite() {
+                        0.5 * (lo + hi)
+                    } else {
+                        0.0
+                    });
+                }
+            }
+        }
+        arms.push(SpatialArm { chain, base });
+        grasps.push(grasp);
+    }
+
+    // Object.
+    let o = &sc.object;
+    let mut object = SpatialObjectParams::uniform_box(o.size, o.mass);
+    for (j, s) in o.size.iter().enumerate() {
+        if !(*s > 0.0) || !s.is_finite() {
+            return Err(src.error_at(
+                &format!("object.size[{j}]"),
+                format!(
+                    "object.size[{j}] = {}: must be positive and finite",
+                    num(*s)
+                ),
+            ));
+        }
+    }
+    if let Some(i) = o.inertia {
+        object.inertia = Matrix3::from_row_slice(&[
+            i[0][0], i[0][1], i[0][2], i[1][0], i[1][1], i[1][2], i[2][0], i[2][1], i[2][2],
+        ]);
+    }
+    object.damping = six(o.damping);
+
+    let grasp_model = match &sc.plant.compliant_grasps {
+        None => GraspModel::Weld,
+        Some(c) => GraspModel::Compliant {
+            stiffness: six(c.stiffness),
+            damping: six(c.damping),
+        },
+    };
+    let plant = SpatialPlantParams {
+        arms,
+        grasps,
+        object,
+        gravity: Vector3::from(sc.plant.gravity),
+        baumgarte: sc.plant.baumgarte,
+        grasp_model,
+    };
+
+    let path = build_path(&sc.path, src)?;
+
+    // Controller.
+    let c = &sc.controller;
+    let controller = if c.kind == SpatialKind::Replay {
+        None
+    } else {
+        let law = match c.kind {
+            SpatialKind::Nn => SpatialLaw::Nn(nn_gains(&c.nn, None)),
+            SpatialKind::Pd => {
+                let mut g = SpatialPdGains::paper();
+                if let Some(v) = c.pd.k_p {
+                    g.k_p = v;
+                }
+                if let Some(v) = c.pd.k_d {
+                    g.k_d = v;
+                }
+                g.gravity_compensation = c.pd.gravity_compensation;
+                SpatialLaw::Pd(g)
+            }
+            SpatialKind::Ctc => {
+                let mut g = SpatialCtcGains::default();
+                if let Some(v) = c.ctc.k_p {
+                    g.k_p = v;
+                }
+                if let Some(v) = c.ctc.k_d {
+                    g.k_d = v;
+                }
+                if let Some(v) = c.ctc.model_error {
+                    g.model_error = v;
+                }
+                SpatialLaw::Ctc(g)
+            }
+            SpatialKind::Replay => unreachable!("handled above"),
+        };
+        let scheme = match c.scheme {
+            SchemeConfig::Object => Scheme::Object,
+            SchemeConfig::PerArm => Scheme::PerArm,
+        };
+        let r_ref = match &c.r_ref {
+            Some(o) => Some(orientation("controller.r_ref", o).map_err(at(src))?),
+            None => None,
+        };
+        let mut posture = PostureParams::default();
+        if let Some(v) = c.posture.kp {
+            posture.kp = v;
+        }
+        if let Some(v) = c.posture.kd {
+            posture.kd = v;
+        }
+        posture.q_rest = c.posture.q_rest.clone();
+        let a = &sc.admittance;
+        Some(SpatialControllerParams {
+            law,
+            scheme,
+            k_c: c.k_c,
+            centre: c.centre.map(Vector3::from),
+            r_ref,
+            admittance: a.enabled.then(|| AdmittanceSe3Params {
+                m_e: six(a.m_e),
+                c_e: six(a.c_e),
+                k_e: six(a.k_e),
+                tau_f: six(a.tau_f),
+            }),
+            squeeze: c.squeeze,
+            metric_length: c.metric_length,
+            control_period: sc.run.control_period,
+            torque_limit: c.torque_limit,
+            disturbance_bound: c.disturbance_bound,
+            posture,
+        })
+    };
+    if c.kind == SpatialKind::Replay {
+        match &c.replay {
+            None => {
+                return Err(src.error_at(
+                    "controller.replay",
+                    "controller.replay: kind = \"replay\" needs the torque file (`replay = \"torques.csv\"`, or --replay FILE)",
+                ));
+            }
+            Some(f) => inputs.push(resolve_file(src, f)),
+        }
+    }
+
+    let s = &sc.sensors;
+    let sensors = SensorParams {
+        encoder_q: s.encoder_q,
+        encoder_qd: s.encoder_qd,
+        force: s.force,
+        torque: s.torque,
+        seed: sc.run.seed,
+    };
+    let d = &sc.disturbance;
+    let disturbance = SpatialDisturbance {
+        amplitude: d.amplitude,
+        frequency: d.frequency,
+        phase: d.phase,
+        pushes: d.pushes.clone(),
+    };
+    let r = &sc.run;
+    let sim = SimParams {
+        duration: r.duration,
+        plant_step: r.plant_step,
+        control_period: r.control_period,
+        log_period: r.log_period,
+        start: [0.0; 3],
+        formulation: Formulation::Constrained,
+        max_drift: r.max_drift.unwrap_or(1e-6),
+        min_sigma: r.min_sigma.unwrap_or(1e-3),
+    };
+    // Start: the desired pose at t = 0, offset (world axes).
+    for (j, v) in r.start_offset.iter().enumerate() {
+        if !v.is_finite() {
+            return Err(src.error_at(
+                &format!("run.start_offset[{j}]"),
+                format!("run.start_offset[{j}]: must be finite"),
+            ));
+        }
+    }
+    let d0 = path.sample(0.0);
+    let dp = Vector3::new(r.start_offset[0], r.start_offset[1], r.start_offset[2]);
+    let dr = Vector3::new(r.start_offset[3], r.start_offset[4], r.start_offset[5]);
+    let start = SpatialStart {
+        x_wo: Isometry3::from_parts(
+            Translation3::from(d0.p + dp),
+            UnitQuaternion::from_scaled_axis(dr) * d0.r,
+        ),
+        q_guess,
+    };
+    Ok(SpatialBuilt {
+        plant,
+        path,
+        controller,
+        sensors,
+        disturbance,
+        sim,
+        start,
+        box_size: o.size,
+        warnings,
+        inputs,
+    })
+}
+
+fn serde_name(m: &RobotModel) -> &'static str {
+    match m {
+        RobotModel::Ur5 => "ur5",
+        RobotModel::Franka => "franka",
+    }
+}
+
+/// NN gains from the design (with `inertia` when the file gives none) and the overrides.
+pub fn nn_gains(n: &NnConfig, path_inertia: Option<[f64; 6]>) -> SpatialNnGains {
+    let m = n
+        .design
+        .inertia
+        .or(path_inertia.map(|m| m.map(round_up_2)))
+        // Placeholder until the path inertia is known (the controller is then rebuilt).
+        .unwrap_or([1.0; 6]);
+    let mut g = SpatialNnGains::from_design(m, n.design.k1, n.design.omega_n, n.design.zeta);
+    if let Some(v) = n.k1 {
+        g.k1 = v;
+    }
+    if let Some(v) = n.k2 {
+        g.k2 = v;
+    }
+    if let Some(v) = n.k_r {
+        g.k_r = v;
+    }
+    if let Some(v) = n.theta {
+        g.theta = v;
+    }
+    if let Some(v) = n.sigma {
+        g.sigma = v;
+    }
+    if let Some(v) = n.varpi {
+        g.varpi = v;
+    }
+    if let Some(v) = n.fu_safety {
+        g.fu_safety = v;
+    }
+    if let Some(v) = n.width2 {
+        g.width2 = v;
+    }
+    if let Some(v) = &n.levels {
+        g.levels = v.clone();
+    }
+    if let Some(v) = n.d1 {
+        g.d1 = v;
+    }
+    if let Some(v) = n.d2 {
+        g.d2 = v;
+    }
+    if let Some(v) = n.omega {
+        g.omega = v;
+    }
+    if let Some(v) = &n.network {
+        g.network = v.clone();
+    }
+    g
+}
+
+fn need<T: Copy>(src: &Source, v: Option<T>, field: &str, kind: &str) -> Result<T, ScenarioError> {
+    v.ok_or_else(|| {
+        src.error_at(
+            &format!("path.{field}"),
+            format!("path.{field}: a `{kind}` path needs `{field}`"),
+        )
+    })
+}
+
+fn build_path(p: &PathConfig, src: &Source) -> Result<Se3Path, ScenarioError> {
+    let lib = |e: ModelError| src.model_error(e, |s| s.to_string());
+    match p.kind {
+        PathKind::Circle => {
+            let omega = need(src, p.omega, "omega", "circle")?;
+            let d = CircleParams::spec_s6();
+            let params = CircleParams {
+                center: Vector3::from(need(src, p.center, "center", "circle")?),
+                radius: need(src, p.radius, "radius", "circle")?,
+                omega,
+                phase: p.phase.unwrap_or(0.0),
+                plane_x: p.plane_x.map(Vector3::from).unwrap_or(d.plane_x),
+                plane_y: p.plane_y.map(Vector3::from).unwrap_or(d.plane_y),
+                r0: match &p.r0 {
+                    Some(o) => orientation("path.r0", o).map_err(at(src))?,
+                    None => UnitQuaternion::identity(),
+                },
+                axis: p.axis.map(Vector3::from).unwrap_or(d.axis),
+                axis_frame: match p.axis_frame {
+                    Some(AxisFrameConfig::Body) => AxisFrame::Body,
+                    _ => AxisFrame::World,
+                },
+                amplitude: p.amplitude.unwrap_or(0.0),
+                omega_rot: p.omega_rot.unwrap_or(omega),
+                phase_rot: p.phase_rot.unwrap_or(0.0),
+            };
+            Se3Path::circle(&params).map_err(lib)
+        }
+        PathKind::PointToPoint => {
+            let from = p.from.as_ref().ok_or_else(|| {
+                src.error_at(
+                    "path.from",
+                    "path.from: a `point_to_point` path needs `from`",
+                )
+            })?;
+            let to = p.to.as_ref().ok_or_else(|| {
+                src.error_at("path.to", "path.to: a `point_to_point` path needs `to`")
+            })?;
+            let a = placement("path.from", from).map_err(at(src))?;
+            let b = placement("path.to", to).map_err(at(src))?;
+            let duration = need(src, p.duration, "duration", "point_to_point")?;
+            Se3Path::point_to_point(
+                a.translation.vector,
+                a.rotation,
+                b.translation.vector,
+                b.rotation,
+                p.t0.unwrap_or(0.0),
+                duration,
+            )
+            .map_err(lib)
+        }
+        PathKind::Spline => {
+            let w = p.waypoints.as_ref().ok_or_else(|| {
+                src.error_at(
+                    "path.waypoints",
+                    "path.waypoints: a `spline` path needs `[[path.waypoints]]` (t, position, orientation)",
+                )
+            })?;
+            if w.len() > 100_000 {
+                return Err(src.error_at(
+                    "path.waypoints",
+                    format!("path.waypoints: {} waypoints; at most 100000", w.len()),
+                ));
+            }
+            let mut pts = Vec::with_capacity(w.len());
+            for (k, wp) in w.iter().enumerate() {
+                let here = format!("path.waypoints[{k}]");
+                let r = rotation(&here, &wp.rpy, &wp.quaternion, &wp.axes)
+                    .map_err(at(src))?
+                    .unwrap_or_else(UnitQuaternion::identity);
+                pts.push(Se3Waypoint {
+                    t: wp.t,
+                    p: Vector3::from(wp.position),
+                    r,
+                });
+            }
+            // The library names `path.waypoints[k].p[j]`; the file calls it `position`.
+            Se3Path::spline(&pts).map_err(|e| {
+                src.model_error(e, |s| {
+                    s.replace("].p[", "].position[")
+                        .replace("].r", "].quaternion")
+                })
+            })
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The simulation.
+
+/// A ready spatial simulation: a controller or a torque replay drives the plant.
+pub enum SpatialSim {
+    /// tandem's spatial controller.
+    Control(Box<Simulation<SpatialPlant, SpatialController>>),
+    /// Joint torques from a file.
+    Replay(Box<Simulation<SpatialPlant, Replay>>),
+}
+
+impl SpatialSim {
+    /// Run to the end (or a fault), reporting progress in [0, 1].
+    pub fn run(self, progress: impl FnMut(f64)) -> Outcome {
+        match self {
+            SpatialSim::Control(s) => s.run(progress).0,
+            SpatialSim::Replay(s) => s.run(progress).0,
+        }
+    }
+}
+
+/// A built, validated simulation and what the outputs need.
+pub struct SpatialReady {
+    /// The simulation.
+    pub sim: SpatialSim,
+    /// The set-up warnings (URDF, gains), each with its field path and line.
+    pub warnings: Vec<String>,
+    /// The controller's parameters as resolved (design inertia filled in), `None` for a replay.
+    pub controller: Option<SpatialControllerParams>,
+    /// The chart-space inertia along the path, per axis (kg ×3, kg m² ×3), `None` for a replay.
+    pub path_inertia: Option<[f64; 6]>,
+}
+
+/// The joint count of each arm.
+pub fn dofs(b: &SpatialBuilt) -> Vec<usize> {
+    b.plant.arms.iter().map(|a| a.chain.joints.len()).collect()
+}
+
+fn warning_text(src: &Source, sc: &SpatialScenario, dofs: &[usize], w: &ControlWarning) -> String {
+    match w {
+        ControlWarning::Gain { param, reason } => {
+            src.warning_at(&file_path(sc, dofs, param), reason)
+        }
+        ControlWarning::Admittance(a) => {
+            let t = a.to_string();
+            let path = t
+                .split_whitespace()
+                .next()
+                .unwrap_or("admittance")
+                .to_string();
+            src.warning_at(&path, &t)
+        }
+    }
+}
+
+/// Build the controller (the set-up checks of [`SpatialController::new`]: gains, bounds, the
+/// path inside the bounds and the arms' reach and joint limits, the posture) and the simulation.
+/// An NN law whose file gives no design inertia is designed on the path's chart-space inertia
+/// (a first set-up with the PD law measures it).
+pub fn make_simulation(
+    sc: &SpatialScenario,
+    b: &SpatialBuilt,
+    src: &Source,
+) -> Result<SpatialReady, ScenarioError> {
+    let dofs = dofs(b);
+    let lib = |e: ModelError| model_error(src, sc, &dofs, e);
+    let mut warnings = b.warnings.clone();
+    let plant = SpatialPlant::new(&b.plant).map_err(lib)?;
+    let start_error = |e: ModelError| {
+        let o = sc.run.start_offset.map(num);
+        match &e {
+            ModelError::Geometry { what, .. } if what.starts_with("arms") => {
+                let field = file_path(sc, &dofs, what);
+                src.error_at(
+                    &field,
+                    format!(
+                        "{field}: the start pose (the path at t = 0 offset by run.start_offset = [{}]) cannot be held: {e}",
+                        o.join(", ")
+                    ),
+                )
+            }
+            _ => lib(e),
+        }
+    };
+    match &b.controller {
+        Some(cp) => {
+            let mut cp = cp.clone();
+            let mut path_inertia = None;
+            if let (SpatialKind::Nn, None) = (sc.controller.kind, sc.controller.nn.design.inertia) {
+                let mut probe = cp.clone();
+                probe.law = SpatialLaw::Pd(SpatialPdGains::paper());
+                let (c, _) = SpatialController::new(
+                    &probe,
+                    &b.plant,
+                    b.path.clone(),
+                    b.sim.duration,
+                    &b.start.q_guess,
+                )
+                .map_err(lib)?;
+                let m: [f64; 6] = c.path_inertia().into();
+                path_inertia = Some(m);
+                cp.law = SpatialLaw::Nn(nn_gains(&sc.controller.nn, Some(m)));
+            }
+            let (c, w) = SpatialController::new(
+                &cp,
+                &b.plant,
+                b.path.clone(),
+                b.sim.duration,
+                &b.start.q_guess,
+            )
+            .map_err(lib)?;
+            if path_inertia.is_none() {
+                path_inertia = Some(c.path_inertia().into());
+            }
+            warnings.extend(w.iter().map(|w| warning_text(src, sc, &dofs, w)));
+            let sim = Simulation::with_plant(
+                plant,
+                &b.start,
+                &b.sensors,
+                c,
+                b.disturbance.clone(),
+                b.sim.clone(),
+            )
+            .map_err(start_error)?;
+            Ok(SpatialReady {
+                sim: SpatialSim::Control(Box::new(sim)),
+                warnings,
+                controller: Some(cp),
+                path_inertia,
+            })
+        }
+        None => {
+            let file = b.inputs.last().cloned().unwrap_or_default();
+            let timing = crate::replay::Timing {
+                control_period: b.sim.control_period,
+                duration: b.sim.duration,
+            };
+            let mode = sc.controller.replay_interpolation.unwrap_or_default();
+            let n_q: usize = dofs.iter().sum();
+            let replay =
+                crate::replay::load(&file, n_q, timing, mode).map_err(|e| ScenarioError {
+                    file: src.display.clone(),
+                    message: format!(
+                        "controller.replay (or --replay) = {}: {e:#}",
+                        file.display()
+                    ),
+                    span: None,
+                    text: String::new(),
+                })?;
+            let sim = Simulation::with_plant(
+                plant,
+                &b.start,
+                &b.sensors,
+                replay,
+                b.disturbance.clone(),
+                b.sim.clone(),
+            )
+            .map_err(start_error)?;
+            Ok(SpatialReady {
+                sim: SpatialSim::Replay(Box::new(sim)),
+                warnings,
+                controller: None,
+                path_inertia: None,
+            })
+        }
+    }
+}
