@@ -91,6 +91,21 @@ pub fn prepare(sc: SpatialScenario, src: &Source) -> Result<Prepared, ScenarioEr
     let built = scenario::build(&sc, src)?;
     let ready = scenario::make_simulation(&sc, &built, src)?;
     let name = sc.name.clone().unwrap_or_else(|| src.name.clone());
+    // The run's `scenario.toml` lives in the output folder: its file references (URDFs, the
+    // replay) become absolute so that it runs from there.
+    let mut sc = sc;
+    let abs = |p: &str| {
+        let p = src.dir.join(p);
+        std::path::absolute(&p).unwrap_or(p).display().to_string()
+    };
+    for a in &mut sc.arms {
+        if let Some(u) = &a.urdf {
+            a.urdf = Some(abs(u));
+        }
+    }
+    if let Some(r) = &sc.controller.replay {
+        sc.controller.replay = Some(abs(r));
+    }
     Ok(Prepared {
         sc,
         built,

@@ -954,6 +954,27 @@ pub fn model_error(
     dofs: &[usize],
     e: ModelError,
 ) -> ScenarioError {
+    // "The path leaves arm i's reach or joint limits": the arm's placement (or its grasp) is
+    // what the user changes, so the error points at `arms[i].base` and quotes the path check.
+    if let ModelError::Geometry { what, reason } = &e {
+        if what == "path" {
+            if let Some(i) = reason
+                .split("arms[")
+                .nth(1)
+                .and_then(|r| r.split(']').next())
+                .and_then(|i| i.parse::<usize>().ok())
+                .filter(|i| *i < sc.arms.len())
+            {
+                let field = format!("arms[{i}].base");
+                return src.error_at(
+                    &field,
+                    format!(
+                        "{field}: with this base placement (and grasp `arms[{i}].grasp`) the path is out of the arm's reach or joint limits: {reason}"
+                    ),
+                );
+            }
+        }
+    }
     src.model_error(e, |p| file_path(sc, dofs, p))
 }
 
@@ -1000,7 +1021,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             (Some(_), Some(_)) => {
                 return Err(src.error_at(
                     &format!("{here}.urdf"),
-                    format!("{here}: give `model` (embedded) or `urdf` (a file), not both"),
+                    format!("{here}.urdf: give `model` (embedded) or `urdf` (a file), not both"),
                 ));
             }
             (None, None) => {
