@@ -25,11 +25,14 @@ use tandem_cli::{
 #[command(
     name = "tandem",
     version,
-    about = "Cooperative manipulation: several planar arms carry one object along a path",
-    long_about = "Cooperative manipulation: several planar arms carry one object along a path.\n\n\
-        Scenarios are TOML files (or embedded: see `tandem scenario list`). `tandem run` with no \
+    about = "Cooperative manipulation: several arms (planar, or 6/7-DOF from URDF) carry one object along a path",
+    long_about = "Cooperative manipulation: several arms (planar, or 6/7-DOF from URDF) carry one \
+        object along a path.\n\n\
+        Scenarios are TOML files (or embedded: see `tandem scenario list`); a scenario whose arms \
+        name a robot (`model = \"ur5\"`, `urdf = \"arm.urdf\"`) is spatial. `tandem run` with no \
         arguments runs the paper's scenario with the tuned NN controller and writes the time \
-        series, summary, figures and an animation to out/paper-nn-tuned.",
+        series, summary, figures and an animation to out/paper-nn-tuned; `tandem run dual-ur5` \
+        runs two UR5-class arms carrying a box in SE(3) and writes a 3-D viewer.",
     after_help = "Exit codes: 0 success, 1 a run fault (outputs written, fault in summary.json) \
         or an I/O error, 2 bad input (arguments, scenario, replay file, existing output folder)."
 )]

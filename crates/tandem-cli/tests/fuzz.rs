@@ -4,62 +4,13 @@
 //! None of it may panic or hang, and a run never logs a non-finite value nor leaves a `null`
 //! in its summary without a reason.
 //!
-//! The CLI crate is a binary, so its modules are compiled into this test directly. Longer runs
-//! on nightly: `fuzz/` (cargo fuzz), see `fuzz/README.md`.
-
-#[allow(dead_code)]
-#[path = "../src/anim.rs"]
-mod anim;
-#[allow(dead_code)]
-#[path = "../src/figures.rs"]
-mod figures;
-#[allow(dead_code)]
-#[path = "../src/output.rs"]
-mod output;
-#[allow(dead_code)]
-#[path = "../src/plot.rs"]
-mod plot;
-#[allow(dead_code)]
-#[path = "../src/replay.rs"]
-mod replay;
-#[allow(dead_code)]
-#[path = "../src/runner.rs"]
-mod runner;
-#[allow(dead_code)]
-#[path = "../src/scenario.rs"]
-mod scenario;
-#[allow(dead_code)]
-#[path = "../src/scene.rs"]
-mod scene;
-#[allow(dead_code)]
-#[path = "../src/suggest.rs"]
-mod suggest;
-#[allow(dead_code)]
-#[path = "../src/table.rs"]
-mod table;
+//! The spatial presets get the same treatment (fewer cases: a spatial set-up follows the path by
+//! inverse kinematics). Longer runs on nightly: `fuzz/` (cargo fuzz), see `fuzz/README.md`.
 
 use std::time::Instant;
 
 use proptest::prelude::*;
-
-/// Bad input (as in `main.rs`).
-#[derive(Debug)]
-pub struct BadInput(String);
-
-impl BadInput {
-    /// From a message.
-    pub fn msg(s: impl Into<String>) -> Self {
-        BadInput(s.into())
-    }
-}
-
-impl std::fmt::Display for BadInput {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for BadInput {}
+use tandem_cli::{runner, scenario, spatial};
 
 /// Values that break naive code.
 const NASTY: &[&str] = &[
@@ -257,6 +208,39 @@ fn check(text: &str) -> Result<(), TestCaseError> {
     Ok(())
 }
 
+/// Parse, validate and run 50 ms of a spatial scenario (PD law: the same set-up checks as the
+/// NN law without its `f^U` sampling); check what a run writes.
+fn check_spatial(text: &str) -> Result<(), TestCaseError> {
+    let src = scenario::Source {
+        name: "fuzz".into(),
+        display: "fuzz.toml".into(),
+        text: text.to_string(),
+        dir: std::env::temp_dir(),
+        file: None,
+    };
+    let o = spatial::SpatialOverrides {
+        duration: Some(0.05),
+        controller: Some(spatial::scenario::SpatialKind::Pd),
+        ..Default::default()
+    };
+    let Ok(sc) = spatial::load(&src, &o) else {
+        reached(0);
+        return Ok(());
+    };
+    let Ok(p) = spatial::prepare(sc, &src) else {
+        reached(1);
+        return Ok(());
+    };
+    let f = spatial::execute(p, |_| {}).map_err(|e| TestCaseError::fail(format!("{e:#}")))?;
+    reached(if f.outcome.fault.is_some() { 3 } else { 2 });
+    for c in &f.outcome.log.columns {
+        if let Some(v) = c.data.iter().find(|v| !v.is_finite()) {
+            return Err(TestCaseError::fail(format!("column {} logged {v}", c.name)));
+        }
+    }
+    Ok(())
+}
+
 /// The case being checked and since when; a watchdog thread prints a case that takes more than
 /// 5 s (a hang would otherwise stop the test without saying which input).
 static CURRENT: std::sync::Mutex<Option<(String, Instant)>> = std::sync::Mutex::new(None);
@@ -317,10 +301,54 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 48,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+    #[test]
+    fn mutated_spatial_scenarios_never_panic_hang_or_write_nan(
+        which in 0..spatial::scenario::EMBEDDED.len(),
+        edits in proptest::collection::vec(mutation(), 1..4),
+    ) {
+        let mut text = spatial::scenario::EMBEDDED[which].text.to_string();
+        for m in &edits {
+            text = apply(&text, m);
+        }
+        let t0 = Instant::now();
+        watchdog(format!("spatial scenario {which}, edits {edits:?}"));
+        check_spatial(&text)?;
+        let dt = t0.elapsed().as_secs_f64();
+        prop_assert!(dt < 10.0, "{dt} s for one case");
+    }
+}
+
 #[test]
 fn the_mutator_finds_the_numbers() {
     let nums = numbers("a = 1.5 # 3\nb = [-2, 3e-4]\nname = \"x1\"\n");
     assert_eq!(nums.len(), 3, "{nums:?}");
     let t = apply("k = [1.0, 2.0]\n", &Mutation::Lengthen(0));
     assert_eq!(t, "k = [1.0, 2.0, 1.0]\n");
+}
+
+#[test]
+fn the_unmutated_spatial_presets_reach_the_run() {
+    // The spatial fuzz cases start from texts that run: a mutation, not the base, is what fails.
+    for e in spatial::scenario::EMBEDDED {
+        let src = scenario::embedded_source(e);
+        let o = spatial::SpatialOverrides {
+            duration: Some(0.05),
+            controller: Some(spatial::scenario::SpatialKind::Pd),
+            ..Default::default()
+        };
+        let p = spatial::prepare(spatial::load(&src, &o).unwrap(), &src).unwrap();
+        let f = spatial::execute(p, |_| {}).unwrap();
+        assert!(
+            f.outcome.fault.is_none() && f.outcome.log.len() == 5,
+            "{}",
+            e.name
+        );
+        check_spatial(e.text).unwrap();
+    }
 }
