@@ -327,6 +327,14 @@ impl Sweep {
             rel.display().to_string()
         };
         let base = scenario::resolve(Some(&arg)).map_err(|e| cx.err(&["base"], e.to_string()))?;
+        if crate::spatial::scenario::is_spatial(&base.text) {
+            return Err(cx.err(
+                &["base"],
+                format!(
+                    "base = {base_name:?} is a spatial scenario: sweeps run planar scenarios for now (run spatial variants one by one with `tandem run FILE`)"
+                ),
+            ));
+        }
         // The base must itself be valid.
         scenario::parse(&base).map_err(|e| {
             cx.err(
