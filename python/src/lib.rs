@@ -26,14 +26,8 @@ use tandem_cli::{BadInput, output};
 
 create_exception!(
     tandem,
-    TandemError,
-    pyo3::exceptions::PyException,
-    "Base class of tandem's errors."
-);
-create_exception!(
-    tandem,
     ScenarioError,
-    TandemError,
+    PyValueError,
     "Bad input: a scenario, a field override, a sweep, an argument. The message is the command \
 line's; `path` is the scenario field it concerns (or None), `file` how the input is named."
 );
@@ -1124,7 +1118,6 @@ fn _tandem(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(rollout, m)?)?;
     m.add_function(wrap_pyfunction!(presets, m)?)?;
     m.add_function(wrap_pyfunction!(_sweep_csv, m)?)?;
-    m.add("TandemError", py.get_type::<TandemError>())?;
     m.add("ScenarioError", py.get_type::<ScenarioError>())?;
     m.add("ScenarioWarning", py.get_type::<ScenarioWarning>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
