@@ -18,6 +18,7 @@ import argparse
 import csv
 import os
 import platform
+import resource
 import shutil
 import statistics
 import subprocess
@@ -54,10 +55,11 @@ def main():
     try:
         f = sweep_file(tmp, a.duration)
         base = tandem.Scenario.preset("paper")
-        cli_times, py_times = [], []
+        cli_times, py_times, cli_cpu, py_cpu = [], [], [], []
         seeds = None
         for r in range(a.repeat):
             out = os.path.join(tmp, f"out{r}")
+            c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
             t0 = time.perf_counter()
             subprocess.run(
                 [a.tandem, "sweep", f, "--threads", str(a.threads), "--no-figures", "--out", out],
@@ -65,15 +67,19 @@ def main():
                 capture_output=True,
             )
             cli_times.append(time.perf_counter() - t0)
+            c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cli_cpu.append((c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime))
             with open(os.path.join(out, "runs.csv"), newline="") as fh:
                 rows = list(csv.DictReader(fh))
             seeds = [int(x["seed"]) for x in rows]
             t0 = time.perf_counter()
             scs = [base.with_(**{"controller.nn.k1": [k, k, k]}) for k in K1]
             t_with = time.perf_counter() - t0
+            p0 = time.process_time()
             t0 = time.perf_counter()
             runs = tandem.rollout(scs, seeds=seeds, threads=a.threads, duration=a.duration)
             py_times.append(time.perf_counter() - t0)
+            py_cpu.append(time.process_time() - p0)
             for row, run in zip(rows, runs):
                 assert float(row["rms_z1"]) == run.summary["rms_z1"], "sweep and rollout differ"
         loop = sum(r.summary["timing"]["wall_time"] for r in runs)
@@ -89,10 +95,13 @@ def main():
                 over.append((d, dt - run.summary["timing"]["wall_time"]))
         rows_short = {d: len(base.run(duration=d)) for d in (0.06, 0.6)}
 
-        # Overhead of the Python objects alone: a 10 s run's Run object vs the loop.
-        t0 = time.perf_counter()
-        r10 = base.run(duration=a.duration)
-        t_run10 = time.perf_counter() - t0
+        # A full-length run: the same overhead plus the summary over more rows (no copy of the
+        # samples: the arrays are views).
+        o10 = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            r10 = base.run(duration=a.duration)
+            o10.append((time.perf_counter() - t0, time.perf_counter() - t0 - r10.summary["timing"]["wall_time"]))
         n_cols = len(r10.timeseries)
 
         load = os.getloadavg()
@@ -106,18 +115,22 @@ def main():
         print(f"| `tandem sweep` (process) | {min(cli_times):.3f} s | {statistics.median(cli_times):.3f} s | {fmt(cli_times)} |")
         print(f"| `tandem.rollout` | {min(py_times):.3f} s | {statistics.median(py_times):.3f} s | {fmt(py_times)} |")
         print(f"| ratio rollout/sweep | {min(py_times)/min(cli_times):.3f} | {statistics.median(py_times)/statistics.median(cli_times):.3f} | |")
+        print(f"| CPU time (user + sys, all threads): `tandem sweep` | {min(cli_cpu):.3f} s | {statistics.median(cli_cpu):.3f} s | {fmt(cli_cpu)} |")
+        print(f"| CPU time: `tandem.rollout` | {min(py_cpu):.3f} s | {statistics.median(py_cpu):.3f} s | {fmt(py_cpu)} |")
+        print(f"| CPU ratio rollout/sweep | {min(py_cpu)/min(cli_cpu):.3f} | {statistics.median(py_cpu)/statistics.median(cli_cpu):.3f} | |")
         print(f"\n(16 × `with_` to build the scenarios: {t_with*1e3:.1f} ms, not in the rollout time; "
               f"sum of the 16 loops' wall times in the last rollout: {loop:.3f} s)")
         print()
-        print("| one `Scenario.run()` | rows | median total | median overhead (total − loop) | max overhead |")
-        print("|---|---|---|---|---|")
+        print("| one `Scenario.run()` | rows | median total | overhead (total − loop): min | median | max |")
+        print("|---|---|---|---|---|---|")
         for d in (0.06, 0.6):
             o = [x for dd, x in over if dd == d]
             t = [x for dd, x in total if dd == d]
             print(f"| duration {d:g} s | {rows_short[d]} | {statistics.median(t)*1e3:.2f} ms | "
-                  f"{statistics.median(o)*1e3:.2f} ms | {max(o)*1e3:.2f} ms |")
-        print(f"| duration {a.duration:g} s | {len(r10)} | {t_run10*1e3:.1f} ms | "
-              f"{(t_run10 - r10.summary['timing']['wall_time'])*1e3:.2f} ms | ({n_cols} columns) |")
+                  f"{min(o)*1e3:.2f} ms | {statistics.median(o)*1e3:.2f} ms | {max(o)*1e3:.2f} ms |")
+        ov = [o for _, o in o10]
+        print(f"| duration {a.duration:g} s ({n_cols} columns) | {len(r10)} | {statistics.median([t for t, _ in o10])*1e3:.1f} ms | "
+              f"{min(ov)*1e3:.2f} ms | {statistics.median(ov)*1e3:.2f} ms | {max(ov)*1e3:.2f} ms |")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
