@@ -402,7 +402,9 @@ fn text_source(text: &str, name: Option<&str>) -> Source {
         name: name.unwrap_or("scenario").to_string(),
         display: "scenario text".to_string(),
         text: text.strip_prefix('\u{feff}').unwrap_or(text).to_string(),
-        dir: PathBuf::from("."),
+        // Relative paths in the text (a replay file) are relative to the folder the scenario
+        // is made in, not to wherever it runs later.
+        dir: std::env::current_dir().unwrap_or_else(|_| PathBuf::from(".")),
         file: None,
     }
 }
@@ -1027,11 +1029,35 @@ fn rollout(
     }
     let pool = pool(threads)?;
     let work = jobs.clone();
-    let results: Vec<Res<Finished>> =
-        py.detach(move || pool.install(|| work.par_iter().map(|k| k.planar().execute()).collect()));
-    let mut out = Vec::with_capacity(results.len());
-    for (k, r) in jobs.into_iter().zip(results) {
-        let fin = py_res(py, r)?;
+    // Every run is prepared (validated) before any runs, so bad input fails fast.
+    let results: Result<Vec<Finished>, (usize, Error)> = py.detach(move || {
+        pool.install(|| {
+            let prepared = work
+                .par_iter()
+                .enumerate()
+                .map(|(i, k)| {
+                    let p = k.planar();
+                    runner::prepare(p.sc.clone(), &p.src).map_err(|e| (i, Error::from(e)))
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok(prepared
+                .into_par_iter()
+                .map(|p| runner::execute(p, |_| {}))
+                .collect())
+        })
+    });
+    let finished = results.map_err(|(i, e)| {
+        match e {
+            Error::Scenario(e) => Error::Field {
+                path: error_path(&e),
+                message: format!("scenarios[{i}]: {e}"),
+            },
+            other => other,
+        }
+        .into_py(py)
+    })?;
+    let mut out = Vec::with_capacity(finished.len());
+    for (k, fin) in jobs.into_iter().zip(finished) {
         out.push(PyRun::live(py, k, fin)?);
     }
     Ok(out)

@@ -74,3 +74,12 @@ def test_presets_listed():
     assert set(tandem.presets()) >= {"paper", "push", "lemniscate"}
     for name in tandem.presets():
         assert tandem.Scenario.preset(name).name == name
+
+
+def test_rollout_bad_input_names_the_scenario():
+    sc = tandem.Scenario.preset("paper")
+    # 0.01 s is shorter than the paper's 0.03 s log period: rejected before anything runs.
+    with pytest.raises(tandem.ScenarioError) as e:
+        tandem.rollout([sc, sc], duration=0.01)
+    assert str(e.value).startswith("scenarios[0]: embedded scenario `paper`: run.log_period")
+    assert e.value.path == "run.log_period"
