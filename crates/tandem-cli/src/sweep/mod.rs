@@ -247,6 +247,68 @@ pub fn check_doc(doc: &Table, base: &Source, label: &str) -> Result<(), String> 
         .map_err(|e| loader_message(&e))
 }
 
+/// Every field path of a scenario document, for "did you mean" suggestions: the document's own,
+/// those of its base scenario's resolved form (every default written out), the NN gain overrides
+/// and the derived fields ([`fields::DERIVED`]).
+pub fn known_paths(doc: &Table, base: &Source) -> Vec<String> {
+    let mut known = fields::all_paths(doc);
+    if let Ok(sc) = scenario::parse(base) {
+        if let Ok(toml::Value::Table(t)) = toml::Value::try_from(sc.resolved()) {
+            known.extend(fields::all_paths(&t));
+        }
+    }
+    for k in [
+        "k1",
+        "k2",
+        "k_r",
+        "theta",
+        "sigma",
+        "varpi",
+        "fu_safety",
+        "width2",
+        "levels",
+        "d1",
+        "d2",
+        "omega",
+    ] {
+        known.push(format!("controller.nn.{k}"));
+    }
+    known.extend(fields::DERIVED.iter().map(|(p, _)| p.to_string()));
+    known.sort();
+    known.dedup();
+    known
+}
+
+/// Set `v` at the field `path` of a copy of `doc` and run every validation of a run on the result
+/// (nothing is simulated); the new document, or why not: a malformed path, `` `path` is not a
+/// field of the scenario (...) — did you mean "..."? `` (suggested from `known`, see
+/// [`known_paths`]) or `the scenario rejects path = v: why`. The sweep file's `[set]` and `[vary]`
+/// and the Python package's `Scenario.with_` check values with it.
+pub fn check_field(
+    doc: &Table,
+    base: &Source,
+    display: &str,
+    path: &str,
+    v: &Value,
+    known: &[String],
+) -> Result<Table, String> {
+    let mut d = doc.clone();
+    fields::set(&mut d, path, v.clone())?;
+    check_doc(&d, base, display).map_err(|e| {
+        let m = if e.contains("unknown field") {
+            let mut m = format!("`{path}` is not a field of the scenario ({e})");
+            if let Some(s) = suggest::closest(path, known.iter().map(String::as_str)) {
+                m.push_str(&format!(" — did you mean \"{s}\"?"));
+            }
+            m
+        } else {
+            format!("the scenario rejects {path} = {}: {e}", cell(v))
+        };
+        m.replace("  ", " ")
+    })?;
+    Ok(d)
+}
+
 impl Sweep {
     /// Read, resolve and check a sweep file.
     pub fn load(path: &Path) -> Result<Sweep, ScenarioError> {
@@ -376,50 +438,12 @@ impl Sweep {
                 .map_err(|e| cx.err(&["duration"], e))?;
             check_doc(&doc, &base, display).map_err(|e| cx.err(&["duration"], e))?;
         }
-        // Known paths for suggestions: the base document, its resolved form, derived fields.
-        let mut known = fields::all_paths(&doc);
-        if let Ok(sc) = scenario::parse(&base) {
-            if let Ok(toml::Value::Table(t)) = toml::Value::try_from(sc.resolved()) {
-                known.extend(fields::all_paths(&t));
-            }
-        }
-        for k in [
-            "k1",
-            "k2",
-            "k_r",
-            "theta",
-            "sigma",
-            "varpi",
-            "fu_safety",
-            "width2",
-            "levels",
-            "d1",
-            "d2",
-            "omega",
-        ] {
-            known.push(format!("controller.nn.{k}"));
-        }
-        known.extend(fields::DERIVED.iter().map(|(p, _)| p.to_string()));
-        known.sort();
-        known.dedup();
+        let known = known_paths(&doc, &base);
         let check =
             |doc: &Table, keys: &[&str], path: &str, v: &Value| -> Result<(), ScenarioError> {
-                let mut d = doc.clone();
-                fields::set(&mut d, path, v.clone()).map_err(|e| cx.err(keys, e))?;
-                check_doc(&d, &base, display).map_err(|e| {
-                    let mut m = if e.contains("unknown field") {
-                        let mut m = format!("`{path}` is not a field of the scenario ({e})");
-                        if let Some(s) = suggest::closest(path, known.iter().map(String::as_str)) {
-                            m.push_str(&format!(" — did you mean \"{s}\"?"));
-                        }
-                        m
-                    } else {
-                        format!("the scenario rejects {path} = {}: {e}", cell(v))
-                    };
-                    m = m.replace("  ", " ");
-                    cx.err(keys, m)
-                })?;
-                Ok(())
+                check_field(doc, &base, display, path, v, &known)
+                    .map(|_| ())
+                    .map_err(|m| cx.err(keys, m))
             };
         // Fixed overrides.
         if let Some(set) = top.get("set") {

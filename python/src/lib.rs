@@ -1,0 +1,1151 @@
+//! `tandem._tandem`: the native part of the `tandem` Python package.
+//!
+//! Everything here binds the `tandem_cli` library, the code the `tandem` command line runs: a
+//! scenario is parsed, overridden (by field path, as in sweeps), validated, run and written by the
+//! same functions, so it means the same thing and gets the same error messages in Python as on
+//! the command line. Simulations run with the GIL released; `rollout` runs a batch on a rayon
+//! pool, as `tandem sweep` does.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use numpy::{IntoPyArray, PyArray1, PyArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyFileExistsError, PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use rayon::prelude::*;
+use serde_json::Value as Json;
+use toml::{Table, Value};
+
+use tandem_cli::output::OutputDir;
+use tandem_cli::runner::{self, Finished, Outputs};
+use tandem_cli::scenario::{self, Overrides, ScenarioError as CliScenarioError, Source};
+use tandem_cli::sweep;
+use tandem_cli::{BadInput, output};
+
+create_exception!(
+    tandem,
+    ScenarioError,
+    PyValueError,
+    "Bad input: a scenario, a field override, a sweep, an argument. The message is the command \
+line's; `path` is the scenario field it concerns (or None), `file` how the input is named."
+);
+create_exception!(
+    tandem,
+    ScenarioWarning,
+    pyo3::exceptions::PyUserWarning,
+    "A set-up warning of a scenario (the command line prints the same text)."
+);
+
+// ---------------------------------------------------------------------------------------------
+// Errors.
+
+/// An error on the way to Python.
+enum Error {
+    /// A scenario or sweep error of the library (message with file, line, excerpt).
+    Scenario(CliScenarioError),
+    /// Bad input with a known field path.
+    Field {
+        path: Option<String>,
+        message: String,
+    },
+    /// A failure that is not the input's fault (I/O, a re-run that differs).
+    Other(String),
+}
+
+impl From<CliScenarioError> for Error {
+    fn from(e: CliScenarioError) -> Self {
+        Error::Scenario(e)
+    }
+}
+
+impl From<BadInput> for Error {
+    fn from(e: BadInput) -> Self {
+        Error::Field {
+            path: None,
+            message: e.to_string(),
+        }
+    }
+}
+
+fn bad(path: Option<&str>, message: impl Into<String>) -> Error {
+    Error::Field {
+        path: path.map(str::to_string),
+        message: message.into(),
+    }
+}
+
+/// The scenario field a library error concerns: the field whose value (or key) the error's span
+/// falls in, or else a field path the message starts with (`controller.nn.k1[0] = -1: ...`).
+fn error_path(e: &CliScenarioError) -> Option<String> {
+    if let Some(span) = &e.span {
+        if let Some(p) = field_path_at(&e.text, span.start) {
+            return Some(p);
+        }
+    }
+    leading_path(&e.message)
+}
+
+/// `a.b[1].c` at the start of a message, followed by ` = ` or `:`.
+fn leading_path(msg: &str) -> Option<String> {
+    let end = msg.find([' ', ':'])?;
+    let head = &msg[..end];
+    let rest = &msg[end..];
+    let path_like = !head.is_empty()
+        && head.contains(['.', '['])
+        && head
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_.[]".contains(c))
+        && head.starts_with(|c: char| c.is_ascii_alphabetic());
+    (path_like && (rest.starts_with(" = ") || rest.starts_with(':'))).then(|| head.to_string())
+}
+
+/// The field path (`controller.nn.k1[0]`) of the innermost key or value at byte `offset` of a
+/// TOML text.
+fn field_path_at(text: &str, offset: usize) -> Option<String> {
+    use toml::de::{DeTable, DeValue};
+    fn join(path: &str, key: &str) -> String {
+        if path.is_empty() {
+            key.to_string()
+        } else {
+            format!("{path}.{key}")
+        }
+    }
+    /// Depth first: the deepest entry whose key or value span holds `offset` (an array of
+    /// tables' span may not cover its tables' bodies, so every child is searched).
+    fn search(v: &DeValue, offset: usize, path: &str) -> Option<String> {
+        if let Some(t) = v.as_table() {
+            for (k, x) in t.iter() {
+                let p = join(path, k.get_ref().as_ref());
+                if let Some(found) = search(x.get_ref(), offset, &p) {
+                    return Some(found);
+                }
+                if k.span().contains(&offset) || x.span().contains(&offset) {
+                    return Some(p);
+                }
+            }
+        } else if let Some(a) = v.as_array() {
+            for (i, x) in a.iter().enumerate() {
+                let p = format!("{path}[{i}]");
+                if let Some(found) = search(x.get_ref(), offset, &p) {
+                    return Some(found);
+                }
+                if x.span().contains(&offset) {
+                    return Some(p);
+                }
+            }
+        }
+        None
+    }
+    let root = DeTable::parse(text).ok()?;
+    let top = root.get_ref();
+    for (k, x) in top.iter() {
+        let p = k.get_ref().to_string();
+        if let Some(found) = search(x.get_ref(), offset, &p) {
+            return Some(found);
+        }
+        if k.span().contains(&offset) || x.span().contains(&offset) {
+            return Some(p);
+        }
+    }
+    None
+}
+
+impl Error {
+    fn into_py(self, py: Python<'_>) -> PyErr {
+        let (message, path, file) = match self {
+            Error::Scenario(e) => {
+                let path = error_path(&e);
+                (e.to_string(), path, Some(e.file.clone()))
+            }
+            Error::Field { path, message } => (message, path, None),
+            Error::Other(m) => return PyRuntimeError::new_err(m),
+        };
+        let err = ScenarioError::new_err(message.clone());
+        let v = err.value(py);
+        // Attribute errors on a fresh exception object cannot happen; ignore them rather than
+        // replace the user's error with an internal one.
+        let _ = v.setattr("message", message);
+        let _ = v.setattr("path", path);
+        let _ = v.setattr("file", file);
+        err
+    }
+}
+
+type Res<T> = Result<T, Error>;
+
+fn py_res<T>(py: Python<'_>, r: Res<T>) -> PyResult<T> {
+    r.map_err(|e| e.into_py(py))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Python values to TOML.
+
+/// A Python value for a scenario field: bool, int, float, str, list/tuple/NumPy array, dict.
+fn to_toml(v: &Bound<'_, PyAny>, path: &str) -> PyResult<Value> {
+    if v.is_instance_of::<PyBool>() {
+        return Ok(Value::Boolean(v.extract()?));
+    }
+    if v.is_instance_of::<PyInt>() {
+        return v.extract::<i64>().map(Value::Integer).map_err(|_| {
+            PyValueError::new_err(format!(
+                "{path}: {} does not fit a TOML integer (64-bit signed)",
+                v.repr().map(|r| r.to_string()).unwrap_or_default()
+            ))
+        });
+    }
+    if v.is_instance_of::<PyFloat>() {
+        return Ok(Value::Float(v.extract()?));
+    }
+    if let Ok(s) = v.cast::<PyString>() {
+        return Ok(Value::String(s.to_cow()?.into_owned()));
+    }
+    if let Ok(d) = v.cast::<PyDict>() {
+        let mut t = Table::new();
+        for (k, x) in d.iter() {
+            let k: String = k
+                .extract()
+                .map_err(|_| PyTypeError::new_err(format!("{path}: table keys must be strings")))?;
+            let sub = format!("{path}.{k}");
+            t.insert(k, to_toml(&x, &sub)?);
+        }
+        return Ok(Value::Table(t));
+    }
+    // NumPy arrays and scalars (np.float64 is a float; np.int64, np.bool_ and arrays are not).
+    if v.hasattr("tolist")? && !v.is_instance_of::<PyList>() {
+        return to_toml(&v.call_method0("tolist")?, path);
+    }
+    if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
+        let mut a = Vec::new();
+        for (i, x) in v.try_iter()?.enumerate() {
+            a.push(to_toml(&x?, &format!("{path}[{i}]"))?);
+        }
+        return Ok(Value::Array(a));
+    }
+    Err(PyTypeError::new_err(format!(
+        "{path}: a {} cannot be a scenario value (give a bool, int, float, str, list, array or dict)",
+        v.get_type().name()?
+    )))
+}
+
+/// A JSON value as Python objects (`null` → None).
+fn json_to_py<'py>(py: Python<'py>, v: &Json) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match v {
+        Json::Null => py.None().into_bound(py),
+        Json::Bool(b) => PyBool::new(py, *b).to_owned().into_any(),
+        Json::Number(n) => {
+            if let Some(u) = n.as_u64() {
+                u.into_pyobject(py)?.into_any()
+            } else if let Some(i) = n.as_i64() {
+                i.into_pyobject(py)?.into_any()
+            } else {
+                n.as_f64().unwrap_or(f64::NAN).into_pyobject(py)?.into_any()
+            }
+        }
+        Json::String(s) => PyString::new(py, s).into_any(),
+        Json::Array(a) => {
+            let l = PyList::empty(py);
+            for x in a {
+                l.append(json_to_py(py, x)?)?;
+            }
+            l.into_any()
+        }
+        Json::Object(m) => {
+            let d = PyDict::new(py);
+            for (k, x) in m {
+                d.set_item(k, json_to_py(py, x)?)?;
+            }
+            d.into_any()
+        }
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scenarios.
+
+/// A planar scenario: its source, its TOML document (overrides applied) and the parsed scenario.
+#[derive(Clone)]
+struct Planar {
+    /// Name, how errors name it, the text errors point into, the folder relative paths use.
+    src: Source,
+    /// The document `with_` sets fields on.
+    doc: Table,
+    /// The parsed scenario (`doc` through the loader).
+    sc: scenario::Scenario,
+    /// The replay file, resolved (for `to_toml`).
+    replay: Option<PathBuf>,
+    /// Set-up warnings (the command line prints them before a run).
+    warnings: Vec<String>,
+}
+
+/// What a scenario is. Spatial scenarios (dual UR5, dual Franka) become a second variant when
+/// their TOML form exists; the Python API (`preset`, `from_toml`, `with_`, `run`, `rollout`,
+/// pickling through TOML) is the same for both.
+#[derive(Clone)]
+enum Kind {
+    Planar(Planar),
+}
+
+impl Kind {
+    fn planar(&self) -> &Planar {
+        match self {
+            Kind::Planar(p) => p,
+        }
+    }
+}
+
+/// Parse and validate a source as the command line's `load` + `tandem validate` do.
+fn planar_from_source(mut src: Source) -> Res<Planar> {
+    let sc = scenario::parse(&src)?;
+    // A file may name itself (a resolved `scenario.toml` keeps its run's name).
+    if let Some(n) = sc.name.as_ref().filter(|n| !n.trim().is_empty()) {
+        src.name = n.clone();
+    }
+    let doc: Table = toml::from_str(&src.text).map_err(|e| bad(None, e.to_string()))?;
+    let prepared = runner::prepare(sc.clone(), &src)?;
+    Ok(Planar {
+        replay: prepared.built.replay.clone(),
+        warnings: prepared.ready.warnings,
+        src,
+        doc,
+        sc,
+    })
+}
+
+impl Planar {
+    /// The document and scenario with `run.duration` / `run.seed` overridden (as `--duration`
+    /// and `--seed` do); nothing is validated here (the run prepares).
+    fn with_run(&self, duration: Option<f64>, seed: Option<u64>) -> Res<Planar> {
+        if let Some(d) = duration {
+            if !(d.is_finite() && d > 0.0) {
+                return Err(bad(
+                    Some("run.duration"),
+                    format!(
+                        "duration={}: must be a positive number of seconds",
+                        scenario::num(d)
+                    ),
+                ));
+            }
+        }
+        if let Some(s) = seed {
+            if s > i64::MAX as u64 {
+                return Err(bad(
+                    Some("run.seed"),
+                    format!("seed={s}: at most 2^63 − 1 (a TOML integer)"),
+                ));
+            }
+        }
+        let mut p = self.clone();
+        p.sc.apply(&Overrides {
+            duration,
+            seed,
+            ..Overrides::default()
+        })?;
+        if let Some(d) = duration {
+            sweep::fields::set(&mut p.doc, "run.duration", Value::Float(d))
+                .map_err(|m| bad(Some("run.duration"), m))?;
+        }
+        if let Some(s) = seed {
+            sweep::fields::set(&mut p.doc, "run.seed", Value::Integer(s as i64))
+                .map_err(|m| bad(Some("run.seed"), m))?;
+        }
+        Ok(p)
+    }
+
+    /// The resolved scenario as TOML (the run folder's `scenario.toml`).
+    fn to_toml(&self) -> Res<String> {
+        runner::scenario_toml(&self.sc, &self.src.name, self.replay.as_deref())
+            .map_err(|e| Error::Other(format!("{e:#}")))
+    }
+
+    /// Prepare and simulate (no Python involved: called with the GIL released).
+    fn execute(&self) -> Res<Finished> {
+        let p = runner::prepare(self.sc.clone(), &self.src)?;
+        Ok(runner::execute(p, |_| {}))
+    }
+}
+
+fn warn_all(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
+    let cat = py.get_type::<ScenarioWarning>();
+    for w in warnings {
+        let msg = std::ffi::CString::new(w.replace('\0', " "))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        PyErr::warn(py, &cat, &msg, 1)?;
+    }
+    Ok(())
+}
+
+/// A scenario: what one run simulates (arms, object, path, controller, timing, seed).
+///
+/// Immutable: `with_` returns a new scenario. Picklable (as its resolved TOML), so it can be
+/// sent to process pools, Ray and Dask workers.
+#[pyclass(module = "tandem", name = "Scenario", frozen)]
+struct PyScenario {
+    kind: Arc<Kind>,
+}
+
+impl PyScenario {
+    fn new(p: Planar) -> Self {
+        PyScenario {
+            kind: Arc::new(Kind::Planar(p)),
+        }
+    }
+    fn planar(&self) -> &Planar {
+        self.kind.planar()
+    }
+}
+
+/// A source from TOML text (`from_toml` and unpickling).
+fn text_source(text: &str, name: Option<&str>) -> Source {
+    Source {
+        name: name.unwrap_or("scenario").to_string(),
+        display: "scenario text".to_string(),
+        text: text.strip_prefix('\u{feff}').unwrap_or(text).to_string(),
+        // Relative paths in the text (a replay file) are relative to the folder the scenario
+        // is made in, not to wherever it runs later.
+        dir: std::env::current_dir().unwrap_or_else(|_| PathBuf::from(".")),
+        file: None,
+    }
+}
+
+/// The value at a field path of a TOML document.
+fn get_path<'a>(doc: &'a Table, path: &str) -> Option<&'a Value> {
+    let segs = sweep::fields::segments(path).ok()?;
+    let mut cur: Option<&Value> = None;
+    for s in segs {
+        cur = match (s, cur) {
+            (sweep::fields::Seg::Key(k), None) => doc.get(&k),
+            (sweep::fields::Seg::Key(k), Some(Value::Table(t))) => t.get(&k),
+            (sweep::fields::Seg::Index(i), Some(Value::Array(a))) => a.get(i),
+            _ => None,
+        };
+        cur?;
+    }
+    cur
+}
+
+fn toml_to_py<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
+    json_to_py(
+        py,
+        &serde_json::to_value(v).map_err(|e| PyValueError::new_err(e.to_string()))?,
+    )
+}
+
+#[pymethods]
+impl PyScenario {
+    /// An embedded scenario by name (see `tandem.presets()`), e.g. `Scenario.preset("paper")`.
+    #[staticmethod]
+    fn preset(py: Python<'_>, name: &str) -> PyResult<Self> {
+        let r = (|| -> Res<Planar> {
+            if let Some(e) = scenario::EMBEDDED.iter().find(|e| e.name == name) {
+                return planar_from_source(scenario::embedded_source(e));
+            }
+            if tandem_cli::spatial::is_preset(name) {
+                return Err(bad(
+                    None,
+                    format!(
+                        "`{name}` is a spatial preset: the Python package runs planar scenarios \
+                         for now (run it with `tandem run {name}`)"
+                    ),
+                ));
+            }
+            // Not embedded: the command line's message (with its suggestion), unless a file of
+            // that name exists, which `preset` does not read.
+            if Path::new(name).exists() {
+                let names: Vec<&str> = scenario::EMBEDDED.iter().map(|e| e.name).collect();
+                return Err(bad(
+                    None,
+                    format!(
+                        "`{name}` is not an embedded scenario (embedded scenarios: {}); load a \
+                         file with Scenario.load(path)",
+                        names.join(", ")
+                    ),
+                ));
+            }
+            Err(scenario::resolve(Some(name)).err().map_or_else(
+                || bad(None, format!("`{name}` is not an embedded scenario")),
+                Error::from,
+            ))
+        })();
+        let p = py_res(py, r)?;
+        warn_all(py, &p.warnings)?;
+        Ok(Self::new(p))
+    }
+
+    /// A scenario from TOML text (the format of `tandem scenario show paper`). `name` names it
+    /// (outputs, summaries) unless the text has a `name` field; relative paths in it (a replay
+    /// file) are relative to the current folder.
+    #[staticmethod]
+    #[pyo3(signature = (text, name=None))]
+    fn from_toml(py: Python<'_>, text: &str, name: Option<&str>) -> PyResult<Self> {
+        let p = py_res(py, planar_from_source(text_source(text, name)))?;
+        warn_all(py, &p.warnings)?;
+        Ok(Self::new(p))
+    }
+
+    /// A scenario file (TOML). Its name is the file's stem unless it has a `name` field.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let r = (|| -> Res<Planar> {
+            let arg = path.to_string_lossy().into_owned();
+            if !path.is_file() && scenario::EMBEDDED.iter().any(|e| e.name == arg) {
+                return Err(bad(
+                    None,
+                    format!(
+                        "scenario file {arg} does not exist (for the embedded scenario use \
+                         Scenario.preset(\"{arg}\"))"
+                    ),
+                ));
+            }
+            planar_from_source(scenario::resolve(Some(&arg))?)
+        })();
+        let p = py_res(py, r)?;
+        warn_all(py, &p.warnings)?;
+        Ok(Self::new(p))
+    }
+
+    /// A new scenario with fields set by their paths, as in a sweep's `[set]`:
+    /// `sc.with_(**{"controller.nn.k1": [8, 8, 8], "object.mass": 1.2})` or
+    /// `sc.with_({"run.duration": 10})`. Each value is checked by every validation of a run, in
+    /// the order given; a rejected value raises ScenarioError with its `path`.
+    #[pyo3(signature = (overrides=None, /, **fields))]
+    fn with_(
+        &self,
+        py: Python<'_>,
+        overrides: Option<&Bound<'_, PyDict>>,
+        fields: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let mut items: Vec<(String, Value)> = Vec::new();
+        for d in [overrides, fields].into_iter().flatten() {
+            for (k, v) in d.iter() {
+                let k: String = k
+                    .extract()
+                    .map_err(|_| PyTypeError::new_err("field paths must be strings"))?;
+                let v = to_toml(&v, &k)?;
+                items.push((k, v));
+            }
+        }
+        let base = self.planar().clone();
+        let r = py.detach(move || -> Res<Planar> {
+            let mut doc = base.doc.clone();
+            let known = sweep::known_paths(&doc, &base.src);
+            for (path, v) in &items {
+                doc = sweep::check_field(&doc, &base.src, &base.src.display, path, v, &known)
+                    .map_err(|m| bad(Some(path), m))?;
+            }
+            let text = toml::to_string(&doc).map_err(|e| Error::Other(e.to_string()))?;
+            let src = Source {
+                text,
+                file: None,
+                ..base.src.clone()
+            };
+            let mut p = planar_from_source(src)?;
+            // The name stays the base's (a file's stem is not in its text).
+            if p.sc.name.as_ref().is_none_or(|n| n.trim().is_empty()) {
+                p.src.name = base.src.name.clone();
+            }
+            Ok(p)
+        });
+        let p = py_res(py, r)?;
+        Ok(Self::new(p))
+    }
+
+    /// The value of a field of the resolved scenario, by path (`"controller.nn.k1"`,
+    /// `"arms[0].links[1].mass"`); KeyError if there is none.
+    fn get(&self, py: Python<'_>, path: &str) -> PyResult<Py<PyAny>> {
+        let p = self.planar();
+        let resolved = toml::Value::try_from(p.sc.resolved())
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let from_resolved = resolved.as_table().and_then(|t| get_path(t, path));
+        match from_resolved.or_else(|| get_path(&p.doc, path)) {
+            Some(v) => Ok(toml_to_py(py, v)?.unbind()),
+            None => Err(pyo3::exceptions::PyKeyError::new_err(path.to_string())),
+        }
+    }
+
+    /// Simulate this scenario (GIL released) and return the Run. `duration` (s) and `seed`
+    /// override `run.duration` and `run.seed`, as `tandem run --duration --seed` do. A run that
+    /// hits a numerical fault returns normally: see `Run.fault`.
+    #[pyo3(signature = (duration=None, seed=None))]
+    fn run(&self, py: Python<'_>, duration: Option<f64>, seed: Option<u64>) -> PyResult<PyRun> {
+        let p = py_res(py, self.planar().with_run(duration, seed))?;
+        let p = Arc::new(Kind::Planar(p));
+        let k = p.clone();
+        let fin = py.detach(move || k.planar().execute());
+        let fin = py_res(py, fin)?;
+        PyRun::live(py, p, fin)
+    }
+
+    /// The resolved scenario as TOML: every default written out, re-runnable
+    /// (`tandem run FILE`, `Scenario.from_toml`); the run folder's `scenario.toml`.
+    fn to_toml(&self, py: Python<'_>) -> PyResult<String> {
+        py_res(py, self.planar().to_toml())
+    }
+
+    /// The scenario's name (outputs, summaries).
+    #[getter]
+    fn name(&self) -> String {
+        self.planar().src.name.clone()
+    }
+
+    /// `"planar"` (spatial scenarios will say `"spatial"`).
+    #[getter]
+    fn kind(&self) -> &'static str {
+        match *self.kind {
+            Kind::Planar(_) => "planar",
+        }
+    }
+
+    /// Free text of the scenario.
+    #[getter]
+    fn description(&self) -> String {
+        self.planar().sc.description.clone()
+    }
+
+    /// `run.duration`, s.
+    #[getter]
+    fn duration(&self) -> f64 {
+        self.planar().sc.run.duration
+    }
+
+    /// `run.seed` (sensor noise).
+    #[getter]
+    fn seed(&self) -> u64 {
+        self.planar().sc.run.seed
+    }
+
+    /// The controller label, e.g. `NN (tuned)`, `PD`.
+    #[getter]
+    fn label(&self) -> String {
+        runner::label(&self.planar().sc)
+    }
+
+    /// Set-up warnings (also issued as ScenarioWarning when the scenario is made).
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.planar().warnings.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        let p = self.planar();
+        format!(
+            "<tandem.Scenario {:?}: planar, {} arms, {}, {} s, seed {}>",
+            p.src.name,
+            p.sc.arms.len(),
+            runner::label(&p.sc),
+            tandem_cli::table::num(p.sc.run.duration, 6),
+            p.sc.run.seed
+        )
+    }
+
+    /// Same name and same resolved scenario.
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        match other.cast::<PyScenario>() {
+            Ok(o) => {
+                let (a, b) = (self.planar(), o.get().planar());
+                // The name is compared as the scenario's (a resolved file carries it as a field).
+                let resolved = |p: &Planar| scenario::Scenario {
+                    name: None,
+                    ..p.sc.resolved()
+                };
+                a.src.name == b.src.name && resolved(a) == resolved(b)
+            }
+            Err(_) => false,
+        }
+    }
+
+    fn __hash__(&self) -> PyResult<isize> {
+        Err(PyTypeError::new_err("unhashable type: 'Scenario'"))
+    }
+
+    /// Pickled as its resolved TOML (`to_toml()`): `tandem._restore_scenario(text)`.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let f = py.import("tandem")?.getattr("_restore_scenario")?;
+        let text = py_res(py, self.planar().to_toml())?;
+        PyTuple::new(py, [f, PyTuple::new(py, [text])?.into_any()])
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Runs.
+
+/// Keeps a live run's log alive while NumPy arrays point into it.
+#[pyclass(module = "tandem", frozen)]
+struct LogOwner {
+    /// Never read: owning it is the point.
+    #[allow(dead_code)]
+    fin: Arc<Finished>,
+}
+
+/// The finished simulation behind a Run.
+enum Data {
+    /// Run in this process: the whole result (the arrays are views of its log).
+    Live(Arc<Finished>),
+    /// Unpickled: the summary and time series travelled, the rest is rebuilt by a re-run on
+    /// `write` (runs are deterministic).
+    Restored,
+}
+
+/// One finished run: `summary` (the command line's `summary.json`), `timeseries` (NumPy arrays,
+/// read-only views of the run's memory), `to_pandas()`, `write(dir)` (the command line's output
+/// folder). Picklable: the summary and time series travel, not a re-run.
+#[pyclass(module = "tandem", name = "Run", frozen)]
+struct PyRun {
+    /// The scenario as run (duration and seed overrides applied).
+    kind: Arc<Kind>,
+    /// `summary.json` without write times.
+    summary: Json,
+    /// Column (name, unit), in log order.
+    columns: Vec<(String, String)>,
+    /// The columns as NumPy arrays (read-only).
+    arrays: Vec<Py<PyArray1<f64>>>,
+    data: Data,
+}
+
+fn readonly(a: &Bound<'_, PyArray1<f64>>) -> PyResult<()> {
+    let kw = PyDict::new(a.py());
+    kw.set_item("write", false)?;
+    a.call_method("setflags", (), Some(&kw))?;
+    Ok(())
+}
+
+impl PyRun {
+    fn live(py: Python<'_>, kind: Arc<Kind>, fin: Finished) -> PyResult<Self> {
+        let name = &kind.planar().src.name;
+        let summary = runner::summary_json(&fin, name, None);
+        let fin = Arc::new(fin);
+        let owner = Bound::new(py, LogOwner { fin: fin.clone() })?.into_any();
+        let mut columns = Vec::with_capacity(fin.outcome.log.columns.len());
+        let mut arrays = Vec::with_capacity(columns.capacity());
+        for c in &fin.outcome.log.columns {
+            let view = numpy::ndarray::ArrayView1::from(c.data.as_slice());
+            // SAFETY: the array's base object is `owner`, which holds an `Arc` of the finished
+            // run; the log is never modified or reallocated after the run (it is only read, by
+            // `write`), so the memory stays valid and unchanged as long as the array exists.
+            // The array is made read-only, so NumPy does not write into it either.
+            let a = unsafe { PyArray1::borrow_from_array(&view, owner.clone()) };
+            readonly(&a)?;
+            columns.push((c.name.clone(), c.unit.clone()));
+            arrays.push(a.unbind());
+        }
+        Ok(PyRun {
+            kind,
+            summary,
+            columns,
+            arrays,
+            data: Data::Live(fin),
+        })
+    }
+
+    fn summary_without_timing(&self) -> Json {
+        let mut s = self.summary.clone();
+        if let Json::Object(m) = &mut s {
+            m.remove("timing");
+        }
+        s
+    }
+}
+
+#[pymethods]
+impl PyRun {
+    /// The summary: `summary.json` of `tandem run` (metrics, seed, fault, warnings, and in
+    /// `timing` the loop's wall time), as a dict. `None` where a metric does not exist for the
+    /// run (`unavailable` says why).
+    #[getter]
+    fn summary<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.summary)
+    }
+
+    /// The time series: column name (`t`, `x_o.x`, `tau_q1`, ...) → NumPy float64 array, in the
+    /// order of `timeseries.csv`. The arrays are read-only views of the run's memory (no copy).
+    #[getter]
+    fn timeseries<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for ((n, _), a) in self.columns.iter().zip(&self.arrays) {
+            d.set_item(n, a.bind(py))?;
+        }
+        Ok(d)
+    }
+
+    /// Column name → unit (`"m"`, `"N"`, `"rad/s"`, ...).
+    #[getter]
+    fn units<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (n, u) in &self.columns {
+            d.set_item(n, u)?;
+        }
+        Ok(d)
+    }
+
+    /// The time series as a pandas DataFrame (one column per signal, units in `df.attrs`).
+    fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let pd = py.import("pandas").map_err(|e| {
+            pyo3::exceptions::PyImportError::new_err(format!(
+                "Run.to_pandas needs pandas (pip install pandas): {e}"
+            ))
+        })?;
+        let df = pd.getattr("DataFrame")?.call1((self.timeseries(py)?,))?;
+        df.getattr("attrs")?.set_item("units", self.units(py)?)?;
+        Ok(df)
+    }
+
+    /// The scenario as run (duration and seed overrides applied).
+    #[getter]
+    fn scenario(&self) -> PyScenario {
+        PyScenario {
+            kind: self.kind.clone(),
+        }
+    }
+
+    /// The fault that stopped the run early (its message), or None.
+    #[getter]
+    fn fault(&self) -> Option<String> {
+        self.summary
+            .get("fault_message")
+            .and_then(Json::as_str)
+            .map(str::to_string)
+    }
+
+    /// True when the run completed without a fault.
+    #[getter]
+    fn ok(&self) -> bool {
+        self.fault().is_none()
+    }
+
+    /// Number of logged rows.
+    fn __len__(&self) -> usize {
+        self.summary.get("rows").and_then(Json::as_u64).unwrap_or(0) as usize
+    }
+
+    fn __repr__(&self) -> String {
+        let p = self.kind.planar();
+        format!(
+            "<tandem.Run {:?}: {}, {} s, seed {}, {} rows, {}>",
+            p.src.name,
+            runner::label(&p.sc),
+            tandem_cli::table::num(p.sc.run.duration, 6),
+            p.sc.run.seed,
+            self.__len__(),
+            match self.fault() {
+                Some(f) => format!("fault: {f}"),
+                None => "completed".into(),
+            }
+        )
+    }
+
+    /// Write the command line's output folder for this run (`timeseries.csv`, `summary.json`,
+    /// `scenario.toml`, and with `figures` the figures and `animation.svg`), atomically. An
+    /// existing folder is kept unless `force`, which replaces only a folder tandem wrote.
+    /// Returns the folder's path. An unpickled run is simulated again first (runs are
+    /// deterministic; a re-run that differs is an error).
+    #[pyo3(signature = (dir, force=false, figures=true))]
+    fn write(&self, py: Python<'_>, dir: PathBuf, force: bool, figures: bool) -> PyResult<String> {
+        if std::fs::symlink_metadata(&dir).is_ok() && !force {
+            return Err(PyFileExistsError::new_err(format!(
+                "output folder {} exists (nothing was written); pass force=True to replace it \
+                 (only a folder tandem wrote is replaced)",
+                dir.display()
+            )));
+        }
+        let kind = self.kind.clone();
+        let expected = self.summary_without_timing();
+        let live = match &self.data {
+            Data::Live(f) => Some(f.clone()),
+            Data::Restored => None,
+        };
+        let r = py.detach(move || -> Res<(PathBuf, Vec<String>)> {
+            let p = kind.planar();
+            let fin = match live {
+                Some(f) => f,
+                None => {
+                    let f = p.execute()?;
+                    let mut again = runner::summary_json(&f, &p.src.name, None);
+                    if let Json::Object(m) = &mut again {
+                        m.remove("timing");
+                    }
+                    if again != expected {
+                        return Err(Error::Other(
+                            "the unpickled run, simulated again to write its outputs, differs \
+                             from the original (was it made by another tandem version?)"
+                                .into(),
+                        ));
+                    }
+                    Arc::new(f)
+                }
+            };
+            let protected: Vec<&Path> = p.src.file.iter().map(PathBuf::as_path).collect();
+            let other = |e: anyhow::Error| match e.downcast_ref::<output::Refused>() {
+                Some(r) => bad(None, r.to_string()),
+                None => Error::Other(format!("{e:#}")),
+            };
+            let out = OutputDir::create(&dir, force, &protected).map_err(other)?;
+            let (_, problems) =
+                runner::write_run(out.tmp_dir(), &fin, &p.src.name, Outputs { figures })
+                    .map_err(other)?;
+            let d = out.commit().map_err(other)?;
+            Ok((d, problems))
+        });
+        let (d, problems) = py_res(py, r)?;
+        let cat = py.get_type::<pyo3::exceptions::PyRuntimeWarning>();
+        for p in problems {
+            let msg = std::ffi::CString::new(p.replace('\0', " "))
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            PyErr::warn(py, &cat, &msg, 1)?;
+        }
+        Ok(d.display().to_string())
+    }
+
+    /// Pickled as (scenario TOML, summary JSON, column names and units, the samples as bytes):
+    /// the data travels, so a run returned from a worker process is not simulated again.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let f = py.import("tandem")?.getattr("_restore_run")?;
+        let text = py_res(py, self.kind.planar().to_toml())?;
+        let summary = self.summary.to_string();
+        let names: Vec<&str> = self.columns.iter().map(|c| c.0.as_str()).collect();
+        let units: Vec<&str> = self.columns.iter().map(|c| c.1.as_str()).collect();
+        let mut bytes = Vec::new();
+        for a in &self.arrays {
+            let a = a.bind(py).readonly();
+            for x in a.as_slice()? {
+                bytes.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        let args = (text, summary, names, units, PyBytes::new(py, &bytes)).into_pyobject(py)?;
+        PyTuple::new(py, [f, args.into_any()])
+    }
+
+    /// Rebuild an unpickled run (see `__reduce__`).
+    #[staticmethod]
+    fn _from_state(
+        py: Python<'_>,
+        scenario_toml: &str,
+        summary: &str,
+        names: Vec<String>,
+        units: Vec<String>,
+        data: &[u8],
+    ) -> PyResult<Self> {
+        let p = py_res(py, planar_from_source(text_source(scenario_toml, None)))?;
+        let summary: Json = serde_json::from_str(summary)
+            .map_err(|e| PyValueError::new_err(format!("a pickled Run's summary: {e}")))?;
+        let n = names.len();
+        if units.len() != n || n == 0 || data.len() % (8 * n) != 0 {
+            return Err(PyValueError::new_err(
+                "a pickled Run's time series is malformed",
+            ));
+        }
+        let rows = data.len() / (8 * n);
+        let mut arrays = Vec::with_capacity(n);
+        for j in 0..n {
+            let col: Vec<f64> = data[j * rows * 8..(j + 1) * rows * 8]
+                .chunks_exact(8)
+                .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")))
+                .collect();
+            let a = col.into_pyarray(py);
+            readonly(&a)?;
+            arrays.push(a.unbind());
+        }
+        Ok(PyRun {
+            kind: Arc::new(Kind::Planar(p)),
+            summary,
+            columns: names.into_iter().zip(units).collect(),
+            arrays,
+            data: Data::Restored,
+        })
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Batches and sweeps.
+
+fn pool(threads: Option<usize>) -> PyResult<rayon::ThreadPool> {
+    let n = match threads {
+        Some(0) => return Err(PyValueError::new_err("threads=0: give at least 1")),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))
+}
+
+/// Closed-loop runs of many scenarios in Rust, on `threads` threads (default: every core), with
+/// the GIL released; the Runs in input order. `scenarios` is a Scenario or a sequence of them;
+/// `seeds` (one per scenario, or for a single scenario one run per seed) and `duration` override
+/// `run.seed` and `run.duration`. The results do not depend on the thread count.
+#[pyfunction]
+#[pyo3(signature = (scenarios, seeds=None, threads=None, duration=None))]
+fn rollout(
+    py: Python<'_>,
+    scenarios: &Bound<'_, PyAny>,
+    seeds: Option<Vec<u64>>,
+    threads: Option<usize>,
+    duration: Option<f64>,
+) -> PyResult<Vec<PyRun>> {
+    let list: Vec<Arc<Kind>> = if let Ok(s) = scenarios.cast::<PyScenario>() {
+        let n = seeds.as_ref().map_or(1, Vec::len);
+        vec![s.get().kind.clone(); n]
+    } else {
+        let mut v = Vec::new();
+        for (i, x) in scenarios.try_iter()?.enumerate() {
+            let x = x?;
+            let s = x.cast::<PyScenario>().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "scenarios[{i}] is a {}, not a tandem.Scenario",
+                    x.get_type()
+                        .name()
+                        .map(|n| n.to_string())
+                        .unwrap_or_default()
+                ))
+            })?;
+            v.push(s.get().kind.clone());
+        }
+        v
+    };
+    if let Some(s) = &seeds {
+        if s.len() != list.len() {
+            return Err(PyValueError::new_err(format!(
+                "{} seeds for {} scenarios: give one seed per scenario",
+                s.len(),
+                list.len()
+            )));
+        }
+    }
+    let mut jobs = Vec::with_capacity(list.len());
+    for (i, k) in list.iter().enumerate() {
+        let seed = seeds.as_ref().map(|s| s[i]);
+        let p = k.planar().with_run(duration, seed).map_err(|e| {
+            let e = match e {
+                Error::Field { path, message } => Error::Field {
+                    path,
+                    message: format!("scenarios[{i}]: {message}"),
+                },
+                other => other,
+            };
+            e.into_py(py)
+        })?;
+        jobs.push(Arc::new(Kind::Planar(p)));
+    }
+    let pool = pool(threads)?;
+    let work = jobs.clone();
+    // Every run is prepared (validated) before any runs, so bad input fails fast.
+    let results: Result<Vec<Finished>, (usize, Error)> = py.detach(move || {
+        pool.install(|| {
+            let prepared = work
+                .par_iter()
+                .enumerate()
+                .map(|(i, k)| {
+                    let p = k.planar();
+                    runner::prepare(p.sc.clone(), &p.src).map_err(|e| (i, Error::from(e)))
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok(prepared
+                .into_par_iter()
+                .map(|p| runner::execute(p, |_| {}))
+                .collect())
+        })
+    });
+    let finished = results.map_err(|(i, e)| {
+        match e {
+            Error::Scenario(e) => Error::Field {
+                path: error_path(&e),
+                message: format!("scenarios[{i}]: {e}"),
+            },
+            other => other,
+        }
+        .into_py(py)
+    })?;
+    let mut out = Vec::with_capacity(finished.len());
+    for (k, fin) in jobs.into_iter().zip(finished) {
+        out.push(PyRun::live(py, k, fin)?);
+    }
+    Ok(out)
+}
+
+/// Run a sweep (a sweep file's path, or its content as a dict) and return
+/// `(csv_text, header)`: the `runs.csv` of `tandem sweep`. `tandem.sweep` wraps it.
+#[pyfunction]
+#[pyo3(signature = (spec, shard=None, threads=None))]
+fn _sweep_csv(
+    py: Python<'_>,
+    spec: &Bound<'_, PyAny>,
+    shard: Option<&Bound<'_, PyAny>>,
+    threads: Option<usize>,
+) -> PyResult<(String, Vec<String>)> {
+    let sw = if let Ok(d) = spec.cast::<PyDict>() {
+        let Value::Table(t) = to_toml(d.as_any(), "sweep")? else {
+            unreachable!("a dict converts to a table")
+        };
+        let text = toml::to_string(&t).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let dir = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
+        py_res(
+            py,
+            sweep::Sweep::from_text("sweep dict", &text, &dir).map_err(Error::from),
+        )?
+    } else {
+        let path: PathBuf = spec.extract().map_err(|_| {
+            PyTypeError::new_err("sweep: give the path of a sweep file or a dict of its content")
+        })?;
+        py_res(py, sweep::Sweep::load(&path).map_err(Error::from))?
+    };
+    let shard = match shard {
+        None => None,
+        Some(s) => {
+            if let Ok(t) = s.extract::<(u64, u64)>() {
+                Some(py_res(
+                    py,
+                    sweep::Shard::new(t.0, t.1).map_err(|m| bad(None, format!("shard={t:?}: {m}"))),
+                )?)
+            } else {
+                let s: String = s.extract().map_err(|_| {
+                    PyTypeError::new_err("shard: give \"I/N\", (I, N) or \"slurm\"")
+                })?;
+                if s == "slurm" {
+                    py_res(py, sweep::Shard::from_env().map_err(Error::from))?
+                } else {
+                    Some(py_res(
+                        py,
+                        sweep::Shard::parse(&s, "shard=").map_err(Error::from),
+                    )?)
+                }
+            }
+        }
+    };
+    let pool_threads = match threads {
+        Some(0) => return Err(PyValueError::new_err("threads=0: give at least 1")),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let r = py.detach(move || -> Result<(String, Vec<String>), String> {
+        let idx = sweep::run::indices(&sw, shard);
+        let results =
+            sweep::run::run_all(&sw, &idx, pool_threads, None).map_err(|e| format!("{e:#}"))?;
+        let header = sweep::run::header(&sw);
+        let rows: Vec<sweep::run::Row> = results.into_iter().map(|r| r.row).collect();
+        let csv = sweep::run::csv_text(&header, &rows).map_err(|e| format!("{e:#}"))?;
+        Ok((csv, header))
+    });
+    r.map_err(PyRuntimeError::new_err)
+}
+
+/// The names of the embedded (planar) scenarios, for `Scenario.preset`.
+#[pyfunction]
+fn presets() -> Vec<&'static str> {
+    scenario::EMBEDDED.iter().map(|e| e.name).collect()
+}
+
+#[pymodule]
+fn _tandem(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add_class::<PyScenario>()?;
+    m.add_class::<PyRun>()?;
+    m.add_class::<LogOwner>()?;
+    m.add_function(wrap_pyfunction!(rollout, m)?)?;
+    m.add_function(wrap_pyfunction!(presets, m)?)?;
+    m.add_function(wrap_pyfunction!(_sweep_csv, m)?)?;
+    m.add("ScenarioError", py.get_type::<ScenarioError>())?;
+    m.add("ScenarioWarning", py.get_type::<ScenarioWarning>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,125 @@
+"""Type stubs of tandem's native module (the Rust part of the package)."""
+
+from os import PathLike
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class ScenarioError(ValueError):
+    """Bad input: a scenario, a field override, a sweep, an argument.
+
+    ``str(e)`` is the command line's message (file, line, column and an excerpt where the input
+    is a file); ``path`` is the scenario field it concerns (``"controller.nn.k1"``) or None;
+    ``file`` how the input is named (a path, ``"embedded scenario `paper`"``,
+    ``"scenario text"``) or None.
+    """
+
+    message: str
+    path: Optional[str]
+    file: Optional[str]
+
+class ScenarioWarning(UserWarning):
+    """A set-up warning of a scenario (the command line prints the same text)."""
+
+TomlValue = Union[bool, int, float, str, Sequence[Any], Mapping[str, Any], np.ndarray, np.generic]
+
+class Scenario:
+    """What one run simulates: arms, object, path, controller, timing, seed.
+
+    Immutable (``with_`` returns a new one), comparable (same name and resolved scenario) and
+    picklable (as its resolved TOML).
+    """
+
+    @staticmethod
+    def preset(name: str) -> Scenario:
+        """An embedded scenario by name (see :func:`presets`), e.g. ``"paper"``."""
+    @staticmethod
+    def from_toml(text: str, name: Optional[str] = None) -> Scenario:
+        """A scenario from TOML text (the format of ``tandem scenario show paper``)."""
+    @staticmethod
+    def load(path: Union[str, PathLike[str]]) -> Scenario:
+        """A scenario file (TOML); named after the file's stem unless it has ``name``."""
+    def with_(
+        self, overrides: Optional[Mapping[str, TomlValue]] = None, /, **fields: TomlValue
+    ) -> Scenario:
+        """A new scenario with fields set by path (``"controller.nn.k1"``, ``"object.mass"``,
+        ``"arms[0].links[1].mass"``), each checked by every validation of a run."""
+    def get(self, path: str) -> Any:
+        """The value of a field of the resolved scenario; KeyError if there is none."""
+    def run(self, duration: Optional[float] = None, seed: Optional[int] = None) -> Run:
+        """Simulate (GIL released); ``duration``/``seed`` override ``run.duration``/``run.seed``."""
+    def to_toml(self) -> str:
+        """The resolved scenario as TOML (every default written out; re-runnable)."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def kind(self) -> str:
+        """``"planar"`` (spatial scenarios will say ``"spatial"``)."""
+    @property
+    def description(self) -> str: ...
+    @property
+    def duration(self) -> float:
+        """``run.duration``, s."""
+    @property
+    def seed(self) -> int:
+        """``run.seed``."""
+    @property
+    def label(self) -> str:
+        """The controller label, e.g. ``"NN (tuned)"``."""
+    @property
+    def warnings(self) -> List[str]: ...
+    def __eq__(self, other: object) -> bool: ...
+
+class Run:
+    """One finished run; picklable (the summary and the samples travel)."""
+
+    @property
+    def summary(self) -> Dict[str, Any]:
+        """The command line's ``summary.json`` (``timing`` holds the loop's wall time)."""
+    @property
+    def timeseries(self) -> Dict[str, npt.NDArray[np.float64]]:
+        """Column name -> read-only float64 array (views of the run's memory, no copy)."""
+    @property
+    def units(self) -> Dict[str, str]:
+        """Column name -> unit."""
+    @property
+    def scenario(self) -> Scenario:
+        """The scenario as run (duration and seed overrides applied)."""
+    @property
+    def fault(self) -> Optional[str]:
+        """Why the run stopped early, or None."""
+    @property
+    def ok(self) -> bool:
+        """True when the run completed without a fault."""
+    def to_pandas(self) -> Any:
+        """The time series as a pandas DataFrame (units in ``df.attrs["units"]``)."""
+    def write(
+        self, dir: Union[str, PathLike[str]], force: bool = False, figures: bool = True
+    ) -> str:
+        """Write the command line's output folder (atomically); returns its path."""
+    def __len__(self) -> int:
+        """Logged rows."""
+    @staticmethod
+    def _from_state(
+        scenario_toml: str, summary: str, names: List[str], units: List[str], data: bytes
+    ) -> Run: ...
+
+def rollout(
+    scenarios: Union[Scenario, Sequence[Scenario]],
+    seeds: Optional[Sequence[int]] = None,
+    threads: Optional[int] = None,
+    duration: Optional[float] = None,
+) -> List[Run]:
+    """Closed-loop runs in Rust on ``threads`` threads with the GIL released, in input order."""
+
+def presets() -> List[str]:
+    """The embedded scenarios' names."""
+
+def _sweep_csv(
+    spec: Union[str, PathLike[str], Mapping[str, Any]],
+    shard: Union[None, str, Tuple[int, int]] = None,
+    threads: Optional[int] = None,
+) -> Tuple[str, List[str]]: ...
