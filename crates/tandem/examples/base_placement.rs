@@ -1,5 +1,5 @@
 //! The base-placement study behind the spatial presets (SPEC-spatial S6, `docs/base-placement.md`):
-//! `cargo run --release -p tandem --example base_placement -- [results.csv] [--force]`.
+//! `cargo run --release -p tandem --example base_placement -- [results.csv] [--svg=figure.svg] [--force]`.
 //!
 //! 1. Dual UR5 (`fixtures::dual_ur5` grasps and box): bases at `(∓d/2, 0, 0)` facing each other,
 //!    `d` from 0.90 to 1.80 m; one lap of the S6 path by inverse kinematics with continuation on
@@ -8,7 +8,8 @@
 //!    face vs end faces, box height 0.30–0.40 m), laps for the top-face grasp over `d`, and the
 //!    redundancy's range (the values of joint 7 with an in-limit solution) along the lap.
 //!
-//! Prints the tables; with a path, also writes every lap row as CSV (whole or not at all; an
+//! Prints the tables; with a path, also writes every lap row as CSV, and with `--svg=PATH` the
+//! figure of σ_min against d (each whole or not at all; an
 //! existing file is replaced only with `--force`).
 
 #[path = "base_placement/study.rs"]
@@ -28,12 +29,17 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let force = args.iter().any(|a| a == "--force");
     let out = args.iter().find(|a| !a.starts_with("--")).cloned();
-    if let Some(p) = &out {
+    let svg = args
+        .iter()
+        .find_map(|a| a.strip_prefix("--svg=").map(str::to_string));
+    for p in out.iter().chain(svg.iter()) {
         if std::path::Path::new(p).exists() && !force {
             eprintln!("error: {p} exists; pass --force to replace it");
             std::process::exit(2);
         }
     }
+    // σ_min (smaller arm) against d, for the figure: UR5, Franka.
+    let mut curves: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
     let t0 = std::time::Instant::now();
     let mut csv = String::from(
         "arms,grasp,d_m,lap_ok,samples,failure,sigma_min_1,sigma_min_2,cond_max_1,cond_max_2,\
@@ -54,6 +60,9 @@ fn main() {
     for r in &rows {
         let l = &r.lap;
         csv_row(&mut csv, "ur5", "end", r.d, l);
+        if l.failure.is_none() {
+            curves[0].push((r.d, min2(l.sigma_min)));
+        }
         if l.samples == 0 {
             let why = l.failure.as_deref().unwrap_or("");
             println!(
@@ -85,11 +94,14 @@ fn main() {
     let first = study::ur5_sweep(&edge, DT)
         .into_iter()
         .find(|r| r.lap.failure.is_none())
-        .map_or(f64::NAN, |r| r.d);
+        .expect("the lap solves at 1.00 m");
     println!(
-        "\nsmallest d (1 mm steps) with the S6 branch all lap: {first:.3} m; wrist-centre offset of arm 2 \
-         at the start there {:.4} m (d4 = 0.10915 m)",
-        wrist_offset(first)
+        "\nsmallest d (1 mm steps) with the S6 branch all lap: {:.3} m (σ_min {:.4}, |sin q5| {:.3}); \
+         wrist-centre offset of arm 2 at the start there {:.4} m (d4 = 0.10915 m)",
+        first.d,
+        min2(first.lap.sigma_min),
+        min2(first.lap.sin_q5_min),
+        wrist_offset(first.d)
     );
     // Sampling check: the preset's lap every 0.1 s.
     let fine_lap = study::follow_lap(
@@ -136,9 +148,11 @@ fn main() {
         &s6.lap.q[0][6..]
     );
     println!(
-        "largest-travel joints (1-based): arm 1 q{}, arm 2 q{}",
+        "largest-travel joints (1-based): arm 1 q{}, arm 2 q{}; largest τ/effort: arm 1 q{}, arm 2 q{}",
         s6.lap.travel_joint[0] + 1,
-        s6.lap.travel_joint[1] + 1
+        s6.lap.travel_joint[1] + 1,
+        s6.lap.torque_joint[0] + 1,
+        s6.lap.torque_joint[1] + 1
     );
 
     // ---- 2. Dual Franka ----------------------------------------------------------------------
@@ -255,6 +269,9 @@ fn main() {
             },
         };
         csv_row(&mut csv, "franka", "top", d, &l);
+        if l.failure.is_none() {
+            curves[1].push((d, min2(l.sigma_min)));
+        }
         if l.samples == 0 {
             println!(
                 "| {d:.2} | no: {} | | | | | | | |",
@@ -263,16 +280,19 @@ fn main() {
             continue;
         }
         println!(
-            "| {d:.2} | {} | {:.3} / {:.3} | {:.1} | {:.1} | {:.1} % | {:.3} | {:.3} | {:.3} |",
+            "| {d:.2} | {} | {:.3} / {:.3} | {:.1} | {:.1} (q{}) | {:.1} % (q{}) | {:.3} (q{}) | {:.3} | {:.3} |",
             l.failure
                 .as_deref()
                 .map_or("yes".into(), |f| format!("no: {f}")),
             l.sigma_min[0],
             l.sigma_min[1],
             l.cond_max[0].max(l.cond_max[1]),
-            l.travel_max[0].max(l.travel_max[1]).to_degrees(),
-            100.0 * l.torque_ratio_max[0].max(l.torque_ratio_max[1]),
-            l.limit_margin_min[0].min(l.limit_margin_min[1]),
+            max2(l.travel_max).to_degrees(),
+            l.travel_joint[arg_max(l.travel_max)] + 1,
+            100.0 * max2(l.torque_ratio_max),
+            l.torque_joint[arg_max(l.torque_ratio_max)] + 1,
+            min2(l.limit_margin_min),
+            l.limit_joint[arg_max(l.limit_margin_min.map(|m| -m))] + 1,
             l.separation_min,
             l.height_min,
         );
@@ -309,6 +329,36 @@ fn main() {
         }
     }
 
+    // Over the whole lap: how far the continuation moves q7 and the joints the redundancy swings.
+    for i in 0..2 {
+        let range = |k: usize| {
+            lap.q
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                    (lo.min(q[7 * i + k]), hi.max(q[7 * i + k]))
+                })
+        };
+        let (a, b) = range(6);
+        let swing = [0, 2, 4]
+            .iter()
+            .map(|&k| {
+                let (lo, hi) = range(k);
+                lo.abs().max(hi.abs())
+            })
+            .fold(0.0, f64::max);
+        println!(
+            "arm {}: over the lap q7 ∈ [{a:.3}, {b:.3}] rad, max |q1|, |q3|, |q5| = {swing:.3} rad",
+            i + 1
+        );
+    }
+
+    if let Some(p) = svg {
+        write_whole(&p, &figure(&curves)).unwrap_or_else(|e| {
+            eprintln!("error: cannot write {p}: {e}");
+            std::process::exit(1);
+        });
+        println!("\nwrote {p}");
+    }
     if let Some(p) = out {
         write_whole(&p, &csv).unwrap_or_else(|e| {
             eprintln!("error: cannot write {p}: {e}");
@@ -354,6 +404,105 @@ fn wrist_offset(d: f64) -> f64 {
     ((w.x - b.x).powi(2) + (w.y - b.y).powi(2)).sqrt()
 }
 
+fn min2(a: [f64; 2]) -> f64 {
+    a[0].min(a[1])
+}
+
+fn max2(a: [f64; 2]) -> f64 {
+    a[0].max(a[1])
+}
+
+/// Which arm (0, 1) has the larger value.
+fn arg_max(a: [f64; 2]) -> usize {
+    usize::from(a[1] > a[0])
+}
+
+/// σ_min against d as a hand-written SVG (no plotting dependency in the library crate): the UR5
+/// curve, the Franka curve, the presets marked.
+fn figure(curves: &[Vec<(f64, f64)>; 2]) -> String {
+    let (w, h, l, r, t, b) = (640.0, 400.0, 60.0, 20.0, 30.0, 50.0);
+    let (x0, x1, y0, y1) = (0.8, 1.8, 0.0, 0.22);
+    let px = |x: f64| l + (x - x0) / (x1 - x0) * (w - l - r);
+    let py = |y: f64| h - b - (y - y0) / (y1 - y0) * (h - t - b);
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" \
+         font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
+    );
+    for k in 0..=10 {
+        let x = x0 + 0.1 * k as f64;
+        let _ = writeln!(
+            s,
+            "<line x1=\"{0:.1}\" y1=\"{1:.1}\" x2=\"{0:.1}\" y2=\"{2:.1}\" stroke=\"#ddd\"/>\
+             <text x=\"{0:.1}\" y=\"{3:.1}\" text-anchor=\"middle\">{x:.1}</text>",
+            px(x),
+            py(y0),
+            py(y1),
+            h - b + 16.0
+        );
+    }
+    for k in 0..=11 {
+        let y = 0.02 * k as f64;
+        let _ = writeln!(
+            s,
+            "<line x1=\"{0:.1}\" y1=\"{1:.1}\" x2=\"{2:.1}\" y2=\"{1:.1}\" stroke=\"#ddd\"/>\
+             <text x=\"{3:.1}\" y=\"{4:.1}\" text-anchor=\"end\">{y:.2}</text>",
+            px(x0),
+            py(y),
+            px(x1),
+            l - 6.0,
+            py(y) + 4.0
+        );
+    }
+    let _ = writeln!(
+        s,
+        "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">base separation d (m)</text>\
+         <text x=\"14\" y=\"{:.1}\" transform=\"rotate(-90 14 {:.1})\" text-anchor=\"middle\">\
+         smallest σ_min over an S6 lap</text>",
+        (px(x0) + px(x1)) / 2.0,
+        h - 12.0,
+        (py(y0) + py(y1)) / 2.0,
+        (py(y0) + py(y1)) / 2.0
+    );
+    let colours = ["#1f77b4", "#d62728"];
+    let names = ["dual UR5 (end faces)", "dual Franka (top face)"];
+    let presets = [1.40, 1.10];
+    for (i, c) in curves.iter().enumerate() {
+        let pts: Vec<String> = c
+            .iter()
+            .map(|(x, y)| format!("{:.1},{:.1}", px(*x), py(*y)))
+            .collect();
+        let _ = writeln!(
+            s,
+            "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"2\" points=\"{}\"/>",
+            colours[i],
+            pts.join(" ")
+        );
+        if let Some((x, y)) = c.iter().find(|(x, _)| (x - presets[i]).abs() < 1e-9) {
+            let _ = writeln!(
+                s,
+                "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"5\" fill=\"{}\"/>",
+                px(*x),
+                py(*y),
+                colours[i]
+            );
+        }
+        let _ = writeln!(
+            s,
+            "<line x1=\"{0:.1}\" y1=\"{1:.1}\" x2=\"{2:.1}\" y2=\"{1:.1}\" stroke=\"{3}\" stroke-width=\"2\"/>\
+             <text x=\"{4:.1}\" y=\"{5:.1}\">{6} (dot: preset)</text>",
+            px(1.45),
+            py(0.05) + 18.0 * i as f64,
+            px(1.5),
+            colours[i],
+            px(1.5) + 6.0,
+            py(0.05) + 18.0 * i as f64 + 4.0,
+            names[i]
+        );
+    }
+    s.push_str("</svg>\n");
+    s
+}
+
 /// Sorted grid values as intervals `[a, b]` (neighbours closer than `step` merge).
 fn intervals(v: &[f64], step: f64) -> String {
     if v.is_empty() {
@@ -383,7 +532,9 @@ fn no_start() -> Lap {
         travel_max: [f64::NAN; 2],
         travel_joint: [0; 2],
         torque_ratio_max: [f64::NAN; 2],
+        torque_joint: [0; 2],
         limit_margin_min: [f64::NAN; 2],
+        limit_joint: [0; 2],
         separation_min: f64::NAN,
         height_min: f64::NAN,
         q: Vec::new(),
@@ -432,7 +583,7 @@ fn csv_row(csv: &mut String, arms: &str, grasp: &str, d: f64, l: &Lap) {
 /// Write `text` to `path` whole or not at all: a temporary file beside it, then a rename.
 fn write_whole(path: &str, text: &str) -> std::io::Result<()> {
     let p = std::path::Path::new(path);
-    let tmp = p.with_extension("csv.partial");
+    let tmp = p.with_extension("partial");
     std::fs::write(&tmp, text)?;
     std::fs::rename(&tmp, p).inspect_err(|_| {
         let _ = std::fs::remove_file(&tmp);

@@ -95,10 +95,12 @@ pub struct Lap {
     /// Largest joint travel (max − min over the lap) of any joint, rad, and which joint (0-based).
     pub travel_max: [f64; 2],
     pub travel_joint: [usize; 2],
-    /// Largest `|τ_k| / effort_k` of the static holding torques.
+    /// Largest `|τ_k| / effort_k` of the static holding torques, and which joint (0-based).
     pub torque_ratio_max: [f64; 2],
-    /// Smallest distance to a joint limit, rad (∞ for the UR5's ±2π joints far away).
+    pub torque_joint: [usize; 2],
+    /// Smallest distance to a joint limit, rad, and which joint (0-based).
     pub limit_margin_min: [f64; 2],
+    pub limit_joint: [usize; 2],
     /// Closest approach of the two arms' link centre lines, m.
     pub separation_min: f64,
     /// Lowest moving arm point above the table (z = 0), m.
@@ -229,7 +231,9 @@ pub fn follow_lap(
         travel_max: [0.0; 2],
         travel_joint: [0; 2],
         torque_ratio_max: [0.0; 2],
+        torque_joint: [0; 2],
         limit_margin_min: [f64::INFINITY; 2],
+        limit_joint: [0; 2],
         separation_min: f64::INFINITY,
         height_min: f64::INFINITY,
         q: Vec::new(),
@@ -278,9 +282,15 @@ pub fn follow_lap(
             lap.sin_q5_min[i] = lap.sin_q5_min[i].min(qi[4].sin().abs());
             for (k, j) in arm.chain.joints.iter().enumerate() {
                 let r = (tau[s + k] / j.limits.effort).abs();
-                lap.torque_ratio_max[i] = lap.torque_ratio_max[i].max(r);
+                if r > lap.torque_ratio_max[i] {
+                    lap.torque_ratio_max[i] = r;
+                    lap.torque_joint[i] = k;
+                }
                 let m = (qi[k] - j.limits.lower).min(j.limits.upper - qi[k]);
-                lap.limit_margin_min[i] = lap.limit_margin_min[i].min(m);
+                if m < lap.limit_margin_min[i] {
+                    lap.limit_margin_min[i] = m;
+                    lap.limit_joint[i] = k;
+                }
             }
             for x in d.X_WL.iter().skip(2) {
                 lap.height_min = lap.height_min.min(x.translation.z);
@@ -385,7 +395,9 @@ fn empty_lap() -> Lap {
         travel_max: [f64::NAN; 2],
         travel_joint: [0; 2],
         torque_ratio_max: [f64::NAN; 2],
+        torque_joint: [0; 2],
         limit_margin_min: [f64::NAN; 2],
+        limit_joint: [0; 2],
         separation_min: f64::NAN,
         height_min: f64::NAN,
         q: Vec::new(),
