@@ -41,9 +41,11 @@ fn dual_ur5_preset_keeps_the_s6_branch_with_the_s6_figures() {
     assert_eq!(lap.samples, 121, "every 0.5 s over 60 s, both ends");
     // The IK lands on SPEC-spatial S6's start angles: they are printed to 6 decimals, so they
     // agree to the rounding (5e-7) plus the IK's 1e-12 residual; 1e-6 leaves 2× for rounding.
+    // (S6 prints q6 as −1.570796, i.e. −π/2 rounded.)
+    let h = -std::f64::consts::FRAC_PI_2;
     let s6 = [
-        -0.212431, -1.267797, 1.525974, -0.258177, 1.358366, -1.570796, //
-        -0.350708, -1.754035, 2.044645, -0.290610, 1.220088, -1.570796,
+        -0.212431, -1.267797, 1.525974, -0.258177, 1.358366, h, //
+        -0.350708, -1.754035, 2.044645, -0.290610, 1.220088, h,
     ];
     for (k, (a, b)) in lap.q[0].iter().zip(s6).enumerate() {
         assert!((a - b).abs() < 1e-6, "q[{k}] = {a} vs S6 {b}");
@@ -182,5 +184,46 @@ fn dual_franka_preset_holds_from_above_and_not_by_the_end_faces() {
         );
         let g = study::grasp_target(&top, i, &x_wo);
         assert!(!study::ik_search(&top.arms[i], &g, 100, None, 5 + i as u64).is_empty());
+    }
+}
+
+#[test]
+fn the_branch_test_tells_the_eight_ur5_solutions_apart() {
+    // The study keeps the S6 branch by reading it geometrically (`study::ur5_branch`). A UR5
+    // has (generically) 8 inverse-kinematics solutions: shoulder × elbow × wrist. Found from
+    // random starts at the preset's start pose, distinct solutions (modulo 2π) must get
+    // distinct branches, and only the S6 start angles the S6 branch.
+    let setup = tandem::fixtures::dual_ur5();
+    let x0 = study::s6_pose(&Se3Path::spec_s6(), 0.0);
+    let arm = &setup.params.arms[0];
+    let g = study::grasp_target(&setup.params, 0, &x0);
+    let mut d = tandem::dynamics::ChainData::new(arm);
+    let mut found: Vec<(Vec<f64>, study::Branch)> = Vec::new();
+    for q in study::ik_search(arm, &g, 200, None, 21) {
+        let wrap = |a: f64| (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU);
+        let same = |p: &Vec<f64>| {
+            p.iter()
+                .zip(&q)
+                .all(|(a, b)| (wrap(*a) - wrap(*b)).abs() < 1e-6)
+        };
+        if !found.iter().any(|(p, _)| same(p)) {
+            let b = study::ur5_branch(arm, &q, &mut d);
+            found.push((q, b));
+        }
+    }
+    assert_eq!(found.len(), 8, "{found:?}");
+    for (i, (_, a)) in found.iter().enumerate() {
+        for (_, b) in &found[..i] {
+            assert_ne!(a, b, "two solutions on one branch: {found:?}");
+        }
+    }
+    let s6: Vec<_> = found
+        .iter()
+        .filter(|(_, b)| *b == study::Branch::S6)
+        .collect();
+    assert_eq!(s6.len(), 1);
+    for (a, b) in s6[0].0.iter().zip(&setup.q_guess[..6]) {
+        let da = (a - b).rem_euclid(std::f64::consts::TAU);
+        assert!(da.min(std::f64::consts::TAU - da) < 1e-6, "{:?}", s6[0].0);
     }
 }

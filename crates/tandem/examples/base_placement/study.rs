@@ -479,7 +479,7 @@ fn ik_clamped(
         if let Some(l) = locked {
             j.column_mut(l).fill(0.0);
         }
-        let lambda2 = (1e-2 * e.norm()).min(1e-2).max(1e-12);
+        let lambda2 = (1e-2 * e.norm()).clamp(1e-12, 1e-2);
         let mut a = &j * j.transpose();
         for k in 0..6 {
             a[(k, k)] += lambda2;
