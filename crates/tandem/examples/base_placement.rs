@@ -103,26 +103,42 @@ fn main() {
         min2(first.lap.sin_q5_min),
         wrist_offset(first.d)
     );
-    // Sampling check: the preset's lap every 0.1 s.
-    let fine_lap = study::follow_lap(
-        &study::dual_ur5_at(1.40),
-        &Se3Path::spec_s6(),
-        &tandem::fixtures::dual_ur5().q_guess,
-        0.1,
-        true,
-    );
-    println!(
-        "d = 1.40 m every 0.1 s: σ_min {:.4} / {:.4}, cond {:.3}, |sin q3| {:.4}, |sin q5| {:.4}, travel {:.2}°, τ/effort {:.2} %",
-        fine_lap.sigma_min[0],
-        fine_lap.sigma_min[1],
-        fine_lap.cond_max[0].max(fine_lap.cond_max[1]),
-        fine_lap.sin_q3_min[0].min(fine_lap.sin_q3_min[1]),
-        fine_lap.sin_q5_min[0].min(fine_lap.sin_q5_min[1]),
-        fine_lap.travel_max[0]
-            .max(fine_lap.travel_max[1])
-            .to_degrees(),
-        100.0 * fine_lap.torque_ratio_max[0].max(fine_lap.torque_ratio_max[1]),
-    );
+    // Sampling check: the preset's lap every DT and every 0.1 s.
+    let figures = |l: &Lap| {
+        [
+            min2(l.sigma_min),
+            max2(l.cond_max),
+            min2(l.sin_q3_min),
+            min2(l.sin_q5_min),
+            max2(l.travel_max).to_degrees(),
+            100.0 * max2(l.torque_ratio_max),
+            l.separation_min,
+            l.height_min,
+        ]
+    };
+    let lap_at = |dt: f64| {
+        study::follow_lap(
+            &study::dual_ur5_at(1.40),
+            &Se3Path::spec_s6(),
+            &tandem::fixtures::dual_ur5().q_guess,
+            dt,
+            true,
+        )
+    };
+    let (coarse, fine) = (figures(&lap_at(DT)), figures(&lap_at(0.1)));
+    let change = coarse
+        .iter()
+        .zip(&fine)
+        .map(|(a, b)| ((a - b) / b).abs())
+        .fold(0.0, f64::max);
+    for (dt, f) in [(DT, coarse), (0.1, fine)] {
+        println!(
+            "d = 1.40 m every {dt} s: σ_min {:.4}, cond {:.3}, |sin q3| {:.4}, |sin q5| {:.4}, \
+             travel {:.2}°, τ/effort {:.2} %, closest {:.4} m, lowest {:.4} m",
+            f[0], f[1], f[2], f[3], f[4], f[5], f[6], f[7]
+        );
+    }
+    println!("largest relative change: {:.3} %", 100.0 * change);
     // The σ_min peak, finer.
     let fine: Vec<f64> = (0..=16).map(|k| 1.38 + 0.005 * k as f64).collect();
     let peak = study::ur5_sweep(&fine, DT)
@@ -464,7 +480,13 @@ fn figure(curves: &[Vec<(f64, f64)>; 2]) -> String {
         (py(y0) + py(y1)) / 2.0
     );
     let colours = ["#1f77b4", "#d62728"];
-    let names = ["dual UR5 (end faces)", "dual Franka (top face)"];
+    let names = ["dual UR5, end faces", "dual Franka, top face"];
+    let _ = writeln!(
+        s,
+        "<text x=\"{:.1}\" y=\"{:.1}\">dots: the presets</text>",
+        px(1.5) + 6.0,
+        py(0.05) + 40.0
+    );
     let presets = [1.40, 1.10];
     for (i, c) in curves.iter().enumerate() {
         let pts: Vec<String> = c
@@ -489,7 +511,7 @@ fn figure(curves: &[Vec<(f64, f64)>; 2]) -> String {
         let _ = writeln!(
             s,
             "<line x1=\"{0:.1}\" y1=\"{1:.1}\" x2=\"{2:.1}\" y2=\"{1:.1}\" stroke=\"{3}\" stroke-width=\"2\"/>\
-             <text x=\"{4:.1}\" y=\"{5:.1}\">{6} (dot: preset)</text>",
+             <text x=\"{4:.1}\" y=\"{5:.1}\">{6}</text>",
             px(1.45),
             py(0.05) + 18.0 * i as f64,
             px(1.5),

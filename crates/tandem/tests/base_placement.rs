@@ -50,11 +50,11 @@ fn dual_ur5_preset_keeps_the_s6_branch_with_the_s6_figures() {
     for (k, (a, b)) in lap.q[0].iter().zip(s6).enumerate() {
         assert!((a - b).abs() < 1e-6, "q[{k}] = {a} vs S6 {b}");
     }
-    // Measured (docs/base-placement.md): σ_min 0.1961 both arms, cond 9.46, |sin q3| 0.8535,
-    // |sin q5| 0.8703, travel 39.94° (q3), τ/effort 23.6 %, closest approach 0.5646 m (the
+    // Measured (docs/base-placement.md): σ_min 0.1961 both arms, cond 9.462, |sin q3| 0.8536,
+    // |sin q5| 0.8703, travel 39.93° (q3), τ/effort 23.63 %, closest approach 0.5646 m (the
     // wrist centres: 0.4 m box + 2 × 0.0823 m), lowest point 0.2510 m (the wrist centre at
     // 10° pitch: 0.3 − 0.2823 sin 10°). Sampling every 0.1 s instead changes none of them by
-    // more than 0.05 % (the path is slow: 5 mm and ≤ 0.18° per 0.5 s step). The bounds are
+    // more than 0.03 % (the path is slow: 5 mm and ≤ 0.18° per 0.5 s step). The bounds are
     // S6's figures where S6 gives one; σ_min also from above (a ±0.001 band: a model change
     // shows up here first).
     for i in 0..2 {
