@@ -28,6 +28,21 @@ const DT: f64 = 0.5;
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let force = args.iter().any(|a| a == "--force");
+    let mut paths = 0;
+    for a in &args {
+        if a.starts_with("--") {
+            if a != "--force" && !a.starts_with("--svg=") {
+                eprintln!("error: unknown option {a} (options: --svg=PATH, --force)");
+                std::process::exit(2);
+            }
+        } else {
+            paths += 1;
+        }
+    }
+    if paths > 1 {
+        eprintln!("error: more than one CSV path given");
+        std::process::exit(2);
+    }
     let out = args.iter().find(|a| !a.starts_with("--")).cloned();
     let svg = args
         .iter()
@@ -251,8 +266,23 @@ fn main() {
                 )
             })
             .unwrap_or_default();
+        // Which side of q4's range (−3.07 … −0.07 rad) the solutions that break it are on.
+        let (folded, straight) =
+            v.iter()
+                .filter(|s| s.0.contains(&3))
+                .fold((0, 0), |(f, st), s| {
+                    let q4 = s.2[3].rem_euclid(std::f64::consts::TAU) - std::f64::consts::TAU;
+                    // q4 mapped into (−2π, 0]: beyond the fold stop is below −3.07, past straight
+                    // is above −0.07 (the elbow bent backwards).
+                    if q4 < -3.0718 && q4 > -std::f64::consts::PI - 1.5 {
+                        (f + 1, st)
+                    } else {
+                        (f, st + 1)
+                    }
+                });
         println!(
-            "  arm {}: {} solutions, {} inside all limits; outside the limits of q1..q7: {:?}; {closest}",
+            "  arm {}: {} solutions, {} inside all limits; outside the limits of q1..q7: {:?}; {closest}; \
+             q4 beyond its fold stop in {folded}, bent backwards in {straight}",
             i + 1,
             v.len(),
             within,
@@ -605,7 +635,9 @@ fn csv_row(csv: &mut String, arms: &str, grasp: &str, d: f64, l: &Lap) {
 /// Write `text` to `path` whole or not at all: a temporary file beside it, then a rename.
 fn write_whole(path: &str, text: &str) -> std::io::Result<()> {
     let p = std::path::Path::new(path);
-    let tmp = p.with_extension("partial");
+    let mut name = p.file_name().unwrap_or_default().to_os_string();
+    name.push(".tandem-partial");
+    let tmp = p.with_file_name(name);
     std::fs::write(&tmp, text)?;
     std::fs::rename(&tmp, p).inspect_err(|_| {
         let _ = std::fs::remove_file(&tmp);

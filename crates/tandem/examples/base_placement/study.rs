@@ -529,14 +529,14 @@ pub fn ik_search(
 }
 
 /// Solutions of one arm onto `target` ignoring the joint limits (angles within ±2π), from
-/// `tries` random starts inside the limits: for each, the joints (0-based) outside their limits
-/// and the largest excess over a limit, rad.
+/// `tries` random starts inside the limits: for each, the joints (0-based) outside their limits,
+/// the largest excess over a limit, rad, and the solution.
 pub fn limit_violations(
     arm: &SpatialArm,
     target: &Isometry3<f64>,
     tries: usize,
     seed: u64,
-) -> Vec<(Vec<usize>, f64)> {
+) -> Vec<(Vec<usize>, f64, Vec<f64>)> {
     let mut rng = SplitMix64(seed);
     let mut d = ChainData::new(arm);
     let mut out = Vec::new();
@@ -565,7 +565,7 @@ pub fn limit_violations(
                     worst = worst.max(excess);
                 }
             }
-            out.push((bad, worst));
+            out.push((bad, worst, q));
         }
     }
     out
