@@ -26,7 +26,7 @@ use tandem::reference::se3_path::Se3Path;
 use tandem::se3::Chart;
 use tandem::sim::{Log, Outcome};
 
-use crate::output::{write_csv, write_json_atomic, write_text_atomic};
+use crate::output::{write_bytes_atomic, write_json_atomic, write_text_atomic};
 use crate::table::num;
 use crate::viewer::{ScalarTrack, scene_from_states, write_snapshots, write_viewer_file};
 
@@ -772,9 +772,58 @@ pub fn write_timeseries(path: &Path, f: &Finished, d: &Derived) -> Result<()> {
             cols.push(&w[j]);
         }
     }
-    cols.retain(|c| c.len() == n);
-    header.truncate(cols.len().min(header.len()));
-    write_csv(path, &header, &cols)
+    write_csv_fast(path, &header, &cols, n)
+}
+
+/// A CSV of equal-length numeric columns, written whole or not at all: the same text as
+/// [`crate::output::write_csv`] (numbers in the round-trip form of [`crate::output::fmt_f64`]),
+/// formatted into one buffer without a per-field allocation (a 60 s spatial run has a million
+/// fields).
+fn write_csv_fast(path: &Path, header: &[String], cols: &[&[f64]], n: usize) -> Result<()> {
+    use std::fmt::Write as _;
+    if let Some((j, c)) = cols.iter().enumerate().find(|(_, c)| c.len() != n) {
+        anyhow::bail!(
+            "cannot write {}: column '{}' has {} rows, not {n}",
+            path.display(),
+            header[j],
+            c.len()
+        );
+    }
+    let quote = |h: &str| {
+        if h.contains([',', '"', '\n']) {
+            format!("\"{}\"", h.replace('"', "\"\""))
+        } else {
+            h.to_string()
+        }
+    };
+    let mut s = header
+        .iter()
+        .map(|h| quote(h))
+        .collect::<Vec<_>>()
+        .join(",");
+    s.push('\n');
+    s.reserve(n * cols.len() * 20);
+    for k in 0..n {
+        for (j, c) in cols.iter().enumerate() {
+            if j > 0 {
+                s.push(',');
+            }
+            let v = c[k];
+            let a = v.abs();
+            // The rules of `fmt_f64`.
+            let _ = if v.is_nan() {
+                write!(s, "NaN")
+            } else if v.is_infinite() {
+                write!(s, "{}", if v > 0.0 { "inf" } else { "-inf" })
+            } else if a == 0.0 || (1e-5..1e16).contains(&a) {
+                write!(s, "{v}")
+            } else {
+                write!(s, "{v:e}")
+            };
+        }
+        s.push('\n');
+    }
+    write_bytes_atomic(path, s.as_bytes())
 }
 
 /// Times spent writing, s.
@@ -846,10 +895,25 @@ pub fn write(
     Ok((s, times, problems))
 }
 
+/// At most this many viewer frames per simulated second (the log has 100 for the presets):
+/// smooth playback, and a 60 s run's `viewer.html` stays small and fast to write.
+pub const VIEWER_FPS: f64 = 25.0;
+
 fn write_viewer(dir: &Path, scenario: &str, f: &Finished, d: &Derived) -> Result<()> {
     let log = &f.outcome.log;
-    let t = &d.t;
-    let mut scene = scene_from_states(scenario, &f.plant, f.box_size, t, &states(f));
+    let n = d.t.len();
+    let dt = if n > 1 { d.t[1] - d.t[0] } else { 1.0 };
+    let stride = ((1.0 / VIEWER_FPS / dt).round() as usize).max(1);
+    // Every `stride`-th row, and the last one.
+    let mut idx: Vec<usize> = (0..n).step_by(stride).collect();
+    if n > 0 && idx.last() != Some(&(n - 1)) {
+        idx.push(n - 1);
+    }
+    let pick = |v: &[f64]| -> Vec<f64> { idx.iter().map(|&k| v[k]).collect() };
+    let t = pick(&d.t);
+    let all = states(f);
+    let st: Vec<Vec<f64>> = idx.iter().map(|&k| all[k].clone()).collect();
+    let mut scene = scene_from_states(scenario, &f.plant, f.box_size, &t, &st);
     let t_end = t.last().copied().unwrap_or(0.0);
     let n_path = ((t_end * 4.0).ceil() as usize).max(1);
     scene.desired_path = (0..=n_path)
@@ -863,8 +927,9 @@ fn write_viewer(dir: &Path, scenario: &str, f: &Finished, d: &Derived) -> Result
         .map(|i| six(log, &format!("F{i}"), &WRENCH_AXES))
         .collect();
     if let Some(fcols) = fcols {
-        scene.wrenches = (0..t.len())
-            .map(|k| {
+        scene.wrenches = idx
+            .iter()
+            .map(|&k| {
                 fcols
                     .iter()
                     .map(|c| [c[0][k], c[1][k], c[2][k], c[3][k], c[4][k], c[5][k]])
@@ -872,16 +937,14 @@ fn write_viewer(dir: &Path, scenario: &str, f: &Finished, d: &Derived) -> Result
             })
             .collect();
     }
-    if d.z1_p.len() == t.len() {
+    if d.z1_p.len() == n {
         scene
             .scalars
-            .push(ScalarTrack::new("error |z1_p|", "m", d.z1_p.clone()));
+            .push(ScalarTrack::new("error |z1_p|", "m", pick(&d.z1_p)));
     }
     let m = col(log, "margin");
-    if m.len() == t.len() {
-        scene
-            .scalars
-            .push(ScalarTrack::new("margin", "", m.to_vec()));
+    if m.len() == n {
+        scene.scalars.push(ScalarTrack::new("margin", "", pick(m)));
     }
     write_viewer_file(&scene, dir)?;
     write_snapshots(&scene, dir)?;
