@@ -62,6 +62,9 @@ fn six_panels<'a>(
     (panels, if zoom { 2 } else { 1 })
 }
 
+/// An arm (1-based) and its six wrench columns.
+type ArmWrench<'a> = (usize, [&'a [f64]; 6]);
+
 /// Forces and torques of one six-column group per arm: one row per arm, columns force and torque.
 fn wrench_panels<'a>(t: &'a [f64], arms: &[(usize, [&'a [f64]; 6])], sym: &str) -> Vec<Panel<'a>> {
     let mut panels = Vec::new();
@@ -249,7 +252,7 @@ pub fn run_figures(dir: &Path, scenario: &str, f: &Finished, d: &Derived) -> Res
             "internal (null-space) part of the commanded arm wrenches (world axes)",
         ),
     ] {
-        let arms: Option<Vec<(usize, [&[f64]; 6])>> = (1..=n_arms)
+        let arms: Option<Vec<ArmWrench>> = (1..=n_arms)
             .map(|i| six(log, &format!("{group}{i}"), &WRENCH_AXES).map(|w| (i, w)))
             .collect();
         let Some(arms) = arms else { continue };
