@@ -85,7 +85,7 @@ fn wrench_panels<'a>(t: &'a [f64], arms: &[(usize, [&'a [f64]; 6])], sym: &str) 
                     WRENCH_AXES[3 * half + k],
                     t,
                     w[3 * half + k],
-                    Style::solid(k).width(1),
+                    Style::solid(k),
                 ));
             }
             panels.push(p);
@@ -290,7 +290,7 @@ pub fn run_figures(dir: &Path, scenario: &str, f: &Finished, d: &Derived) -> Res
                                     format!("joint {}", k + 1),
                                     t,
                                     c,
-                                    Style::solid(k).width(1),
+                                    Style::solid(k),
                                 ));
                             }
                         }

@@ -396,6 +396,7 @@ pub fn summary(scenario: &str, f: &Finished, d: &Derived, output_time: Option<f6
         }),
     );
     s.put("violation_ticks", json!(o.violation_ticks));
+    s.put("regularised", json!(o.regularised));
     s.num(
         "min_margin",
         o.min_margin,
