@@ -15,7 +15,7 @@
 //! | `weights` | switching value `Q` and weight norms `‖Ŵ_j‖` (NN only) |
 //! | `margins` | constraint margin, closest joint-limit distance and the tool Jacobians' σ_min |
 //!
-//! Figures are drawn in parallel ([`crate::figures::run_jobs`]); the plot module min/max
+//! Figures are drawn in parallel (`crate::figures::run_jobs`); the plot module min/max
 //! decimates long series, so a 60 s run is drawn as fast as a short one.
 
 use std::path::Path;

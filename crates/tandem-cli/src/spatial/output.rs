@@ -1193,7 +1193,7 @@ fn slug(label: &str) -> String {
 }
 
 /// Writes a spatial comparison into `dir` (a temporary folder): one sub-folder per run with its
-/// own outputs ([`write`]), the overlay figures ([`super::figures::compare_figures`]),
+/// own outputs ([`write()`]), the overlay figures ([`super::figures::compare_figures`]),
 /// `report.md` (side-by-side table, figures) and `summary.json` (the runs' summaries keyed by
 /// their label). Returns the summaries and the problems (figure errors) as warnings.
 pub fn write_compare(
