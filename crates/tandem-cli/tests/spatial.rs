@@ -412,3 +412,39 @@ fn compare_writes_report_summary_and_overlays() {
     }
     let _ = fs::remove_dir_all(&dir);
 }
+
+/// A log without some columns (as a law or a scenario that does not produce them): the summary
+/// writes `null` with a reason, never 0 or NaN, and the other outputs are still written.
+#[test]
+fn absent_columns_are_null_with_a_reason() {
+    let mut f = tandem_cli::spatial::run("dual-ur5", 2.5).unwrap();
+    f.outcome.log.columns.retain(|c| {
+        !(c.name.starts_with("z1.")
+            || c.name.starts_with("w_int")
+            || c.name.starts_with("w_norm")
+            || c.name == "angle_error"
+            || c.name == "Q")
+    });
+    let dir = std::env::temp_dir().join(format!("tandem-spatial-absent-{}", std::process::id()));
+    let _ = fs::remove_dir_all(&dir);
+    fs::create_dir_all(&dir).unwrap();
+    let (s, _, problems) = output::write(&dir, "absent", &f, true).unwrap();
+    assert!(problems.is_empty(), "{problems:?}");
+    for k in [
+        "z1_p_max_after_2s_m",
+        "z1_rot_max_after_2s_rad",
+        "settling_time_1mm_s",
+        "orientation_error_max_after_2s_rad",
+        "internal_wrench",
+        "weight_norm_final",
+    ] {
+        assert!(s[k].is_null(), "{k} = {}", s[k]);
+        assert!(s["unavailable"][k].is_string(), "{k}: no reason");
+    }
+    assert_eq!(s["s5_claims"]["pass"], false);
+    // Still there: what does not need the removed columns.
+    assert!(s["jacobian_sigma_min"].is_array() && s["wrench_force_rms_N"].is_number());
+    assert!(!dir.join("z1.png").exists() && !dir.join("weights.png").exists());
+    assert!(dir.join("tracking.png").is_file() && dir.join("timeseries.csv").is_file());
+    let _ = fs::remove_dir_all(&dir);
+}
