@@ -56,7 +56,7 @@ fn unit(j: usize, lin: &str, rot: &str) -> String {
 }
 
 /// How to draw one figure.
-type Draw<'a> = Box<dyn FnOnce() -> Result<()> + Send + 'a>;
+pub(crate) type Draw<'a> = Box<dyn FnOnce() -> Result<()> + Send + 'a>;
 /// One logged quantity with three components, drawn per axis.
 struct Quantity {
     /// File stem.
@@ -72,10 +72,10 @@ struct Quantity {
 }
 
 /// A figure job: its file stem and how to draw it.
-type Job<'a> = (String, Draw<'a>);
+pub(crate) type Job<'a> = (String, Draw<'a>);
 
 /// Run the jobs on up to `available_parallelism` threads; the first error wins.
-fn run_jobs(jobs: Vec<Job<'_>>) -> Result<Vec<String>> {
+pub(crate) fn run_jobs(jobs: Vec<Job<'_>>) -> Result<Vec<String>> {
     let names: Vec<String> = jobs.iter().map(|(n, _)| n.clone()).collect();
     let slots: Vec<Mutex<Option<Draw<'_>>>> =
         jobs.into_iter().map(|(_, j)| Mutex::new(Some(j))).collect();

@@ -53,7 +53,7 @@ enum Command {
     /// fault writes what it has and exits with code 1.
     Run(RunArgs),
     /// Run PD, NN (paper gains), NN (tuned gains) and CTC from one common start; side-by-side
-    /// figures and a report.
+    /// figures and a report. On a spatial scenario: NN, PD, PD + model gravity and CTC.
     ///
     /// Writes report.md (summary table and figure links), summary.json, scenario.toml, the
     /// comparison figures (compare_xy, compare_trajectories, compare_z1, compare_wrench,
@@ -455,7 +455,7 @@ fn cmd_run_spatial(a: RunArgs, src: Source) -> Result<ExitCode> {
     check_out(&out_dir, a.common.force, &protected)?;
     let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
     let out = OutputDir::create(&out_dir, a.common.force, &p)?;
-    let ok = spatial::cmd_run(prepared, out)?;
+    let ok = spatial::cmd_run(prepared, out, !a.common.no_figures)?;
     Ok(if ok {
         ExitCode::SUCCESS
     } else {
@@ -487,6 +487,29 @@ const COMPARED: [(ControllerKind, Option<GainPreset>, &str); 4] = [
 ];
 
 fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
+    let first = scenario::resolve(a.scenario.as_deref())?;
+    if spatial::scenario::is_spatial(&first.text) {
+        let o = spatial_overrides(None, None, &a.common, None, None)?;
+        let (src, sc) = load_spatial(first, &o)?;
+        let out_dir = a
+            .common
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-compare", src.name)));
+        // Build once to learn the input files (URDFs) that --force must never replace.
+        let built = spatial::scenario::build(&sc, &src)?;
+        let mut protected: Vec<PathBuf> = src.file.iter().cloned().collect();
+        protected.extend(built.inputs.iter().cloned());
+        check_out(&out_dir, a.common.force, &protected)?;
+        let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
+        let out = OutputDir::create(&out_dir, a.common.force, &p)?;
+        let ok = spatial::cmd_compare(sc, &src, out, !a.common.no_figures)?;
+        return Ok(if ok {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::from(1)
+        });
+    }
     let o = Overrides {
         duration: a.common.duration,
         seed: a.common.seed,
@@ -869,7 +892,7 @@ fn cmd_validate(arg: &str) -> Result<ExitCode> {
         println!(
             "  path {:?}, controller {label}{}",
             p.sc.path.kind,
-            if p.sc.admittance.enabled && p.built.controller.is_some() {
+            if p.sc.admittance.enabled && p.built.replay.is_none() {
                 ", admittance on"
             } else {
                 ""

@@ -59,7 +59,7 @@ fn presets_are_the_library_s6_setups_exactly() {
         assert_eq!(b.start.q_guess, setup.q_guess, "{name}: IK guess");
         assert_eq!(b.path, Se3Path::spec_s6(), "{name}: path");
         let want = SpatialControllerParams::spec_s6(SpatialLaw::Nn(gains));
-        assert_eq!(b.controller.as_ref(), Some(&want), "{name}: controller");
+        assert_eq!(b.controller, want, "{name}: controller");
         assert_eq!(
             b.disturbance,
             tandem::disturbance::SpatialDisturbance::spec_s6()

@@ -1,39 +1,24 @@
-//! Spatial presets end to end (issue 9, first part): `tandem run dual-ur5` / `dual-franka` run
-//! the SPEC-spatial S6 set-ups (`tandem::fixtures`) with the NN law and write `timeseries.csv`,
-//! `summary.json`, `viewer.html` and the snapshots into a marker-protected output folder.
+//! Spatial runs end to end (issue 9): a spatial scenario file ([`scenario`]) is loaded, built
+//! and validated ([`prepare`]), run ([`execute`]) and written ([`output`], [`figures`]):
+//! `timeseries.csv`, `summary.json`, figures on six outputs, `viewer.html` and the snapshots,
+//! into a marker-protected output folder. `tandem compare` runs several laws from one start
+//! ([`compare`]).
 
+pub mod figures;
+pub mod output;
 pub mod scenario;
 
-use std::path::Path;
-use std::time::Instant;
+pub use output::Finished;
 
-use anyhow::{Context, Result};
-use nalgebra::Vector3;
-use serde_json::json;
-use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
-use tandem::sim::Outcome;
-
-use crate::output::{OutputDir, write_csv, write_json_atomic, write_text_atomic};
-use crate::scenario::{ScenarioError, Source};
-use crate::viewer::{ScalarTrack, scene_from_states, write_snapshots, write_viewer_file};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use scenario::{SpatialBuilt, SpatialKind, SpatialReady, SpatialScenario};
 use std::path::PathBuf;
 
-/// What a spatial run measured.
-pub struct Finished {
-    /// The simulation outcome (log, fault, drift, margins).
-    pub outcome: Outcome,
-    /// The plant (for kinematics of the logged states).
-    pub plant: SpatialPlant,
-    /// Box edge lengths, m.
-    pub box_size: [f64; 3],
-    /// The desired path.
-    pub path: Se3Path,
-    /// Simulated duration, s.
-    pub duration: f64,
-}
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use tandem::plant::spatial::SpatialPlant;
+
+use crate::output::{OutputDir, write_text_atomic};
+use crate::scenario::{ScenarioError, Source};
+use scenario::{SpatialBuilt, SpatialKind, SpatialReady, SpatialScenario};
 
 /// Command-line overrides of a spatial scenario.
 #[derive(Clone, Debug, Default)]
@@ -127,6 +112,39 @@ pub fn label(sc: &SpatialScenario) -> String {
     l
 }
 
+/// Run the embedded spatial scenario `name` (`dual-ur5`, `dual-franka`) for `duration` s with
+/// the file's law (tests, examples).
+pub fn run(name: &str, duration: f64) -> Result<Finished> {
+    let e = scenario::EMBEDDED
+        .iter()
+        .find(|e| e.name == name)
+        .with_context(|| format!("no embedded spatial scenario `{name}`"))?;
+    let src = crate::scenario::embedded_source(e);
+    let o = SpatialOverrides {
+        duration: Some(duration),
+        ..SpatialOverrides::default()
+    };
+    let p = prepare(load(&src, &o)?, &src)?;
+    execute(p, |_| {})
+}
+
+/// A human label of a run's law for tables and legends (`NN`, `PD`, `PD + gravity`, `CTC`,
+/// `per-arm PD`, `replay`).
+pub fn human_label(sc: &SpatialScenario) -> String {
+    let c = &sc.controller;
+    let mut l = match c.kind {
+        SpatialKind::Nn => "NN".to_string(),
+        SpatialKind::Pd if c.pd.gravity_compensation => "PD + gravity".to_string(),
+        SpatialKind::Pd => "PD".to_string(),
+        SpatialKind::Ctc => "CTC".to_string(),
+        SpatialKind::Replay => "replay".to_string(),
+    };
+    if c.scheme == scenario::SchemeConfig::PerArm && c.kind != SpatialKind::Replay {
+        l = format!("per-arm {l}");
+    }
+    l
+}
+
 /// Run a prepared scenario, reporting progress in [0, 1].
 pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Result<Finished> {
     let outcome = p.ready.sim.run(progress);
@@ -136,147 +154,16 @@ pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Result<Finished> {
         box_size: p.built.box_size,
         path: p.built.path.clone(),
         duration: p.built.sim.duration,
+        controller: label(&p.sc).replace([' ', '+'], "-"),
+        label: human_label(&p.sc),
+        k_c: p.ready.k_c,
+        chart: p.ready.chart,
+        warnings: p.ready.warnings.clone(),
     })
 }
 
-fn col<'a>(log: &'a tandem::sim::Log, name: &str) -> &'a [f64] {
-    log.get(name).unwrap_or(&[])
-}
-
-/// The summary of a spatial run (SPEC-spatial S5 claims measured after 2 s).
-pub fn summary(name: &str, f: &Finished) -> serde_json::Value {
-    let log = &f.outcome.log;
-    let t = col(log, "t");
-    let g = |a: &str| col(log, &format!("z1.{a}"));
-    let (x, y, z, rx, ry, rz) = (g("x"), g("y"), g("z"), g("rx"), g("ry"), g("rz"));
-    let (mut zp_max, mut zr_max, mut zp_ss, mut n) = (0.0f64, 0.0f64, 0.0, 0usize);
-    for k in 0..t.len().min(x.len()).min(rz.len()) {
-        if t[k] >= 2.0 {
-            let p = Vector3::new(x[k], y[k], z[k]).norm();
-            let r = Vector3::new(rx[k], ry[k], rz[k]).norm();
-            zp_max = zp_max.max(p);
-            zr_max = zr_max.max(r);
-            zp_ss += p * p;
-            n += 1;
-        }
-    }
-    let o = &f.outcome;
-    let status = if o.fault.is_some() {
-        "fault"
-    } else {
-        "completed"
-    };
-    json!({
-        "scenario": name,
-        "controller": "nn",
-        "duration": f.duration,
-        "status": status,
-        "fault": o.fault.as_ref().map(|e| format!("{e:?}")),
-        "events": format!("{:?}", o.events),
-        "violation_ticks": o.violation_ticks,
-        "min_margin": o.min_margin,
-        "max_drift_m": o.max_drift,
-        "max_drift_rad": o.max_drift_rot,
-        "z1_p_max_after_2s_m": zp_max,
-        "z1_rot_max_after_2s_rad": zr_max,
-        "z1_p_rms_after_2s_m": if n > 0 { (zp_ss / n as f64).sqrt() } else { f64::NAN },
-    })
-}
-
-/// The flat plant states of the log (`[q; X_WO (p, quaternion w x y z); qd; twist]`, the twist
-/// left zero: the viewer draws poses only).
-fn states(f: &Finished) -> Vec<Vec<f64>> {
-    let log = &f.outcome.log;
-    let nq = f.plant.n_q();
-    let mut names: Vec<String> = (1..=nq).map(|k| format!("q{k}")).collect();
-    names.extend(
-        ["x", "y", "z", "qw", "qx", "qy", "qz"]
-            .iter()
-            .map(|a| format!("x_o.{a}")),
-    );
-    names.extend((1..=nq).map(|k| format!("qd{k}")));
-    let cols: Vec<&[f64]> = names.iter().map(|n| col(log, n)).collect();
-    (0..log.len())
-        .map(|k| {
-            let mut y: Vec<f64> = cols
-                .iter()
-                .map(|c| c.get(k).copied().unwrap_or(f64::NAN))
-                .collect();
-            y.resize(2 * nq + 13, 0.0);
-            y
-        })
-        .collect()
-}
-
-/// Writes every output of `f` into `dir` (the temporary folder of an [`OutputDir`]).
-pub fn write(dir: &Path, name: &str, f: &Finished) -> Result<serde_json::Value> {
-    let log = &f.outcome.log;
-    let header: Vec<String> = log
-        .columns
-        .iter()
-        .map(|c| {
-            if c.unit.is_empty() {
-                c.name.clone()
-            } else {
-                format!("{} [{}]", c.name, c.unit)
-            }
-        })
-        .collect();
-    let cols: Vec<&[f64]> = log.columns.iter().map(|c| c.data.as_slice()).collect();
-    write_csv(&dir.join("timeseries.csv"), &header, &cols)?;
-
-    let t = col(log, "t").to_vec();
-    let mut scene = scene_from_states(name, &f.plant, f.box_size, &t, &states(f));
-    let t_end = t.last().copied().unwrap_or(0.0);
-    let n_path = ((t_end * 4.0).ceil() as usize).max(1);
-    scene.desired_path = (0..=n_path)
-        .map(|k| {
-            let p = f.path.sample(t_end * k as f64 / n_path as f64).p;
-            [p.x, p.y, p.z]
-        })
-        .collect();
-    let n_arms = f.plant.arms().len();
-    let axes = ["fx", "fy", "fz", "tx", "ty", "tz"];
-    let fcols: Vec<Vec<&[f64]>> = (1..=n_arms)
-        .map(|i| {
-            axes.iter()
-                .map(|a| col(log, &format!("F{i}.{a}")))
-                .collect()
-        })
-        .collect();
-    if fcols.iter().flatten().all(|c| c.len() == t.len()) {
-        scene.wrenches = (0..t.len())
-            .map(|k| {
-                fcols
-                    .iter()
-                    .map(|c| [c[0][k], c[1][k], c[2][k], c[3][k], c[4][k], c[5][k]])
-                    .collect()
-            })
-            .collect();
-    }
-    let g = |a: &str| col(log, &format!("z1.{a}"));
-    let (x, y, z) = (g("x"), g("y"), g("z"));
-    if x.len() == t.len() {
-        let e = (0..t.len())
-            .map(|k| Vector3::new(x[k], y[k], z[k]).norm())
-            .collect();
-        scene.scalars.push(ScalarTrack::new("error |z1_p|", "m", e));
-    }
-    let m = col(log, "margin");
-    if m.len() == t.len() {
-        scene
-            .scalars
-            .push(ScalarTrack::new("margin", "", m.to_vec()));
-    }
-    write_viewer_file(&scene, dir)?;
-    write_snapshots(&scene, dir)?;
-    let s = summary(name, f);
-    write_json_atomic(&dir.join("summary.json"), &s)?;
-    Ok(s)
-}
-
-/// `tandem run SPATIAL-SCENARIO`: run, write the outputs into `out`, print the summary.
-pub fn cmd_run(p: Prepared, out: OutputDir) -> Result<bool> {
+/// `tandem run SPATIAL-SCENARIO`: run, write the outputs into `out`, print the summary table.
+pub fn cmd_run(p: Prepared, out: OutputDir, figures: bool) -> Result<bool> {
     let name = p.name.clone();
     let label = label(&p.sc);
     let duration = p.built.sim.duration;
@@ -284,6 +171,35 @@ pub fn cmd_run(p: Prepared, out: OutputDir) -> Result<bool> {
         eprintln!("warning ({name}, {label}): {w}");
     }
     let toml_text = scenario_toml(&p.sc, &name)?;
+    let bar = progress_bar(&label);
+    let f = execute(p, |x| bar.set_position((x * 1000.0) as u64))?;
+    bar.finish_and_clear();
+    let (s, times, problems) = output::write(out.tmp_dir(), &name, &f, figures)?;
+    write_text_atomic(&out.tmp_dir().join("scenario.toml"), &toml_text)?;
+    for p in &problems {
+        eprintln!("warning: {p}");
+    }
+    let dir = out.commit()?;
+    println!("{name} — {}, {duration} s", f.label);
+    print!("{}", output::text(&[(f.label.as_str(), &s)]));
+    println!(
+        "outputs in {} (simulated in {:.3} s, written in {:.3} s: kinematics {:.3}, CSV {:.3}, \
+         viewer {:.3}, figures {:.3}, in parallel)",
+        dir.display(),
+        f.outcome.wall_time,
+        times.total,
+        times.derive,
+        times.csv,
+        times.viewer,
+        times.figures
+    );
+    if let Some(e) = &f.outcome.fault {
+        eprintln!("error: the run stopped with a fault: {e}");
+    }
+    Ok(f.outcome.fault.is_none())
+}
+
+fn progress_bar(label: &str) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
     bar.set_style(
         ProgressStyle::with_template(
@@ -292,24 +208,81 @@ pub fn cmd_run(p: Prepared, out: OutputDir) -> Result<bool> {
         .unwrap_or_else(|_| ProgressStyle::default_bar())
         .progress_chars("=> "),
     );
-    bar.set_prefix(label.clone());
-    let f = execute(p, |x| bar.set_position((x * 1000.0) as u64))?;
-    bar.finish_and_clear();
-    let t0 = Instant::now();
-    let s = write(out.tmp_dir(), &name, &f)?;
+    bar.set_prefix(label.to_string());
+    bar
+}
+
+/// The laws `tandem compare` runs on a spatial scenario, from one start: the NN law, the paper's
+/// PD, PD with the model's gravity, computed torque (each with the file's gains).
+pub fn compare_variants(sc: &SpatialScenario) -> Vec<SpatialScenario> {
+    let mut out = Vec::new();
+    for (kind, g) in [
+        (SpatialKind::Nn, false),
+        (SpatialKind::Pd, false),
+        (SpatialKind::Pd, true),
+        (SpatialKind::Ctc, false),
+    ] {
+        let mut v = sc.clone();
+        v.controller.kind = kind;
+        v.controller.scheme = scenario::SchemeConfig::Object;
+        v.controller.pd.gravity_compensation = g;
+        out.push(v);
+    }
+    out
+}
+
+/// `tandem compare SPATIAL-SCENARIO`: every law of [`compare_variants`] from the same start
+/// (run in parallel), their outputs in sub-folders, `report.md`, `summary.json`, the overlays.
+pub fn cmd_compare(
+    sc: SpatialScenario,
+    src: &Source,
+    out: OutputDir,
+    figures: bool,
+) -> Result<bool> {
+    use rayon::prelude::*;
+    let name = sc.name.clone().unwrap_or_else(|| src.name.clone());
+    let mut prepared = Vec::new();
+    for v in compare_variants(&sc) {
+        let p = prepare(v, src)?;
+        for w in &p.ready.warnings {
+            eprintln!("warning ({name}, {}): {w}", label(&p.sc));
+        }
+        prepared.push(p);
+    }
+    let toml_text = scenario_toml(&sc, &name)?;
+    let t0 = std::time::Instant::now();
+    let finished: Vec<Result<Finished>> = prepared
+        .into_par_iter()
+        .map(|p| execute(p, |_| {}))
+        .collect();
+    let finished: Vec<Finished> = finished.into_iter().collect::<Result<_>>()?;
+    let sim_time = t0.elapsed().as_secs_f64();
+    let runs: Vec<(&str, &Finished)> = finished.iter().map(|f| (f.label.as_str(), f)).collect();
+    let (summaries, problems) = output::write_compare(out.tmp_dir(), &name, &runs, figures)?;
     write_text_atomic(&out.tmp_dir().join("scenario.toml"), &toml_text)?;
-    let w = t0.elapsed().as_secs_f64();
+    for p in &problems {
+        eprintln!("warning: {p}");
+    }
     let dir = out.commit()?;
+    println!("{name} — compare, {} s", finished[0].duration);
+    let cols: Vec<(&str, &serde_json::Value)> = finished
+        .iter()
+        .zip(&summaries)
+        .map(|(f, s)| (f.label.as_str(), s))
+        .collect();
+    print!("{}", output::text(&cols));
     println!(
-        "{name} — {label}, {duration} s: simulated in {:.3} s, outputs in {} (written in {w:.3} s)",
-        f.outcome.wall_time,
+        "outputs in {} (simulated in {sim_time:.3} s, in parallel)",
         dir.display()
     );
-    println!("{}", serde_json::to_string_pretty(&s)?);
-    if let Some(e) = &f.outcome.fault {
-        eprintln!("error: the run stopped with a fault: {e}");
+    let mut ok = true;
+    for f in &finished {
+        if let Some(e) = &f.outcome.fault {
+            eprintln!("error: {} stopped with a fault: {e}", f.label);
+            ok = false;
+        }
     }
-    Ok(f.outcome.fault.is_none())
+    Ok(ok)
 }
 
 /// The scenario as run, re-runnable: the resolved TOML with a header.

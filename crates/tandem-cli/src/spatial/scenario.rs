@@ -42,6 +42,7 @@ use tandem::plant::spatial::{GraspModel, SpatialObjectParams, SpatialPlantParams
 use tandem::rbf_structured::NetworkStructure;
 use tandem::reference::admittance_se3::AdmittanceSe3Params;
 use tandem::reference::se3_path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};
+use tandem::se3::Chart;
 use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
 
@@ -764,8 +765,11 @@ pub struct SpatialBuilt {
     pub plant: SpatialPlantParams,
     /// The desired path.
     pub path: Se3Path,
-    /// The controller (`None` for a replay).
-    pub controller: Option<SpatialControllerParams>,
+    /// The controller (for a replay: the PD law's, which gives the chart and the bounds the
+    /// outputs are measured in).
+    pub controller: SpatialControllerParams,
+    /// The torque file of a replay.
+    pub replay: Option<PathBuf>,
     /// Sensors (seeded with `run.seed`).
     pub sensors: SensorParams,
     /// Environment wrench.
@@ -1162,12 +1166,10 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
 
     // Controller.
     let c = &sc.controller;
-    let controller = if c.kind == SpatialKind::Replay {
-        None
-    } else {
+    let controller = {
         let law = match c.kind {
             SpatialKind::Nn => SpatialLaw::Nn(nn_gains(&c.nn, None)),
-            SpatialKind::Pd => {
+            SpatialKind::Pd | SpatialKind::Replay => {
                 let mut g = SpatialPdGains::paper();
                 if let Some(v) = c.pd.k_p {
                     g.k_p = v;
@@ -1191,7 +1193,6 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
                 }
                 SpatialLaw::Ctc(g)
             }
-            SpatialKind::Replay => unreachable!("handled above"),
         };
         let scheme = match c.scheme {
             SchemeConfig::Object => Scheme::Object,
@@ -1210,7 +1211,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
         }
         posture.q_rest = c.posture.q_rest.clone();
         let a = &sc.admittance;
-        Some(SpatialControllerParams {
+        SpatialControllerParams {
             law,
             scheme,
             k_c: c.k_c,
@@ -1228,9 +1229,9 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             torque_limit: c.torque_limit,
             disturbance_bound: c.disturbance_bound,
             posture,
-        })
+        }
     };
-    if c.kind == SpatialKind::Replay {
+    let replay = if c.kind == SpatialKind::Replay {
         match &c.replay {
             None => {
                 return Err(src.error_at(
@@ -1238,9 +1239,15 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
                     "controller.replay: kind = \"replay\" needs the torque file (`replay = \"torques.csv\"`, or --replay FILE)",
                 ));
             }
-            Some(f) => inputs.push(resolve_file(src, f)),
+            Some(f) => {
+                let p = resolve_file(src, f);
+                inputs.push(p.clone());
+                Some(p)
+            }
         }
-    }
+    } else {
+        None
+    };
 
     let s = &sc.sensors;
     let sensors = SensorParams {
@@ -1291,6 +1298,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
         plant,
         path,
         controller,
+        replay,
         sensors,
         disturbance,
         sim,
@@ -1486,6 +1494,10 @@ pub struct SpatialReady {
     pub controller: Option<SpatialControllerParams>,
     /// The chart-space inertia along the path, per axis (kg ×3, kg m² ×3), `None` for a replay.
     pub path_inertia: Option<[f64; 6]>,
+    /// The output bounds `k_c` (m ×3, rad ×3).
+    pub k_c: [f64; 6],
+    /// The output chart (centre `c`, `R_ref`) the outputs are measured in.
+    pub chart: Chart,
 }
 
 /// The joint count of each arm.
@@ -1539,33 +1551,35 @@ pub fn make_simulation(
             _ => lib(e),
         }
     };
-    match &b.controller {
-        Some(cp) => {
-            let mut cp = cp.clone();
-            let mut path_inertia = None;
-            if let (SpatialKind::Nn, None) = (sc.controller.kind, sc.controller.nn.design.inertia) {
-                let mut probe = cp.clone();
-                probe.law = SpatialLaw::Pd(SpatialPdGains::paper());
-                let (c, _) = SpatialController::new(
-                    &probe,
-                    &b.plant,
-                    b.path.clone(),
-                    b.sim.duration,
-                    &b.start.q_guess,
-                )
-                .map_err(lib)?;
-                let m: [f64; 6] = c.path_inertia().into();
-                path_inertia = Some(m);
-                cp.law = SpatialLaw::Nn(nn_gains(&sc.controller.nn, Some(m)));
-            }
-            let (c, w) = SpatialController::new(
-                &cp,
-                &b.plant,
-                b.path.clone(),
-                b.sim.duration,
-                &b.start.q_guess,
-            )
-            .map_err(lib)?;
+    let mut cp = b.controller.clone();
+    let mut path_inertia = None;
+    if let (SpatialKind::Nn, None) = (sc.controller.kind, sc.controller.nn.design.inertia) {
+        let mut probe = cp.clone();
+        probe.law = SpatialLaw::Pd(SpatialPdGains::paper());
+        let (c, _) = SpatialController::new(
+            &probe,
+            &b.plant,
+            b.path.clone(),
+            b.sim.duration,
+            &b.start.q_guess,
+        )
+        .map_err(lib)?;
+        let m: [f64; 6] = c.path_inertia().into();
+        path_inertia = Some(m);
+        cp.law = SpatialLaw::Nn(nn_gains(&sc.controller.nn, Some(m)));
+    }
+    let (c, w) = SpatialController::new(
+        &cp,
+        &b.plant,
+        b.path.clone(),
+        b.sim.duration,
+        &b.start.q_guess,
+    )
+    .map_err(lib)?;
+    let k_c: [f64; 6] = c.k_c().into();
+    let chart = *c.chart();
+    match &b.replay {
+        None => {
             if path_inertia.is_none() {
                 path_inertia = Some(c.path_inertia().into());
             }
@@ -1584,10 +1598,11 @@ pub fn make_simulation(
                 warnings,
                 controller: Some(cp),
                 path_inertia,
+                k_c,
+                chart,
             })
         }
-        None => {
-            let file = b.inputs.last().cloned().unwrap_or_default();
+        Some(file) => {
             let timing = crate::replay::Timing {
                 control_period: b.sim.control_period,
                 duration: b.sim.duration,
@@ -1595,7 +1610,7 @@ pub fn make_simulation(
             let mode = sc.controller.replay_interpolation.unwrap_or_default();
             let n_q: usize = dofs.iter().sum();
             let replay =
-                crate::replay::load(&file, n_q, timing, mode).map_err(|e| ScenarioError {
+                crate::replay::load(file, n_q, timing, mode).map_err(|e| ScenarioError {
                     file: src.display.clone(),
                     message: format!(
                         "controller.replay (or --replay) = {}: {e:#}",
@@ -1618,6 +1633,8 @@ pub fn make_simulation(
                 warnings,
                 controller: None,
                 path_inertia: None,
+                k_c,
+                chart,
             })
         }
     }
