@@ -684,7 +684,7 @@ pub fn write(dir: &std::path::Path, cells: &[Cell], base: &Scenario, cmd: &str) 
         num(base.metrics.transient, 3),
     ));
     md.push_str(
-        "Reproduce this page (about 30 s on 2 cores):\n\n```sh\ncargo run --release -p tandem-cli -- robustness \
+        "Reproduce this page (about 15 s of CPU time, 113 runs):\n\n```sh\ncargo run --release -p tandem-cli -- robustness \
          --out out/robustness --force && cp out/robustness/robustness.md docs/ && \
          cp out/robustness/figures/robustness*.png docs/figures/\n```\n\n\
          The knobs are the scenario's `[faults]` section (see `crates/tandem-cli/README.md`); \
