@@ -1032,7 +1032,9 @@ fn slip_section<'a>(md: &mut String, find: &FindSlip<'a>, halved: Option<&Cell>)
 fn slip_figure<'a>(stem: &std::path::Path, find: &FindSlip<'a>) -> Result<()> {
     let xs: Vec<f64> = (1..=SLIP_LEVELS.len()).map(|k| k as f64).collect();
     type Metric = fn(&Cell) -> f64;
-    let metrics: [(&str, &str, Metric, (f64, f64), f64, &str); 4] = [
+    /// (title, y label, metric, y range, reference line and its label).
+    type Fig<'a> = (&'a str, &'a str, Metric, (f64, f64), f64, &'a str);
+    let metrics: [Fig; 4] = [
         (
             "min margin (six bounds)",
             "min margin",

@@ -25,7 +25,11 @@ fn stiff_grasps_keep_every_law_s_class() {
     // box over 5000 N/m: 22 mm, measured 22.3 mm), inside the bounds but over the 10 mm limit.
     let pd = run(0, "PD (paper)");
     assert_eq!(pd.class, "degraded", "{}", pd.detail);
-    assert!(pd.track_mm > 15.0 && pd.track_mm < 30.0, "{}", pd.detail);
+    assert!(
+        pd.track_mm > 15.0 && pd.track_mm < 30.0 && pd.track_mm > TRACK_MM,
+        "{}",
+        pd.detail
+    );
     // The others track to a fraction of a millimetre (measured 0.11–0.14 mm; 1 mm leaves room
     // for a change of the path's sampling, not for a regression to the sag) with the margin of
     // the welded run (measured 0.40).
@@ -37,7 +41,6 @@ fn stiff_grasps_keep_every_law_s_class() {
         assert!(i.track_rad < 1e-3, "{name}: {}", c.detail);
         assert_eq!(i.substeps, 32, "√(1e5/1e-4) rad/s · 1 ms = 31.6 → 32 steps");
     }
-    assert!(TRACK_MM == 10.0);
 }
 
 /// 1e4 N/m, 1e2 N m/rad: every law's grasp slips (a named fault) in the start transient.
