@@ -288,12 +288,32 @@ pub fn spatial_s6_simulation(
     ),
     ModelError,
 > {
-    use crate::control::spatial::{SpatialController, SpatialControllerParams};
+    let p = crate::control::spatial::SpatialControllerParams::spec_s6(law);
+    spatial_s6_simulation_with(truth, model, &p, duration, plant_step, max_drift)
+}
+
+/// [`spatial_s6_simulation`] with the controller settings given whole (`p`, e.g.
+/// `SpatialControllerParams::spec_s6(law)` without the admittance), for studies that vary
+/// them; everything else (path, start, disturbance, sensors, rates) as there.
+pub fn spatial_s6_simulation_with(
+    truth: &crate::plant::spatial::SpatialPlantParams,
+    model: &SpatialSetup,
+    p: &crate::control::spatial::SpatialControllerParams,
+    duration: f64,
+    plant_step: f64,
+    max_drift: f64,
+) -> Result<
+    (
+        Simulation<crate::plant::spatial::SpatialPlant, crate::control::spatial::SpatialController>,
+        Vec<ControlWarning>,
+    ),
+    ModelError,
+> {
+    use crate::control::spatial::SpatialController;
     use crate::reference::se3_path::Se3Path;
     let path = Se3Path::spec_s6();
-    let p = SpatialControllerParams::spec_s6(law);
     let (c, warnings) =
-        SpatialController::new(&p, &model.params, path.clone(), duration, &model.q_guess)?;
+        SpatialController::new(p, &model.params, path.clone(), duration, &model.q_guess)?;
     let d0 = path.sample(0.0);
     let start = crate::sim::SpatialStart {
         x_wo: nalgebra::Isometry3::from_parts(
