@@ -759,11 +759,12 @@ fn cmd_robustness(a: RobustnessArgs) -> Result<ExitCode> {
     let dir = out.commit()?;
     let count = |c: &str| cells.iter().filter(|x| x.class == c).count();
     println!(
-        "{} runs in {} s: {} inside, {} degraded, {} faulted; report {}",
+        "{} runs in {} s: {} inside, {} degraded, {} outside the bounds, {} faulted; report {}",
         cells.len(),
         table::num(t0.elapsed().as_secs_f64(), 3),
         count("inside"),
         count("degraded"),
+        count("outside"),
         count("fault"),
         dir.join("robustness.md").display()
     );
