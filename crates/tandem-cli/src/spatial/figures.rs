@@ -493,9 +493,29 @@ pub fn compare_figures(dir: &Path, name: &str, runs: &[(&str, &Finished)]) -> Re
                     let mut q = p.clone();
                     panels.push(p);
                     if t_end > TRANSIENT * 1.5 {
-                        // After the transient, where the S5 claims hold.
-                        q.title = format!("{what} after {TRANSIENT} s");
-                        panels.push(q.x_range(TRANSIENT, t_end));
+                        // After the transient, where the S5 claims hold: zoomed onto the claim's
+                        // limit (1 mm, 1 mrad), so that a law far above it (the paper's PD sags
+                        // by centimetres) leaves the axes instead of flattening the others.
+                        let limit = 1e-3;
+                        let top = data
+                            .iter()
+                            .filter(|r| r.v[k].len() == r.t.len())
+                            .flat_map(|r| {
+                                r.t.iter()
+                                    .zip(&r.v[k])
+                                    .filter(|(t, _)| **t >= TRANSIENT)
+                                    .map(|(_, v)| *v)
+                            })
+                            .fold(0.0f64, f64::max);
+                        q.title = format!("{what} after {TRANSIENT} s (S5 limit {limit} {u})");
+                        q = q.x_range(TRANSIENT, t_end);
+                        if top > 1.5 * limit {
+                            q.title = format!(
+                                "{what} after {TRANSIENT} s, zoomed to the S5 limit ({limit} {u})"
+                            );
+                            q = q.y_range(0.0, 1.5 * limit);
+                        }
+                        panels.push(q.hline(limit, "S5 limit"));
                     }
                 }
                 let cols = if t_end > TRANSIENT * 1.5 { 2 } else { 1 };
