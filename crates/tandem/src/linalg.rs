@@ -162,9 +162,149 @@ pub fn all_finite(m: &DMatrix<f64>) -> bool {
     m.iter().all(|v| v.is_finite())
 }
 
+/// Solve `A x = b` for a 6 × 6 matrix given by rows (`a[i][j] = A_ij`) by Gaussian
+/// elimination with partial pivoting (the LU of `nalgebra::LU`, written out on fixed arrays:
+/// no generic views, no bounds checks in the loops). `None` if a pivot is exactly zero (a
+/// singular matrix); a non-finite entry gives non-finite entries in `x` (the caller checks).
+#[inline]
+pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
+    for k in 0..6 {
+        let (mut p, mut best) = (k, a[k][k].abs());
+        for (i, row) in a.iter().enumerate().skip(k + 1) {
+            let v = row[k].abs();
+            if v > best {
+                (p, best) = (i, v);
+            }
+        }
+        if best == 0.0 {
+            return None;
+        }
+        if p != k {
+            a.swap(p, k);
+            x.swap(p, k);
+        }
+        let inv = 1.0 / a[k][k];
+        let (top, rest) = a.split_at_mut(k + 1);
+        let pivot_row = &top[k];
+        for (off, row) in rest.iter_mut().enumerate() {
+            let l = row[k] * inv;
+            for j in k + 1..6 {
+                row[j] -= l * pivot_row[j];
+            }
+            x[k + 1 + off] -= l * x[k];
+        }
+    }
+    for i in (0..6).rev() {
+        let mut s = x[i];
+        for j in i + 1..6 {
+            s -= a[i][j] * x[j];
+        }
+        x[i] = s / a[i][i];
+    }
+    Some(x)
+}
+
+/// The Cholesky factor `A = L Lᵀ` of a 6 × 6 symmetric positive definite matrix on fixed
+/// arrays (`l[i][j]`, `j ≤ i`), and its solves. A plain copy (the distribution keeps one per
+/// tick and reuses it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cholesky6 {
+    l: [[f64; 6]; 6],
+}
+
+impl Cholesky6 {
+    /// Factor the lower triangle of `a` (rows: `a[i][j] = A_ij`, `j ≤ i` read); `None` unless
+    /// every pivot is positive (a NaN pivot included).
+    #[inline]
+    pub fn new(a: &[[f64; 6]; 6]) -> Option<Self> {
+        let mut l = [[0.0; 6]; 6];
+        for j in 0..6 {
+            let mut d = a[j][j];
+            for k in 0..j {
+                d -= l[j][k] * l[j][k];
+            }
+            if !(d > 0.0) {
+                return None;
+            }
+            let ljj = d.sqrt();
+            l[j][j] = ljj;
+            let inv = 1.0 / ljj;
+            for i in j + 1..6 {
+                let mut s = a[i][j];
+                for k in 0..j {
+                    s -= l[i][k] * l[j][k];
+                }
+                l[i][j] = s * inv;
+            }
+        }
+        Some(Cholesky6 { l })
+    }
+
+    /// `x = A⁻¹ b` (forward then back substitution).
+    #[inline]
+    pub fn solve(&self, b: &[f64; 6]) -> [f64; 6] {
+        let l = &self.l;
+        let mut y = [0.0; 6];
+        for i in 0..6 {
+            let mut s = b[i];
+            for k in 0..i {
+                s -= l[i][k] * y[k];
+            }
+            y[i] = s / l[i][i];
+        }
+        for i in (0..6).rev() {
+            let mut s = y[i];
+            for k in i + 1..6 {
+                s -= l[k][i] * y[k];
+            }
+            y[i] = s / l[i][i];
+        }
+        y
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fixed-size 6 × 6 LU and Cholesky solve random systems to round-off and agree with
+    /// nalgebra's factorisations; singular and indefinite inputs are refused.
+    #[test]
+    fn fixed_six_by_six_solvers_match_nalgebra() {
+        let mut r = crate::fixtures::SplitMix64(5);
+        for _ in 0..20 {
+            let g = nalgebra::Matrix6::from_iterator(r.vec(36, 1.0));
+            let b = nalgebra::Vector6::from_iterator(r.vec(6, 1.0));
+            let rows: [[f64; 6]; 6] = std::array::from_fn(|i| std::array::from_fn(|j| g[(i, j)]));
+            let x = lu_solve6(rows, b.into()).unwrap();
+            let want = g.lu().solve(&b).unwrap();
+            let x = nalgebra::Vector6::from(x);
+            // Both backward stable: they agree to a few ulps times the condition number.
+            let cond = g.norm() * g.try_inverse().unwrap().norm();
+            assert!(
+                (x - want).norm() <= 1e-14 * cond * want.norm(),
+                "LU {x} vs {want}"
+            );
+            assert!((g * x - b).norm() <= 1e-13 * g.norm() * x.norm());
+            let spd = g * g.transpose() + nalgebra::Matrix6::identity();
+            let rows: [[f64; 6]; 6] = std::array::from_fn(|i| std::array::from_fn(|j| spd[(i, j)]));
+            let y = nalgebra::Vector6::from(Cholesky6::new(&rows).unwrap().solve(&b.into()));
+            let want = spd.cholesky().unwrap().solve(&b);
+            let cond = spd.norm() * spd.try_inverse().unwrap().norm();
+            assert!(
+                (y - want).norm() <= 1e-14 * cond * want.norm(),
+                "Cholesky {y} vs {want}"
+            );
+        }
+        let mut sing = [[1.0; 6]; 6];
+        assert_eq!(lu_solve6(sing, [1.0; 6]), None);
+        sing[0][0] = -1.0;
+        assert_eq!(Cholesky6::new(&sing), None);
+        let mut nan = [[0.0; 6]; 6];
+        (0..6).for_each(|i| nan[i][i] = 1.0);
+        nan[3][3] = f64::NAN;
+        assert_eq!(Cholesky6::new(&nan), None);
+    }
 
     /// The row-major kernels solve `A X = B` for a random SPD `A` to round-off, and agree with
     /// the column-major Cholesky.

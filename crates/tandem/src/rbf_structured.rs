@@ -190,6 +190,62 @@ struct AxisNet {
     ws: RbfWorkspace,
     /// Start of this output's weights in the shared weight vector.
     offset: usize,
+    /// `(c_0, c_1, 1/ϑ²)` when the basis is a grid of four inputs on two levels (the default
+    /// per-axis network): evaluated by the fixed-size kernel [`pair4_tick`].
+    pair4: Option<(f64, f64, f64)>,
+}
+
+/// One output of the per-axis network on a grid of four inputs with two levels `c_0, c_1`
+/// each (16 nodes), fused: the factors `f_i[l] = e^{−(Z_i − c_l)²/ϑ²}` (8 exponentials), the
+/// Kronecker product `S = (f_0 ⊗ f_1) ⊗ (f_2 ⊗ f_3)`, the output `Ŵᵀ S` with the old weights,
+/// the exact update (44) `Ŵ ← e Ŵ − c S` and `‖Ŵ‖²` after it. Every operation and its order
+/// are those of [`Rbf::eval_into`] and the generic pass of [`StructuredNn::tick`], so the
+/// results are the same bits; only the bookkeeping (slices, offsets, loops over levels) is
+/// gone. Writes `S` into `s`; returns `(Ŵᵀ S, ‖Ŵ‖², ‖S‖²)`.
+#[inline(always)]
+fn pair4_tick(
+    z: &[f64; 4],
+    (c0, c1, inv_width2): (f64, f64, f64),
+    w: &mut [f64; 16],
+    decay: f64,
+    c: f64,
+    s: &mut [f64; 16],
+) -> (f64, f64, f64) {
+    let mut f = [[0.0; 2]; 4];
+    let mut s_n2 = 1.0;
+    for i in 0..4 {
+        let (d0, d1) = (z[i] - c0, z[i] - c1);
+        let f0 = (-(d0 * d0) * inv_width2).exp();
+        let f1 = (-(d1 * d1) * inv_width2).exp();
+        f[i] = [f0, f1];
+        s_n2 *= f0 * f0 + f1 * f1;
+    }
+    let a = [
+        f[0][0] * f[1][0],
+        f[0][0] * f[1][1],
+        f[0][1] * f[1][0],
+        f[0][1] * f[1][1],
+    ];
+    let b = [
+        f[2][0] * f[3][0],
+        f[2][0] * f[3][1],
+        f[2][1] * f[3][0],
+        f[2][1] * f[3][1],
+    ];
+    for i in 0..4 {
+        for j in 0..4 {
+            s[4 * i + j] = a[i] * b[j];
+        }
+    }
+    let (mut acc, mut n2) = (0.0, 0.0);
+    for k in 0..16 {
+        let old = w[k];
+        acc += old * s[k];
+        let new = decay * old - c * s[k];
+        w[k] = new;
+        n2 += new * new;
+    }
+    (acc, n2, s_n2)
 }
 
 // One per controller, built once: the size difference does not matter.
@@ -299,11 +355,13 @@ impl<const M: usize> StructuredNn<M> {
                         .map_err(|e| rename(e, "rbf.levels", &name))?;
                     let ws = rbf.workspace();
                     let n = rbf.n_nodes();
+                    let pair4 = rbf.two_level_four_input();
                     axes.push(AxisNet {
                         inputs: idx,
                         rbf,
                         ws,
                         offset,
+                        pair4,
                     });
                     offset += n;
                     if offset > MAX_NODES {
@@ -466,6 +524,21 @@ impl<const M: usize> StructuredNn<M> {
                 let mut f_hat = SVector::<f64, M>::zeros();
                 let mut w_norm = SVector::<f64, M>::zeros();
                 for (j, a) in axes.iter_mut().enumerate() {
+                    let c = g[j] * q * z2[j];
+                    if let Some(pair) = a.pair4 {
+                        // The default per-axis basis: the fixed-size kernel (same bits).
+                        let ins = &a.inputs;
+                        let zs = [z[ins[0]], z[ins[1]], z[ins[2]], z[ins[3]]];
+                        let wj: &mut [f64; 16] = (&mut w[a.offset..a.offset + 16])
+                            .try_into()
+                            .expect("a 16-node axis");
+                        let mut s = [0.0; 16];
+                        let (acc, n2, s_n2) = pair4_tick(&zs, pair, wj, e[j], c, &mut s);
+                        a.ws.store(&s, s_n2);
+                        f_hat[j] = acc;
+                        w_norm[j] = n2.sqrt();
+                        continue;
+                    }
                     // Z_{I_j}, then S_j on its grid (Kronecker form).
                     let zs = &mut z_sub[..a.inputs.len()];
                     for (o, &i) in zs.iter_mut().zip(&a.inputs) {
@@ -474,7 +547,6 @@ impl<const M: usize> StructuredNn<M> {
                     a.rbf.eval_into(zs, &mut a.ws);
                     let s = a.ws.s();
                     // Fused pass: f̂_j with the old weights, exact update (44), ‖Ŵ_j‖².
-                    let c = g[j] * q * z2[j];
                     let (mut acc, mut n2) = (0.0, 0.0);
                     for (wk, &sk) in w[a.offset..a.offset + s.len()].iter_mut().zip(s) {
                         let old = *wk;
@@ -542,6 +614,55 @@ mod tests {
         let vy: f64 = y.iter().map(|b| (b - my) * (b - my)).sum();
         let corr = cov / (vx * vy).sqrt();
         assert!(corr.abs() < 0.5, "bases 83 and 89 correlate: {corr}");
+    }
+
+    #[test]
+    fn the_fixed_size_axis_kernel_gives_the_generic_bits() {
+        // The default per-axis network (four inputs, two levels) takes `pair4_tick`; with the
+        // kernel switched off the same network takes the generic path (`Rbf::eval_into` and
+        // the slice pass). Both must give the same bits: outputs, norms, weights and S_j.
+        let upd = NnUpdate::<6>::new(
+            SVector::from_fn(|j, _| 0.5 + j as f64),
+            SVector::repeat(0.1),
+            1e-3,
+        )
+        .unwrap();
+        let mut fast =
+            StructuredNn::<6>::new(&NetworkStructure::per_axis(), &[-1.0, 1.0], 50.0, upd).unwrap();
+        let mut slow = fast.clone();
+        let Kind::PerAxis { axes, .. } = &mut slow.kind else {
+            panic!("per-axis");
+        };
+        for a in axes.iter_mut() {
+            assert!(a.pair4.is_some());
+            a.pair4 = None;
+        }
+        let mut state = 11u64;
+        let mut rnd = |lo: f64, hi: f64| {
+            state = splitmix64(state);
+            lo + (hi - lo) * (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..50 {
+            let z: Vec<f64> = (0..24).map(|_| rnd(-3.0, 3.0)).collect();
+            let z2 = SVector::<f64, 6>::from_fn(|_, _| rnd(-0.5, 0.5));
+            let q = rnd(0.0, 1.0);
+            let (a, b) = (fast.tick(&z, q, &z2), slow.tick(&z, q, &z2));
+            assert_eq!(a.f_hat, b.f_hat);
+            assert_eq!(a.w_norm, b.w_norm);
+            assert_eq!(fast.weights(), slow.weights());
+            for j in 0..6 {
+                assert_eq!(fast.basis_of(j), slow.basis_of(j));
+            }
+        }
+        assert!(fast.weights().iter().any(|&w| w != 0.0));
+        // Other shapes (three levels, five inputs) keep the generic path.
+        let three =
+            StructuredNn::<6>::new(&NetworkStructure::per_axis(), &[-1.0, 0.0, 1.0], 50.0, upd)
+                .unwrap();
+        let Kind::PerAxis { axes, .. } = &three.kind else {
+            panic!("per-axis");
+        };
+        assert!(axes.iter().all(|a| a.pair4.is_none()));
     }
 
     #[test]

@@ -444,14 +444,19 @@ impl ObjectModel {
             let d = &ws.data[i];
             let grav = &mut ws.grav[i][..6];
             dynamics::gravity_at_placements(arm, &self.g_W, grav, d);
-            let jt = d.J.fixed_view::<6, 6>(0, 0).transpose();
-            let Some(x) = jt.lu().solve(&Vector6::from_column_slice(grav)) else {
+            // Row k of Jᵀ is column k of J (contiguous: J is column-major, 6 rows).
+            let js = &d.J.as_slice()[..36];
+            let jt: [[f64; 6]; 6] =
+                std::array::from_fn(|k| js[6 * k..6 * k + 6].try_into().expect("six rows"));
+            let b: [f64; 6] = (&*grav).try_into().expect("six joints");
+            let Some(x) = crate::linalg::lu_solve6(jt, b) else {
                 return false;
             };
-            if !x.iter().all(|v| v.is_finite()) {
+            if x.iter().map(|v| v - v).sum::<f64>() != 0.0 {
+                // v − v is NaN exactly when v is not finite.
                 return false;
             }
-            ws.arms[i].g_x = x;
+            ws.arms[i].g_x = Vector6::from(x);
         }
         true
     }
