@@ -119,14 +119,12 @@ impl Distribution {
 
     /// `A = Σ G_iᵀ W⁻¹ G_i` factored, or `None` if non-finite; reused while `r` is bitwise the
     /// same as at the last call.
-    fn factor(&mut self, r: &[Vector3<f64>]) -> Option<Cholesky6> {
-        if self.last.is_some() && r[..self.m] == self.last_r[..] {
-            return self.last;
+    fn factor(&mut self, r: &[Vector3<f64>]) -> Option<&Cholesky6> {
+        if !(self.last.is_some() && r[..self.m] == self.last_r[..]) {
+            self.last = self.factor_new(r);
+            self.last_r.copy_from_slice(&r[..self.m]);
         }
-        let ch = self.factor_new(r);
-        self.last_r.copy_from_slice(&r[..self.m]);
-        self.last = ch;
-        ch
+        self.last.as_ref()
     }
 
     /// `A` in closed form: with `G_iᵀ = [[I, 0], [[r_i]×, I]]`,
@@ -173,10 +171,10 @@ impl Distribution {
         w: &mut [Vector6<f64>],
     ) -> bool {
         let m = self.m;
-        let Some(ch) = self.factor(r) else {
+        if self.factor(r).is_none() {
             w[..m].fill(Vector6::zeros());
             return false;
-        };
+        }
         // Squeeze pushes toward the centroid, and their net wrench.
         let mut c = Vector3::zeros();
         for ri in &r[..m] {
@@ -196,6 +194,7 @@ impl Distribution {
             net_s += stack(&lin(&s), &(ang(&s) + r[i].cross(&lin(&s))));
         }
         // w_i = s_i + W⁻¹ G_i A⁻¹ (F − G s): min-norm share plus the projected squeeze.
+        let ch = self.last.as_ref().expect("factored above");
         let lam = Vector6::from(ch.solve(&(f - net_s).into()));
         for i in 0..m {
             w[i] += self.share(&r[i], &lam);
@@ -213,10 +212,11 @@ impl Distribution {
         out: &mut [Vector6<f64>],
     ) -> bool {
         let m = self.m;
-        let Some(ch) = self.factor(r) else {
+        if self.factor(r).is_none() {
             out[..m].fill(Vector6::zeros());
             return false;
-        };
+        }
+        let ch = self.last.as_ref().expect("factored above");
         let lam = Vector6::from(ch.solve(&Self::net(&r[..m], &w[..m]).into()));
         for i in 0..m {
             out[i] = w[i] - self.share(&r[i], &lam);

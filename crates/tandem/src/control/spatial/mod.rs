@@ -661,15 +661,12 @@ impl SpatialController {
                 twist_dot: Vector6::zeros(),
             };
         }
-        let fit = crate::se3::fit(&self.x_og, &self.tools, &self.hint_hat);
-        if fit.degenerate {
-            return None;
-        }
-        self.hint_hat = fit.sample.q;
+        let fit = crate::se3::fit_sample(&self.x_og, &self.tools, &self.hint_hat)?;
+        self.hint_hat = fit.q;
         for (r, t) in self.r.iter_mut().zip(&self.tools) {
-            *r = t.p - fit.sample.p;
+            *r = t.p - fit.p;
         }
-        Some(fit.sample)
+        Some(fit)
     }
 
     /// Step 3: the reference pose sample (object level) at this tick; advances the generators.
@@ -694,12 +691,14 @@ impl SpatialController {
                 rec.non_finite |= flags.state_held != 0;
             }
         }
-        let fit = crate::se3::fit(&self.x_og, &self.ref_tools, &self.hint_r);
-        if fit.degenerate || !finite_sample(&fit.sample) {
+        let Some(fit) = crate::se3::fit_sample(&self.x_og, &self.ref_tools, &self.hint_r) else {
+            return *des;
+        };
+        if !finite_sample(&fit) {
             return *des;
         }
-        self.hint_r = fit.sample.q;
-        fit.sample
+        self.hint_r = fit.q;
+        fit
     }
 
     /// One control tick at time `t`: `(t, q, q̇, wrist wrenches) → τ_joint` into `tau` (n_q)
