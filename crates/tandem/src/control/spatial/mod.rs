@@ -731,8 +731,7 @@ impl SpatialController {
         let des = pose_sample(&s);
         // 3. Reference.
         let refs = self.reference(&des, meas, rec);
-        let rs = self.chart.sample(&refs);
-        let (x_r, xd_r, xdd_r) = (rs.x1, rs.x1_dot, rs.x1_ddot);
+        let (x_r, xd_r, xdd_r) = self.chart.coordinates(&refs);
         let z1 = x1 - x_r;
         let z1_dot = x2 - xd_r;
         // Object-level model at the measurements: the full one where a law or the null space
