@@ -162,18 +162,24 @@ pub fn all_finite(m: &DMatrix<f64>) -> bool {
     m.iter().all(|v| v.is_finite())
 }
 
+// The fixed 6 × 6 kernels below loop over the full `0..6` with `if` guards instead of
+// `k + 1..6`: constant trip counts let the compiler unroll every loop and fold the guards, so
+// no loop bookkeeping is left (the operations and their order are those of the plain loops).
+
 /// Solve `A x = b` for a 6 × 6 matrix given by rows (`a[i][j] = A_ij`) by Gaussian
 /// elimination with partial pivoting (the LU of `nalgebra::LU`, written out on fixed arrays:
-/// no generic views, no bounds checks in the loops). `None` if a pivot is exactly zero (a
+/// no generic views, no bounds checks, unrolled). `None` if a pivot is exactly zero (a
 /// singular matrix); a non-finite entry gives non-finite entries in `x` (the caller checks).
 #[inline]
 pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
     for k in 0..6 {
         let (mut p, mut best) = (k, a[k][k].abs());
-        for (i, row) in a.iter().enumerate().skip(k + 1) {
-            let v = row[k].abs();
-            if v > best {
-                (p, best) = (i, v);
+        for i in 0..6 {
+            if i > k {
+                let v = a[i][k].abs();
+                if v > best {
+                    (p, best) = (i, v);
+                }
             }
         }
         if best == 0.0 {
@@ -184,20 +190,25 @@ pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
             x.swap(p, k);
         }
         let inv = 1.0 / a[k][k];
-        let (top, rest) = a.split_at_mut(k + 1);
-        let pivot_row = &top[k];
-        for (off, row) in rest.iter_mut().enumerate() {
-            let l = row[k] * inv;
-            for j in k + 1..6 {
-                row[j] -= l * pivot_row[j];
+        for i in 0..6 {
+            if i > k {
+                let l = a[i][k] * inv;
+                for j in 0..6 {
+                    if j > k {
+                        a[i][j] -= l * a[k][j];
+                    }
+                }
+                x[i] -= l * x[k];
             }
-            x[k + 1 + off] -= l * x[k];
         }
     }
-    for i in (0..6).rev() {
+    for ii in 0..6 {
+        let i = 5 - ii;
         let mut s = x[i];
-        for j in i + 1..6 {
-            s -= a[i][j] * x[j];
+        for j in 0..6 {
+            if j > i {
+                s -= a[i][j] * x[j];
+            }
         }
         x[i] = s / a[i][i];
     }
@@ -205,8 +216,8 @@ pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
 }
 
 /// The Cholesky factor `A = L Lᵀ` of a 6 × 6 symmetric positive definite matrix on fixed
-/// arrays (`l[i][j]`, `j ≤ i`), and its solves. A plain copy (the distribution keeps one per
-/// tick and reuses it).
+/// arrays (`l[i][j]`, `j ≤ i`), and its solves. The distribution keeps one per tick and reuses
+/// it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cholesky6 {
     l: [[f64; 6]; 6],
@@ -220,8 +231,10 @@ impl Cholesky6 {
         let mut l = [[0.0; 6]; 6];
         for j in 0..6 {
             let mut d = a[j][j];
-            for k in 0..j {
-                d -= l[j][k] * l[j][k];
+            for k in 0..6 {
+                if k < j {
+                    d -= l[j][k] * l[j][k];
+                }
             }
             if !(d > 0.0) {
                 return None;
@@ -229,12 +242,16 @@ impl Cholesky6 {
             let ljj = d.sqrt();
             l[j][j] = ljj;
             let inv = 1.0 / ljj;
-            for i in j + 1..6 {
-                let mut s = a[i][j];
-                for k in 0..j {
-                    s -= l[i][k] * l[j][k];
+            for i in 0..6 {
+                if i > j {
+                    let mut s = a[i][j];
+                    for k in 0..6 {
+                        if k < j {
+                            s -= l[i][k] * l[j][k];
+                        }
+                    }
+                    l[i][j] = s * inv;
                 }
-                l[i][j] = s * inv;
             }
         }
         Some(Cholesky6 { l })
@@ -247,15 +264,20 @@ impl Cholesky6 {
         let mut y = [0.0; 6];
         for i in 0..6 {
             let mut s = b[i];
-            for k in 0..i {
-                s -= l[i][k] * y[k];
+            for k in 0..6 {
+                if k < i {
+                    s -= l[i][k] * y[k];
+                }
             }
             y[i] = s / l[i][i];
         }
-        for i in (0..6).rev() {
+        for ii in 0..6 {
+            let i = 5 - ii;
             let mut s = y[i];
-            for k in i + 1..6 {
-                s -= l[k][i] * y[k];
+            for k in 0..6 {
+                if k > i {
+                    s -= l[k][i] * y[k];
+                }
             }
             y[i] = s / l[i][i];
         }
