@@ -172,6 +172,9 @@ pub fn all_finite(m: &DMatrix<f64>) -> bool {
 /// singular matrix); a non-finite entry gives non-finite entries in `x` (the caller checks).
 #[inline]
 pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
+    // Reciprocal pivots: the back substitution multiplies (a chain of six divisions would
+    // dominate its latency).
+    let mut inv_piv = [0.0; 6];
     for k in 0..6 {
         let (mut p, mut best) = (k, a[k][k].abs());
         for i in 0..6 {
@@ -190,6 +193,7 @@ pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
             x.swap(p, k);
         }
         let inv = 1.0 / a[k][k];
+        inv_piv[k] = inv;
         for i in 0..6 {
             if i > k {
                 let l = a[i][k] * inv;
@@ -210,7 +214,7 @@ pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
                 s -= a[i][j] * x[j];
             }
         }
-        x[i] = s / a[i][i];
+        x[i] = s * inv_piv[i];
     }
     Some(x)
 }
@@ -221,6 +225,8 @@ pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cholesky6 {
     l: [[f64; 6]; 6],
+    /// `1/L_ii` (the solves multiply: a chain of divisions would dominate their latency).
+    inv_d: [f64; 6],
 }
 
 impl Cholesky6 {
@@ -229,6 +235,7 @@ impl Cholesky6 {
     #[inline]
     pub fn new(a: &[[f64; 6]; 6]) -> Option<Self> {
         let mut l = [[0.0; 6]; 6];
+        let mut inv_d = [0.0; 6];
         for j in 0..6 {
             let mut d = a[j][j];
             for k in 0..6 {
@@ -242,6 +249,7 @@ impl Cholesky6 {
             let ljj = d.sqrt();
             l[j][j] = ljj;
             let inv = 1.0 / ljj;
+            inv_d[j] = inv;
             for i in 0..6 {
                 if i > j {
                     let mut s = a[i][j];
@@ -254,13 +262,13 @@ impl Cholesky6 {
                 }
             }
         }
-        Some(Cholesky6 { l })
+        Some(Cholesky6 { l, inv_d })
     }
 
     /// `x = A⁻¹ b` (forward then back substitution).
     #[inline]
     pub fn solve(&self, b: &[f64; 6]) -> [f64; 6] {
-        let l = &self.l;
+        let (l, inv_d) = (&self.l, &self.inv_d);
         let mut y = [0.0; 6];
         for i in 0..6 {
             let mut s = b[i];
@@ -269,7 +277,7 @@ impl Cholesky6 {
                     s -= l[i][k] * y[k];
                 }
             }
-            y[i] = s / l[i][i];
+            y[i] = s * inv_d[i];
         }
         for ii in 0..6 {
             let i = 5 - ii;
@@ -279,7 +287,7 @@ impl Cholesky6 {
                     s -= l[k][i] * y[k];
                 }
             }
-            y[i] = s / l[i][i];
+            y[i] = s * inv_d[i];
         }
         y
     }
