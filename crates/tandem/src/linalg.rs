@@ -172,6 +172,13 @@ pub fn all_finite(m: &DMatrix<f64>) -> bool {
 /// singular matrix); a non-finite entry gives non-finite entries in `x` (the caller checks).
 #[inline]
 pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
+    lu_solve6_in_place(&mut a, &mut x).then_some(x)
+}
+
+/// [`lu_solve6`] in place: `a` is overwritten by its factors, `x` (given `b`) by the solution;
+/// `false` (and `x` unusable) for a zero pivot. No copies of the matrix.
+#[inline]
+pub fn lu_solve6_in_place(a: &mut [[f64; 6]; 6], x: &mut [f64; 6]) -> bool {
     // Reciprocal pivots: the back substitution multiplies (a chain of six divisions would
     // dominate its latency).
     let mut inv_piv = [0.0; 6];
@@ -186,7 +193,7 @@ pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
             }
         }
         if best == 0.0 {
-            return None;
+            return false;
         }
         if p != k {
             a.swap(p, k);
@@ -216,7 +223,7 @@ pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
         }
         x[i] = s * inv_piv[i];
     }
-    Some(x)
+    true
 }
 
 /// The Cholesky factor `A = L Lᵀ` of a 6 × 6 symmetric positive definite matrix on fixed
@@ -234,8 +241,18 @@ impl Cholesky6 {
     /// every pivot is positive (a NaN pivot included).
     #[inline]
     pub fn new(a: &[[f64; 6]; 6]) -> Option<Self> {
-        let mut l = [[0.0; 6]; 6];
-        let mut inv_d = [0.0; 6];
+        let mut c = Cholesky6 {
+            l: [[0.0; 6]; 6],
+            inv_d: [0.0; 6],
+        };
+        c.refactor(a).then_some(c)
+    }
+
+    /// [`Cholesky6::new`] into `self` (no copy of the factor); `false` (and `self` unusable)
+    /// unless every pivot is positive.
+    #[inline]
+    pub fn refactor(&mut self, a: &[[f64; 6]; 6]) -> bool {
+        let Cholesky6 { l, inv_d } = self;
         for j in 0..6 {
             let mut d = a[j][j];
             for k in 0..6 {
@@ -244,7 +261,7 @@ impl Cholesky6 {
                 }
             }
             if !(d > 0.0) {
-                return None;
+                return false;
             }
             let ljj = d.sqrt();
             l[j][j] = ljj;
@@ -262,7 +279,7 @@ impl Cholesky6 {
                 }
             }
         }
-        Some(Cholesky6 { l, inv_d })
+        true
     }
 
     /// `x = A⁻¹ b` (forward then back substitution).

@@ -80,7 +80,11 @@ pub struct Distribution {
     /// The lever arms of the last factorisation and its factor: a tick distributes several
     /// wrenches over the same grasps, and `A` depends on `r` only.
     last_r: Vec<Vector3<f64>>,
-    last: Option<Cholesky6>,
+    last: Cholesky6,
+    /// `last` holds the factor of `A(last_r)`.
+    last_ok: bool,
+    /// `last_r` and `last` are set (the first call factors).
+    primed: bool,
 }
 
 impl Distribution {
@@ -96,7 +100,12 @@ impl Distribution {
             metric_length,
             l2: metric_length * metric_length,
             last_r: vec![Vector3::zeros(); m],
-            last: None,
+            last: Cholesky6::new(&std::array::from_fn(|i| {
+                std::array::from_fn(|j| if i == j { 1.0 } else { 0.0 })
+            }))
+            .expect("the identity is SPD"),
+            last_ok: false,
+            primed: false,
         })
     }
 
@@ -120,18 +129,20 @@ impl Distribution {
     /// `A = Σ G_iᵀ W⁻¹ G_i` factored, or `None` if non-finite; reused while `r` is bitwise the
     /// same as at the last call.
     fn factor(&mut self, r: &[Vector3<f64>]) -> Option<&Cholesky6> {
-        if !(self.last.is_some() && r[..self.m] == self.last_r[..]) {
-            self.last = self.factor_new(r);
+        if !(self.primed && r[..self.m] == self.last_r[..]) {
+            self.last_ok = self.factor_new(r);
             self.last_r.copy_from_slice(&r[..self.m]);
+            self.primed = true;
         }
-        self.last.as_ref()
+        self.last_ok.then_some(&self.last)
     }
 
     /// `A` in closed form: with `G_iᵀ = [[I, 0], [[r_i]×, I]]`,
     /// `G_iᵀ W⁻¹ G_i = [[I, −[r_i]×], [[r_i]×, L² I − [r_i]×²]]` and `−[r]×² = |r|² I − r rᵀ`, so
     /// `A = [[m I, −[Σr]×], [[Σr]×, m L² I + Σ(|r_i|² I − r_i r_iᵀ)]]`.
-    /// Only the lower triangle is assembled (the factorisation reads no more), on fixed arrays.
-    fn factor_new(&self, r: &[Vector3<f64>]) -> Option<Cholesky6> {
+    /// Only the lower triangle is assembled (the factorisation reads no more), on fixed arrays;
+    /// factored into `self.last`, `false` if `A` is not finite or not positive definite.
+    fn factor_new(&mut self, r: &[Vector3<f64>]) -> bool {
         let m = self.m as f64;
         let mut sum = Vector3::zeros();
         let mut lower = nalgebra::Matrix3::from_diagonal_element(m * self.l2);
@@ -152,9 +163,9 @@ impl Distribution {
         }
         // v − v is NaN exactly when v is not finite.
         if a.iter().flatten().map(|v| v - v).sum::<f64>() != 0.0 {
-            return None;
+            return false;
         }
-        Cholesky6::new(&a)
+        self.last.refactor(&a)
     }
 
     /// `w = G⁺_W F + P_N s(squeeze)` (module doc): `r[i] = p_WTi − p_WO` (m entries, world
@@ -194,7 +205,7 @@ impl Distribution {
             net_s += stack(&lin(&s), &(ang(&s) + r[i].cross(&lin(&s))));
         }
         // w_i = s_i + W⁻¹ G_i A⁻¹ (F − G s): min-norm share plus the projected squeeze.
-        let ch = self.last.as_ref().expect("factored above");
+        let ch = &self.last;
         let lam = Vector6::from(ch.solve(&(f - net_s).into()));
         for i in 0..m {
             w[i] += self.share(&r[i], &lam);
@@ -216,7 +227,7 @@ impl Distribution {
             out[..m].fill(Vector6::zeros());
             return false;
         }
-        let ch = self.last.as_ref().expect("factored above");
+        let ch = &self.last;
         let lam = Vector6::from(ch.solve(&Self::net(&r[..m], &w[..m]).into()));
         for i in 0..m {
             out[i] = w[i] - self.share(&r[i], &lam);

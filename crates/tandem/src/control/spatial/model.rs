@@ -446,12 +446,15 @@ impl ObjectModel {
             dynamics::gravity_at_placements(arm, &self.g_W, grav, d);
             // Row k of Jᵀ is column k of J (contiguous: J is column-major, 6 rows).
             let js = &d.J.as_slice()[..36];
-            let jt: [[f64; 6]; 6] =
-                std::array::from_fn(|k| js[6 * k..6 * k + 6].try_into().expect("six rows"));
-            let b: [f64; 6] = (&*grav).try_into().expect("six joints");
-            let Some(x) = crate::linalg::lu_solve6(jt, b) else {
+            let mut jt = [[0.0; 6]; 6];
+            for (row, col) in jt.iter_mut().zip(js.chunks_exact(6)) {
+                row.copy_from_slice(col);
+            }
+            let mut x = [0.0; 6];
+            x.copy_from_slice(grav);
+            if !crate::linalg::lu_solve6_in_place(&mut jt, &mut x) {
                 return false;
-            };
+            }
             if x.iter().map(|v| v - v).sum::<f64>() != 0.0 {
                 // v − v is NaN exactly when v is not finite.
                 return false;
