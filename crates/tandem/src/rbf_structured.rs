@@ -37,7 +37,11 @@
 //!
 //! [`StructuredNn::tick`] is allocation-free. Per-axis: the Kronecker form of [`Rbf::grid`] on
 //! each output's inputs, then one fused pass over that output's weights (output with the old
-//! weights, exact update, norm), in a fixed order. Shared bases (full grid, quasi-random) go
+//! weights, exact update, norm), in a fixed order. The default axis grid (four inputs, two
+//! levels, 16 nodes) goes through a fixed-size kernel (`pair4_tick`) that does the same on
+//! arrays; for networks of six or more outputs (the spatial law) it also shares exponentials
+//! between the factors (five a node grid instead of eight, a few ulps from the direct form),
+//! for the planar ones it keeps the direct factors and the generic path's bits. Shared bases (full grid, quasi-random) go
 //! through [`RbfNetwork::tick_at`] (the fused AVX2 pass of [`crate::rbf`]).
 
 use nalgebra::{DMatrix, SVector};
@@ -194,6 +198,10 @@ struct AxisNet {
     /// per-axis network): evaluated by the fixed-size kernel [`pair4_tick`] (shared
     /// exponentials).
     pair4: Option<(f64, f64, f64)>,
+    /// Share exponentials in [`pair4_tick`] (networks of [`SHARED_EXP_MIN_OUTPUTS`] or more
+    /// outputs); otherwise the kernel computes every factor directly, the bits of the generic
+    /// path.
+    share_exp: bool,
 }
 
 /// Largest `|2 δ y_i/ϑ²|` for which [`pair4_tick`] shares the exponentials; beyond it (or
@@ -203,6 +211,10 @@ struct AxisNet {
 const SHARED_EXP_LIMIT: f64 = 100.0;
 /// Largest `(Σ y_i² + 4δ²)/ϑ²` for which [`pair4_tick`] shares the exponentials.
 const SHARED_GAUSS_LIMIT: f64 = 400.0;
+/// Networks with at least this many outputs (the spatial law's six) share exponentials in
+/// [`pair4_tick`]; the planar laws' networks (two or three outputs) compute every factor
+/// directly, so planar results stay bit for bit those of the generic path (a project rule).
+pub const SHARED_EXP_MIN_OUTPUTS: usize = 6;
 
 /// One output of the per-axis network on a grid of four inputs with two levels `c_0, c_1`
 /// each (16 nodes), fused: the basis (8), the output `Ŵᵀ S` with the old weights, the exact
@@ -219,13 +231,15 @@ const SHARED_GAUSS_LIMIT: f64 = 400.0;
 /// `S = e^{−(Σ y_i² + 4δ²)/ϑ²} (t_0^{∓} ⊗ t_1^{∓}) ⊗ (t_2^{∓} ⊗ t_3^{∓})`: five exponentials
 /// and four reciprocals instead of eight exponentials, `‖S‖² = e^{−2(…)/ϑ²} Π(t_i² + t_i^{−2})`.
 /// Agrees with the direct (8) to a few ulps (test
-/// `the_fixed_size_axis_kernel_agrees_with_the_generic_path`); where some `|2δ y_i/ϑ²|`
-/// exceeds [`SHARED_EXP_LIMIT`] or the Gaussian part [`SHARED_GAUSS_LIMIT`] (an input far
-/// outside the grid) the factors are direct.
+/// `the_fixed_size_axis_kernel_agrees_with_the_generic_path`). Without `share` (planar
+/// networks), or where some `|2δ y_i/ϑ²|` exceeds [`SHARED_EXP_LIMIT`] or the Gaussian part
+/// [`SHARED_GAUSS_LIMIT`] (an input far outside the grid), the factors are direct, with the
+/// operations and order of [`Rbf::eval_into`] and the generic pass: the same bits.
 #[inline(always)]
 fn pair4_tick(
     z: &[f64; 4],
     (c0, c1, inv_width2): (f64, f64, f64),
+    share: bool,
     w: &mut [f64; 16],
     decay: f64,
     c: f64,
@@ -238,7 +252,9 @@ fn pair4_tick(
     let mut f = [[0.0; 2]; 4];
     let g;
     let r2 = 4.0 * half * half + y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3];
-    if y.iter().all(|&v| (k * v).abs() <= SHARED_EXP_LIMIT) && r2 * inv_width2 <= SHARED_GAUSS_LIMIT
+    if share
+        && y.iter().all(|&v| (k * v).abs() <= SHARED_EXP_LIMIT)
+        && r2 * inv_width2 <= SHARED_GAUSS_LIMIT
     {
         for i in 0..4 {
             let t = (k * y[i]).exp();
@@ -401,6 +417,7 @@ impl<const M: usize> StructuredNn<M> {
                         ws,
                         offset,
                         pair4,
+                        share_exp: M >= SHARED_EXP_MIN_OUTPUTS,
                     });
                     offset += n;
                     if offset > MAX_NODES {
@@ -572,7 +589,8 @@ impl<const M: usize> StructuredNn<M> {
                             .try_into()
                             .expect("a 16-node axis");
                         let mut s = [0.0; 16];
-                        let (acc, n2, s_n2) = pair4_tick(&zs, pair, wj, e[j], c, &mut s);
+                        let (acc, n2, s_n2) =
+                            pair4_tick(&zs, pair, a.share_exp, wj, e[j], c, &mut s);
                         a.ws.store(&s, s_n2);
                         f_hat[j] = acc;
                         w_norm[j] = n2.sqrt();
@@ -680,7 +698,7 @@ mod tests {
                 panic!("per-axis");
             };
             for a in axes.iter_mut() {
-                assert!(a.pair4.is_some());
+                assert!(a.pair4.is_some() && a.share_exp);
                 a.pair4 = None;
             }
             let mut state = 11u64;
@@ -719,6 +737,37 @@ mod tests {
             }
             assert!(fast.weights().iter().any(|&w| w != 0.0));
         }
+        // Planar networks (three outputs) take the kernel with direct factors: the same bits
+        // as the generic path.
+        let upd3 = NnUpdate::<3>::new(SVector::repeat(2.0), SVector::repeat(0.1), 1e-3).unwrap();
+        let mut fast =
+            StructuredNn::<3>::new(&NetworkStructure::per_axis(), &[-1.0, 1.0], 50.0, upd3)
+                .unwrap();
+        let mut slow = fast.clone();
+        let Kind::PerAxis { axes, .. } = &mut slow.kind else {
+            panic!("per-axis");
+        };
+        for a in axes.iter_mut() {
+            assert!(a.pair4.is_some() && !a.share_exp);
+            a.pair4 = None;
+        }
+        let mut state = 5u64;
+        for _ in 0..200 {
+            let mut rnd = |lo: f64, hi: f64| {
+                state = splitmix64(state);
+                lo + (hi - lo) * (state >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let z: Vec<f64> = (0..12).map(|_| rnd(-3.0, 3.0)).collect();
+            let z2 = SVector::<f64, 3>::from_fn(|_, _| rnd(-0.5, 0.5));
+            let q = rnd(0.0, 1.0);
+            let (a, b) = (fast.tick(&z, q, &z2), slow.tick(&z, q, &z2));
+            assert_eq!((a.f_hat, a.w_norm), (b.f_hat, b.w_norm));
+            assert_eq!(fast.weights(), slow.weights());
+            for j in 0..3 {
+                assert_eq!(fast.basis_of(j), slow.basis_of(j));
+            }
+        }
+        assert!(fast.weights().iter().any(|&w| w != 0.0));
         // Other shapes (three levels) keep the generic path.
         let upd = NnUpdate::<6>::new(SVector::repeat(1.0), SVector::repeat(0.1), 1e-3).unwrap();
         let three =
