@@ -78,6 +78,15 @@
 use nalgebra::{Isometry3, Matrix3, Matrix6, Translation3, UnitQuaternion, Vector3, Vector6};
 
 use super::PoseSample;
+
+/// `(φ, φ̇, φ̈, J_l⁻¹(φ), d/dt J_l⁻¹)` of a pose sample in a chart.
+type Angles = (
+    Vector3<f64>,
+    Vector3<f64>,
+    Vector3<f64>,
+    Matrix3<f64>,
+    Matrix3<f64>,
+);
 use crate::spatial::motion::{ang, lin, stack};
 use crate::spatial::so3::{self, SERIES_THRESHOLD, hat};
 
@@ -219,16 +228,7 @@ impl Chart {
     /// `(φ, φ̇, φ̈, J_l⁻¹(φ), d/dt J_l⁻¹)` of a sample (shared by [`Chart::sample`] and
     /// [`Chart::coordinates`]).
     #[inline(always)]
-    fn angles(
-        &self,
-        s: &PoseSample,
-    ) -> (
-        Vector3<f64>,
-        Vector3<f64>,
-        Vector3<f64>,
-        Matrix3<f64>,
-        Matrix3<f64>,
-    ) {
+    fn angles(&self, s: &PoseSample) -> Angles {
         // φ from the relative quaternion (Log: accurate at 0 and π).
         let q_ref_inv = self.r_ref.inverse();
         let phi = so3::log_quat(&(q_ref_inv * s.q));

@@ -161,8 +161,7 @@ impl Distribution {
                 a[3 + i][3 + j] = lower[(i, j)];
             }
         }
-        // v − v is NaN exactly when v is not finite.
-        if a.iter().flatten().map(|v| v - v).sum::<f64>() != 0.0 {
+        if !crate::linalg::finite_slice(a.as_flattened()) {
             return false;
         }
         self.last.refactor(&a)

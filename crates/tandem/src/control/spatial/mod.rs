@@ -43,6 +43,7 @@ use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 use crate::adaptive::{AdaptiveNn, FuBound, NnInternals};
 use crate::control::{ControlEvents, ControlWarning, Scheme};
 use crate::error::{ModelError, non_negative, positive};
+use crate::linalg::finite_slice;
 use crate::plant::spatial::object::RigidObject;
 use crate::plant::spatial::{SpatialPlant, SpatialPlantParams};
 use crate::reference::admittance_se3::{
@@ -720,7 +721,7 @@ impl SpatialController {
         };
         let cs = self.chart.sample(&obj);
         let (x1, x2) = (cs.x1, cs.x1_dot);
-        if !(all_finite(x1.as_slice()) && all_finite(x2.as_slice())) {
+        if !(finite_slice(x1.as_slice()) && finite_slice(x2.as_slice())) {
             self.events.non_finite += 1;
             rec.non_finite = true;
             tau.fill(0.0);
@@ -799,7 +800,7 @@ impl SpatialController {
                 Distribution::net(&self.r, &self.w)
             }
         };
-        if !all_finite(f.as_slice()) {
+        if !finite_slice(f.as_slice()) {
             rec.non_finite = true;
             f = Vector6::zeros();
         }
@@ -939,18 +940,10 @@ impl Drive<SpatialPlant> for SpatialController {
 
 /// Every component of a pose sample is finite.
 fn finite_sample(s: &PoseSample) -> bool {
-    all_finite(s.p.as_slice())
-        && all_finite(s.q.coords.as_slice())
-        && all_finite(s.twist.as_slice())
-        && all_finite(s.twist_dot.as_slice())
-}
-
-/// Every entry is finite: `v − v` is `0` for a finite `v` and NaN for an infinite or NaN one,
-/// and a sum of zeros stays `0` while one NaN makes it NaN. Branch-free (the checks of a tick
-/// run over some hundred values).
-#[inline]
-fn all_finite(v: &[f64]) -> bool {
-    v.iter().map(|x| x - x).sum::<f64>() == 0.0
+    finite_slice(s.p.as_slice())
+        && finite_slice(s.q.coords.as_slice())
+        && finite_slice(s.twist.as_slice())
+        && finite_slice(s.twist_dot.as_slice())
 }
 
 /// A sub-module's error re-labelled with the controller's parameter name.

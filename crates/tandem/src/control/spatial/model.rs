@@ -455,8 +455,7 @@ impl ObjectModel {
             if !crate::linalg::lu_solve6_in_place(&mut jt, &mut x) {
                 return false;
             }
-            if x.iter().map(|v| v - v).sum::<f64>() != 0.0 {
-                // v − v is NaN exactly when v is not finite.
+            if !crate::linalg::finite_slice(&x) {
                 return false;
             }
             ws.arms[i].g_x = Vector6::from(x);
