@@ -212,7 +212,7 @@ const SHARED_EXP_LIMIT: f64 = 100.0;
 /// Largest `(Σ y_i² + 4δ²)/ϑ²` for which [`pair4_tick`] shares the exponentials.
 const SHARED_GAUSS_LIMIT: f64 = 400.0;
 /// Networks with at least this many outputs (the spatial law's six) share exponentials in
-/// [`pair4_tick`]; the planar laws' networks (two or three outputs) compute every factor
+/// the fixed-size per-axis kernel (`pair4_tick`); the planar laws' networks (two or three outputs) compute every factor
 /// directly, so planar results stay bit for bit those of the generic path (a project rule).
 pub const SHARED_EXP_MIN_OUTPUTS: usize = 6;
 
