@@ -524,7 +524,17 @@ impl<const N: usize> AdaptiveNn<N> {
         let mut tau = SVector::<f64, N>::zeros();
         for j in 0..N {
             let fu = self.fu.eval(j, nx2, na, nad);
-            let phi_b = -fu * (fu * z2[j] / self.varpi).tanh();
+            // With Q = 1 the robust term is weighted by (1 − Q) = +0: the product is ±0 with
+            // the sign of φ_b. For a finite x, clamp(x, −1, 1) has the sign and zero-ness of
+            // tanh(x) and keeps −f^U·(it) finite, so it stands in for tanh(x) there with the
+            // same bits (the NN branch skips the tanh).
+            let x = fu * z2[j] / self.varpi;
+            let th = if q == 1.0 && x.is_finite() {
+                x.clamp(-1.0, 1.0)
+            } else {
+                x.tanh()
+            };
+            let phi_b = -fu * th;
             let sgn = if z2[j] > 0.0 {
                 1.0
             } else if z2[j] < 0.0 {

@@ -162,9 +162,226 @@ pub fn all_finite(m: &DMatrix<f64>) -> bool {
     m.iter().all(|v| v.is_finite())
 }
 
+/// `true` when every entry is finite, branch-free: `v − v` is `0` for a finite `v` and NaN for
+/// an infinite or NaN one, and a sum of zeros stays `0` while one NaN makes it NaN (the checks
+/// of a control tick run over some hundred values; a short-circuiting `all` over chained
+/// iterators cost more than the arithmetic it guards).
+#[inline]
+#[allow(clippy::eq_op)] // v − v is the point: it is NaN exactly for non-finite v.
+pub fn finite_slice(v: &[f64]) -> bool {
+    v.iter().map(|x| x - x).sum::<f64>() == 0.0
+}
+
+// The fixed 6 × 6 kernels below loop over the full `0..6` with `if` guards instead of
+// `k + 1..6`: constant trip counts let the compiler unroll every loop and fold the guards, so
+// no loop bookkeeping is left (the operations and their order are those of the plain loops).
+
+/// Solve `A x = b` for a 6 × 6 matrix given by rows (`a[i][j] = A_ij`) by Gaussian
+/// elimination with partial pivoting (the LU of `nalgebra::LU`, written out on fixed arrays:
+/// no generic views, no bounds checks, unrolled). `None` if a pivot is exactly zero (a
+/// singular matrix); a non-finite entry gives non-finite entries in `x` (the caller checks).
+#[inline]
+pub fn lu_solve6(mut a: [[f64; 6]; 6], mut x: [f64; 6]) -> Option<[f64; 6]> {
+    lu_solve6_in_place(&mut a, &mut x).then_some(x)
+}
+
+/// [`lu_solve6`] in place: `a` is overwritten by its factors, `x` (given `b`) by the solution;
+/// `false` (and `x` unusable) for a zero pivot. No copies of the matrix.
+#[inline]
+pub fn lu_solve6_in_place(a: &mut [[f64; 6]; 6], x: &mut [f64; 6]) -> bool {
+    // Reciprocal pivots: the back substitution multiplies (a chain of six divisions would
+    // dominate its latency).
+    let mut inv_piv = [0.0; 6];
+    for k in 0..6 {
+        let (mut p, mut best) = (k, a[k][k].abs());
+        for i in 0..6 {
+            if i > k {
+                let v = a[i][k].abs();
+                if v > best {
+                    (p, best) = (i, v);
+                }
+            }
+        }
+        if best == 0.0 {
+            return false;
+        }
+        if p != k {
+            a.swap(p, k);
+            x.swap(p, k);
+        }
+        let inv = 1.0 / a[k][k];
+        inv_piv[k] = inv;
+        for i in 0..6 {
+            if i > k {
+                let l = a[i][k] * inv;
+                for j in 0..6 {
+                    if j > k {
+                        a[i][j] -= l * a[k][j];
+                    }
+                }
+                x[i] -= l * x[k];
+            }
+        }
+    }
+    for ii in 0..6 {
+        let i = 5 - ii;
+        let mut s = x[i];
+        for j in 0..6 {
+            if j > i {
+                s -= a[i][j] * x[j];
+            }
+        }
+        x[i] = s * inv_piv[i];
+    }
+    true
+}
+
+/// The Cholesky factor `A = L Lᵀ` of a 6 × 6 symmetric positive definite matrix on fixed
+/// arrays (`l[i][j]`, `j ≤ i`), and its solves. The distribution keeps one per tick and reuses
+/// it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cholesky6 {
+    l: [[f64; 6]; 6],
+    /// `1/L_ii` (the solves multiply: a chain of divisions would dominate their latency).
+    inv_d: [f64; 6],
+}
+
+impl Cholesky6 {
+    /// Factor the lower triangle of `a` (rows: `a[i][j] = A_ij`, `j ≤ i` read); `None` unless
+    /// every pivot is positive (a NaN pivot included).
+    #[inline]
+    pub fn new(a: &[[f64; 6]; 6]) -> Option<Self> {
+        let mut c = Cholesky6 {
+            l: [[0.0; 6]; 6],
+            inv_d: [0.0; 6],
+        };
+        c.refactor(a).then_some(c)
+    }
+
+    /// [`Cholesky6::new`] into `self` (no copy of the factor); `false` (and `self` unusable)
+    /// unless every pivot is positive.
+    #[inline]
+    pub fn refactor(&mut self, a: &[[f64; 6]; 6]) -> bool {
+        let Cholesky6 { l, inv_d } = self;
+        for j in 0..6 {
+            let mut d = a[j][j];
+            for k in 0..6 {
+                if k < j {
+                    d -= l[j][k] * l[j][k];
+                }
+            }
+            if !(d > 0.0) {
+                return false;
+            }
+            let ljj = d.sqrt();
+            l[j][j] = ljj;
+            let inv = 1.0 / ljj;
+            inv_d[j] = inv;
+            for i in 0..6 {
+                if i > j {
+                    let mut s = a[i][j];
+                    for k in 0..6 {
+                        if k < j {
+                            s -= l[i][k] * l[j][k];
+                        }
+                    }
+                    l[i][j] = s * inv;
+                }
+            }
+        }
+        true
+    }
+
+    /// `x = A⁻¹ b` (forward then back substitution).
+    #[inline]
+    pub fn solve(&self, b: &[f64; 6]) -> [f64; 6] {
+        let (l, inv_d) = (&self.l, &self.inv_d);
+        let mut y = [0.0; 6];
+        for i in 0..6 {
+            let mut s = b[i];
+            for k in 0..6 {
+                if k < i {
+                    s -= l[i][k] * y[k];
+                }
+            }
+            y[i] = s * inv_d[i];
+        }
+        for ii in 0..6 {
+            let i = 5 - ii;
+            let mut s = y[i];
+            for k in 0..6 {
+                if k > i {
+                    s -= l[k][i] * y[k];
+                }
+            }
+            y[i] = s * inv_d[i];
+        }
+        y
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn finite_slice_finds_every_non_finite_value() {
+        assert!(finite_slice(&[]));
+        assert!(finite_slice(&[
+            0.0,
+            -0.0,
+            f64::MAX,
+            -f64::MAX,
+            f64::MIN_POSITIVE,
+            1e-320
+        ]));
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            for k in 0..4 {
+                let mut v = [1.0, f64::MAX, -3.0, 1e300];
+                v[k] = bad;
+                assert!(!finite_slice(&v), "{v:?}");
+            }
+        }
+    }
+
+    /// The fixed-size 6 × 6 LU and Cholesky solve random systems to round-off and agree with
+    /// nalgebra's factorisations; singular and indefinite inputs are refused.
+    #[test]
+    fn fixed_six_by_six_solvers_match_nalgebra() {
+        let mut r = crate::fixtures::SplitMix64(5);
+        for _ in 0..20 {
+            let g = nalgebra::Matrix6::from_iterator(r.vec(36, 1.0));
+            let b = nalgebra::Vector6::from_iterator(r.vec(6, 1.0));
+            let rows: [[f64; 6]; 6] = std::array::from_fn(|i| std::array::from_fn(|j| g[(i, j)]));
+            let x = lu_solve6(rows, b.into()).unwrap();
+            let want = g.lu().solve(&b).unwrap();
+            let x = nalgebra::Vector6::from(x);
+            // Both backward stable: they agree to a few ulps times the condition number.
+            let cond = g.norm() * g.try_inverse().unwrap().norm();
+            assert!(
+                (x - want).norm() <= 1e-14 * cond * want.norm(),
+                "LU {x} vs {want}"
+            );
+            assert!((g * x - b).norm() <= 1e-13 * g.norm() * x.norm());
+            let spd = g * g.transpose() + nalgebra::Matrix6::identity();
+            let rows: [[f64; 6]; 6] = std::array::from_fn(|i| std::array::from_fn(|j| spd[(i, j)]));
+            let y = nalgebra::Vector6::from(Cholesky6::new(&rows).unwrap().solve(&b.into()));
+            let want = spd.cholesky().unwrap().solve(&b);
+            let cond = spd.norm() * spd.try_inverse().unwrap().norm();
+            assert!(
+                (y - want).norm() <= 1e-14 * cond * want.norm(),
+                "Cholesky {y} vs {want}"
+            );
+        }
+        let mut sing = [[1.0; 6]; 6];
+        assert_eq!(lu_solve6(sing, [1.0; 6]), None);
+        sing[0][0] = -1.0;
+        assert_eq!(Cholesky6::new(&sing), None);
+        let mut nan = [[0.0; 6]; 6];
+        (0..6).for_each(|i| nan[i][i] = 1.0);
+        nan[3][3] = f64::NAN;
+        assert_eq!(Cholesky6::new(&nan), None);
+    }
 
     /// The row-major kernels solve `A X = B` for a random SPD `A` to round-off, and agree with
     /// the column-major Cholesky.

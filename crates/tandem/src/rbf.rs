@@ -122,6 +122,14 @@ impl RbfWorkspace {
     pub fn s_norm2(&self) -> f64 {
         self.s_norm2
     }
+
+    /// Store `S(Z)` and `‖S(Z)‖²` computed outside [`Rbf::eval_into`] (the fixed-size per-axis
+    /// kernel of [`crate::rbf_structured`], which produces the same bits).
+    #[inline]
+    pub(crate) fn store(&mut self, s: &[f64], s_norm2: f64) {
+        self.s.copy_from_slice(s);
+        self.s_norm2 = s_norm2;
+    }
 }
 
 impl Rbf {
@@ -271,6 +279,27 @@ impl Rbf {
     /// Width `ϑ²`.
     pub fn width2(&self) -> f64 {
         self.width2
+    }
+
+    /// `(c_0, c_1, 1/ϑ²)` if this is a grid of four inputs with the same two levels
+    /// `[c_0, c_1]` each (the per-axis network's basis): the case of the fixed-size kernel of
+    /// [`crate::rbf_structured`], which reproduces [`Rbf::eval_into`] bit for bit.
+    pub(crate) fn two_level_four_input(&self) -> Option<(f64, f64, f64)> {
+        match &self.centres {
+            Centres::Grid {
+                levels,
+                offsets,
+                split,
+                ..
+            } if self.n_in == 4
+                && *split == 2
+                && offsets.as_slice() == [0, 2, 4, 6, 8]
+                && levels.chunks_exact(2).all(|l| l == &levels[..2]) =>
+            {
+                Some((levels[0], levels[1], self.inv_width2))
+            }
+            _ => None,
+        }
     }
 
     /// Whether the Kronecker fast path is used.

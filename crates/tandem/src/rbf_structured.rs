@@ -37,7 +37,11 @@
 //!
 //! [`StructuredNn::tick`] is allocation-free. Per-axis: the Kronecker form of [`Rbf::grid`] on
 //! each output's inputs, then one fused pass over that output's weights (output with the old
-//! weights, exact update, norm), in a fixed order. Shared bases (full grid, quasi-random) go
+//! weights, exact update, norm), in a fixed order. The default axis grid (four inputs, two
+//! levels, 16 nodes) goes through a fixed-size kernel (`pair4_tick`) that does the same on
+//! arrays; for networks of six or more outputs (the spatial law) it also shares exponentials
+//! between the factors (five a node grid instead of eight, a few ulps from the direct form),
+//! for the planar ones it keeps the direct factors and the generic path's bits. Shared bases (full grid, quasi-random) go
 //! through [`RbfNetwork::tick_at`] (the fused AVX2 pass of [`crate::rbf`]).
 
 use nalgebra::{DMatrix, SVector};
@@ -190,6 +194,113 @@ struct AxisNet {
     ws: RbfWorkspace,
     /// Start of this output's weights in the shared weight vector.
     offset: usize,
+    /// `(c_0, c_1, 1/ϑ²)` when the basis is a grid of four inputs on two levels (the default
+    /// per-axis network): evaluated by the fixed-size kernel [`pair4_tick`] (shared
+    /// exponentials).
+    pair4: Option<(f64, f64, f64)>,
+    /// Share exponentials in [`pair4_tick`] (networks of [`SHARED_EXP_MIN_OUTPUTS`] or more
+    /// outputs); otherwise the kernel computes every factor directly, the bits of the generic
+    /// path.
+    share_exp: bool,
+}
+
+/// Largest `|2 δ y_i/ϑ²|` for which [`pair4_tick`] shares the exponentials; beyond it (or
+/// with a Gaussian part below `e^{−400}`) each factor gets its own exponential. Within both
+/// limits every partial product lies in `[e^{−600}, e^{200}]`: no overflow, no underflow
+/// before the last product.
+const SHARED_EXP_LIMIT: f64 = 100.0;
+/// Largest `(Σ y_i² + 4δ²)/ϑ²` for which [`pair4_tick`] shares the exponentials.
+const SHARED_GAUSS_LIMIT: f64 = 400.0;
+/// Networks with at least this many outputs (the spatial law's six) share exponentials in
+/// the fixed-size per-axis kernel (`pair4_tick`); the planar laws' networks (two or three outputs) compute every factor
+/// directly, so planar results stay bit for bit those of the generic path (a project rule).
+pub const SHARED_EXP_MIN_OUTPUTS: usize = 6;
+
+/// One output of the per-axis network on a grid of four inputs with two levels `c_0, c_1`
+/// each (16 nodes), fused: the basis (8), the output `Ŵᵀ S` with the old weights, the exact
+/// update (44) `Ŵ ← e Ŵ − c S`, and `‖Ŵ‖²` after it. Writes `S` into `s`; returns
+/// `(Ŵᵀ S, ‖Ŵ‖², ‖S‖²)`.
+///
+/// The factors share exponentials: with the levels `m ∓ δ` (`m` their midpoint, `δ` the
+/// half-spacing) and `y_i = Z_i − m`,
+///
+/// $$ e^{-(y_i \pm \delta)^2/\vartheta^2} = e^{-(y_i^2 + \delta^2)/\vartheta^2}\,
+///    t_i^{\mp 1},\qquad t_i = e^{2\delta y_i/\vartheta^2}, $$
+///
+/// and the Gaussian parts of the four inputs multiply into one,
+/// `S = e^{−(Σ y_i² + 4δ²)/ϑ²} (t_0^{∓} ⊗ t_1^{∓}) ⊗ (t_2^{∓} ⊗ t_3^{∓})`: five exponentials
+/// and four reciprocals instead of eight exponentials, `‖S‖² = e^{−2(…)/ϑ²} Π(t_i² + t_i^{−2})`.
+/// Agrees with the direct (8) to a few ulps (test
+/// `the_fixed_size_axis_kernel_agrees_with_the_generic_path`). Without `share` (planar
+/// networks), or where some `|2δ y_i/ϑ²|` exceeds [`SHARED_EXP_LIMIT`] or the Gaussian part
+/// [`SHARED_GAUSS_LIMIT`] (an input far outside the grid), the factors are direct, with the
+/// operations and order of [`Rbf::eval_into`] and the generic pass: the same bits.
+#[inline(always)]
+fn pair4_tick(
+    z: &[f64; 4],
+    (c0, c1, inv_width2): (f64, f64, f64),
+    share: bool,
+    w: &mut [f64; 16],
+    decay: f64,
+    c: f64,
+    s: &mut [f64; 16],
+) -> (f64, f64, f64) {
+    let (mid, half) = (0.5 * (c0 + c1), 0.5 * (c1 - c0));
+    let y = z.map(|v| v - mid);
+    let k = 2.0 * half * inv_width2;
+    // f[i] = [factor at c_0, factor at c_1] without the Gaussian part g (shared) or with it.
+    let mut f = [[0.0; 2]; 4];
+    let g;
+    let r2 = 4.0 * half * half + y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3];
+    if share
+        && y.iter().all(|&v| (k * v).abs() <= SHARED_EXP_LIMIT)
+        && r2 * inv_width2 <= SHARED_GAUSS_LIMIT
+    {
+        for i in 0..4 {
+            let t = (k * y[i]).exp();
+            f[i] = [1.0 / t, t];
+        }
+        g = (-r2 * inv_width2).exp();
+    } else {
+        for i in 0..4 {
+            let (d0, d1) = (z[i] - c0, z[i] - c1);
+            f[i] = [
+                (-(d0 * d0) * inv_width2).exp(),
+                (-(d1 * d1) * inv_width2).exp(),
+            ];
+        }
+        g = 1.0;
+    }
+    let mut s_n2 = g * g;
+    for fi in &f {
+        s_n2 *= fi[0] * fi[0] + fi[1] * fi[1];
+    }
+    let a = [
+        g * f[0][0] * f[1][0],
+        g * f[0][0] * f[1][1],
+        g * f[0][1] * f[1][0],
+        g * f[0][1] * f[1][1],
+    ];
+    let b = [
+        f[2][0] * f[3][0],
+        f[2][0] * f[3][1],
+        f[2][1] * f[3][0],
+        f[2][1] * f[3][1],
+    ];
+    for i in 0..4 {
+        for j in 0..4 {
+            s[4 * i + j] = a[i] * b[j];
+        }
+    }
+    let (mut acc, mut n2) = (0.0, 0.0);
+    for k in 0..16 {
+        let old = w[k];
+        acc += old * s[k];
+        let new = decay * old - c * s[k];
+        w[k] = new;
+        n2 += new * new;
+    }
+    (acc, n2, s_n2)
 }
 
 // One per controller, built once: the size difference does not matter.
@@ -299,11 +410,14 @@ impl<const M: usize> StructuredNn<M> {
                         .map_err(|e| rename(e, "rbf.levels", &name))?;
                     let ws = rbf.workspace();
                     let n = rbf.n_nodes();
+                    let pair4 = rbf.two_level_four_input();
                     axes.push(AxisNet {
                         inputs: idx,
                         rbf,
                         ws,
                         offset,
+                        pair4,
+                        share_exp: M >= SHARED_EXP_MIN_OUTPUTS,
                     });
                     offset += n;
                     if offset > MAX_NODES {
@@ -466,6 +580,22 @@ impl<const M: usize> StructuredNn<M> {
                 let mut f_hat = SVector::<f64, M>::zeros();
                 let mut w_norm = SVector::<f64, M>::zeros();
                 for (j, a) in axes.iter_mut().enumerate() {
+                    let c = g[j] * q * z2[j];
+                    if let Some(pair) = a.pair4 {
+                        // The default per-axis basis: the fixed-size kernel.
+                        let ins = &a.inputs;
+                        let zs = [z[ins[0]], z[ins[1]], z[ins[2]], z[ins[3]]];
+                        let wj: &mut [f64; 16] = (&mut w[a.offset..a.offset + 16])
+                            .try_into()
+                            .expect("a 16-node axis");
+                        let mut s = [0.0; 16];
+                        let (acc, n2, s_n2) =
+                            pair4_tick(&zs, pair, a.share_exp, wj, e[j], c, &mut s);
+                        a.ws.store(&s, s_n2);
+                        f_hat[j] = acc;
+                        w_norm[j] = n2.sqrt();
+                        continue;
+                    }
                     // Z_{I_j}, then S_j on its grid (Kronecker form).
                     let zs = &mut z_sub[..a.inputs.len()];
                     for (o, &i) in zs.iter_mut().zip(&a.inputs) {
@@ -474,7 +604,6 @@ impl<const M: usize> StructuredNn<M> {
                     a.rbf.eval_into(zs, &mut a.ws);
                     let s = a.ws.s();
                     // Fused pass: f̂_j with the old weights, exact update (44), ‖Ŵ_j‖².
-                    let c = g[j] * q * z2[j];
                     let (mut acc, mut n2) = (0.0, 0.0);
                     for (wk, &sk) in w[a.offset..a.offset + s.len()].iter_mut().zip(s) {
                         let old = *wk;
@@ -542,6 +671,112 @@ mod tests {
         let vy: f64 = y.iter().map(|b| (b - my) * (b - my)).sum();
         let corr = cov / (vx * vy).sqrt();
         assert!(corr.abs() < 0.5, "bases 83 and 89 correlate: {corr}");
+    }
+
+    #[test]
+    fn the_fixed_size_axis_kernel_agrees_with_the_generic_path() {
+        // The default per-axis network (four inputs, two levels) takes `pair4_tick`; with the
+        // kernel switched off the same network takes the generic path (`Rbf::eval_into`: one
+        // exponential per factor, and the slice pass). Inputs span the grid's neighbourhood,
+        // far outside it (the direct fallback, exact bits) and asymmetric levels.
+        for (levels, width2, span) in [
+            ([-1.0, 1.0], 50.0, 3.0),
+            ([-1.0, 1.0], 0.5, 4.0),
+            ([-0.3, 0.7], 2.0, 3.0),
+            ([-1.0, 1.0], 0.01, 2.0),
+        ] {
+            let upd = NnUpdate::<6>::new(
+                SVector::from_fn(|j, _| 0.5 + j as f64),
+                SVector::repeat(0.1),
+                1e-3,
+            )
+            .unwrap();
+            let structure = NetworkStructure::per_axis();
+            let mut fast = StructuredNn::<6>::new(&structure, &levels, width2, upd).unwrap();
+            let mut slow = fast.clone();
+            let Kind::PerAxis { axes, .. } = &mut slow.kind else {
+                panic!("per-axis");
+            };
+            for a in axes.iter_mut() {
+                assert!(a.pair4.is_some() && a.share_exp);
+                a.pair4 = None;
+            }
+            let mut state = 11u64;
+            let mut rnd = |lo: f64, hi: f64| {
+                state = splitmix64(state);
+                lo + (hi - lo) * (state >> 11) as f64 / (1u64 << 53) as f64
+            };
+            for _ in 0..200 {
+                let z: Vec<f64> = (0..24).map(|_| rnd(-span, span)).collect();
+                let z2 = SVector::<f64, 6>::from_fn(|_, _| rnd(-0.5, 0.5));
+                let q = rnd(0.0, 1.0);
+                let scale: Vec<f64> = (0..6)
+                    .map(|j| {
+                        let w = &fast.weights()[16 * j..16 * j + 16];
+                        w.iter().map(|v| v.abs()).sum::<f64>() + 1.0
+                    })
+                    .collect();
+                let (a, b) = (fast.tick(&z, q, &z2), slow.tick(&z, q, &z2));
+                for j in 0..6 {
+                    // Each basis value carries a few roundings of its exponent (|·| < 40 here)
+                    // instead of one: relative 1e-13 per S_k is ~500 ulps of margin.
+                    for (x, y) in fast.basis_of(j).iter().zip(slow.basis_of(j)) {
+                        // (Plus the smallest normal number: subnormal values lose relative
+                        // precision in either path.)
+                        assert!(
+                            (x - y).abs() <= 1e-13 * y.abs() + f64::MIN_POSITIVE,
+                            "S {x} vs {y}"
+                        );
+                    }
+                    assert!((a.f_hat[j] - b.f_hat[j]).abs() <= 1e-13 * scale[j]);
+                    assert!((a.w_norm[j] - b.w_norm[j]).abs() <= 1e-13 * scale[j]);
+                }
+                // Keep both on the same weights (the comparison is of one tick).
+                let w = slow.weights().to_vec();
+                fast.weights_mut().copy_from_slice(&w);
+            }
+            assert!(fast.weights().iter().any(|&w| w != 0.0));
+        }
+        // Planar networks (three outputs) take the kernel with direct factors: the same bits
+        // as the generic path.
+        let upd3 = NnUpdate::<3>::new(SVector::repeat(2.0), SVector::repeat(0.1), 1e-3).unwrap();
+        let mut fast =
+            StructuredNn::<3>::new(&NetworkStructure::per_axis(), &[-1.0, 1.0], 50.0, upd3)
+                .unwrap();
+        let mut slow = fast.clone();
+        let Kind::PerAxis { axes, .. } = &mut slow.kind else {
+            panic!("per-axis");
+        };
+        for a in axes.iter_mut() {
+            assert!(a.pair4.is_some() && !a.share_exp);
+            a.pair4 = None;
+        }
+        let mut state = 5u64;
+        for _ in 0..200 {
+            let mut rnd = |lo: f64, hi: f64| {
+                state = splitmix64(state);
+                lo + (hi - lo) * (state >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let z: Vec<f64> = (0..12).map(|_| rnd(-3.0, 3.0)).collect();
+            let z2 = SVector::<f64, 3>::from_fn(|_, _| rnd(-0.5, 0.5));
+            let q = rnd(0.0, 1.0);
+            let (a, b) = (fast.tick(&z, q, &z2), slow.tick(&z, q, &z2));
+            assert_eq!((a.f_hat, a.w_norm), (b.f_hat, b.w_norm));
+            assert_eq!(fast.weights(), slow.weights());
+            for j in 0..3 {
+                assert_eq!(fast.basis_of(j), slow.basis_of(j));
+            }
+        }
+        assert!(fast.weights().iter().any(|&w| w != 0.0));
+        // Other shapes (three levels) keep the generic path.
+        let upd = NnUpdate::<6>::new(SVector::repeat(1.0), SVector::repeat(0.1), 1e-3).unwrap();
+        let three =
+            StructuredNn::<6>::new(&NetworkStructure::per_axis(), &[-1.0, 0.0, 1.0], 50.0, upd)
+                .unwrap();
+        let Kind::PerAxis { axes, .. } = &three.kind else {
+            panic!("per-axis");
+        };
+        assert!(axes.iter().all(|a| a.pair4.is_none()));
     }
 
     #[test]

@@ -19,7 +19,7 @@ use nalgebra::{
 use proptest::prelude::*;
 use tandem::fixtures::SplitMix64;
 use tandem::se3::chart::jl_inv_rate;
-use tandem::se3::{Chart, PoseSample, candidate, fit, fit_weighted};
+use tandem::se3::{Chart, PoseSample, candidate, fit, fit_sample, fit_weighted};
 use tandem::spatial::so3;
 
 // ---------------------------------------------------------------------------------------------
@@ -860,4 +860,48 @@ fn per_tick_functions_allocate_nothing() {
     });
     std::hint::black_box(sink);
     assert_eq!(n, 0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The tick's short forms (same bits as the full ones).
+
+/// `fit_sample` is `fit(..).sample` bit for bit (`None` exactly where `fit` is degenerate), and
+/// `Chart::coordinates` is `Chart::sample`'s `(x_1, ẋ_1, ẍ_1)` bit for bit: the controller's tick
+/// uses the short forms.
+#[test]
+fn short_forms_give_the_bits_of_the_full_ones() {
+    let mut rng = SplitMix64(29);
+    for _ in 0..200 {
+        let n = 2 + (rng.next_f64() * 3.0) as usize;
+        let grasps = random_grasps(&mut rng, n);
+        let o = PoseSample {
+            p: Vector3::from_fn(|_, _| rng.range(-1.0, 1.0)),
+            q: rand_quat(&mut rng),
+            twist: Vector6::from_fn(|_, _| rng.range(-2.0, 2.0)),
+            twist_dot: Vector6::from_fn(|_, _| rng.range(-5.0, 5.0)),
+        };
+        // Tools off the rigid placement by up to 1 cm and 0.05 rad.
+        let tools: Vec<PoseSample> = grasps
+            .iter()
+            .map(|g| {
+                let mut t = tool_of(&o, g);
+                t.p += Vector3::from_fn(|_, _| rng.range(-0.01, 0.01));
+                t.q = so3::exp_quat(&(unit(&mut rng) * rng.range(0.0, 0.05))) * t.q;
+                t
+            })
+            .collect();
+        let hint = rand_quat(&mut rng);
+        let full = fit(&grasps, &tools, &hint);
+        assert!(!full.degenerate);
+        assert_eq!(fit_sample(&grasps, &tools, &hint), Some(full.sample));
+        let chart = Chart::new(
+            Vector3::from_fn(|_, _| rng.range(-1.0, 1.0)),
+            rand_quat(&mut rng),
+        );
+        let s = chart.sample(&o);
+        assert_eq!(chart.coordinates(&o), (s.x1, s.x1_dot, s.x1_ddot));
+    }
+    // Degenerate: no tools.
+    assert!(fit(&[], &[], &UnitQuaternion::identity()).degenerate);
+    assert_eq!(fit_sample(&[], &[], &UnitQuaternion::identity()), None);
 }

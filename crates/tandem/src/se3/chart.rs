@@ -78,6 +78,15 @@
 use nalgebra::{Isometry3, Matrix3, Matrix6, Translation3, UnitQuaternion, Vector3, Vector6};
 
 use super::PoseSample;
+
+/// `(φ, φ̇, φ̈, J_l⁻¹(φ), d/dt J_l⁻¹)` of a pose sample in a chart.
+type Angles = (
+    Vector3<f64>,
+    Vector3<f64>,
+    Vector3<f64>,
+    Matrix3<f64>,
+    Matrix3<f64>,
+);
 use crate::spatial::motion::{ang, lin, stack};
 use crate::spatial::so3::{self, SERIES_THRESHOLD, hat};
 
@@ -185,17 +194,7 @@ impl Chart {
     /// `x_1`, `ẋ_1 = (v, φ̇)`, `ẍ_1 = (v̇, φ̈)`, `E`, `Ė`, `E⁻¹`, and the edge indicator.
     /// `(p, R, V, V̇) → (x_1, ẋ_1, ẍ_1, E, Ė)`.
     pub fn sample(&self, s: &PoseSample) -> ChartSample {
-        // φ from the relative quaternion (Log: accurate at 0 and π).
-        let q_ref_inv = self.r_ref.inverse();
-        let phi = so3::log_quat(&(q_ref_inv * s.q));
-        // Angular velocity and acceleration in R_ref axes.
-        let w_r = q_ref_inv * s.w();
-        let wd_r = q_ref_inv * s.w_dot();
-        // φ̇ = J_l⁻¹ ω_r, φ̈ = J_l⁻¹ ω̇_r + (d/dt J_l⁻¹) ω_r.
-        let a = so3::left_jacobian_inv(&phi);
-        let phi_dot = a * w_r;
-        let a_dot = jl_inv_rate(&phi, &phi_dot);
-        let phi_ddot = a * wd_r + a_dot * w_r;
+        let (phi, phi_dot, phi_ddot, a, a_dot) = self.angles(s);
         let rr = self.r_ref.to_rotation_matrix().into_inner();
         let jac = ChartJacobian {
             b: a * rr.transpose(),
@@ -212,6 +211,36 @@ impl Chart {
             margin,
             at_edge: !(margin > self.edge_eps),
         }
+    }
+
+    /// `(x_1, ẋ_1, ẍ_1)` of [`Chart::sample`] alone, the same bits, without the chart Jacobian
+    /// (for a sample whose Jacobian is not used, e.g. the controller's reference: this skips
+    /// `J_l(φ)` and three 3 × 3 products).
+    pub fn coordinates(&self, s: &PoseSample) -> (Vector6<f64>, Vector6<f64>, Vector6<f64>) {
+        let (phi, phi_dot, phi_ddot, _, _) = self.angles(s);
+        (
+            stack(&(s.p - self.c), &phi),
+            stack(&s.v(), &phi_dot),
+            stack(&s.v_dot(), &phi_ddot),
+        )
+    }
+
+    /// `(φ, φ̇, φ̈, J_l⁻¹(φ), d/dt J_l⁻¹)` of a sample (shared by [`Chart::sample`] and
+    /// [`Chart::coordinates`]).
+    #[inline(always)]
+    fn angles(&self, s: &PoseSample) -> Angles {
+        // φ from the relative quaternion (Log: accurate at 0 and π).
+        let q_ref_inv = self.r_ref.inverse();
+        let phi = so3::log_quat(&(q_ref_inv * s.q));
+        // Angular velocity and acceleration in R_ref axes.
+        let w_r = q_ref_inv * s.w();
+        let wd_r = q_ref_inv * s.w_dot();
+        // φ̇ = J_l⁻¹ ω_r, φ̈ = J_l⁻¹ ω̇_r + (d/dt J_l⁻¹) ω_r.
+        let a = so3::left_jacobian_inv(&phi);
+        let phi_dot = a * w_r;
+        let a_dot = jl_inv_rate(&phi, &phi_dot);
+        let phi_ddot = a * wd_r + a_dot * w_r;
+        (phi, phi_dot, phi_ddot, a, a_dot)
     }
 
     /// The inverse map: the pose sample (pose, twist, twist rate) whose chart coordinates are

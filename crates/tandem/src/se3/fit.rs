@@ -118,7 +118,19 @@ pub fn candidate(tool: &PoseSample, x_og: &Isometry3<f64>) -> PoseSample {
 /// The fit with equal weights; see the module doc. `x_og[i]` is `X_OGi`, `tools[i]` arm `i`'s
 /// reference tool pose sample; `hint` picks the quaternion signs.
 pub fn fit(x_og: &[Isometry3<f64>], tools: &[PoseSample], hint: &UnitQuaternion<f64>) -> Fit {
-    fit_impl(x_og, tools, |_| 1.0, hint)
+    fit_impl(x_og, tools, |_| 1.0, hint, true)
+}
+
+/// [`fit`] without the spread (the controller's tick needs only the sample: this skips a
+/// second pass of quaternion products and an `atan2` per tool). The sample is the same bits;
+/// `None` where [`fit`] reports `degenerate`.
+pub fn fit_sample(
+    x_og: &[Isometry3<f64>],
+    tools: &[PoseSample],
+    hint: &UnitQuaternion<f64>,
+) -> Option<PoseSample> {
+    let f = fit_impl(x_og, tools, |_| 1.0, hint, false);
+    (!f.degenerate).then_some(f.sample)
 }
 
 /// The fit with weights `weights[i]` (relative; missing entries count as 0).
@@ -133,6 +145,7 @@ pub fn fit_weighted(
         tools,
         |i| weights.get(i).copied().unwrap_or(0.0),
         hint,
+        true,
     )
 }
 
@@ -147,6 +160,7 @@ fn fit_impl(
     tools: &[PoseSample],
     weight: impl Fn(usize) -> f64,
     hint: &UnitQuaternion<f64>,
+    with_spread: bool,
 ) -> Fit {
     let n = x_og.len().min(tools.len());
     if n == 0 {
@@ -229,7 +243,7 @@ fn fit_impl(
 
     // Spread: the largest angle from q̄ to an aligned candidate (second pass, no storage).
     let mut spread: f64 = 0.0;
-    for i in 0..n {
+    for i in (0..n).filter(|_| with_spread) {
         let rel = u.conjugate() * aligned(&tools[i], &x_og[i], h);
         spread = spread.max(2.0 * rel.imag().norm().atan2(rel.w));
     }

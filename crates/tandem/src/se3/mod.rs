@@ -28,7 +28,7 @@ use crate::plant::spatial::ObjectState;
 use crate::spatial::motion::{ang, lin, stack};
 
 pub use chart::{Chart, ChartJacobian, ChartSample};
-pub use fit::{Fit, candidate, fit, fit_weighted};
+pub use fit::{Fit, candidate, fit, fit_sample, fit_weighted};
 
 /// A pose with its twist and twist rate: `(p_WA, R_WA, V_WA = [v; ω], V̇_WA = [v̇; ω̇])` of some
 /// frame `A` (the object `O`, a tool `T_i`, a desired pose), world axes.

@@ -61,11 +61,11 @@
 //! [`PostureTask::franka`].
 #![allow(non_snake_case)]
 
-use nalgebra::{Matrix6, Vector3, Vector6};
+use nalgebra::{Vector3, Vector6};
 
 use super::model::{ModelWorkspace, ObjectModel, RHS};
 use crate::error::{ModelError, positive};
-use crate::linalg::forward_rows;
+use crate::linalg::{Cholesky6, forward_rows};
 use crate::spatial::motion::{ang, lin, stack};
 
 /// The distribution of an object wrench over `m` grasps (constant metric, no scratch that
@@ -80,7 +80,11 @@ pub struct Distribution {
     /// The lever arms of the last factorisation and its factor: a tick distributes several
     /// wrenches over the same grasps, and `A` depends on `r` only.
     last_r: Vec<Vector3<f64>>,
-    last: Option<nalgebra::Cholesky<f64, nalgebra::U6>>,
+    last: Cholesky6,
+    /// `last` holds the factor of `A(last_r)`.
+    last_ok: bool,
+    /// `last_r` and `last` are set (the first call factors).
+    primed: bool,
 }
 
 impl Distribution {
@@ -96,7 +100,12 @@ impl Distribution {
             metric_length,
             l2: metric_length * metric_length,
             last_r: vec![Vector3::zeros(); m],
-            last: None,
+            last: Cholesky6::new(&std::array::from_fn(|i| {
+                std::array::from_fn(|j| if i == j { 1.0 } else { 0.0 })
+            }))
+            .expect("the identity is SPD"),
+            last_ok: false,
+            primed: false,
         })
     }
 
@@ -119,20 +128,21 @@ impl Distribution {
 
     /// `A = Σ G_iᵀ W⁻¹ G_i` factored, or `None` if non-finite; reused while `r` is bitwise the
     /// same as at the last call.
-    fn factor(&mut self, r: &[Vector3<f64>]) -> Option<nalgebra::Cholesky<f64, nalgebra::U6>> {
-        if self.last.is_some() && r[..self.m] == self.last_r[..] {
-            return self.last;
+    fn factor(&mut self, r: &[Vector3<f64>]) -> Option<&Cholesky6> {
+        if !(self.primed && r[..self.m] == self.last_r[..]) {
+            self.last_ok = self.factor_new(r);
+            self.last_r.copy_from_slice(&r[..self.m]);
+            self.primed = true;
         }
-        let ch = self.factor_new(r);
-        self.last_r.copy_from_slice(&r[..self.m]);
-        self.last = ch;
-        ch
+        self.last_ok.then_some(&self.last)
     }
 
     /// `A` in closed form: with `G_iᵀ = [[I, 0], [[r_i]×, I]]`,
     /// `G_iᵀ W⁻¹ G_i = [[I, −[r_i]×], [[r_i]×, L² I − [r_i]×²]]` and `−[r]×² = |r|² I − r rᵀ`, so
     /// `A = [[m I, −[Σr]×], [[Σr]×, m L² I + Σ(|r_i|² I − r_i r_iᵀ)]]`.
-    fn factor_new(&self, r: &[Vector3<f64>]) -> Option<nalgebra::Cholesky<f64, nalgebra::U6>> {
+    /// Only the lower triangle is assembled (the factorisation reads no more), on fixed arrays;
+    /// factored into `self.last`, `false` if `A` is not finite or not positive definite.
+    fn factor_new(&mut self, r: &[Vector3<f64>]) -> bool {
         let m = self.m as f64;
         let mut sum = Vector3::zeros();
         let mut lower = nalgebra::Matrix3::from_diagonal_element(m * self.l2);
@@ -141,17 +151,20 @@ impl Distribution {
             lower +=
                 nalgebra::Matrix3::from_diagonal_element(ri.norm_squared()) - ri * ri.transpose();
         }
+        // Lower triangle of A: [[m I, ·], [[Σr]×, lower]].
         let c = crate::spatial::so3::hat(&sum);
-        let mut a = Matrix6::zeros();
-        a.fixed_view_mut::<3, 3>(0, 0)
-            .copy_from(&nalgebra::Matrix3::from_diagonal_element(m));
-        a.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-c));
-        a.fixed_view_mut::<3, 3>(3, 0).copy_from(&c);
-        a.fixed_view_mut::<3, 3>(3, 3).copy_from(&lower);
-        if !a.iter().all(|v| v.is_finite()) {
-            return None;
+        let mut a = [[0.0; 6]; 6];
+        for i in 0..3 {
+            a[i][i] = m;
+            for j in 0..3 {
+                a[3 + i][j] = c[(i, j)];
+                a[3 + i][3 + j] = lower[(i, j)];
+            }
         }
-        a.cholesky()
+        if !crate::linalg::finite_slice(a.as_flattened()) {
+            return false;
+        }
+        self.last.refactor(&a)
     }
 
     /// `w = G⁺_W F + P_N s(squeeze)` (module doc): `r[i] = p_WTi − p_WO` (m entries, world
@@ -168,10 +181,10 @@ impl Distribution {
         w: &mut [Vector6<f64>],
     ) -> bool {
         let m = self.m;
-        let Some(ch) = self.factor(r) else {
+        if self.factor(r).is_none() {
             w[..m].fill(Vector6::zeros());
             return false;
-        };
+        }
         // Squeeze pushes toward the centroid, and their net wrench.
         let mut c = Vector3::zeros();
         for ri in &r[..m] {
@@ -191,7 +204,8 @@ impl Distribution {
             net_s += stack(&lin(&s), &(ang(&s) + r[i].cross(&lin(&s))));
         }
         // w_i = s_i + W⁻¹ G_i A⁻¹ (F − G s): min-norm share plus the projected squeeze.
-        let lam = ch.solve(&(f - net_s));
+        let ch = &self.last;
+        let lam = Vector6::from(ch.solve(&(f - net_s).into()));
         for i in 0..m {
             w[i] += self.share(&r[i], &lam);
         }
@@ -208,11 +222,12 @@ impl Distribution {
         out: &mut [Vector6<f64>],
     ) -> bool {
         let m = self.m;
-        let Some(ch) = self.factor(r) else {
+        if self.factor(r).is_none() {
             out[..m].fill(Vector6::zeros());
             return false;
-        };
-        let lam = ch.solve(&Self::net(&r[..m], &w[..m]));
+        }
+        let ch = &self.last;
+        let lam = Vector6::from(ch.solve(&Self::net(&r[..m], &w[..m]).into()));
         for i in 0..m {
             out[i] = w[i] - self.share(&r[i], &lam);
         }

@@ -43,6 +43,7 @@ use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 use crate::adaptive::{AdaptiveNn, FuBound, NnInternals};
 use crate::control::{ControlEvents, ControlWarning, Scheme};
 use crate::error::{ModelError, non_negative, positive};
+use crate::linalg::finite_slice;
 use crate::plant::spatial::object::RigidObject;
 use crate::plant::spatial::{SpatialPlant, SpatialPlantParams};
 use crate::reference::admittance_se3::{
@@ -661,15 +662,12 @@ impl SpatialController {
                 twist_dot: Vector6::zeros(),
             };
         }
-        let fit = crate::se3::fit(&self.x_og, &self.tools, &self.hint_hat);
-        if fit.degenerate {
-            return None;
-        }
-        self.hint_hat = fit.sample.q;
+        let fit = crate::se3::fit_sample(&self.x_og, &self.tools, &self.hint_hat)?;
+        self.hint_hat = fit.q;
         for (r, t) in self.r.iter_mut().zip(&self.tools) {
-            *r = t.p - fit.sample.p;
+            *r = t.p - fit.p;
         }
-        Some(fit.sample)
+        Some(fit)
     }
 
     /// Step 3: the reference pose sample (object level) at this tick; advances the generators.
@@ -694,12 +692,14 @@ impl SpatialController {
                 rec.non_finite |= flags.state_held != 0;
             }
         }
-        let fit = crate::se3::fit(&self.x_og, &self.ref_tools, &self.hint_r);
-        if fit.degenerate || !finite_sample(&fit.sample) {
+        let Some(fit) = crate::se3::fit_sample(&self.x_og, &self.ref_tools, &self.hint_r) else {
+            return *des;
+        };
+        if !finite_sample(&fit) {
             return *des;
         }
-        self.hint_r = fit.sample.q;
-        fit.sample
+        self.hint_r = fit.q;
+        fit
     }
 
     /// One control tick at time `t`: `(t, q, q̇, wrist wrenches) → τ_joint` into `tau` (n_q)
@@ -721,7 +721,7 @@ impl SpatialController {
         };
         let cs = self.chart.sample(&obj);
         let (x1, x2) = (cs.x1, cs.x1_dot);
-        if !(x1.iter().chain(x2.iter()).all(|v| v.is_finite())) {
+        if !(finite_slice(x1.as_slice()) && finite_slice(x2.as_slice())) {
             self.events.non_finite += 1;
             rec.non_finite = true;
             tau.fill(0.0);
@@ -732,8 +732,7 @@ impl SpatialController {
         let des = pose_sample(&s);
         // 3. Reference.
         let refs = self.reference(&des, meas, rec);
-        let rs = self.chart.sample(&refs);
-        let (x_r, xd_r, xdd_r) = (rs.x1, rs.x1_dot, rs.x1_ddot);
+        let (x_r, xd_r, xdd_r) = self.chart.coordinates(&refs);
         let z1 = x1 - x_r;
         let z1_dot = x2 - xd_r;
         // Object-level model at the measurements: the full one where a law or the null space
@@ -801,7 +800,7 @@ impl SpatialController {
                 Distribution::net(&self.r, &self.w)
             }
         };
-        if !f.iter().all(|v| v.is_finite()) {
+        if !finite_slice(f.as_slice()) {
             rec.non_finite = true;
             f = Vector6::zeros();
         }
@@ -941,11 +940,10 @@ impl Drive<SpatialPlant> for SpatialController {
 
 /// Every component of a pose sample is finite.
 fn finite_sample(s: &PoseSample) -> bool {
-    s.p.iter()
-        .chain(s.q.coords.iter())
-        .chain(s.twist.iter())
-        .chain(s.twist_dot.iter())
-        .all(|x| x.is_finite())
+    finite_slice(s.p.as_slice())
+        && finite_slice(s.q.coords.as_slice())
+        && finite_slice(s.twist.as_slice())
+        && finite_slice(s.twist_dot.as_slice())
 }
 
 /// A sub-module's error re-labelled with the controller's parameter name.

@@ -444,14 +444,21 @@ impl ObjectModel {
             let d = &ws.data[i];
             let grav = &mut ws.grav[i][..6];
             dynamics::gravity_at_placements(arm, &self.g_W, grav, d);
-            let jt = d.J.fixed_view::<6, 6>(0, 0).transpose();
-            let Some(x) = jt.lu().solve(&Vector6::from_column_slice(grav)) else {
-                return false;
-            };
-            if !x.iter().all(|v| v.is_finite()) {
+            // Row k of Jᵀ is column k of J (contiguous: J is column-major, 6 rows).
+            let js = &d.J.as_slice()[..36];
+            let mut jt = [[0.0; 6]; 6];
+            for (row, col) in jt.iter_mut().zip(js.chunks_exact(6)) {
+                row.copy_from_slice(col);
+            }
+            let mut x = [0.0; 6];
+            x.copy_from_slice(grav);
+            if !crate::linalg::lu_solve6_in_place(&mut jt, &mut x) {
                 return false;
             }
-            ws.arms[i].g_x = x;
+            if !crate::linalg::finite_slice(&x) {
+                return false;
+            }
+            ws.arms[i].g_x = Vector6::from(x);
         }
         true
     }
