@@ -369,9 +369,10 @@ fn write_atomic_with(
 ///
 /// Plain decimal for 1e-5 ≤ |v| < 1e16 and zero (`0.03`, `-12.5`, `3`), exponent form otherwise
 /// (`1e-9`, `2.5e20`), so tiny values do not become hundreds of zeros. Non-finite values are
-/// written `NaN`, `inf`, `-inf` (read back by Rust, pandas and numpy). The text is the same as
-/// `format!("{v}")` (plain range) or `format!("{v:e}")` (otherwise); see [`F64Text`] for the
-/// allocation-free form the CSV writer uses.
+/// written `NaN`, `inf`, `-inf` (read back by Rust, pandas and numpy). The text is that of
+/// `format!("{v}")` (plain range) or `format!("{v:e}")` (otherwise), except that when two
+/// shortest texts are equally near `v` the last digit may be the other one (both read back as
+/// `v`); see [`F64Text`] for the allocation-free form the CSV writer uses.
 pub fn fmt_f64(v: f64) -> String {
     F64Text::new().format(v).to_owned()
 }
@@ -381,8 +382,10 @@ pub fn fmt_f64(v: f64) -> String {
 ///
 /// The shortest round-trip digits come from `zmij` (the Żmij algorithm, 5–10× faster than
 /// `core::fmt`; already in the build through `serde_json`); this type only rearranges them into
-/// the exact text `core::fmt` writes, which the replay and figure readers expect (tested against
-/// `format!` on special values and a million random bit patterns).
+/// the layout `core::fmt` writes (plain or exponent form, no `+`, no `.0`), so every reader of
+/// timeseries.csv sees the same format. Tested against `format!` on special values and two
+/// million random values: the same text, except for ties between two equally near shortest
+/// texts, where the last digit may differ by one; every text reads back bit for bit.
 #[derive(Default)]
 pub struct F64Text {
     digits: zmij::Buffer,
@@ -403,10 +406,38 @@ impl F64Text {
         if v.is_infinite() {
             return if v > 0.0 { "inf" } else { "-inf" };
         }
+        // Fast path: zmij already uses the plain form on 1e-5 ≤ |v| < 1e16 (and for zero),
+        // writing integers as `3.0`, and the exponent form elsewhere, writing `1e+16`: drop the
+        // `.0`, drop the `+`.
+        let a = v.abs();
+        let plain = a == 0.0 || (1e-5..1e16).contains(&a);
+        let mut raw = [0u8; 32];
+        let len = {
+            let t = self.digits.format_finite(v).as_bytes();
+            raw[..t.len()].copy_from_slice(t);
+            t.len()
+        };
+        let b = &raw[..len];
+        let n = match b.iter().position(|&c| c == b'e') {
+            None if plain => b.strip_suffix(b".0").unwrap_or(b).len(),
+            Some(i) if !plain && b.get(i + 1) == Some(&b'+') => {
+                raw.copy_within(i + 2..len, i + 1);
+                len - 1
+            }
+            Some(_) if !plain => len,
+            _ => return self.rearrange(v, &raw[..len]),
+        };
+        self.out = raw;
+        // Only ASCII digits, '-', '.', 'e' were written.
+        std::str::from_utf8(&self.out[..n]).unwrap_or("NaN")
+    }
+
+    /// The general path of [`F64Text::format`]: the digits of zmij's text `text` in
+    /// `core::fmt`'s layout, whatever form zmij chose.
+    fn rearrange(&mut self, v: f64, text: &[u8]) -> &str {
         // zmij writes `[-]d.ddd`, `[-]ddd.0`, `[-]0.000ddd` or `[-]d.ddde±x`: collect the
         // significant digits `d` and the decimal exponent `p` of the first one
         // (`|v| = d₁.d₂…dₙ × 10^p`).
-        let text = self.digits.format_finite(v).as_bytes();
         let neg = text[0] == b'-';
         let body = if neg { &text[1..] } else { text };
         let (mant, exp) = match body.iter().position(|&c| c == b'e') {
@@ -623,12 +654,32 @@ mod tests {
         }
     }
 
-    /// The fast formatter writes exactly the text `core::fmt` wrote (so every reader of
-    /// timeseries.csv sees the same format) on the edge cases of both forms and on a million
-    /// random bit patterns (every exponent) plus a million values of the sizes a run logs.
+    /// The fast formatter writes the text `core::fmt` wrote (so every reader of timeseries.csv
+    /// sees the same format) on the edge cases of both forms and on a million random bit
+    /// patterns (every exponent) plus a million values of the sizes a run logs: the same text,
+    /// or, where two shortest texts are equally near the value (zmij and `core::fmt` break the
+    /// tie differently), the same length, form and digits but the last, which differs by one.
+    /// Every text reads back bit for bit.
     #[test]
     fn fast_formatter_writes_the_text_core_fmt_writes() {
         let mut t = F64Text::new();
+        let mut ties = 0usize;
+        let mut check = |t: &mut F64Text, v: f64| {
+            let (got, want) = (t.format(v).to_owned(), reference_text(v));
+            if !v.is_nan() {
+                let back: f64 = got.parse().expect("parse");
+                assert_eq!(back.to_bits(), v.to_bits(), "{v:e}: {got}");
+            }
+            if got != want {
+                let (g, w) = (got.as_bytes(), want.as_bytes());
+                let last = g.len().saturating_sub(1);
+                assert!(
+                    g.len() == w.len() && g[..last] == w[..last] && g[last].abs_diff(w[last]) == 1,
+                    "{v:e}: {got} vs {want}"
+                );
+                ties += 1;
+            }
+        };
         let mut edge = vec![
             0.0,
             -0.0,
@@ -668,7 +719,7 @@ mod tests {
             ]);
         }
         for v in edge {
-            assert_eq!(t.format(v), reference_text(v), "{v:e}");
+            check(&mut t, v);
         }
         let mut x = 0x9e37_79b9_7f4a_7c15u64;
         for _ in 0..1_000_000 {
@@ -677,12 +728,13 @@ mod tests {
             x ^= x << 25;
             x ^= x >> 27;
             let r = x.wrapping_mul(0x2545_f491_4f6c_dd1d);
-            let v = f64::from_bits(r);
-            assert_eq!(t.format(v), reference_text(v), "{:#x}", r);
+            check(&mut t, f64::from_bits(r));
             let u = (r >> 11) as f64 / (1u64 << 53) as f64;
-            let w = (u - 0.5) * 10f64.powi((r % 9) as i32 - 4);
-            assert_eq!(t.format(w), reference_text(w), "{w:e}");
+            check(&mut t, (u - 0.5) * 10f64.powi((r % 9) as i32 - 4));
         }
+        // Ties are rare (measured: 262 of the 2 003 231 values, 0.013 %); 0.1 % would mean the
+        // digits themselves went wrong somewhere.
+        assert!(ties < 2000, "{ties} ties");
     }
 
     #[test]
