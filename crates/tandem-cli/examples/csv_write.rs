@@ -21,7 +21,7 @@ fn format_now(log: &Log, out: &mut Vec<u8>) {
             if j > 0 {
                 out.push(b',');
             }
-            out.extend_from_slice(text.format(c[i]).as_bytes());
+            out.extend_from_slice(text.format_bytes(c[i]));
         }
         out.push(b'\n');
     }

@@ -400,41 +400,65 @@ impl F64Text {
 
     /// `v` as [`fmt_f64`] writes it, in this formatter's buffer.
     pub fn format(&mut self, v: f64) -> &str {
+        // Only ASCII digits, '-', '.', 'e' and the letters of `NaN`, `inf` are ever written.
+        std::str::from_utf8(self.format_bytes(v)).unwrap_or("NaN")
+    }
+
+    /// [`F64Text::format`] as ASCII bytes (what the CSV writer writes; no UTF-8 check).
+    pub fn format_bytes(&mut self, v: f64) -> &[u8] {
         if v.is_nan() {
-            return "NaN";
+            return b"NaN";
         }
         if v.is_infinite() {
-            return if v > 0.0 { "inf" } else { "-inf" };
+            return if v > 0.0 { b"inf" } else { b"-inf" };
         }
         // Fast path: zmij already uses the plain form on 1e-5 ≤ |v| < 1e16 (and for zero),
         // writing integers as `3.0`, and the exponent form elsewhere, writing `1e+16`: drop the
         // `.0`, drop the `+`.
         let a = v.abs();
         let plain = a == 0.0 || (1e-5..1e16).contains(&a);
-        let mut raw = [0u8; 32];
         let len = {
             let t = self.digits.format_finite(v).as_bytes();
-            raw[..t.len()].copy_from_slice(t);
+            self.out[..t.len()].copy_from_slice(t);
             t.len()
         };
-        let b = &raw[..len];
-        let n = match b.iter().position(|&c| c == b'e') {
-            None if plain => b.strip_suffix(b".0").unwrap_or(b).len(),
-            Some(i) if !plain && b.get(i + 1) == Some(&b'+') => {
-                raw.copy_within(i + 2..len, i + 1);
+        // The exponent marker, if any, is among the last 6 bytes (`e-324`); a short scan
+        // (`position` would call `memchr`, which costs more than the digits on 20 bytes).
+        let o = &mut self.out;
+        let mut e_at = None;
+        let mut i = len;
+        while i > len.saturating_sub(6) {
+            i -= 1;
+            if o[i] == b'e' {
+                e_at = Some(i);
+                break;
+            }
+        }
+        let n = match e_at {
+            None if plain => {
+                if len >= 2 && o[len - 2] == b'.' && o[len - 1] == b'0' {
+                    len - 2
+                } else {
+                    len
+                }
+            }
+            Some(i) if !plain && o[i + 1] == b'+' => {
+                o.copy_within(i + 2..len, i + 1);
                 len - 1
             }
             Some(_) if !plain => len,
-            _ => return self.rearrange(v, &raw[..len]),
+            _ => {
+                let mut text = [0u8; 32];
+                text[..len].copy_from_slice(&o[..len]);
+                return self.rearrange(v, &text[..len]);
+            }
         };
-        self.out = raw;
-        // Only ASCII digits, '-', '.', 'e' were written.
-        std::str::from_utf8(&self.out[..n]).unwrap_or("NaN")
+        &self.out[..n]
     }
 
     /// The general path of [`F64Text::format`]: the digits of zmij's text `text` in
     /// `core::fmt`'s layout, whatever form zmij chose.
-    fn rearrange(&mut self, v: f64, text: &[u8]) -> &str {
+    fn rearrange(&mut self, v: f64, text: &[u8]) -> &[u8] {
         // zmij writes `[-]d.ddd`, `[-]ddd.0`, `[-]0.000ddd` or `[-]d.ddde±x`: collect the
         // significant digits `d` and the decimal exponent `p` of the first one
         // (`|v| = d₁.d₂…dₙ × 10^p`).
@@ -442,7 +466,7 @@ impl F64Text {
         let body = if neg { &text[1..] } else { text };
         let (mant, exp) = match body.iter().position(|&c| c == b'e') {
             Some(i) => (&body[..i], parse_exp(&body[i + 1..])),
-            None => (&body[..], 0),
+            None => (body, 0),
         };
         let mut digits = [0u8; 24];
         let (mut n, mut int_len, mut seen_point, mut lead) = (0usize, 0i32, false, 0i32);
@@ -537,8 +561,7 @@ impl F64Text {
                 }
             }
         }
-        // Only ASCII digits, '-', '.', 'e' were written.
-        std::str::from_utf8(&o[..k]).unwrap_or("NaN")
+        &o[..k]
     }
 }
 
@@ -597,7 +620,7 @@ pub fn write_csv(path: &Path, header: &[String], columns: &[&[f64]]) -> Result<(
                 if j > 0 {
                     f.write_all(b",")?;
                 }
-                f.write_all(text.format(c[i]).as_bytes())?;
+                f.write_all(text.format_bytes(c[i]))?;
             }
             f.write_all(b"\n")?;
         }

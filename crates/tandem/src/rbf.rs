@@ -404,7 +404,7 @@ fn kron_into(
     tmp: &mut [f64],
 ) {
     // Start in whichever buffer makes the last factor land in `out`.
-    let (mut src, mut dst) = if (to - from) % 2 == 0 {
+    let (mut src, mut dst) = if (to - from).is_multiple_of(2) {
         (&mut *out, &mut *tmp)
     } else {
         (&mut *tmp, &mut *out)
@@ -773,13 +773,13 @@ impl<const M: usize> RbfNetwork<M> {
             // features on this CPU.
             unsafe {
                 match self.kernel {
-                    Kernel::Avx512 if nb % BLOCK512 == 0 => {
+                    Kernel::Avx512 if nb.is_multiple_of(BLOCK512) => {
                         return avx512::tick_grid::<M, NORM, STORE>(w, a, b, s, e, &c);
                     }
-                    Kernel::Avx2Fma if nb % BLOCK == 0 => {
+                    Kernel::Avx2Fma if nb.is_multiple_of(BLOCK) => {
                         return avx2::tick_grid_fma::<M, NORM, STORE>(w, a, b, s, e, &c);
                     }
-                    Kernel::Avx2 if nb % BLOCK == 0 => {
+                    Kernel::Avx2 if nb.is_multiple_of(BLOCK) => {
                         return avx2::tick_grid::<M, NORM, STORE>(w, a, b, s, e, &c);
                     }
                     _ => {}
@@ -1424,7 +1424,7 @@ mod avx2 {
         c: &[f64; M],
     ) -> ([f64; M], [f64; M]) {
         let nb = b.len();
-        assert!(nb % BLOCK == 0 && s.len() == a.len() * nb && w.len() == s.len() * M);
+        assert!(nb.is_multiple_of(BLOCK) && s.len() == a.len() * nb && w.len() == s.len() * M);
         // SAFETY: AVX2 (caller's contract).
         unsafe {
             let mut r = regs(e, c);
@@ -1759,7 +1759,7 @@ mod avx512 {
         c: &[f64; M],
     ) -> ([f64; M], [f64; M]) {
         let nb = b.len();
-        assert!(nb % B == 0 && s.len() == a.len() * nb && w.len() == s.len() * M);
+        assert!(nb.is_multiple_of(B) && s.len() == a.len() * nb && w.len() == s.len() * M);
         // SAFETY: AVX-512F (caller's contract); `spread` is written before it is read.
         unsafe {
             let mut r = regs(e, c);
