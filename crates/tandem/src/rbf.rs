@@ -45,12 +45,14 @@
 //! writes the updated weight and adds its square to `‖Ŵ_j‖²`, all in that one pass, with no
 //! allocation. [`RbfNetwork::tick_at`] on a grid also forms `S = A ⊗ B` inside that pass.
 //!
-//! The kernels work on blocks of 4 nodes (`4M` weights, `M` AVX2 registers); each lane keeps its
-//! own partial sums, reduced per output in a fixed order at the end. So results are bitwise
-//! reproducible, identical between the output-only, update-only and fused paths, and identical
-//! between the portable and the AVX2 code (x86-64 picks AVX2 at run time when the CPU has it; no
-//! FMA is used, so the rounding is the same). This is the only `unsafe` in the module: the
-//! AVX2 intrinsics and the call into a `#[target_feature]` function after detection.
+//! The kernels work on blocks of 4 nodes (`4M` weights, `M` AVX2 registers; 8 nodes for
+//! AVX-512); each lane keeps its own partial sums, reduced per output in a fixed order at the
+//! end. So results are bitwise reproducible, identical between the output-only, update-only and
+//! fused paths of a kernel, and identical between the portable and the AVX2 code (no FMA, so the
+//! rounding is the same). The FMA kernels (`avx2fma`, `avx512`, the default where the CPU has
+//! AVX-512F) agree with them within the tolerance of the determinism policy ([`Kernel`],
+//! `docs/performance.md`). This is the only `unsafe` in the module: the SIMD intrinsics and the
+//! call into a `#[target_feature]` function after detection.
 //!
 use nalgebra::{DMatrix, DVector, SVector};
 
@@ -854,11 +856,13 @@ pub const KERNEL_ENV: &str = "TANDEM_KERNEL";
 ///
 /// Determinism policy (`docs/performance.md`): the same binary on the same machine with the
 /// same kernel gives bitwise-identical runs. [`Kernel::Portable`] and [`Kernel::Avx2`] use the
-/// same IEEE operations in the same order and give the same bits (the planar reference results
-/// are pinned to them). [`Kernel::Avx2Fma`] fuses `acc + w·S`, `e·w − c·S` and `n2 + w²` into
-/// single-rounding FMAs: each weight update differs by at most about one ulp per tick, and the
-/// results agree with the portable reference to a relative tolerance (tested: `1e-12` on the
-/// weights and outputs after 1000 ticks of the paper network).
+/// same IEEE operations in the same order and give the same bits (results pinned to bits are
+/// pinned to them). [`Kernel::Avx2Fma`] fuses `acc + w·S`, `e·w − c·S` and `n2 + w²` into
+/// single-rounding FMAs, and [`Kernel::Avx512`] also regroups the grid pass (`(c a_i)·b`,
+/// `a_i Σ b w`): each weight update differs by at most a few ulps per tick, and the results
+/// agree with the portable reference to a relative tolerance (tested: `1e-12` on the weights
+/// and outputs after 1000 ticks of the paper network). The default is the fastest kernel the
+/// CPU has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Kernel {
     /// Plain Rust, any CPU; the reference.
