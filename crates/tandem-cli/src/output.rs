@@ -353,7 +353,7 @@ fn write_atomic_with(
             .write(true)
             .create_new(true)
             .open(&tmp)?;
-        let mut w = std::io::BufWriter::new(file);
+        let mut w = std::io::BufWriter::with_capacity(1 << 16, file);
         write(&mut w)?;
         let file = w.into_inner().map_err(|e| e.into_error())?;
         file.sync_all()
@@ -369,18 +369,213 @@ fn write_atomic_with(
 ///
 /// Plain decimal for 1e-5 ≤ |v| < 1e16 and zero (`0.03`, `-12.5`, `3`), exponent form otherwise
 /// (`1e-9`, `2.5e20`), so tiny values do not become hundreds of zeros. Non-finite values are
-/// written `NaN`, `inf`, `-inf` (read back by Rust, pandas and numpy).
+/// written `NaN`, `inf`, `-inf` (read back by Rust, pandas and numpy). The text is that of
+/// `format!("{v}")` (plain range) or `format!("{v:e}")` (otherwise), except that when two
+/// shortest texts are equally near `v` the last digit may be the other one (both read back as
+/// `v`); see [`F64Text`] for the allocation-free form the CSV writer uses.
 pub fn fmt_f64(v: f64) -> String {
-    let a = v.abs();
-    if v.is_nan() {
-        String::from("NaN")
-    } else if v.is_infinite() {
-        String::from(if v > 0.0 { "inf" } else { "-inf" })
-    } else if a == 0.0 || (1e-5..1e16).contains(&a) {
-        format!("{v}")
-    } else {
-        format!("{v:e}")
+    F64Text::new().format(v).to_owned()
+}
+
+/// An allocation-free, fast formatter for [`fmt_f64`]'s format (the CSV writer keeps one and
+/// formats every number through it).
+///
+/// The shortest round-trip digits come from `zmij` (the Żmij algorithm, 5–10× faster than
+/// `core::fmt`; already in the build through `serde_json`); this type only rearranges them into
+/// the layout `core::fmt` writes (plain or exponent form, no `+`, no `.0`), so every reader of
+/// timeseries.csv sees the same format. Tested against `format!` on special values and two
+/// million random values: the same text, except for ties between two equally near shortest
+/// texts, where the last digit may differ by one; every text reads back bit for bit.
+#[derive(Default)]
+pub struct F64Text {
+    digits: zmij::Buffer,
+    out: [u8; 32],
+}
+
+impl F64Text {
+    /// A formatter (no heap memory).
+    pub fn new() -> Self {
+        Self::default()
     }
+
+    /// `v` as [`fmt_f64`] writes it, in this formatter's buffer.
+    pub fn format(&mut self, v: f64) -> &str {
+        // Only ASCII digits, '-', '.', 'e' and the letters of `NaN`, `inf` are ever written.
+        std::str::from_utf8(self.format_bytes(v)).unwrap_or("NaN")
+    }
+
+    /// [`F64Text::format`] as ASCII bytes (what the CSV writer writes; no UTF-8 check).
+    pub fn format_bytes(&mut self, v: f64) -> &[u8] {
+        if v.is_nan() {
+            return b"NaN";
+        }
+        if v.is_infinite() {
+            return if v > 0.0 { b"inf" } else { b"-inf" };
+        }
+        // Fast path: zmij already uses the plain form on 1e-5 ≤ |v| < 1e16 (and for zero),
+        // writing integers as `3.0`, and the exponent form elsewhere, writing `1e+16`: drop the
+        // `.0`, drop the `+`.
+        let a = v.abs();
+        let plain = a == 0.0 || (1e-5..1e16).contains(&a);
+        let len = {
+            let t = self.digits.format_finite(v).as_bytes();
+            self.out[..t.len()].copy_from_slice(t);
+            t.len()
+        };
+        // The exponent marker, if any, is among the last 6 bytes (`e-324`); a short scan
+        // (`position` would call `memchr`, which costs more than the digits on 20 bytes).
+        let o = &mut self.out;
+        let mut e_at = None;
+        let mut i = len;
+        while i > len.saturating_sub(6) {
+            i -= 1;
+            if o[i] == b'e' {
+                e_at = Some(i);
+                break;
+            }
+        }
+        let n = match e_at {
+            None if plain => {
+                if len >= 2 && o[len - 2] == b'.' && o[len - 1] == b'0' {
+                    len - 2
+                } else {
+                    len
+                }
+            }
+            Some(i) if !plain && o[i + 1] == b'+' => {
+                o.copy_within(i + 2..len, i + 1);
+                len - 1
+            }
+            Some(_) if !plain => len,
+            _ => {
+                let mut text = [0u8; 32];
+                text[..len].copy_from_slice(&o[..len]);
+                return self.rearrange(v, &text[..len]);
+            }
+        };
+        &self.out[..n]
+    }
+
+    /// The general path of [`F64Text::format`]: the digits of zmij's text `text` in
+    /// `core::fmt`'s layout, whatever form zmij chose.
+    fn rearrange(&mut self, v: f64, text: &[u8]) -> &[u8] {
+        // zmij writes `[-]d.ddd`, `[-]ddd.0`, `[-]0.000ddd` or `[-]d.ddde±x`: collect the
+        // significant digits `d` and the decimal exponent `p` of the first one
+        // (`|v| = d₁.d₂…dₙ × 10^p`).
+        let neg = text[0] == b'-';
+        let body = if neg { &text[1..] } else { text };
+        let (mant, exp) = match body.iter().position(|&c| c == b'e') {
+            Some(i) => (&body[..i], parse_exp(&body[i + 1..])),
+            None => (body, 0),
+        };
+        let mut digits = [0u8; 24];
+        let (mut n, mut int_len, mut seen_point, mut lead) = (0usize, 0i32, false, 0i32);
+        for &c in mant {
+            if c == b'.' {
+                seen_point = true;
+            } else if n == 0 && c == b'0' {
+                // Leading zeros: before the point they are nothing, after it they shift `p`.
+                if seen_point {
+                    lead += 1;
+                }
+            } else {
+                if n < digits.len() {
+                    digits[n] = c;
+                    n += 1;
+                }
+                if !seen_point {
+                    int_len += 1;
+                }
+            }
+        }
+        while n > 0 && digits[n - 1] == b'0' {
+            n -= 1;
+        }
+        let o = &mut self.out;
+        let mut k = 0;
+        let mut push = |o: &mut [u8; 32], c: u8| {
+            o[k] = c;
+            k += 1;
+        };
+        if neg {
+            push(o, b'-');
+        }
+        if n == 0 {
+            // ±0.
+            push(o, b'0');
+        } else {
+            let p = if int_len > 0 {
+                int_len - 1
+            } else {
+                -(lead + 1)
+            } + exp;
+            let a = v.abs();
+            if (1e-5..1e16).contains(&a) {
+                if p >= 0 {
+                    // Integer part: the first p + 1 digits (zero-padded), then any fraction.
+                    let ip = p as usize + 1;
+                    for i in 0..ip {
+                        push(o, if i < n { digits[i] } else { b'0' });
+                    }
+                    if n > ip {
+                        push(o, b'.');
+                        for &d in &digits[ip..n] {
+                            push(o, d);
+                        }
+                    }
+                } else {
+                    push(o, b'0');
+                    push(o, b'.');
+                    for _ in 0..(-p - 1) {
+                        push(o, b'0');
+                    }
+                    for &d in &digits[..n] {
+                        push(o, d);
+                    }
+                }
+            } else {
+                push(o, digits[0]);
+                if n > 1 {
+                    push(o, b'.');
+                    for &d in &digits[1..n] {
+                        push(o, d);
+                    }
+                }
+                push(o, b'e');
+                if p < 0 {
+                    push(o, b'-');
+                }
+                let mut e = p.unsigned_abs();
+                let mut tmp = [0u8; 4];
+                let mut m = 0;
+                loop {
+                    tmp[m] = b'0' + (e % 10) as u8;
+                    m += 1;
+                    e /= 10;
+                    if e == 0 {
+                        break;
+                    }
+                }
+                for &c in tmp[..m].iter().rev() {
+                    push(o, c);
+                }
+            }
+        }
+        &o[..k]
+    }
+}
+
+/// The exponent after `e` in zmij's text (`+16`, `-7`, `300`).
+fn parse_exp(t: &[u8]) -> i32 {
+    let (neg, digits) = match t.first() {
+        Some(b'-') => (true, &t[1..]),
+        Some(b'+') => (false, &t[1..]),
+        _ => (false, t),
+    };
+    let e = digits
+        .iter()
+        .fold(0i32, |e, &c| e * 10 + i32::from(c - b'0'));
+    if neg { -e } else { e }
 }
 
 /// Writes a CSV file of equal-length columns, atomically.
@@ -412,21 +607,24 @@ pub fn write_csv(path: &Path, header: &[String], columns: &[&[f64]]) -> Result<(
         );
     }
     write_atomic_with(path, |f| {
-        let mut w = csv::Writer::from_writer(f);
-        let mut rec = csv::StringRecord::with_capacity(16 * columns.len(), columns.len());
-        let mut run = || -> csv::Result<()> {
-            w.write_record(header)?;
-            for i in 0..rows {
-                rec.clear();
-                for c in columns {
-                    rec.push_field(&fmt_f64(c[i]));
+        // The header through the csv writer (names may need quoting); the numbers straight into
+        // the buffered file: their text (digits, `-`, `.`, `e`, `NaN`, `inf`) never needs
+        // quoting, and nothing is allocated per row or per number.
+        let mut w = csv::Writer::from_writer(&mut *f);
+        w.write_record(header).map_err(std::io::Error::other)?;
+        w.flush()?;
+        drop(w);
+        let mut text = F64Text::new();
+        for i in 0..rows {
+            for (j, c) in columns.iter().enumerate() {
+                if j > 0 {
+                    f.write_all(b",")?;
                 }
-                w.write_record(&rec)?;
+                f.write_all(text.format_bytes(c[i]))?;
             }
-            w.flush()?;
-            Ok(())
-        };
-        run().map_err(std::io::Error::other)
+            f.write_all(b"\n")?;
+        }
+        Ok(())
     })
 }
 
@@ -463,6 +661,115 @@ mod tests {
         }
         assert_eq!(fmt_f64(3.0), "3");
         assert_eq!(fmt_f64(1e-9), "1e-9");
+    }
+
+    /// The text `fmt_f64` wrote before the fast formatter: `core::fmt`.
+    fn reference_text(v: f64) -> String {
+        let a = v.abs();
+        if v.is_nan() {
+            String::from("NaN")
+        } else if v.is_infinite() {
+            String::from(if v > 0.0 { "inf" } else { "-inf" })
+        } else if a == 0.0 || (1e-5..1e16).contains(&a) {
+            format!("{v}")
+        } else {
+            format!("{v:e}")
+        }
+    }
+
+    /// The fast formatter writes the text `core::fmt` wrote (so every reader of timeseries.csv
+    /// sees the same format) on the edge cases of both forms and on a million random bit
+    /// patterns (every exponent) plus a million values of the sizes a run logs: the same text,
+    /// or, where two shortest texts are equally near the value (zmij and `core::fmt` break the
+    /// tie differently), the same length, form and digits but the last, which differs by one.
+    /// Every text reads back bit for bit.
+    #[test]
+    fn fast_formatter_writes_the_text_core_fmt_writes() {
+        let mut t = F64Text::new();
+        let mut ties = 0usize;
+        let mut check = |t: &mut F64Text, v: f64| {
+            let (got, want) = (t.format(v).to_owned(), reference_text(v));
+            if !v.is_nan() {
+                let back: f64 = got.parse().expect("parse");
+                assert_eq!(back.to_bits(), v.to_bits(), "{v:e}: {got}");
+            }
+            if got != want {
+                let (g, w) = (got.as_bytes(), want.as_bytes());
+                let last = g.len().saturating_sub(1);
+                assert!(
+                    g.len() == w.len() && g[..last] == w[..last] && g[last].abs_diff(w[last]) == 1,
+                    "{v:e}: {got} vs {want}"
+                );
+                ties += 1;
+            }
+        };
+        let mut edge = vec![
+            0.0,
+            -0.0,
+            1.0,
+            3.0,
+            -12.5,
+            0.1,
+            0.03,
+            1e-5,
+            1e-6,
+            9.999999999999999e-6,
+            1e15,
+            1e16,
+            9999999999999998.0,
+            1e17,
+            1e21,
+            1e22,
+            123456.789,
+            12345678901234567.0,
+            f64::MAX,
+            f64::MIN,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::EPSILON,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for k in -330..=310 {
+            let p = 10f64.powi(k);
+            edge.extend([
+                p,
+                -p,
+                p * 1.5,
+                p * 0.999_999_999_999_999_9,
+                p * 1.000_000_000_000_000_2,
+            ]);
+        }
+        for v in edge {
+            check(&mut t, v);
+        }
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..1_000_000 {
+            // xorshift64*: random bit patterns, then random magnitudes near 1.
+            x ^= x >> 12;
+            x ^= x << 25;
+            x ^= x >> 27;
+            let r = x.wrapping_mul(0x2545_f491_4f6c_dd1d);
+            check(&mut t, f64::from_bits(r));
+            let u = (r >> 11) as f64 / (1u64 << 53) as f64;
+            check(&mut t, (u - 0.5) * 10f64.powi((r % 9) as i32 - 4));
+        }
+        // Ties are rare (measured: 262 of the 2 003 231 values, 0.013 %); 0.1 % would mean the
+        // digits themselves went wrong somewhere.
+        assert!(ties < 2000, "{ties} ties");
+    }
+
+    #[test]
+    fn csv_numbers_are_plain_fields_and_round_trip() {
+        let d = scratch("csv");
+        let p = d.join("x.csv");
+        let a = [0.0, -1.5e-9, 3.0];
+        let b = [f64::NAN, 1e300, 0.1];
+        write_csv(&p, &["t [s]".into(), "a, b".into()], &[&a[..], &b[..]]).expect("write");
+        let text = fs::read_to_string(&p).expect("read");
+        assert_eq!(text, "t [s],\"a, b\"\n0,NaN\n-1.5e-9,1e300\n3,0.1\n");
+        let _ = fs::remove_dir_all(&d);
     }
 
     #[test]

@@ -6,6 +6,9 @@
 //!   in one pass (`RbfNetwork::tick_at`);
 //! - `nn_tick_given_s_4096x3`: the same with `S` given (`RbfNetwork::tick`);
 //! - `nn_unfused_output_then_update_4096x3`: output pass, then update pass;
+//! - `nn_tick_outputs_4096x3/<kernel>`: the controller's RBF pass (`tick_at_outputs`: `S(Z)`,
+//!   outputs and exact update, no norms, `S` not stored) with every kernel this CPU can run,
+//!   side by side in one process (the others use the default kernel or `TANDEM_KERNEL`);
 //! - `s_naive_general_4096`: the direct sum of (8) over explicit centres (4096 `exp`).
 //!
 //! Performance log (release, AMD EPYC Zen 4 VM, 2 cores, AVX2 path, minimum over runs):
@@ -21,7 +24,7 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Vector3;
-use tandem::rbf::{NnUpdate, Rbf, RbfNetwork};
+use tandem::rbf::{Kernel, NnUpdate, Rbf, RbfNetwork};
 
 /// A plausible NN input `Z = [x1, x2, α, α̇]` near the start of the paper run.
 const Z: [f64; 12] = [
@@ -48,6 +51,22 @@ fn bench(c: &mut Criterion) {
     c.bench_function("rbf/nn_tick_fused_4096x3", |b| {
         b.iter(|| black_box(net.tick_at(&rbf, black_box(&Z), &mut ws, black_box(1.0), &z2, &upd)))
     });
+    for kernel in Kernel::ALL.into_iter().filter(|k| k.is_available()) {
+        let mut net = RbfNetwork::<3>::for_basis(&rbf).unwrap();
+        net.set_kernel(kernel).unwrap();
+        c.bench_function(&format!("rbf/nn_tick_outputs_4096x3/{kernel}"), |b| {
+            b.iter(|| {
+                black_box(net.tick_at_outputs(
+                    &rbf,
+                    black_box(&Z),
+                    &mut ws,
+                    black_box(1.0),
+                    &z2,
+                    &upd,
+                ))
+            })
+        });
+    }
     rbf.eval_into(&Z, &mut ws);
     let s = ws.s().to_vec();
     c.bench_function("rbf/nn_tick_given_s_4096x3", |b| {

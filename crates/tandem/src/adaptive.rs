@@ -497,7 +497,7 @@ impl<const N: usize> AdaptiveNn<N> {
                 // of (44), fused in one pass over the weights.
                 let phi_a = net.tick_at_outputs(rbf, &self.z, rbf_ws, q, &z2, &self.update);
                 // ‖Ŵ_j‖ for the record: ‖e Ŵ − c S‖² = e²‖Ŵ‖² − 2ec Ŵ·S + c²‖S‖², Ŵ·S = f̂_j.
-                if self.ticks % NORM_REFRESH == 0 {
+                if self.ticks.is_multiple_of(NORM_REFRESH) {
                     let n = net.norms();
                     for j in 0..N {
                         self.w_n2[j] = n[j] * n[j];

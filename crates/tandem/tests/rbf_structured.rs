@@ -10,7 +10,7 @@ use tandem::disturbance::Disturbance;
 use tandem::error::ModelError;
 use tandem::fixtures::{self, SplitMix64};
 use tandem::plant::Plant;
-use tandem::rbf::{NnUpdate, Rbf, RbfNetwork};
+use tandem::rbf::{KERNEL_ENV, Kernel, NnUpdate, Rbf, RbfNetwork};
 use tandem::rbf_structured::{
     NetworkStructure, StructuredNn, grid_norm2_at_zero, matched_theta, scrambled_halton,
 };
@@ -254,6 +254,48 @@ fn short_run(g: NnGains) -> u64 {
 
 #[test]
 fn default_structure_reproduces_the_paper_nn_bit_for_bit() {
+    // The golden hashes below are bits of the reference kernel (`portable`, and `avx2`, which
+    // gives the same bits). The default kernel may be a faster one that agrees only within the
+    // tolerance of the determinism policy (AVX-512, docs/performance.md), and the kernel is
+    // read from TANDEM_KERNEL when a network is built, so the runs go into a child process of
+    // this test binary with TANDEM_KERNEL set to a bit-identical kernel.
+    let kernel = if Kernel::Avx2.is_available() {
+        Kernel::Avx2
+    } else {
+        Kernel::Portable
+    };
+    let exe = std::env::current_exe().expect("test binary");
+    let out = std::process::Command::new(exe)
+        .args([
+            "--ignored",
+            "--exact",
+            "golden_hashes_with_a_bit_identical_kernel",
+            "--test-threads=1",
+        ])
+        .env(KERNEL_ENV, kernel.name())
+        .output()
+        .expect("child test process");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "{text}");
+    assert!(
+        text.contains("1 passed") && !text.contains("skipped"),
+        "{text}"
+    );
+}
+
+#[test]
+#[ignore = "run by default_structure_reproduces_the_paper_nn_bit_for_bit, in a child process \
+            with TANDEM_KERNEL set to a bit-identical kernel"]
+fn golden_hashes_with_a_bit_identical_kernel() {
+    let kernel = Kernel::from_env().expect("kernel");
+    if !kernel.is_bit_identical_to_portable() {
+        eprintln!("skipped: the golden hashes need a bit-identical kernel, not {kernel}");
+        return;
+    }
     // The default is the full grid, and serialising the presets does not mention it.
     assert_eq!(NnGains::tuned().network, NetworkStructure::FullGrid);
     assert_eq!(NnGains::paper().network, NetworkStructure::default());

@@ -526,7 +526,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             return Err(self.fault(t, FaultKind::NonFiniteSignal { signal }));
         }
         // 5 (before advancing): log the state at t_k with the torque chosen at t_k.
-        if k % self.per_log == 0 {
+        if k.is_multiple_of(self.per_log) {
             self.log_row(t);
         }
         // 3. Plant substeps with the input held.

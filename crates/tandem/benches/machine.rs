@@ -1,0 +1,122 @@
+//! Machine bounds for the roofline table of `docs/performance.md`: the memory rate of the
+//! weight pass's access pattern (read, modify and write back every element of a buffer once,
+//! `x ← a·x + b·x`, in 512-bit registers where the CPU has AVX-512, else 256-bit) for buffers
+//! that live in L1 (32 KB) and in L2 (96 KB: the paper network's weights; 192 KB), a read-only
+//! pass, and the clock (a chain of dependent integer adds: one a cycle).
+//!
+//! Bytes moved = 2 × buffer (read + write) for the update pass, 1 × for the read pass; divide
+//! by the median time.
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use std::hint::black_box;
+
+/// `x ← a·x + b·x` over the buffer (each element read and written once).
+fn update(x: &mut [f64], a: f64, b: f64) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: AVX-512F detected just above.
+            return unsafe { update_avx512(x, a, b) };
+        }
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: AVX2 and FMA detected just above.
+            return unsafe { update_avx2(x, a, b) };
+        }
+    }
+    update_plain(x, a, b);
+}
+
+#[inline(always)]
+fn update_plain(x: &mut [f64], a: f64, b: f64) {
+    for v in x.iter_mut() {
+        *v = a * *v + b * *v;
+    }
+}
+
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn update_avx512(x: &mut [f64], a: f64, b: f64) {
+    update_plain(x, a, b);
+}
+
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn update_avx2(x: &mut [f64], a: f64, b: f64) {
+    update_plain(x, a, b);
+}
+
+/// `Σ x` in 8 independent partial sums (a read-only pass).
+fn read(x: &[f64]) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        // SAFETY: AVX-512F detected just above.
+        return unsafe { read_avx512(x) };
+    }
+    read_plain(x)
+}
+
+#[inline(always)]
+fn read_plain(x: &[f64]) -> f64 {
+    let mut acc = [0.0; 32];
+    for c in x.chunks_exact(32) {
+        for (a, v) in acc.iter_mut().zip(c) {
+            *a += v;
+        }
+    }
+    acc.iter().sum()
+}
+
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn read_avx512(x: &[f64]) -> f64 {
+    read_plain(x)
+}
+
+fn bench(c: &mut Criterion) {
+    for kb in [32usize, 96, 192] {
+        let mut x = vec![1.0f64; kb * 1024 / 8];
+        let mut g = c.benchmark_group("machine/update_pass");
+        g.throughput(Throughput::Bytes(2 * (kb * 1024) as u64));
+        g.bench_function(format!("{kb}KB"), |b| {
+            b.iter(|| update(black_box(&mut x), black_box(0.5), black_box(0.5)))
+        });
+        g.finish();
+        let mut g = c.benchmark_group("machine/read_pass");
+        g.throughput(Throughput::Bytes((kb * 1024) as u64));
+        g.bench_function(format!("{kb}KB"), |b| b.iter(|| read(black_box(&x))));
+        g.finish();
+    }
+    // 10 000 dependent adds (x86-64: 1000 blocks of 10 `add r, r'` in one asm statement, each
+    // waiting for the last; register operands, since recent cores fold add-immediate chains at
+    // rename): one a cycle, so the time in ns / 10 000 is the clock period.
+    #[cfg(target_arch = "x86_64")]
+    c.bench_function("machine/clock_10k_dependent_adds", |b| {
+        b.iter(|| {
+            let mut v = black_box(1u64);
+            let one = black_box(1u64);
+            for _ in 0..1000 {
+                // SAFETY: register arithmetic only.
+                unsafe {
+                    std::arch::asm!(
+                        "add {0}, {1}", "add {0}, {1}", "add {0}, {1}", "add {0}, {1}",
+                        "add {0}, {1}", "add {0}, {1}", "add {0}, {1}", "add {0}, {1}",
+                        "add {0}, {1}", "add {0}, {1}",
+                        inout(reg) v,
+                        in(reg) one,
+                        options(pure, nomem, nostack),
+                    );
+                }
+            }
+            black_box(v)
+        })
+    });
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
