@@ -611,7 +611,8 @@ fn toml_to_py<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
 
 #[pymethods]
 impl PyScenario {
-    /// An embedded scenario by name (see `tandem.presets()`), e.g. `Scenario.preset("paper")`.
+    /// An embedded scenario by name (see `tandem.presets()`), e.g. `Scenario.preset("paper")`,
+    /// `Scenario.preset("dual-ur5")` (spatial).
     #[staticmethod]
     fn preset(py: Python<'_>, name: &str) -> PyResult<Self> {
         let r = (|| -> Res<Kind> {
@@ -972,8 +973,9 @@ impl PyRun {
         json_to_py(py, &self.summary)
     }
 
-    /// The time series: column name (`t`, `x_o.x`, `tau_q1`, ...) → NumPy float64 array, in the
-    /// order of `timeseries.csv`. The arrays are read-only views of the run's memory (no copy).
+    /// The time series: column name (`t`, `x_o.x`, `tau_q1`, ...) → NumPy float64 array, the
+    /// columns of `timeseries.csv` in its order (spatial: the log's, then the derived `x_1.*`
+    /// and `F_tool{i}.*`). The arrays are read-only views of the run's memory (no copy).
     #[getter]
     fn timeseries<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
@@ -1213,7 +1215,7 @@ enum Prep {
 }
 
 /// Closed-loop runs of many scenarios in Rust, on `threads` threads (default: every core), with
-/// the GIL released; the Runs in input order. `scenarios` is a Scenario or a sequence of them;
+/// the GIL released; the Runs in input order (planar and spatial scenarios may be mixed). `scenarios` is a Scenario or a sequence of them;
 /// `seeds` (one per scenario, or for a single scenario one run per seed) and `duration` override
 /// `run.seed` and `run.duration`. The results do not depend on the thread count.
 #[pyfunction]

@@ -543,3 +543,54 @@ fn spatial_sweeps_run_merge_and_carry_the_box_mass() {
     }
     let _ = fs::remove_dir_all(&d);
 }
+
+#[test]
+fn spatial_fault_and_invalid_draws_are_rows() {
+    let d = scratch("spatial-rows");
+    // Seed 3 draws one negative σ (an invalid run) among the four; σ_min = 0.1965 is above the
+    // arms' 0.196 at 0.16 s of dual-ur5, so those runs stop with the singularity fault.
+    fs::write(
+        d.join("f.toml"),
+        "base = \"dual-ur5\"\nduration = 0.3\nruns = 2\nseed = 3\n[vary]\n\
+         \"run.min_sigma\" = { grid = [0.001, 0.1965] }\n\
+         \"sensors.force.std_dev\" = { normal = [0.0, 1.0] }\n",
+    )
+    .unwrap();
+    ok(&tandem(
+        &d,
+        &["sweep", "f.toml", "--out", "o", "--no-figures"],
+    ));
+    let table = fs::read_to_string(d.join("o/runs.csv")).unwrap();
+    let mut rd = table.lines();
+    let head: Vec<&str> = rd.next().unwrap().split(',').collect();
+    let rows: Vec<&str> = rd.collect();
+    assert_eq!(rows.len(), 4, "{table}");
+    let status = |r: &str| {
+        if r.contains(",completed,") {
+            "completed"
+        } else if r.contains(",fault,") {
+            "fault"
+        } else if r.contains(",invalid,") {
+            "invalid"
+        } else {
+            "?"
+        }
+    };
+    let got: Vec<&str> = rows.iter().map(|r| status(r)).collect();
+    assert_eq!(
+        got,
+        ["completed", "completed", "invalid", "fault"],
+        "{table}"
+    );
+    assert!(rows[2].contains("sensors.force.std_dev = -") && rows[2].contains(">= 0"));
+    assert!(rows[3].contains("singular configuration"), "{}", rows[3]);
+    // An invalid row has every metric cell empty; a faulted one has its metrics.
+    let cells = |r: &str| r.split(',').count();
+    assert_eq!(cells(rows[2]), head.len(), "{}", rows[2]);
+    assert!(
+        rows[2].ends_with(&",".repeat(head.len() - 6)),
+        "{}",
+        rows[2]
+    );
+    let _ = fs::remove_dir_all(&d);
+}
