@@ -296,6 +296,8 @@ struct Spatial {
 
 /// What a scenario is: planar or spatial. The Python API (`preset`, `from_toml`, `with_`,
 /// `run`, `rollout`, pickling through TOML) is the same for both.
+// One value per scenario or run, behind an `Arc` or in a `Vec`: boxing a variant saves nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone)]
 enum Kind {
     Planar(Planar),
@@ -303,6 +305,8 @@ enum Kind {
 }
 
 /// A finished run of either kind.
+// One value per scenario or run, behind an `Arc` or in a `Vec`: boxing a variant saves nothing.
+#[allow(clippy::large_enum_variant)]
 enum Fin {
     Planar(Finished),
     /// The spatial run and the quantities derived from its log (the summary's and the extra
@@ -484,7 +488,7 @@ impl Spatial {
     /// Prepare, simulate and derive the log's kinematics (GIL released).
     fn execute(&self) -> Res<Fin> {
         let p = spatial::prepare(self.sc.clone(), &self.src)?;
-        Ok(spatial_fin(spatial::execute(p, |_| {}))?)
+        spatial_fin(spatial::execute(p, |_| {}))
     }
 }
 
@@ -1209,6 +1213,8 @@ fn pool(threads: Option<usize>) -> PyResult<rayon::ThreadPool> {
 }
 
 /// A prepared run of either kind.
+// One value per scenario or run, behind an `Arc` or in a `Vec`: boxing a variant saves nothing.
+#[allow(clippy::large_enum_variant)]
 enum Prep {
     Planar(runner::Prepared),
     Spatial(spatial::Prepared),

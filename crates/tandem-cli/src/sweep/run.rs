@@ -326,7 +326,7 @@ fn one_spatial(
         let res = std::fs::create_dir_all(&d)
             .map_err(anyhow::Error::from)
             .and_then(|_| spatial::output::write(&d, &sw.base.name, &fin, false))
-            .and_then(|_| toml_text)
+            .and(toml_text)
             .and_then(|t| crate::output::write_text_atomic(&d.join("scenario.toml"), &t));
         if let Err(e) = res {
             eprintln!("warning: run {index}: its outputs were not written: {e:#}");
