@@ -21,6 +21,7 @@ use toml::{Table, Value};
 use tandem_cli::output::OutputDir;
 use tandem_cli::runner::{self, Finished, Outputs};
 use tandem_cli::scenario::{self, Overrides, ScenarioError as CliScenarioError, Source};
+use tandem_cli::spatial::{self, scenario as sps};
 use tandem_cli::sweep;
 use tandem_cli::{BadInput, output};
 
@@ -279,20 +280,223 @@ struct Planar {
     warnings: Vec<String>,
 }
 
-/// What a scenario is. Spatial scenarios (dual UR5, dual Franka) become a second variant when
-/// their TOML form exists; the Python API (`preset`, `from_toml`, `with_`, `run`, `rollout`,
-/// pickling through TOML) is the same for both.
+/// A spatial scenario (issue 9: `dual-ur5`, `dual-franka`, a file whose arms name a robot
+/// model): its source, its TOML document (overrides applied) and the parsed scenario.
+#[derive(Clone)]
+struct Spatial {
+    /// Name, how errors name it, the text errors point into, the folder relative paths use.
+    src: Source,
+    /// The document `with_` sets fields on.
+    doc: Table,
+    /// The parsed scenario as `spatial::prepare` returns it (file references absolute).
+    sc: sps::SpatialScenario,
+    /// Set-up warnings (the command line prints them before a run).
+    warnings: Vec<String>,
+}
+
+/// What a scenario is: planar or spatial. The Python API (`preset`, `from_toml`, `with_`,
+/// `run`, `rollout`, pickling through TOML) is the same for both.
+// One value per scenario or run, behind an `Arc` or in a `Vec`: boxing a variant saves nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone)]
 enum Kind {
     Planar(Planar),
+    Spatial(Spatial),
+}
+
+/// A finished run of either kind.
+// One value per scenario or run, behind an `Arc` or in a `Vec`: boxing a variant saves nothing.
+#[allow(clippy::large_enum_variant)]
+enum Fin {
+    Planar(Finished),
+    /// The spatial run and the quantities derived from its log (the summary's and the extra
+    /// columns of `timeseries.csv`).
+    Spatial(spatial::Finished, spatial::output::Derived),
+}
+
+impl Fin {
+    fn log(&self) -> &tandem::sim::Log {
+        match self {
+            Fin::Planar(f) => &f.outcome.log,
+            Fin::Spatial(f, _) => &f.outcome.log,
+        }
+    }
+    /// `summary.json` without write times.
+    fn summary(&self, name: &str) -> Json {
+        match self {
+            Fin::Planar(f) => runner::summary_json(f, name, None),
+            Fin::Spatial(f, d) => spatial::output::summary(name, f, d, None),
+        }
+    }
+    /// The columns `timeseries.csv` has after the log's: (name, unit, values). Planar: none;
+    /// spatial: the true pose in the output chart `x_1.*` and the grasp wrenches in tool axes
+    /// `F_tool{i}.*` (as `spatial::output::write_timeseries`).
+    fn derived_columns(&self) -> Vec<(String, String, &[f64])> {
+        let mut out = Vec::new();
+        if let Fin::Spatial(_, d) = self {
+            use tandem::control::spatial::{AXES, WRENCH_AXES};
+            if d.x1.len() == 6 {
+                for (j, a) in AXES.iter().enumerate() {
+                    let u = if j < 3 { "m" } else { "rad" };
+                    out.push((format!("x_1.{a}"), u.to_string(), d.x1[j].as_slice()));
+                }
+            }
+            for (i, w) in d.f_tool.iter().enumerate() {
+                for (j, a) in WRENCH_AXES.iter().enumerate() {
+                    let u = if j < 3 { "N" } else { "N m" };
+                    out.push((
+                        format!("F_tool{}.{a}", i + 1),
+                        u.to_string(),
+                        w[j].as_slice(),
+                    ));
+                }
+            }
+        }
+        out
+    }
 }
 
 impl Kind {
-    fn planar(&self) -> &Planar {
+    fn src(&self) -> &Source {
         match self {
-            Kind::Planar(p) => p,
+            Kind::Planar(p) => &p.src,
+            Kind::Spatial(p) => &p.src,
         }
     }
+    fn doc(&self) -> &Table {
+        match self {
+            Kind::Planar(p) => &p.doc,
+            Kind::Spatial(p) => &p.doc,
+        }
+    }
+    fn warnings(&self) -> &[String] {
+        match self {
+            Kind::Planar(p) => &p.warnings,
+            Kind::Spatial(p) => &p.warnings,
+        }
+    }
+    fn with_run(&self, duration: Option<f64>, seed: Option<u64>) -> Res<Kind> {
+        check_run_overrides(duration, seed)?;
+        Ok(match self {
+            Kind::Planar(p) => Kind::Planar(p.with_run(duration, seed)?),
+            Kind::Spatial(p) => Kind::Spatial(p.with_run(duration, seed)?),
+        })
+    }
+    fn to_toml(&self) -> Res<String> {
+        match self {
+            Kind::Planar(p) => p.to_toml(),
+            Kind::Spatial(p) => spatial::scenario_toml(&p.sc, &p.src.name)
+                .map_err(|e| Error::Other(format!("{e:#}"))),
+        }
+    }
+    /// Prepare and simulate (no Python involved: called with the GIL released).
+    fn execute(&self) -> Res<Fin> {
+        match self {
+            Kind::Planar(p) => Ok(Fin::Planar(p.execute()?)),
+            Kind::Spatial(p) => p.execute(),
+        }
+    }
+    /// The law's label (`NN (tuned)`, `PD`; spatial `NN`, `PD + gravity`, `CTC`).
+    fn label(&self) -> String {
+        match self {
+            Kind::Planar(p) => runner::label(&p.sc),
+            Kind::Spatial(p) => spatial::human_label(&p.sc),
+        }
+    }
+    fn duration(&self) -> f64 {
+        match self {
+            Kind::Planar(p) => p.sc.run.duration,
+            Kind::Spatial(p) => p.sc.run.duration,
+        }
+    }
+    fn seed(&self) -> u64 {
+        match self {
+            Kind::Planar(p) => p.sc.run.seed,
+            Kind::Spatial(p) => p.sc.run.seed,
+        }
+    }
+}
+
+/// Parse and validate a source of either kind (spatial when its arms name a robot model,
+/// `spatial::scenario::is_spatial`).
+fn kind_from_source(src: Source) -> Res<Kind> {
+    if sps::is_spatial(&src.text) {
+        Ok(Kind::Spatial(spatial_from_source(src)?))
+    } else {
+        Ok(Kind::Planar(planar_from_source(src)?))
+    }
+}
+
+/// Parse and validate a spatial source as `tandem run` does before it simulates.
+fn spatial_from_source(mut src: Source) -> Res<Spatial> {
+    let sc = sps::parse(&src)?;
+    if let Some(n) = sc.name.as_ref().filter(|n| !n.trim().is_empty()) {
+        src.name = n.clone();
+    }
+    let doc: Table = toml::from_str(&src.text).map_err(|e| bad(None, e.to_string()))?;
+    let prepared = spatial::prepare(sc, &src)?;
+    Ok(Spatial {
+        warnings: prepared.ready.warnings.clone(),
+        sc: prepared.sc,
+        src,
+        doc,
+    })
+}
+
+/// `duration` and `seed` arguments: a positive duration, a seed TOML can hold.
+fn check_run_overrides(duration: Option<f64>, seed: Option<u64>) -> Res<()> {
+    if let Some(d) = duration {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(bad(
+                Some("run.duration"),
+                format!(
+                    "duration={}: must be a positive number of seconds",
+                    scenario::num(d)
+                ),
+            ));
+        }
+    }
+    if let Some(s) = seed {
+        if s > i64::MAX as u64 {
+            return Err(bad(
+                Some("run.seed"),
+                format!("seed={s}: at most 2^63 − 1 (a TOML integer)"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+impl Spatial {
+    /// The document and scenario with `run.duration` / `run.seed` overridden (as `--duration`
+    /// and `--seed` do); validated when the run prepares.
+    fn with_run(&self, duration: Option<f64>, seed: Option<u64>) -> Res<Spatial> {
+        let mut p = self.clone();
+        if let Some(d) = duration {
+            p.sc.run.duration = d;
+            sweep::fields::set(&mut p.doc, "run.duration", Value::Float(d))
+                .map_err(|m| bad(Some("run.duration"), m))?;
+        }
+        if let Some(s) = seed {
+            p.sc.run.seed = s;
+            sweep::fields::set(&mut p.doc, "run.seed", Value::Integer(s as i64))
+                .map_err(|m| bad(Some("run.seed"), m))?;
+        }
+        Ok(p)
+    }
+
+    /// Prepare, simulate and derive the log's kinematics (GIL released).
+    fn execute(&self) -> Res<Fin> {
+        let p = spatial::prepare(self.sc.clone(), &self.src)?;
+        spatial_fin(spatial::execute(p, |_| {}))
+    }
+}
+
+/// A finished spatial run with its derived quantities.
+fn spatial_fin(f: anyhow::Result<spatial::Finished>) -> Res<Fin> {
+    let f = f.map_err(|e| Error::Other(format!("{e:#}")))?;
+    let d = spatial::output::Derived::new(&f);
+    Ok(Fin::Spatial(f, d))
 }
 
 /// Parse and validate a source as the command line's `load` + `tandem validate` do.
@@ -317,25 +521,7 @@ impl Planar {
     /// The document and scenario with `run.duration` / `run.seed` overridden (as `--duration`
     /// and `--seed` do); nothing is validated here (the run prepares).
     fn with_run(&self, duration: Option<f64>, seed: Option<u64>) -> Res<Planar> {
-        if let Some(d) = duration {
-            if !(d.is_finite() && d > 0.0) {
-                return Err(bad(
-                    Some("run.duration"),
-                    format!(
-                        "duration={}: must be a positive number of seconds",
-                        scenario::num(d)
-                    ),
-                ));
-            }
-        }
-        if let Some(s) = seed {
-            if s > i64::MAX as u64 {
-                return Err(bad(
-                    Some("run.seed"),
-                    format!("seed={s}: at most 2^63 − 1 (a TOML integer)"),
-                ));
-            }
-        }
+        check_run_overrides(duration, seed)?;
         let mut p = self.clone();
         p.sc.apply(&Overrides {
             duration,
@@ -386,13 +572,8 @@ struct PyScenario {
 }
 
 impl PyScenario {
-    fn new(p: Planar) -> Self {
-        PyScenario {
-            kind: Arc::new(Kind::Planar(p)),
-        }
-    }
-    fn planar(&self) -> &Planar {
-        self.kind.planar()
+    fn new(k: Kind) -> Self {
+        PyScenario { kind: Arc::new(k) }
     }
 }
 
@@ -434,26 +615,25 @@ fn toml_to_py<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
 
 #[pymethods]
 impl PyScenario {
-    /// An embedded scenario by name (see `tandem.presets()`), e.g. `Scenario.preset("paper")`.
+    /// An embedded scenario by name (see `tandem.presets()`), e.g. `Scenario.preset("paper")`,
+    /// `Scenario.preset("dual-ur5")` (spatial).
     #[staticmethod]
     fn preset(py: Python<'_>, name: &str) -> PyResult<Self> {
-        let r = (|| -> Res<Planar> {
+        let r = (|| -> Res<Kind> {
             if let Some(e) = scenario::EMBEDDED.iter().find(|e| e.name == name) {
-                return planar_from_source(scenario::embedded_source(e));
+                return Ok(Kind::Planar(planar_from_source(
+                    scenario::embedded_source(e),
+                )?));
             }
-            if tandem_cli::spatial::is_preset(name) {
-                return Err(bad(
-                    None,
-                    format!(
-                        "`{name}` is a spatial preset: the Python package runs planar scenarios \
-                         for now (run it with `tandem run {name}`)"
-                    ),
-                ));
+            if let Some(e) = sps::EMBEDDED.iter().find(|e| e.name == name) {
+                return Ok(Kind::Spatial(spatial_from_source(
+                    scenario::embedded_source(e),
+                )?));
             }
             // Not embedded: the command line's message (with its suggestion), unless a file of
             // that name exists, which `preset` does not read.
             if Path::new(name).exists() {
-                let names: Vec<&str> = scenario::EMBEDDED.iter().map(|e| e.name).collect();
+                let names = presets();
                 return Err(bad(
                     None,
                     format!(
@@ -469,27 +649,28 @@ impl PyScenario {
             ))
         })();
         let p = py_res(py, r)?;
-        warn_all(py, &p.warnings)?;
+        warn_all(py, p.warnings())?;
         Ok(Self::new(p))
     }
 
-    /// A scenario from TOML text (the format of `tandem scenario show paper`). `name` names it
-    /// (outputs, summaries) unless the text has a `name` field; relative paths in it (a replay
-    /// file) are relative to the current folder.
+    /// A scenario from TOML text (the format of `tandem scenario show paper`, planar or
+    /// spatial: a spatial file's arms name a robot model). `name` names it (outputs, summaries)
+    /// unless the text has a `name` field; relative paths in it (a replay file, a URDF) are
+    /// relative to the current folder.
     #[staticmethod]
     #[pyo3(signature = (text, name=None))]
     fn from_toml(py: Python<'_>, text: &str, name: Option<&str>) -> PyResult<Self> {
-        let p = py_res(py, planar_from_source(text_source(text, name)))?;
-        warn_all(py, &p.warnings)?;
+        let p = py_res(py, kind_from_source(text_source(text, name)))?;
+        warn_all(py, p.warnings())?;
         Ok(Self::new(p))
     }
 
     /// A scenario file (TOML). Its name is the file's stem unless it has a `name` field.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let r = (|| -> Res<Planar> {
+        let r = (|| -> Res<Kind> {
             let arg = path.to_string_lossy().into_owned();
-            if !path.is_file() && scenario::EMBEDDED.iter().any(|e| e.name == arg) {
+            if !path.is_file() && presets().contains(&arg.as_str()) {
                 return Err(bad(
                     None,
                     format!(
@@ -498,10 +679,10 @@ impl PyScenario {
                     ),
                 ));
             }
-            planar_from_source(scenario::resolve(Some(&arg))?)
+            kind_from_source(scenario::resolve(Some(&arg))?)
         })();
         let p = py_res(py, r)?;
-        warn_all(py, &p.warnings)?;
+        warn_all(py, p.warnings())?;
         Ok(Self::new(p))
     }
 
@@ -526,26 +707,36 @@ impl PyScenario {
                 items.push((k, v));
             }
         }
-        let base = self.planar().clone();
-        let r = py.detach(move || -> Res<Planar> {
-            let mut doc = base.doc.clone();
-            let known = sweep::known_paths(&doc, &base.src);
+        let base = self.kind.clone();
+        let r = py.detach(move || -> Res<Kind> {
+            let bsrc = base.src();
+            let mut doc = base.doc().clone();
+            let known = sweep::known_paths(&doc, bsrc);
             for (path, v) in &items {
-                doc = sweep::check_field(&doc, &base.src, &base.src.display, path, v, &known)
+                doc = sweep::check_field(&doc, bsrc, &bsrc.display, path, v, &known)
                     .map_err(|m| bad(Some(path), m))?;
             }
             let text = toml::to_string(&doc).map_err(|e| Error::Other(e.to_string()))?;
             let src = Source {
                 text,
                 file: None,
-                ..base.src.clone()
+                ..bsrc.clone()
             };
-            let mut p = planar_from_source(src)?;
             // The name stays the base's (a file's stem is not in its text).
-            if p.sc.name.as_ref().is_none_or(|n| n.trim().is_empty()) {
-                p.src.name = base.src.name.clone();
-            }
-            Ok(p)
+            Ok(match kind_from_source(src)? {
+                Kind::Planar(mut p) => {
+                    if p.sc.name.as_ref().is_none_or(|n| n.trim().is_empty()) {
+                        p.src.name = bsrc.name.clone();
+                    }
+                    Kind::Planar(p)
+                }
+                Kind::Spatial(mut p) => {
+                    if p.sc.name.as_ref().is_none_or(|n| n.trim().is_empty()) {
+                        p.src.name = bsrc.name.clone();
+                    }
+                    Kind::Spatial(p)
+                }
+            })
         });
         let p = py_res(py, r)?;
         Ok(Self::new(p))
@@ -554,11 +745,13 @@ impl PyScenario {
     /// The value of a field of the resolved scenario, by path (`"controller.nn.k1"`,
     /// `"arms[0].links[1].mass"`); KeyError if there is none.
     fn get(&self, py: Python<'_>, path: &str) -> PyResult<Py<PyAny>> {
-        let p = self.planar();
-        let resolved = toml::Value::try_from(p.sc.resolved())
-            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let resolved = match &*self.kind {
+            Kind::Planar(p) => toml::Value::try_from(p.sc.resolved()),
+            Kind::Spatial(p) => toml::Value::try_from(&p.sc),
+        }
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         let from_resolved = resolved.as_table().and_then(|t| get_path(t, path));
-        match from_resolved.or_else(|| get_path(&p.doc, path)) {
+        match from_resolved.or_else(|| get_path(self.kind.doc(), path)) {
             Some(v) => Ok(toml_to_py(py, v)?.unbind()),
             None => Err(pyo3::exceptions::PyKeyError::new_err(path.to_string())),
         }
@@ -569,10 +762,9 @@ impl PyScenario {
     /// hits a numerical fault returns normally: see `Run.fault`.
     #[pyo3(signature = (duration=None, seed=None))]
     fn run(&self, py: Python<'_>, duration: Option<f64>, seed: Option<u64>) -> PyResult<PyRun> {
-        let p = py_res(py, self.planar().with_run(duration, seed))?;
-        let p = Arc::new(Kind::Planar(p));
+        let p = Arc::new(py_res(py, self.kind.with_run(duration, seed))?);
         let k = p.clone();
-        let fin = py.detach(move || k.planar().execute());
+        let fin = py.detach(move || k.execute());
         let fin = py_res(py, fin)?;
         PyRun::live(py, p, fin)
     }
@@ -580,62 +772,70 @@ impl PyScenario {
     /// The resolved scenario as TOML: every default written out, re-runnable
     /// (`tandem run FILE`, `Scenario.from_toml`); the run folder's `scenario.toml`.
     fn to_toml(&self, py: Python<'_>) -> PyResult<String> {
-        py_res(py, self.planar().to_toml())
+        py_res(py, self.kind.to_toml())
     }
 
     /// The scenario's name (outputs, summaries).
     #[getter]
     fn name(&self) -> String {
-        self.planar().src.name.clone()
+        self.kind.src().name.clone()
     }
 
-    /// `"planar"` (spatial scenarios will say `"spatial"`).
+    /// `"planar"` or `"spatial"` (arms with robot models, six outputs).
     #[getter]
     fn kind(&self) -> &'static str {
         match *self.kind {
             Kind::Planar(_) => "planar",
+            Kind::Spatial(_) => "spatial",
         }
     }
 
     /// Free text of the scenario.
     #[getter]
     fn description(&self) -> String {
-        self.planar().sc.description.clone()
+        match &*self.kind {
+            Kind::Planar(p) => p.sc.description.clone(),
+            Kind::Spatial(p) => p.sc.description.clone(),
+        }
     }
 
     /// `run.duration`, s.
     #[getter]
     fn duration(&self) -> f64 {
-        self.planar().sc.run.duration
+        self.kind.duration()
     }
 
     /// `run.seed` (sensor noise).
     #[getter]
     fn seed(&self) -> u64 {
-        self.planar().sc.run.seed
+        self.kind.seed()
     }
 
-    /// The controller label, e.g. `NN (tuned)`, `PD`.
+    /// The controller label, e.g. `NN (tuned)`, `PD` (spatial: `NN`, `PD + gravity`, `CTC`).
     #[getter]
     fn label(&self) -> String {
-        runner::label(&self.planar().sc)
+        self.kind.label()
     }
 
     /// Set-up warnings (also issued as ScenarioWarning when the scenario is made).
     #[getter]
     fn warnings(&self) -> Vec<String> {
-        self.planar().warnings.clone()
+        self.kind.warnings().to_vec()
     }
 
     fn __repr__(&self) -> String {
-        let p = self.planar();
+        let arms = match &*self.kind {
+            Kind::Planar(p) => p.sc.arms.len(),
+            Kind::Spatial(p) => p.sc.arms.len(),
+        };
         format!(
-            "<tandem.Scenario {:?}: planar, {} arms, {}, {} s, seed {}>",
-            p.src.name,
-            p.sc.arms.len(),
-            runner::label(&p.sc),
-            tandem_cli::table::num(p.sc.run.duration, 6),
-            p.sc.run.seed
+            "<tandem.Scenario {:?}: {}, {} arms, {}, {} s, seed {}>",
+            self.kind.src().name,
+            self.kind(),
+            arms,
+            self.kind.label(),
+            tandem_cli::table::num(self.kind.duration(), 6),
+            self.kind.seed()
         )
     }
 
@@ -643,13 +843,26 @@ impl PyScenario {
     fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
         match other.cast::<PyScenario>() {
             Ok(o) => {
-                let (a, b) = (self.planar(), o.get().planar());
                 // The name is compared as the scenario's (a resolved file carries it as a field).
-                let resolved = |p: &Planar| scenario::Scenario {
-                    name: None,
-                    ..p.sc.resolved()
-                };
-                a.src.name == b.src.name && resolved(a) == resolved(b)
+                let same_name = self.kind.src().name == o.get().kind.src().name;
+                same_name
+                    && match (&*self.kind, &*o.get().kind) {
+                        (Kind::Planar(a), Kind::Planar(b)) => {
+                            let resolved = |p: &Planar| scenario::Scenario {
+                                name: None,
+                                ..p.sc.resolved()
+                            };
+                            resolved(a) == resolved(b)
+                        }
+                        (Kind::Spatial(a), Kind::Spatial(b)) => {
+                            let unnamed = |p: &Spatial| sps::SpatialScenario {
+                                name: None,
+                                ..p.sc.clone()
+                            };
+                            unnamed(a) == unnamed(b)
+                        }
+                        _ => false,
+                    }
             }
             Err(_) => false,
         }
@@ -662,7 +875,7 @@ impl PyScenario {
     /// Pickled as its resolved TOML (`to_toml()`): `tandem._restore_scenario(text)`.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let f = py.import("tandem")?.getattr("_restore_scenario")?;
-        let text = py_res(py, self.planar().to_toml())?;
+        let text = py_res(py, self.kind.to_toml())?;
         PyTuple::new(py, [f, PyTuple::new(py, [text])?.into_any()])
     }
 }
@@ -675,13 +888,13 @@ impl PyScenario {
 struct LogOwner {
     /// Never read: owning it is the point.
     #[allow(dead_code)]
-    fin: Arc<Finished>,
+    fin: Arc<Fin>,
 }
 
 /// The finished simulation behind a Run.
 enum Data {
     /// Run in this process: the whole result (the arrays are views of its log).
-    Live(Arc<Finished>),
+    Live(Arc<Fin>),
     /// Unpickled: the summary and time series travelled, the rest is rebuilt by a re-run on
     /// `write` (runs are deterministic).
     Restored,
@@ -711,22 +924,29 @@ fn readonly(a: &Bound<'_, PyArray1<f64>>) -> PyResult<()> {
 }
 
 impl PyRun {
-    fn live(py: Python<'_>, kind: Arc<Kind>, fin: Finished) -> PyResult<Self> {
-        let name = &kind.planar().src.name;
-        let summary = runner::summary_json(&fin, name, None);
+    fn live(py: Python<'_>, kind: Arc<Kind>, fin: Fin) -> PyResult<Self> {
+        let summary = fin.summary(&kind.src().name);
         let fin = Arc::new(fin);
         let owner = Bound::new(py, LogOwner { fin: fin.clone() })?.into_any();
-        let mut columns = Vec::with_capacity(fin.outcome.log.columns.len());
+        let log = fin.log();
+        let derived = fin.derived_columns();
+        let mut columns = Vec::with_capacity(log.columns.len() + derived.len());
         let mut arrays = Vec::with_capacity(columns.capacity());
-        for c in &fin.outcome.log.columns {
-            let view = numpy::ndarray::ArrayView1::from(c.data.as_slice());
+        let all = log
+            .columns
+            .iter()
+            .map(|c| (c.name.clone(), c.unit.clone(), c.data.as_slice()))
+            .chain(derived);
+        for (name, unit, data) in all {
+            let view = numpy::ndarray::ArrayView1::from(data);
             // SAFETY: the array's base object is `owner`, which holds an `Arc` of the finished
-            // run; the log is never modified or reallocated after the run (it is only read, by
-            // `write`), so the memory stays valid and unchanged as long as the array exists.
-            // The array is made read-only, so NumPy does not write into it either.
+            // run (its log, and for a spatial run its derived columns); neither is modified or
+            // reallocated after the run (they are only read, by `write`), so the memory stays
+            // valid and unchanged as long as the array exists. The array is made read-only, so
+            // NumPy does not write into it either.
             let a = unsafe { PyArray1::borrow_from_array(&view, owner.clone()) };
             readonly(&a)?;
-            columns.push((c.name.clone(), c.unit.clone()));
+            columns.push((name, unit));
             arrays.push(a.unbind());
         }
         Ok(PyRun {
@@ -757,8 +977,9 @@ impl PyRun {
         json_to_py(py, &self.summary)
     }
 
-    /// The time series: column name (`t`, `x_o.x`, `tau_q1`, ...) → NumPy float64 array, in the
-    /// order of `timeseries.csv`. The arrays are read-only views of the run's memory (no copy).
+    /// The time series: column name (`t`, `x_o.x`, `tau_q1`, ...) → NumPy float64 array, the
+    /// columns of `timeseries.csv` in its order (spatial: the log's, then the derived `x_1.*`
+    /// and `F_tool{i}.*`). The arrays are read-only views of the run's memory (no copy).
     #[getter]
     fn timeseries<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
@@ -801,8 +1022,12 @@ impl PyRun {
     /// The fault that stopped the run early (its message), or None.
     #[getter]
     fn fault(&self) -> Option<String> {
+        let key = match *self.kind {
+            Kind::Planar(_) => "fault_message",
+            Kind::Spatial(_) => "fault",
+        };
         self.summary
-            .get("fault_message")
+            .get(key)
             .and_then(Json::as_str)
             .map(str::to_string)
     }
@@ -819,13 +1044,13 @@ impl PyRun {
     }
 
     fn __repr__(&self) -> String {
-        let p = self.kind.planar();
+        let k = &self.kind;
         format!(
             "<tandem.Run {:?}: {}, {} s, seed {}, {} rows, {}>",
-            p.src.name,
-            runner::label(&p.sc),
-            tandem_cli::table::num(p.sc.run.duration, 6),
-            p.sc.run.seed,
+            k.src().name,
+            k.label(),
+            tandem_cli::table::num(k.duration(), 6),
+            k.seed(),
             self.__len__(),
             match self.fault() {
                 Some(f) => format!("fault: {f}"),
@@ -835,7 +1060,8 @@ impl PyRun {
     }
 
     /// Write the command line's output folder for this run (`timeseries.csv`, `summary.json`,
-    /// `scenario.toml`, and with `figures` the figures and `animation.svg`), atomically. An
+    /// `scenario.toml`, and with `figures` the figures and `animation.svg`; a spatial run also
+    /// `viewer.html` and the snapshots, as `tandem run`), atomically. An
     /// existing folder is kept unless `force`, which replaces only a folder tandem wrote.
     /// Returns the folder's path. An unpickled run is simulated again first (runs are
     /// deterministic; a re-run that differs is an error).
@@ -855,12 +1081,12 @@ impl PyRun {
             Data::Restored => None,
         };
         let r = py.detach(move || -> Res<(PathBuf, Vec<String>)> {
-            let p = kind.planar();
+            let name = &kind.src().name;
             let fin = match live {
                 Some(f) => f,
                 None => {
-                    let f = p.execute()?;
-                    let mut again = runner::summary_json(&f, &p.src.name, None);
+                    let f = kind.execute()?;
+                    let mut again = f.summary(name);
                     if let Json::Object(m) = &mut again {
                         m.remove("timing");
                     }
@@ -874,15 +1100,31 @@ impl PyRun {
                     Arc::new(f)
                 }
             };
-            let protected: Vec<&Path> = p.src.file.iter().map(PathBuf::as_path).collect();
+            let protected: Vec<&Path> = kind.src().file.iter().map(PathBuf::as_path).collect();
             let other = |e: anyhow::Error| match e.downcast_ref::<output::Refused>() {
                 Some(r) => bad(None, r.to_string()),
                 None => Error::Other(format!("{e:#}")),
             };
             let out = OutputDir::create(&dir, force, &protected).map_err(other)?;
-            let (_, problems) =
-                runner::write_run(out.tmp_dir(), &fin, &p.src.name, Outputs { figures })
-                    .map_err(other)?;
+            let problems = match (&*fin, &*kind) {
+                (Fin::Planar(f), _) => {
+                    runner::write_run(out.tmp_dir(), f, name, Outputs { figures })
+                        .map_err(other)?
+                        .1
+                }
+                (Fin::Spatial(f, _), Kind::Spatial(p)) => {
+                    // As `tandem run` (spatial::cmd_run): the outputs, then scenario.toml.
+                    let text = spatial::scenario_toml(&p.sc, name).map_err(other)?;
+                    let (_, _, problems) =
+                        spatial::output::write(out.tmp_dir(), name, f, figures).map_err(other)?;
+                    output::write_text_atomic(&out.tmp_dir().join("scenario.toml"), &text)
+                        .map_err(other)?;
+                    problems
+                }
+                (Fin::Spatial(..), Kind::Planar(_)) => {
+                    return Err(Error::Other("a spatial run of a planar scenario".into()));
+                }
+            };
             let d = out.commit().map_err(other)?;
             Ok((d, problems))
         });
@@ -900,7 +1142,7 @@ impl PyRun {
     /// the data travels, so a run returned from a worker process is not simulated again.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let f = py.import("tandem")?.getattr("_restore_run")?;
-        let text = py_res(py, self.kind.planar().to_toml())?;
+        let text = py_res(py, self.kind.to_toml())?;
         let summary = self.summary.to_string();
         let names: Vec<&str> = self.columns.iter().map(|c| c.0.as_str()).collect();
         let units: Vec<&str> = self.columns.iter().map(|c| c.1.as_str()).collect();
@@ -925,7 +1167,7 @@ impl PyRun {
         units: Vec<String>,
         data: &[u8],
     ) -> PyResult<Self> {
-        let p = py_res(py, planar_from_source(text_source(scenario_toml, None)))?;
+        let p = py_res(py, kind_from_source(text_source(scenario_toml, None)))?;
         let summary: Json = serde_json::from_str(summary)
             .map_err(|e| PyValueError::new_err(format!("a pickled Run's summary: {e}")))?;
         let n = names.len();
@@ -946,7 +1188,7 @@ impl PyRun {
             arrays.push(a.unbind());
         }
         Ok(PyRun {
-            kind: Arc::new(Kind::Planar(p)),
+            kind: Arc::new(p),
             summary,
             columns: names.into_iter().zip(units).collect(),
             arrays,
@@ -970,8 +1212,16 @@ fn pool(threads: Option<usize>) -> PyResult<rayon::ThreadPool> {
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))
 }
 
+/// A prepared run of either kind.
+// One value per scenario or run, behind an `Arc` or in a `Vec`: boxing a variant saves nothing.
+#[allow(clippy::large_enum_variant)]
+enum Prep {
+    Planar(runner::Prepared),
+    Spatial(spatial::Prepared),
+}
+
 /// Closed-loop runs of many scenarios in Rust, on `threads` threads (default: every core), with
-/// the GIL released; the Runs in input order. `scenarios` is a Scenario or a sequence of them;
+/// the GIL released; the Runs in input order (planar and spatial scenarios may be mixed). `scenarios` is a Scenario or a sequence of them;
 /// `seeds` (one per scenario, or for a single scenario one run per seed) and `duration` override
 /// `run.seed` and `run.duration`. The results do not depend on the thread count.
 #[pyfunction]
@@ -1015,7 +1265,7 @@ fn rollout(
     let mut jobs = Vec::with_capacity(list.len());
     for (i, k) in list.iter().enumerate() {
         let seed = seeds.as_ref().map(|s| s[i]);
-        let p = k.planar().with_run(duration, seed).map_err(|e| {
+        let p = k.with_run(duration, seed).map_err(|e| {
             let e = match e {
                 Error::Field { path, message } => Error::Field {
                     path,
@@ -1025,25 +1275,36 @@ fn rollout(
             };
             e.into_py(py)
         })?;
-        jobs.push(Arc::new(Kind::Planar(p)));
+        jobs.push(Arc::new(p));
     }
     let pool = pool(threads)?;
     let work = jobs.clone();
     // Every run is prepared (validated) before any runs, so bad input fails fast.
-    let results: Result<Vec<Finished>, (usize, Error)> = py.detach(move || {
+    let results: Result<Vec<Fin>, (usize, Error)> = py.detach(move || {
         pool.install(|| {
             let prepared = work
                 .par_iter()
                 .enumerate()
                 .map(|(i, k)| {
-                    let p = k.planar();
-                    runner::prepare(p.sc.clone(), &p.src).map_err(|e| (i, Error::from(e)))
+                    match &**k {
+                        Kind::Planar(p) => runner::prepare(p.sc.clone(), &p.src).map(Prep::Planar),
+                        Kind::Spatial(p) => {
+                            spatial::prepare(p.sc.clone(), &p.src).map(Prep::Spatial)
+                        }
+                    }
+                    .map_err(|e| (i, Error::from(e)))
                 })
                 .collect::<Result<Vec<_>, _>>()?;
-            Ok(prepared
+            prepared
                 .into_par_iter()
-                .map(|p| runner::execute(p, |_| {}))
-                .collect())
+                .enumerate()
+                .map(|(i, p)| match p {
+                    Prep::Planar(p) => Ok(Fin::Planar(runner::execute(p, |_| {}))),
+                    Prep::Spatial(p) => {
+                        spatial_fin(spatial::execute(p, |_| {})).map_err(|e| (i, e))
+                    }
+                })
+                .collect()
         })
     });
     let finished = results.map_err(|(i, e)| {
@@ -1129,10 +1390,15 @@ fn _sweep_csv(
     r.map_err(PyRuntimeError::new_err)
 }
 
-/// The names of the embedded (planar) scenarios, for `Scenario.preset`.
+/// The names of the embedded scenarios, for `Scenario.preset`: the planar ones, then the
+/// spatial ones (`dual-ur5`, `dual-franka`).
 #[pyfunction]
 fn presets() -> Vec<&'static str> {
-    scenario::EMBEDDED.iter().map(|e| e.name).collect()
+    scenario::EMBEDDED
+        .iter()
+        .chain(sps::EMBEDDED)
+        .map(|e| e.name)
+        .collect()
 }
 
 #[pymodule]

@@ -1,7 +1,8 @@
 """tandem: cooperative manipulation from Python.
 
 Several planar arms hold one rigid object and carry it along a path, under the paper's admittance
-+ adaptive neural-network controller (or PD, computed torque, a torque replay). This package binds
++ adaptive neural-network controller (or PD, computed torque, a torque replay); or, in a spatial
+scenario (``"dual-ur5"``, ``"dual-franka"``), arms with robot models carry a box on six outputs. This package binds
 the same Rust code as the ``tandem`` command line: a scenario means the same thing, runs to the
 same numbers and gets the same error messages.
 

@@ -29,16 +29,19 @@ TomlValue = Union[bool, int, float, str, Sequence[Any], Mapping[str, Any], np.nd
 class Scenario:
     """What one run simulates: arms, object, path, controller, timing, seed.
 
+    Planar (the paper's arms in the plane) or spatial (``kind == "spatial"``: arms with robot
+    models carrying a box on six outputs, e.g. ``"dual-ur5"``); the API is the same for both.
     Immutable (``with_`` returns a new one), comparable (same name and resolved scenario) and
     picklable (as its resolved TOML).
     """
 
     @staticmethod
     def preset(name: str) -> Scenario:
-        """An embedded scenario by name (see :func:`presets`), e.g. ``"paper"``."""
+        """An embedded scenario by name (see :func:`presets`), e.g. ``"paper"``, ``"dual-ur5"``."""
     @staticmethod
     def from_toml(text: str, name: Optional[str] = None) -> Scenario:
-        """A scenario from TOML text (the format of ``tandem scenario show paper``)."""
+        """A scenario from TOML text (planar or spatial: a spatial file's arms name a robot
+        model), the format of ``tandem scenario show paper`` or ``Scenario.to_toml()``."""
     @staticmethod
     def load(path: Union[str, PathLike[str]]) -> Scenario:
         """A scenario file (TOML); named after the file's stem unless it has ``name``."""
@@ -46,7 +49,9 @@ class Scenario:
         self, overrides: Optional[Mapping[str, TomlValue]] = None, /, **fields: TomlValue
     ) -> Scenario:
         """A new scenario with fields set by path (``"controller.nn.k1"``, ``"object.mass"``,
-        ``"arms[0].links[1].mass"``), each checked by every validation of a run."""
+        ``"arms[0].links[1].mass"``; spatial: ``"controller.nn.design.k1"``,
+        ``"arms[0].base.position"``), each checked by every validation of a run; a rejected
+        value raises :exc:`ScenarioError` with its ``path``."""
     def get(self, path: str) -> Any:
         """The value of a field of the resolved scenario; KeyError if there is none."""
     def run(self, duration: Optional[float] = None, seed: Optional[int] = None) -> Run:
@@ -57,7 +62,7 @@ class Scenario:
     def name(self) -> str: ...
     @property
     def kind(self) -> str:
-        """``"planar"`` (spatial scenarios will say ``"spatial"``)."""
+        """``"planar"`` or ``"spatial"``."""
     @property
     def description(self) -> str: ...
     @property
@@ -68,7 +73,7 @@ class Scenario:
         """``run.seed``."""
     @property
     def label(self) -> str:
-        """The controller label, e.g. ``"NN (tuned)"``."""
+        """The controller label, e.g. ``"NN (tuned)"`` (spatial: ``"NN"``, ``"PD + gravity"``)."""
     @property
     def warnings(self) -> List[str]: ...
     def __eq__(self, other: object) -> bool: ...
@@ -78,10 +83,12 @@ class Run:
 
     @property
     def summary(self) -> Dict[str, Any]:
-        """The command line's ``summary.json`` (``timing`` holds the loop's wall time)."""
+        """The command line's ``summary.json``, planar or spatial (``timing`` holds the loop's
+        wall time)."""
     @property
     def timeseries(self) -> Dict[str, npt.NDArray[np.float64]]:
-        """Column name -> read-only float64 array (views of the run's memory, no copy)."""
+        """Column name -> read-only float64 array (views of the run's memory, no copy), the
+        columns of ``timeseries.csv`` (spatial: the log's, then ``x_1.*`` and ``F_tool{i}.*``)."""
     @property
     def units(self) -> Dict[str, str]:
         """Column name -> unit."""
@@ -113,10 +120,11 @@ def rollout(
     threads: Optional[int] = None,
     duration: Optional[float] = None,
 ) -> List[Run]:
-    """Closed-loop runs in Rust on ``threads`` threads with the GIL released, in input order."""
+    """Closed-loop runs in Rust on ``threads`` threads with the GIL released, in input order
+    (planar and spatial scenarios may be mixed)."""
 
 def presets() -> List[str]:
-    """The embedded scenarios' names."""
+    """The embedded scenarios' names: the planar ones, then the spatial ones."""
 
 def _sweep_csv(
     spec: Union[str, PathLike[str], Mapping[str, Any]],

@@ -1,8 +1,9 @@
 //! End-to-end tests of `tandem sweep` and `tandem merge`: shards run as separate processes (as a
 //! job array would) merge into a table byte-identical to the unsharded one, for any thread count;
 //! a shard of another sweep is refused; bad sweep files are reported with the field and line;
-//! a faulted run is a row; `object.mass` changes the physics as it should; and the shards run
-//! through a real Dask `LocalCluster` (see `tests/dask/shards.py`).
+//! a faulted run is a row; `object.mass` changes the physics as it should; a spatial base sweeps,
+//! shards and carries its box mass; and the shards run through a real Dask `LocalCluster` (see
+//! `tests/dask/shards.py`).
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -378,6 +379,218 @@ fn shards_through_a_dask_local_cluster() {
         read(&d.join("whole/runs.csv")),
         read(&d.join("merged/runs.csv")),
         "the Dask-merged table equals the unsharded one"
+    );
+    let _ = fs::remove_dir_all(&d);
+}
+
+/// A spatial sweep: 2 box masses × 2 NN gains, 1 s each of `dual-ur5`.
+const SPATIAL_SWEEP: &str = r#"
+base = "dual-ur5"
+duration = 1.0
+[vary]
+"object.mass" = { grid = [2.0, 4.0] }
+"controller.nn.design.k1" = { grid = [6.0, 8.0] }
+"#;
+
+#[test]
+fn spatial_sweeps_run_merge_and_carry_the_box_mass() {
+    let d = scratch("spatial");
+    fs::write(d.join("s.toml"), SPATIAL_SWEEP).unwrap();
+    ok(&tandem(
+        &d,
+        &[
+            "sweep",
+            "s.toml",
+            "--out",
+            "one",
+            "--threads",
+            "1",
+            "--keep-runs",
+        ],
+    ));
+    ok(&tandem(
+        &d,
+        &[
+            "sweep",
+            "s.toml",
+            "--out",
+            "two",
+            "--threads",
+            "2",
+            "--no-figures",
+        ],
+    ));
+    let whole = read(&d.join("one/runs.csv"));
+    assert_eq!(
+        whole,
+        read(&d.join("two/runs.csv")),
+        "1 thread vs 2 threads"
+    );
+    let text = String::from_utf8(whole.clone()).unwrap();
+    // The spatial header: the varied fields, then the spatial summary's metrics.
+    assert!(
+        text.starts_with(
+            "index,seed,controller.nn.design.k1,object.mass,status,message,t_end_s,s5_pass,"
+        ),
+        "{text}"
+    );
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 4, "{text}");
+    let at = |name: &str| head.iter().position(|h| *h == name).unwrap();
+    for r in &rows {
+        assert_eq!(r.len(), head.len(), "{r:?}");
+        assert_eq!(r[at("status")], "completed", "{r:?}");
+        assert_eq!(r[at("t_end_s")], "1", "{r:?}");
+        // Every metric a 1 s NN run has is a finite number (the after-2 s ones are empty: the
+        // run ends before the transient window; settling may be empty: never below 1 mm).
+        for name in [
+            "z1_p_rms_m",
+            "z1_p_max_m",
+            "min_margin",
+            "wrench_force_rms_N",
+            "joint_torque_peak_Nm",
+            "grasp_force_min_N",
+            "grasp_force_max_N",
+            "jacobian_sigma_min",
+            "joint_limit_margin",
+            "q_switch_min",
+            "weight_norm_final.rz",
+            "max_drift_m",
+        ] {
+            let v: f64 = r[at(name)]
+                .parse()
+                .unwrap_or_else(|_| panic!("{name} = {:?}", r[at(name)]));
+            assert!(v.is_finite(), "{name} = {v}");
+        }
+        assert_eq!(r[at("z1_p_rms_after_2s_m")], "", "{r:?}");
+        assert_eq!(r[at("s5_pass")], "false", "a 1 s run cannot pass S5");
+        assert_eq!(r[at("violation_ticks")], "0");
+        assert_eq!(r[at("non_finite")], "0");
+    }
+    // The grid in path order: controller.nn.design.k1 slowest, object.mass fastest.
+    let masses: Vec<&str> = rows.iter().map(|r| r[at("object.mass")]).collect();
+    assert_eq!(masses, ["2", "4", "2", "4"]);
+    assert!(d.join("one/sweep_z1_p_rms_m.png").is_file());
+
+    // Two shards merge into the unsharded bytes.
+    for i in 0..2 {
+        ok(&tandem(
+            &d,
+            &[
+                "sweep",
+                "s.toml",
+                "--threads",
+                "1",
+                "--no-figures",
+                "--shard",
+                &format!("{i}/2"),
+                "--out",
+                &format!("shard{i}"),
+            ],
+        ));
+    }
+    ok(&tandem(
+        &d,
+        &["merge", "shard1", "shard0", "--out", "merged"],
+    ));
+    assert_eq!(
+        whole,
+        read(&d.join("merged/runs.csv")),
+        "merged vs unsharded"
+    );
+
+    // The box mass is physical: the arms carry it. Over [0.2 s, 1 s] (after the grasp forces
+    // have built up from zero at the start), the vertical momentum balance of the box (no
+    // damping, no vertical disturbance) is ∫ −Σ_i F_i,z dt = m g T + m (v_z(T) − v_z(0.2)),
+    // F_i the wrench on arm i. The trapezoid rule on the 10 ms log rows is the only error:
+    // measured ≤ 5.3e-5 of m g T; the tolerance 5e-4 leaves tenfold room, and a wrong mass
+    // (the 2 kg run against 4 kg) misses it by 50 %.
+    let mut weights = Vec::new();
+    for (i, m) in [(0, 2.0), (1, 4.0), (2, 2.0), (3, 4.0)] {
+        let ts = fs::read_to_string(d.join(format!("one/runs/{i}/timeseries.csv"))).unwrap();
+        let t = column(&ts, "t");
+        let f1 = column(&ts, "F1.fz");
+        let f2 = column(&ts, "F2.fz");
+        let vz = column(&ts, "v_o.z");
+        let k0 = t.iter().position(|&x| x >= 0.2 - 1e-9).unwrap();
+        let n = t.len();
+        let up: Vec<f64> = (0..n).map(|k| -(f1[k] + f2[k])).collect();
+        let impulse: f64 = (k0..n - 1)
+            .map(|k| 0.5 * (up[k] + up[k + 1]) * (t[k + 1] - t[k]))
+            .sum();
+        let span = t[n - 1] - t[k0];
+        let g = 9.81;
+        let expected = m * g * span + m * (vz[n - 1] - vz[k0]);
+        assert!(
+            (impulse - expected).abs() < 5e-4 * m * g * span,
+            "run {i}, m = {m} kg: ∫ −ΣF_z dt = {impulse} N s, expected {expected} N s"
+        );
+        // The weight carried: the impulse less the box's momentum change, per second.
+        weights.push((impulse - m * (vz[n - 1] - vz[k0])) / span);
+        let sc = fs::read_to_string(d.join(format!("one/runs/{i}/scenario.toml"))).unwrap();
+        assert!(sc.contains(&format!("mass = {m:?}")), "{sc}");
+    }
+    // Doubling the mass doubles the carried weight (each within 5e-4 of m g, so the ratio
+    // within 2 · 5e-4 of 2).
+    for (a, b) in [(0, 1), (2, 3)] {
+        let r = weights[b] / weights[a];
+        assert!(
+            (r - 2.0).abs() < 2.0 * 1e-3,
+            "weight ratio {r}: {weights:?}"
+        );
+    }
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn spatial_fault_and_invalid_draws_are_rows() {
+    let d = scratch("spatial-rows");
+    // Seed 3 draws one negative σ (an invalid run) among the four; σ_min = 0.1965 is above the
+    // arms' 0.196 at 0.16 s of dual-ur5, so those runs stop with the singularity fault.
+    fs::write(
+        d.join("f.toml"),
+        "base = \"dual-ur5\"\nduration = 0.3\nruns = 2\nseed = 3\n[vary]\n\
+         \"run.min_sigma\" = { grid = [0.001, 0.1965] }\n\
+         \"sensors.force.std_dev\" = { normal = [0.0, 1.0] }\n",
+    )
+    .unwrap();
+    ok(&tandem(
+        &d,
+        &["sweep", "f.toml", "--out", "o", "--no-figures"],
+    ));
+    let table = fs::read_to_string(d.join("o/runs.csv")).unwrap();
+    let mut rd = table.lines();
+    let head: Vec<&str> = rd.next().unwrap().split(',').collect();
+    let rows: Vec<&str> = rd.collect();
+    assert_eq!(rows.len(), 4, "{table}");
+    let status = |r: &str| {
+        if r.contains(",completed,") {
+            "completed"
+        } else if r.contains(",fault,") {
+            "fault"
+        } else if r.contains(",invalid,") {
+            "invalid"
+        } else {
+            "?"
+        }
+    };
+    let got: Vec<&str> = rows.iter().map(|r| status(r)).collect();
+    assert_eq!(
+        got,
+        ["completed", "completed", "invalid", "fault"],
+        "{table}"
+    );
+    assert!(rows[2].contains("sensors.force.std_dev = -") && rows[2].contains(">= 0"));
+    assert!(rows[3].contains("singular configuration"), "{}", rows[3]);
+    // An invalid row has every metric cell empty; a faulted one has its metrics.
+    let cells = |r: &str| r.split(',').count();
+    assert_eq!(cells(rows[2]), head.len(), "{}", rows[2]);
+    assert!(
+        rows[2].ends_with(&",".repeat(head.len() - 6)),
+        "{}",
+        rows[2]
     );
     let _ = fs::remove_dir_all(&d);
 }

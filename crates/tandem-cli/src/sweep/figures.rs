@@ -1,6 +1,7 @@
 //! Sweep figures, from the table alone (so `merge` draws the same ones):
 //!
-//! - `sweep_rms_z1_after.png/.svg` (or `sweep_rms_z1` for runs shorter than the transient): the
+//! - `sweep_rms_z1_after.png/.svg` (or `sweep_rms_z1` for runs shorter than the transient;
+//!   `sweep_z1_p_rms_after_2s_m` or `sweep_z1_p_rms_m` for a spatial base): the
 //!   RMS tracking error against each
 //!   varied field (one `+` per completed run; a field whose values are not numbers, such as a
 //!   vector gain, is plotted against its position in the grid or choice list);
@@ -14,11 +15,18 @@ use serde_json::Value as Json;
 use super::run::Row;
 use crate::plot::{self, Panel, Series, Style};
 
-/// The plotted metric: (column, scale, axis label); the whole-run RMS when the runs are shorter
-/// than the transient window.
-const METRICS: [(&str, f64, &str); 2] = [
+/// The plotted metric: (column, scale, axis label), the first one the table has with a number
+/// in a completed run: the whole-run RMS when the runs are shorter than the transient window;
+/// the spatial table's position error `‖z1_p‖` for a spatial base.
+const METRICS: [(&str, f64, &str); 4] = [
     ("rms_z1_after", 1e3, "RMS ‖z1_xy‖ after the transient [mm]"),
     ("rms_z1", 1e3, "RMS ‖z1_xy‖, whole run [mm]"),
+    (
+        "z1_p_rms_after_2s_m",
+        1e3,
+        "RMS ‖z1_p‖ after the transient [mm]",
+    ),
+    ("z1_p_rms_m", 1e3, "RMS ‖z1_p‖, whole run [mm]"),
 ];
 
 /// `+` markers as one line series (non-finite points break the line).

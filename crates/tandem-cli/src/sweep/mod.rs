@@ -4,7 +4,9 @@
 //!
 //! Every run is the base scenario's TOML document with the run's values set at their field paths
 //! ([`fields::set`]), parsed by the normal scenario loader: validation and its messages are the
-//! scenario's own.
+//! scenario's own. The base may be planar or spatial ([`BaseKind`]): a spatial base's runs go
+//! through the spatial loader ([`crate::spatial::prepare`], [`crate::spatial::execute`]) and
+//! their table has the spatial metrics ([`run::SPATIAL_METRICS`]).
 
 pub mod fields;
 pub mod figures;
@@ -23,6 +25,26 @@ use crate::suggest;
 
 /// Largest number of runs a sweep may have.
 pub const MAX_RUNS: u64 = 10_000_000;
+
+/// The kind of a sweep's base scenario: it decides the loader and the metric columns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BaseKind {
+    /// A planar scenario (`crate::scenario`).
+    Planar,
+    /// A spatial scenario (`crate::spatial::scenario`): its arms name a robot model.
+    Spatial,
+}
+
+impl BaseKind {
+    /// The kind of a scenario source, from its text ([`crate::spatial::scenario::is_spatial`]).
+    pub fn of(src: &Source) -> BaseKind {
+        if crate::spatial::scenario::is_spatial(&src.text) {
+            BaseKind::Spatial
+        } else {
+            BaseKind::Planar
+        }
+    }
+}
 
 /// How one field varies.
 #[derive(Clone, Debug, PartialEq)]
@@ -92,6 +114,8 @@ pub struct Sweep {
     pub total: u64,
     /// The base as the sweep file names it.
     pub base_name: String,
+    /// Planar or spatial (from the base).
+    pub kind: BaseKind,
 }
 
 /// The value of one run's varied field.
@@ -232,26 +256,63 @@ pub fn load_doc(doc: &Table, base: &Source, label: &str) -> Result<scenario::Sce
     scenario::parse(&src).map_err(|e| loader_message(&e))
 }
 
-/// Parse a scenario document and run every validation of a run (nothing is simulated).
-pub fn check_doc(doc: &Table, base: &Source, label: &str) -> Result<(), String> {
-    let sc = load_doc(doc, base, label)?;
-    let src = Source {
+/// The source of a run's document: the base's name and folder, the document's text.
+pub fn doc_source(doc: &Table, base: &Source, label: &str) -> Result<Source, String> {
+    Ok(Source {
         name: base.name.clone(),
         display: label.to_string(),
         text: toml::to_string(doc).map_err(|e| e.to_string())?,
         dir: base.dir.clone(),
         file: None,
-    };
-    crate::runner::prepare(sc, &src)
-        .map(|_| ())
-        .map_err(|e| loader_message(&e))
+    })
+}
+
+/// Parse a spatial scenario document (the base with values set) through the spatial loader.
+pub fn load_spatial_doc(
+    doc: &Table,
+    base: &Source,
+    label: &str,
+) -> Result<crate::spatial::scenario::SpatialScenario, String> {
+    let src = doc_source(doc, base, label)?;
+    crate::spatial::scenario::parse(&src).map_err(|e| loader_message(&e))
+}
+
+/// Parse a scenario document and run every validation of a run (nothing is simulated); the
+/// loader is the base's kind's ([`BaseKind::of`]).
+pub fn check_doc(doc: &Table, base: &Source, label: &str) -> Result<(), String> {
+    let src = doc_source(doc, base, label)?;
+    match BaseKind::of(base) {
+        BaseKind::Planar => {
+            let sc = load_doc(doc, base, label)?;
+            crate::runner::prepare(sc, &src)
+                .map(|_| ())
+                .map_err(|e| loader_message(&e))
+        }
+        BaseKind::Spatial => {
+            let sc = load_spatial_doc(doc, base, label)?;
+            crate::spatial::prepare(sc, &src)
+                .map(|_| ())
+                .map_err(|e| loader_message(&e))
+        }
+    }
 }
 
 /// Every field path of a scenario document, for "did you mean" suggestions: the document's own,
 /// those of its base scenario's resolved form (every default written out), the NN gain overrides
-/// and the derived fields ([`fields::DERIVED`]).
+/// and the derived fields ([`fields::DERIVED`]); for a spatial base, the document's own and
+/// those of its resolved form.
 pub fn known_paths(doc: &Table, base: &Source) -> Vec<String> {
     let mut known = fields::all_paths(doc);
+    if BaseKind::of(base) == BaseKind::Spatial {
+        if let Ok(sc) = crate::spatial::scenario::parse(base) {
+            if let Ok(toml::Value::Table(t)) = toml::Value::try_from(sc) {
+                known.extend(fields::all_paths(&t));
+            }
+        }
+        known.sort();
+        known.dedup();
+        return known;
+    }
     if let Ok(sc) = scenario::parse(base) {
         if let Ok(toml::Value::Table(t)) = toml::Value::try_from(sc.resolved()) {
             known.extend(fields::all_paths(&t));
@@ -389,16 +450,13 @@ impl Sweep {
             rel.display().to_string()
         };
         let base = scenario::resolve(Some(&arg)).map_err(|e| cx.err(&["base"], e.to_string()))?;
-        if crate::spatial::scenario::is_spatial(&base.text) {
-            return Err(cx.err(
-                &["base"],
-                format!(
-                    "base = {base_name:?} is a spatial scenario: sweeps run planar scenarios for now (run spatial variants one by one with `tandem run FILE`)"
-                ),
-            ));
-        }
+        let kind = BaseKind::of(&base);
         // The base must itself be valid.
-        scenario::parse(&base).map_err(|e| {
+        let parsed = match kind {
+            BaseKind::Planar => scenario::parse(&base).map(|_| ()),
+            BaseKind::Spatial => crate::spatial::scenario::parse(&base).map(|_| ()),
+        };
+        parsed.map_err(|e| {
             cx.err(
                 &["base"],
                 format!("the base scenario is invalid: {}", e.to_string().trim()),
@@ -600,6 +658,7 @@ impl Sweep {
             seed,
             total,
             base_name,
+            kind,
         })
     }
 

@@ -4,7 +4,8 @@
 //! column per varied field (named by its path; an array value is one quoted cell `[4, 4, 4]`),
 //! `status` (`completed`, `fault`, or `invalid` when the scenario loader rejected the run's
 //! values), `message` (the fault or the loader's message), then the summary metrics of
-//! `summary.json` ([`METRICS`]; arrays get `.x`/`.y`/`.theta` or `.min`/`.max` suffixes). An
+//! `summary.json` ([`METRICS`]; arrays get `.x`/`.y`/`.theta` or `.min`/`.max` suffixes; a
+//! spatial base has the spatial `summary.json`'s metrics instead, [`SPATIAL_METRICS`]). An
 //! empty cell is a metric that does not exist for that run (`null` in `summary.json`). Numbers
 //! are in shortest round-trip form, so the table is the same for any thread count or sharding.
 
@@ -15,7 +16,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 use serde_json::Value as Json;
 
-use super::{Shard, Sweep, cell, fmt_f64, load_doc};
+use super::{BaseKind, Shard, Sweep, cell, fmt_f64, load_doc, load_spatial_doc};
 use crate::runner::{self, Outputs};
 use crate::scenario::Source;
 
@@ -51,6 +52,140 @@ pub const METRICS: &[(&str, &str)] = &[
     ("regularised", "/regularised"),
 ];
 
+/// A spatial metric column's value in the spatial `summary.json`.
+#[derive(Clone, Copy, Debug)]
+pub enum Pick {
+    /// The value at a JSON pointer.
+    At(&'static str),
+    /// The smallest of the numbers at `/{array}/{i}{rest}` over the arms `i`.
+    MinOverArms(&'static str, &'static str),
+    /// The largest of the same.
+    MaxOverArms(&'static str, &'static str),
+    /// The first of several pointers that exists (a margin is `margin_rad` or `margin_m`).
+    First(&'static [&'static str]),
+}
+
+/// The metric columns of a spatial base: (column, where in the spatial `summary.json`,
+/// [`crate::spatial::output::summary`]). Units are in the names as in `summary.json`; the
+/// per-arm metrics are reduced over the arms (any number of arms gives the same columns).
+pub const SPATIAL_METRICS: &[(&str, Pick)] = &[
+    ("t_end_s", Pick::At("/t_end_s")),
+    ("s5_pass", Pick::At("/s5_claims/pass")),
+    ("s5_z1_p_pass", Pick::At("/s5_claims/z1_p_after_2s/pass")),
+    (
+        "s5_z1_rot_pass",
+        Pick::At("/s5_claims/z1_rot_after_2s/pass"),
+    ),
+    ("z1_p_rms_m", Pick::At("/z1_p_rms_m")),
+    ("z1_p_max_m", Pick::At("/z1_p_max_m")),
+    ("z1_p_rms_after_2s_m", Pick::At("/z1_p_rms_after_2s_m")),
+    ("z1_p_max_after_2s_m", Pick::At("/z1_p_max_after_2s_m")),
+    (
+        "z1_rot_rms_after_2s_rad",
+        Pick::At("/z1_rot_rms_after_2s_rad"),
+    ),
+    (
+        "z1_rot_max_after_2s_rad",
+        Pick::At("/z1_rot_max_after_2s_rad"),
+    ),
+    ("settling_time_1mm_s", Pick::At("/settling_time_1mm_s")),
+    (
+        "orientation_error_rms_after_2s_rad",
+        Pick::At("/orientation_error_rms_after_2s_rad"),
+    ),
+    (
+        "orientation_error_max_after_2s_rad",
+        Pick::At("/orientation_error_max_after_2s_rad"),
+    ),
+    (
+        "orientation_error_to_desired_max_after_2s_rad",
+        Pick::At("/orientation_error_to_desired_max_after_2s_rad"),
+    ),
+    ("min_margin", Pick::At("/min_margin")),
+    ("violation_ticks", Pick::At("/violation_ticks")),
+    ("wrench_force_rms_N", Pick::At("/wrench_force_rms_N")),
+    ("wrench_force_peak_N", Pick::At("/wrench_force_peak_N")),
+    ("wrench_torque_rms_Nm", Pick::At("/wrench_torque_rms_Nm")),
+    ("wrench_torque_peak_Nm", Pick::At("/wrench_torque_peak_Nm")),
+    ("joint_torque_rms_Nm", Pick::At("/joint_torque_rms_Nm")),
+    ("joint_torque_peak_Nm", Pick::At("/joint_torque_peak_Nm")),
+    (
+        "grasp_force_min_N",
+        Pick::MinOverArms("/grasp_wrench", "/force_range_N/0"),
+    ),
+    (
+        "grasp_force_max_N",
+        Pick::MaxOverArms("/grasp_wrench", "/force_range_N/1"),
+    ),
+    (
+        "grasp_torque_max_Nm",
+        Pick::MaxOverArms("/grasp_wrench", "/torque_range_Nm/1"),
+    ),
+    (
+        "jacobian_sigma_min",
+        Pick::MinOverArms("/jacobian_sigma_min", "/sigma_min"),
+    ),
+    (
+        "joint_limit_margin",
+        Pick::First(&[
+            "/closest_joint_limit/margin_rad",
+            "/closest_joint_limit/margin_m",
+        ]),
+    ),
+    ("q_switch_min", Pick::At("/q_switch_min")),
+    ("weight_norm_final.x", Pick::At("/weight_norm_final/x")),
+    ("weight_norm_final.y", Pick::At("/weight_norm_final/y")),
+    ("weight_norm_final.z", Pick::At("/weight_norm_final/z")),
+    ("weight_norm_final.rx", Pick::At("/weight_norm_final/rx")),
+    ("weight_norm_final.ry", Pick::At("/weight_norm_final/ry")),
+    ("weight_norm_final.rz", Pick::At("/weight_norm_final/rz")),
+    ("barrier_hits", Pick::At("/events/barrier_hits")),
+    ("torque_clips", Pick::At("/events/torque_clips")),
+    ("non_finite", Pick::At("/events/non_finite")),
+    ("degenerate", Pick::At("/events/degenerate")),
+    ("max_drift_m", Pick::At("/max_drift_m")),
+    ("max_drift_rad", Pick::At("/max_drift_rad")),
+    ("regularised", Pick::At("/regularised")),
+];
+
+/// A spatial metric's cell.
+fn pick_cell(summary: &Json, p: Pick) -> String {
+    let over_arms = |array: &str, rest: &str, min: bool| -> String {
+        let Some(a) = summary.pointer(array).and_then(Json::as_array) else {
+            return String::new();
+        };
+        let v: Option<Vec<f64>> = (0..a.len())
+            .map(|i| {
+                summary
+                    .pointer(&format!("{array}/{i}{rest}"))
+                    .and_then(Json::as_f64)
+            })
+            .collect();
+        match v.filter(|v| !v.is_empty()) {
+            Some(v) => fmt_f64(if min {
+                v.iter().copied().fold(f64::INFINITY, f64::min)
+            } else {
+                v.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+            }),
+            None => String::new(),
+        }
+    };
+    match p {
+        Pick::At(ptr) => json_cell(summary.pointer(ptr)),
+        Pick::MinOverArms(a, r) => over_arms(a, r, true),
+        Pick::MaxOverArms(a, r) => over_arms(a, r, false),
+        Pick::First(ptrs) => json_cell(ptrs.iter().find_map(|q| summary.pointer(q))),
+    }
+}
+
+/// The metric column names of a base kind.
+pub fn metric_columns(kind: BaseKind) -> Vec<&'static str> {
+    match kind {
+        BaseKind::Planar => METRICS.iter().map(|(c, _)| *c).collect(),
+        BaseKind::Spatial => SPATIAL_METRICS.iter().map(|(c, _)| *c).collect(),
+    }
+}
+
 /// One finished run: its table cells.
 #[derive(Clone, Debug)]
 pub struct Row {
@@ -66,7 +201,7 @@ pub fn header(sw: &Sweep) -> Vec<String> {
     h.extend(sw.params.iter().map(|p| p.path.clone()));
     h.push("status".into());
     h.push("message".into());
-    h.extend(METRICS.iter().map(|(c, _)| c.to_string()));
+    h.extend(metric_columns(sw.kind).iter().map(|c| c.to_string()));
     h
 }
 
@@ -96,10 +231,11 @@ pub fn one(sw: &Sweep, index: u64, keep: Option<&Path>) -> RunResult {
     let values = sw.values(index);
     let mut cells = vec![index.to_string(), sw.scenario_seed(index).to_string()];
     cells.extend(values.iter().map(cell));
+    let n_metrics = metric_columns(sw.kind).len();
     let invalid = |mut cells: Vec<String>, msg: String| {
         cells.push("invalid".into());
         cells.push(msg);
-        cells.extend(METRICS.iter().map(|_| String::new()));
+        cells.extend((0..n_metrics).map(|_| String::new()));
         RunResult {
             row: Row { index, cells },
         }
@@ -109,6 +245,17 @@ pub fn one(sw: &Sweep, index: u64, keep: Option<&Path>) -> RunResult {
         Ok(d) => d,
         Err(e) => return invalid(cells, e),
     };
+    if sw.kind == BaseKind::Spatial {
+        return match one_spatial(sw, index, keep, &doc, &label) {
+            Ok(metrics) => {
+                cells.extend(metrics);
+                RunResult {
+                    row: Row { index, cells },
+                }
+            }
+            Err(e) => invalid(cells, e),
+        };
+    }
     let sc = match load_doc(&doc, &sw.base, &label) {
         Ok(s) => s,
         Err(e) => return invalid(cells, e),
@@ -154,6 +301,52 @@ pub fn one(sw: &Sweep, index: u64, keep: Option<&Path>) -> RunResult {
     RunResult {
         row: Row { index, cells },
     }
+}
+
+/// A spatial run of a sweep: its status, message and metric cells, or why the loader rejected
+/// it. `keep` writes the run's outputs (no figures) and its `scenario.toml` into
+/// `keep/<index>/`.
+fn one_spatial(
+    sw: &Sweep,
+    index: u64,
+    keep: Option<&Path>,
+    doc: &toml::Table,
+    label: &str,
+) -> Result<Vec<String>, String> {
+    use crate::spatial;
+    let sc = load_spatial_doc(doc, &sw.base, label)?;
+    let src = super::doc_source(doc, &sw.base, label)?;
+    let prepared = spatial::prepare(sc, &src).map_err(|e| super::loader_message(&e))?;
+    let toml_text = spatial::scenario_toml(&prepared.sc, &sw.base.name);
+    let fin = spatial::execute(prepared, |_| {}).map_err(|e| format!("{e:#}"))?;
+    let derived = spatial::output::Derived::new(&fin);
+    let summary = spatial::output::summary(&sw.base.name, &fin, &derived, None);
+    if let Some(dir) = keep {
+        let d = dir.join(index.to_string());
+        let res = std::fs::create_dir_all(&d)
+            .map_err(anyhow::Error::from)
+            .and_then(|_| spatial::output::write(&d, &sw.base.name, &fin, false))
+            .and(toml_text)
+            .and_then(|t| crate::output::write_text_atomic(&d.join("scenario.toml"), &t));
+        if let Err(e) = res {
+            eprintln!("warning: run {index}: its outputs were not written: {e:#}");
+        }
+    }
+    let mut cells = vec![
+        if fin.outcome.fault.is_some() {
+            "fault"
+        } else {
+            "completed"
+        }
+        .to_string(),
+        fin.outcome
+            .fault
+            .as_ref()
+            .map(|f| f.to_string())
+            .unwrap_or_default(),
+    ];
+    cells.extend(SPATIAL_METRICS.iter().map(|(_, p)| pick_cell(&summary, *p)));
+    Ok(cells)
 }
 
 /// The run indices of a shard (all runs without one).
