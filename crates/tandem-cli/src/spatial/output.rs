@@ -26,7 +26,7 @@ use tandem::reference::se3_path::Se3Path;
 use tandem::se3::Chart;
 use tandem::sim::{Log, Outcome};
 
-use crate::output::{write_bytes_atomic, write_json_atomic, write_text_atomic};
+use crate::output::{write_json_atomic, write_text_atomic};
 use crate::table::num;
 use crate::viewer::{ScalarTrack, scene_from_states, write_snapshots, write_viewer_file};
 
@@ -773,15 +773,6 @@ pub fn write_timeseries(path: &Path, f: &Finished, d: &Derived) -> Result<()> {
             cols.push(&w[j]);
         }
     }
-    write_csv_fast(path, &header, &cols, n)
-}
-
-/// A CSV of equal-length numeric columns, written whole or not at all: the same text as
-/// [`crate::output::write_csv`] (numbers in the round-trip form of [`crate::output::fmt_f64`]),
-/// formatted into one buffer without a per-field allocation (a 60 s spatial run has a million
-/// fields).
-fn write_csv_fast(path: &Path, header: &[String], cols: &[&[f64]], n: usize) -> Result<()> {
-    use std::fmt::Write as _;
     if let Some((j, c)) = cols.iter().enumerate().find(|(_, c)| c.len() != n) {
         anyhow::bail!(
             "cannot write {}: column '{}' has {} rows, not {n}",
@@ -790,41 +781,8 @@ fn write_csv_fast(path: &Path, header: &[String], cols: &[&[f64]], n: usize) -> 
             c.len()
         );
     }
-    let quote = |h: &str| {
-        if h.contains([',', '"', '\n']) {
-            format!("\"{}\"", h.replace('"', "\"\""))
-        } else {
-            h.to_string()
-        }
-    };
-    let mut s = header
-        .iter()
-        .map(|h| quote(h))
-        .collect::<Vec<_>>()
-        .join(",");
-    s.push('\n');
-    s.reserve(n * cols.len() * 20);
-    for k in 0..n {
-        for (j, c) in cols.iter().enumerate() {
-            if j > 0 {
-                s.push(',');
-            }
-            let v = c[k];
-            let a = v.abs();
-            // The rules of `fmt_f64`.
-            let _ = if v.is_nan() {
-                write!(s, "NaN")
-            } else if v.is_infinite() {
-                write!(s, "{}", if v > 0.0 { "inf" } else { "-inf" })
-            } else if a == 0.0 || (1e-5..1e16).contains(&a) {
-                write!(s, "{v}")
-            } else {
-                write!(s, "{v:e}")
-            };
-        }
-        s.push('\n');
-    }
-    write_bytes_atomic(path, s.as_bytes())
+    // The shared writer: shortest round-trip numbers, no allocation per row or number.
+    crate::output::write_csv(path, &header, &cols)
 }
 
 /// Times spent writing, s.
