@@ -164,10 +164,10 @@ fn validate(a: &AnimFrames, opts: &AnimOptions) -> Result<(Vec<usize>, usize, bo
     if a.desired_path.iter().any(|p| !finite(p)) {
         bail!("the desired path has a non-finite point");
     }
-    if let Some((kx, ky)) = a.bounds {
-        if !(kx.is_finite() && ky.is_finite() && kx > 0.0 && ky > 0.0) {
-            bail!("bounds ({kx}, {ky}) must be positive");
-        }
+    if let Some((kx, ky)) = a.bounds
+        && !(kx.is_finite() && ky.is_finite() && kx > 0.0 && ky > 0.0)
+    {
+        bail!("bounds ({kx}, {ky}) must be positive");
     }
     Ok((arm_shape, n_obj, has_desired))
 }

@@ -92,12 +92,11 @@ pub(crate) fn run_jobs(jobs: Vec<Job<'_>>) -> Result<Vec<String>> {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(slot) = slots.get(i) else { break };
                     let job = slot.lock().ok().and_then(|mut g| g.take());
-                    if let Some(job) = job {
-                        if let Err(e) = job() {
-                            if let Ok(mut v) = errors.lock() {
-                                v.push((i, e));
-                            }
-                        }
+                    if let Some(job) = job
+                        && let Err(e) = job()
+                        && let Ok(mut v) = errors.lock()
+                    {
+                        v.push((i, e));
                     }
                 }
             });

@@ -97,14 +97,14 @@ pub fn check_replaceable(dir: &Path, protected: &[&Path]) -> Result<()> {
     }
     let canon =
         fs::canonicalize(dir).with_context(|| format!("cannot resolve {}", dir.display()))?;
-    if let Ok(cwd) = std::env::current_dir().and_then(fs::canonicalize) {
-        if cwd.starts_with(&canon) {
-            return refuse(if cwd == canon {
-                "it is the current folder".into()
-            } else {
-                "it holds the current folder".into()
-            });
-        }
+    if let Ok(cwd) = std::env::current_dir().and_then(fs::canonicalize)
+        && cwd.starts_with(&canon)
+    {
+        return refuse(if cwd == canon {
+            "it is the current folder".into()
+        } else {
+            "it holds the current folder".into()
+        });
     }
     for p in protected {
         let abs = fs::canonicalize(p)

@@ -1400,11 +1400,11 @@ impl FontMetrics {
         );
         // Ascent and descent as ttf-parser reports them (OS/2 typo metrics if flagged).
         let (mut asc, mut desc) = (i16_at(hhea + 4)?, i16_at(hhea + 6)?);
-        if let Some(os2) = table(b"OS/2") {
-            if u16_at(os2 + 62)? & (1 << 7) != 0 {
-                asc = i16_at(os2 + 68)?;
-                desc = i16_at(os2 + 70)?;
-            }
+        if let Some(os2) = table(b"OS/2")
+            && u16_at(os2 + 62)? & (1 << 7) != 0
+        {
+            asc = i16_at(os2 + 68)?;
+            desc = i16_at(os2 + 70)?;
         }
         let height = f64::from(asc) - f64::from(desc);
         let num_glyphs = usize::from(u16_at(maxp + 4)?);

@@ -142,10 +142,8 @@ pub fn resolve(arg: Option<&str>) -> Result<Source, crate::BadInput> {
     } else {
         format!("`{arg}` is neither a scenario file nor an embedded scenario")
     };
-    if !looks_like_file {
-        if let Some(s) = suggest::closest(arg, names.iter().copied()) {
-            msg.push_str(&format!(" — did you mean `{s}`?"));
-        }
+    if !looks_like_file && let Some(s) = suggest::closest(arg, names.iter().copied()) {
+        msg.push_str(&format!(" — did you mean `{s}`?"));
     }
     msg.push_str(&format!(
         " (embedded scenarios: {}; see `tandem scenario list`)",
@@ -801,10 +799,10 @@ impl fmt::Display for ScenarioError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         // A message may quote the input (a value, a key): never more than a line of it.
         write!(f, "{}: {}", self.file, clip_middle(&self.message, 300, 100))?;
-        if let Some(span) = &self.span {
-            if let Some(snippet) = excerpt(&self.text, span.clone()) {
-                write!(f, "\n{snippet}")?;
-            }
+        if let Some(span) = &self.span
+            && let Some(snippet) = excerpt(&self.text, span.clone())
+        {
+            write!(f, "\n{snippet}")?;
         }
         Ok(())
     }
@@ -1016,10 +1014,11 @@ pub fn span_of(text: &str, path: &str) -> Option<(Range<usize>, bool)> {
     let mut value: Option<&DeValue> = None;
     for (i, seg) in segs.iter().enumerate() {
         // A scalar given for a per-axis value (`m_e = 200` for `m_e[1]`) is the value itself.
-        if let (Err(_), Some(v)) = (seg, value) {
-            if !v.is_array() && segs[i..].iter().all(|s| s.is_err()) {
-                return best.map(|b| (b, true));
-            }
+        if let (Err(_), Some(v)) = (seg, value)
+            && !v.is_array()
+            && segs[i..].iter().all(|s| s.is_err())
+        {
+            return best.map(|b| (b, true));
         }
         let next = match (seg, value, table) {
             (Ok(key), _, Some(t)) => t

@@ -253,11 +253,12 @@ fn watchdog(case: String) {
             loop {
                 std::thread::sleep(std::time::Duration::from_millis(500));
                 let Ok(g) = CURRENT.lock() else { return };
-                if let Some((c, t)) = g.as_ref() {
-                    if t.elapsed().as_secs_f64() > 5.0 && *c != reported {
-                        eprintln!("slow fuzz case (> 5 s): {c}");
-                        reported = c.clone();
-                    }
+                if let Some((c, t)) = g.as_ref()
+                    && t.elapsed().as_secs_f64() > 5.0
+                    && *c != reported
+                {
+                    eprintln!("slow fuzz case (> 5 s): {c}");
+                    reported = c.clone();
                 }
             }
         });

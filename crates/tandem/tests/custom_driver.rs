@@ -412,10 +412,10 @@ impl<P: ClosedChain> Drive<P> for Probe {
     fn start(&mut self, _t0: f64, _meas: &Measurements<'_>) {}
     fn tick(&mut self, t: f64, meas: &Measurements<'_>, tau: &mut [f64], _: &mut Self::Record) {
         tau.copy_from_slice(&self.tau);
-        if let Some(j) = self.nan_at {
-            if t >= 0.05 {
-                tau[j] = f64::NAN;
-            }
+        if let Some(j) = self.nan_at
+            && t >= 0.05
+        {
+            tau[j] = f64::NAN;
         }
         for (c, v) in meas.wrenches.iter().enumerate() {
             if c % 6 < 3 {

@@ -674,10 +674,10 @@ fn chart_rates_match_finite_differences() {
         let mut worst = [0f64; 3];
         for i in 0..=200 {
             let t = t_lo + (t_hi - t_lo) * i as f64 / 200.0;
-            if let Se3Path::Spline(s) = path {
-                if s.waypoints().iter().any(|w| (w.t - t).abs() <= 2.5 * h) {
-                    continue;
-                }
+            if let Se3Path::Spline(s) = path
+                && s.waypoints().iter().any(|w| (w.t - t).abs() <= 2.5 * h)
+            {
+                continue;
             }
             let x = chart_rates(&path.sample(t), &c, &r_ref);
             // The value is the chart itself.

@@ -342,36 +342,34 @@ pub fn run_figures(dir: &Path, scenario: &str, f: &Finished, d: &Derived) -> Res
     }
 
     // Q and the weight norms (NN only).
-    if nn {
-        if let Some(w) = six(log, "w_norm", &AXES) {
-            let path = dir.join("weights");
-            let ttl = title("switching value Q and NN weight norms ‖Ŵ_j‖");
-            jobs.push((
-                "weights".into(),
-                Box::new(move || {
-                    let mut panels = Vec::new();
-                    let q = col(log, "Q");
-                    if q.len() == t.len() {
-                        panels.push(
-                            Panel::new("switching value Q = M(Z)", "t [s]", "Q [1]")
-                                .with(Series::new("Q", t, q, Style::solid(0)))
-                                .y_range(-0.05, 1.05),
-                        );
-                    }
-                    let mut p = Panel::new("weight norms", "t [s]", "‖Ŵ_j‖ [1]");
-                    for j in 0..6 {
-                        p = p.with(Series::new(
-                            format!("‖Ŵ_{}‖", SYM[j]),
-                            t,
-                            w[j],
-                            Style::solid(j),
-                        ));
-                    }
-                    panels.push(p);
-                    plot::panels(&path, &ttl, &panels, 1)
-                }),
-            ));
-        }
+    if nn && let Some(w) = six(log, "w_norm", &AXES) {
+        let path = dir.join("weights");
+        let ttl = title("switching value Q and NN weight norms ‖Ŵ_j‖");
+        jobs.push((
+            "weights".into(),
+            Box::new(move || {
+                let mut panels = Vec::new();
+                let q = col(log, "Q");
+                if q.len() == t.len() {
+                    panels.push(
+                        Panel::new("switching value Q = M(Z)", "t [s]", "Q [1]")
+                            .with(Series::new("Q", t, q, Style::solid(0)))
+                            .y_range(-0.05, 1.05),
+                    );
+                }
+                let mut p = Panel::new("weight norms", "t [s]", "‖Ŵ_j‖ [1]");
+                for j in 0..6 {
+                    p = p.with(Series::new(
+                        format!("‖Ŵ_{}‖", SYM[j]),
+                        t,
+                        w[j],
+                        Style::solid(j),
+                    ));
+                }
+                panels.push(p);
+                plot::panels(&path, &ttl, &panels, 1)
+            }),
+        ));
     }
 
     // Margins over time.

@@ -960,24 +960,22 @@ pub fn model_error(
 ) -> ScenarioError {
     // "The path leaves arm i's reach or joint limits": the arm's placement (or its grasp) is
     // what the user changes, so the error points at `arms[i].base` and quotes the path check.
-    if let ModelError::Geometry { what, reason } = &e {
-        if what == "path" {
-            if let Some(i) = reason
-                .split("arms[")
-                .nth(1)
-                .and_then(|r| r.split(']').next())
-                .and_then(|i| i.parse::<usize>().ok())
-                .filter(|i| *i < sc.arms.len())
-            {
-                let field = format!("arms[{i}].base");
-                return src.error_at(
+    if let ModelError::Geometry { what, reason } = &e
+        && what == "path"
+        && let Some(i) = reason
+            .split("arms[")
+            .nth(1)
+            .and_then(|r| r.split(']').next())
+            .and_then(|i| i.parse::<usize>().ok())
+            .filter(|i| *i < sc.arms.len())
+    {
+        let field = format!("arms[{i}].base");
+        return src.error_at(
                     &field,
                     format!(
                         "{field}: with this base placement (and grasp `arms[{i}].grasp`) the path is out of the arm's reach or joint limits: {reason}"
                     ),
                 );
-            }
-        }
     }
     src.model_error(e, |p| file_path(sc, dofs, p))
 }

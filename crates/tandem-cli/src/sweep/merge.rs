@@ -51,10 +51,11 @@ pub fn write_folder(
         &sweep_json(resolved, hash, shard, header, rows.len()),
     )?;
     let mut problems = Vec::new();
-    if figures && !rows.is_empty() {
-        if let Err(e) = super::figures::write(dir, resolved, header, rows) {
-            problems.push(format!("figures: {e:#}"));
-        }
+    if figures
+        && !rows.is_empty()
+        && let Err(e) = super::figures::write(dir, resolved, header, rows)
+    {
+        problems.push(format!("figures: {e:#}"));
     }
     Ok(problems)
 }

@@ -304,19 +304,19 @@ pub fn check_doc(doc: &Table, base: &Source, label: &str) -> Result<(), String> 
 pub fn known_paths(doc: &Table, base: &Source) -> Vec<String> {
     let mut known = fields::all_paths(doc);
     if BaseKind::of(base) == BaseKind::Spatial {
-        if let Ok(sc) = crate::spatial::scenario::parse(base) {
-            if let Ok(toml::Value::Table(t)) = toml::Value::try_from(sc) {
-                known.extend(fields::all_paths(&t));
-            }
+        if let Ok(sc) = crate::spatial::scenario::parse(base)
+            && let Ok(toml::Value::Table(t)) = toml::Value::try_from(sc)
+        {
+            known.extend(fields::all_paths(&t));
         }
         known.sort();
         known.dedup();
         return known;
     }
-    if let Ok(sc) = scenario::parse(base) {
-        if let Ok(toml::Value::Table(t)) = toml::Value::try_from(sc.resolved()) {
-            known.extend(fields::all_paths(&t));
-        }
+    if let Ok(sc) = scenario::parse(base)
+        && let Ok(toml::Value::Table(t)) = toml::Value::try_from(sc.resolved())
+    {
+        known.extend(fields::all_paths(&t));
     }
     for k in [
         "k1",
@@ -629,16 +629,16 @@ impl Sweep {
                 }
             }
         } else {
-            if let Some(r) = runs {
-                if r != grid {
-                    return Err(cx.err(
-                        &["runs"],
-                        format!(
-                            "runs = {r}, but with no random field the sweep runs its grid \
+            if let Some(r) = runs
+                && r != grid
+            {
+                return Err(cx.err(
+                    &["runs"],
+                    format!(
+                        "runs = {r}, but with no random field the sweep runs its grid \
                              product, {grid} runs (remove `runs`, or add a random field)"
-                        ),
-                    ));
-                }
+                    ),
+                ));
             }
             1
         };

@@ -547,12 +547,12 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             return Err(self.fault(t1, FaultKind::NonFinite));
         }
         // The output bound on the true pose, every tick.
-        if self.has_bounds {
-            if let Some(m) = self.driver.truth_margin(&self.plant, &self.y) {
-                self.min_margin = self.min_margin.min(m);
-                if m <= 0.0 {
-                    self.violation_ticks += 1;
-                }
+        if self.has_bounds
+            && let Some(m) = self.driver.truth_margin(&self.plant, &self.y)
+        {
+            self.min_margin = self.min_margin.min(m);
+            if m <= 0.0 {
+                self.violation_ticks += 1;
             }
         }
         Ok(())
