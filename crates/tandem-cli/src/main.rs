@@ -4,6 +4,9 @@
 //! are written with the fault in `summary.json`) or an I/O failure, 2 bad input (command line,
 //! scenario file, replay file, or an output folder that exists without `--force`).
 
+// The doc comments below are clap's `--help` text, written for a terminal (`out/<name>`), not HTML.
+#![allow(rustdoc::invalid_html_tags)]
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;

@@ -19,11 +19,11 @@
 //!
 //! plotters 0.3.7 pitfalls worked around here (each is explained where it is handled):
 //! - a path wider than 1 px becomes one polygon with unlimited miter joins on bitmaps, so noisy
-//!   signals grow spikes: bitmap lines are drawn segment by segment ([`draw_line`]);
+//!   signals grow spikes: bitmap lines are drawn segment by segment (`draw_line`);
 //! - with `ab_glyph`, glyphs lose their left bearing on bitmaps ("ob ject"): bitmap text is laid
-//!   out glyph by glyph from the embedded font's metrics ([`draw_text`]);
+//!   out glyph by glyph from the embedded font's metrics (`draw_text`);
 //! - `with_key_points` drops the `f64` value formatter, so the mesh cannot be configured: a small
-//!   coordinate type ([`Axis`]) carries the ticks, and the axes are drawn here;
+//!   coordinate type (`Axis`) carries the ticks, and the axes are drawn here;
 //! - lines are not clipped to the plotting area: they are clipped before drawing.
 //!
 //! Fonts: the DejaVu Sans font embedded in the binary is registered with plotters' `ab_glyph`

@@ -1051,7 +1051,7 @@ pub fn parse(src: &Source) -> Result<Scenario, ScenarioError> {
 
 /// Parse a TOML text into `T` (planar or spatial scenario): syntax errors and serde errors with
 /// the file, line, column, field path and a suggestion for a misspelt field, then the strict
-/// array lengths of [`check_lengths`].
+/// array lengths of `check_lengths`.
 pub fn parse_as<T: serde::de::DeserializeOwned + Serialize>(
     src: &Source,
 ) -> Result<T, ScenarioError> {

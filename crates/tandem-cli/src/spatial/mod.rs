@@ -2,7 +2,7 @@
 //! and validated ([`prepare`]), run ([`execute`]) and written ([`output`], [`figures`]):
 //! `timeseries.csv`, `summary.json`, figures on six outputs, `viewer.html` and the snapshots,
 //! into a marker-protected output folder. `tandem compare` runs several laws from one start
-//! ([`compare`]).
+//! ([`cmd_compare`]).
 
 pub mod figures;
 pub mod output;

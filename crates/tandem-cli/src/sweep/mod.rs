@@ -1,5 +1,5 @@
 //! Parameter sweeps: a sweep file (TOML) names a base scenario, fixed overrides and the varied
-//! fields; [`Sweep::load`] resolves and checks it, [`run::run`] runs a shard of it across cores,
+//! fields; [`Sweep::load`] resolves and checks it, [`run::run_all`] runs a shard of it across cores,
 //! [`merge::merge`] joins shard folders. See `docs/sweeps.md`.
 //!
 //! Every run is the base scenario's TOML document with the run's values set at their field paths
