@@ -414,3 +414,37 @@ fn bad_input_names_the_field_and_the_urdf_line() {
         &["object.mass", "> 0"],
     );
 }
+
+#[test]
+fn three_arms_from_a_file_with_the_designed_gains_meet_the_s5_claims() {
+    // A third UR5-class arm at (0, −0.70, 0) facing +y holds the box's −y face (as
+    // `fixtures::three_ur5`); the NN gains are designed on the measured path inertia (no
+    // `design.inertia`): with the dual-UR5 inertia the rotational K2 would be too small (warned).
+    let d = tmp("three");
+    let third = "[[arms]]\nmodel = \"ur5\"\n\
+        base = { position = [0.0, -0.70, 0.0], rpy = [0.0, 0.0, 1.5707963267948966] }\n\
+        grasp = { position = [0.0, -0.1, 0.0], axes = [[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] }\n\
+        q_guess = [-0.212431, -1.267797, 1.525974, -0.258177, 1.358366, -1.5707963267948966]\n\n\
+        # --- Object";
+    let text = preset("dual-ur5")
+        .text
+        .replacen("# --- Object", third, 1)
+        .replace("name = \"dual-ur5\"", "name = \"three-ur5\"")
+        .replace("\nduration = 60.0", "\nduration = 4.0")
+        .replace(
+            "design = { inertia = [20.0, 15.0, 12.0, 0.03, 0.8, 0.9], ",
+            "design = { ",
+        );
+    std::fs::write(d.join("three.toml"), text).unwrap();
+    let o = tandem(&["run", "three.toml", "--out", "out"], &d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("warning"), "{err}");
+    let s: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("out/summary.json")).unwrap()).unwrap();
+    assert_eq!(s["status"], "completed", "{s}");
+    assert_eq!(s["violation_ticks"], 0, "{s}");
+    assert!(s["max_drift_m"].as_f64().unwrap() < 1e-9, "{s}");
+    assert!(s["z1_p_max_after_2s_m"].as_f64().unwrap() < 1e-3, "{s}");
+    assert!(s["z1_rot_max_after_2s_rad"].as_f64().unwrap() < 1e-3, "{s}");
+}
