@@ -639,32 +639,43 @@ impl Arm {
     fn kinematics_n(&self, n: usize, q: &[f64], qd: &[f64], t: &mut ArmTerms) {
         debug_assert!(q.len() >= n && qd.len() >= n);
         let (q, qd) = (&q[..n], &qd[..n]);
+        // One length check per buffer; then the loops index in range by construction.
+        let (lc, l) = (&self.lc[..n], &self.l[..n]);
+        let (phis, phi_dots, us) = (&mut t.phi[..n], &mut t.phi_dot[..n], &mut t.u[..n]);
+        let (com, com_dot) = (&mut t.com[..n], &mut t.com_dot[..n]);
+        let (points, points_dot) = (&mut t.points[..n + 1], &mut t.points_dot[..n + 1]);
         // Forward pass: absolute angles, joint points, COMs and their velocities.
         let mut phi = self.base_angle;
         let mut phid = 0.0;
-        t.points[0] = self.base;
-        t.points_dot[0] = Vector2::zeros();
+        points[0] = self.base;
+        points_dot[0] = Vector2::zeros();
         let mut jdq = Vector2::zeros();
         for k in 0..n {
             phi += q[k];
             phid += qd[k];
-            t.phi[k] = phi;
-            t.phi_dot[k] = phid;
+            phis[k] = phi;
+            phi_dots[k] = phid;
             let (sk, ck) = phi.sin_cos();
             let u = Vector2::new(ck, sk);
-            t.u[k] = u;
+            us[k] = u;
             let up = perp(u);
-            t.com[k] = t.points[k] + self.lc[k] * u;
-            t.com_dot[k] = t.points_dot[k] + self.lc[k] * phid * up;
-            t.points[k + 1] = t.points[k] + self.l[k] * u;
-            t.points_dot[k + 1] = t.points_dot[k] + self.l[k] * phid * up;
-            jdq -= self.l[k] * phid * phid * u;
+            com[k] = points[k] + lc[k] * u;
+            com_dot[k] = points_dot[k] + lc[k] * phid * up;
+            points[k + 1] = points[k] + l[k] * u;
+            points_dot[k + 1] = points_dot[k] + l[k] * phid * up;
+            jdq -= l[k] * phid * phid * u;
         }
-        let pe = t.points[n];
-        let ve = t.points_dot[n];
+        let pe = points[n];
+        let ve = points_dot[n];
+        let jm = &mut t.J.as_mut_slice()[..2 * n];
+        let jdm = &mut t.Jdot.as_mut_slice()[..2 * n];
         for i in 0..n {
-            t.J.set_column(i, &perp(pe - t.points[i]));
-            t.Jdot.set_column(i, &perp(ve - t.points_dot[i]));
+            let c = perp(pe - points[i]);
+            jm[2 * i] = c.x;
+            jm[2 * i + 1] = c.y;
+            let cd = perp(ve - points_dot[i]);
+            jdm[2 * i] = cd.x;
+            jdm[2 * i + 1] = cd.y;
         }
         t.p_ee = pe;
         t.v_ee = ve;
@@ -705,22 +716,33 @@ impl Arm {
         let mm = &mut t.M.as_mut_slice()[..N * N];
         let cc = &mut t.C.as_mut_slice()[..N * N];
         let gg = &mut t.G.as_mut_slice()[..N];
+        // Lever arms c_k − P_i once; M_ji is M_ij (the same products, summed in the same
+        // order), so only j ≥ i is summed.
+        let mut r = [[Vector2::zeros(); N]; N];
+        for k in 0..N {
+            for i in 0..=k {
+                r[k][i] = com[k] - points[i];
+            }
+        }
         for i in 0..N {
             for j in 0..N {
                 let mut mij = 0.0;
                 let mut cij = 0.0;
                 for k in i.max(j)..N {
-                    let ri = com[k] - points[i];
-                    let rj = com[k] - points[j];
-                    mij += m[k] * ri.dot(&rj) + inertia[k];
-                    cij += m[k] * ri.dot(&(com_dot[k] - points_dot[j]));
+                    if j >= i {
+                        mij += m[k] * r[k][i].dot(&r[k][j]) + inertia[k];
+                    }
+                    cij += m[k] * r[k][i].dot(&(com_dot[k] - points_dot[j]));
                 }
-                mm[i + N * j] = mij;
+                if j >= i {
+                    mm[i + N * j] = mij;
+                    mm[j + N * i] = mij;
+                }
                 cc[i + N * j] = cij;
             }
             let mut gi = 0.0;
             for k in i..N {
-                gi += m[k] * (com[k].x - points[i].x);
+                gi += m[k] * r[k][i].x;
             }
             gg[i] = g * gi;
         }
