@@ -34,6 +34,9 @@
 //!   ([`TwoLinkArm::ik_pose`]), then `M`, `C`, `G`, `J_e`, `J̇_e`, `J̇_e q̇`, `det M` in closed
 //!   form ([`TwoLinkArm::terms`]), `M⁻¹` and the Cartesian terms (3)–(4) in closed form. Only
 //!   end-effector quantities; the plant's hot paths use it.
+//! * [`FixedLinkArm`] (from [`Arm::fixed`], for 3 and 4 links): the general algorithm in
+//!   fixed-size arrays and `SMatrix` values, producing the constrained plant's per-arm
+//!   [`ArmBlock`] (as [`TwoLinkArm`] does through [`FixedArm`] for 2 links).
 //!
 //! Cartesian dynamics (3)–(4) for square (2-joint) arms: `M_x = J⁻ᵀ M J⁻¹`,
 //! `C_x = J⁻ᵀ (C − M J⁻¹ J̇) J⁻¹` (the paper prints `J⁻ᵀ J̇`; SPEC §2.1), `G_x = J⁻ᵀ G`.

@@ -15,11 +15,13 @@
 //! stacked grasp Jacobians), `K λ = −Ȧṡ − A a_0 − 2ω_b φ̇ − ω_b² φ`, then `s̈ = a_0 + 𝕄⁻¹Aᵀλ`.
 //! Each arm's `M_i` is factored once per evaluation; no allocation.
 //!
-//! Two implementations of these equations, selected once per plant ([`Algorithm`]):
-//! * two 2-link arms (the paper): every block is a fixed-size value on the stack — the SPEC §2.1
-//!   closed forms from one `sin_cos` per link ([`TwoLinkArm`]), `M_i⁻¹ = adj(M_i)/det M_i` in
-//!   closed form, `K` a `Matrix4` factored by the same in-place Cholesky, `M_o⁻¹` and `C_o` as
-//!   diagonals;
+//! Two implementations of these equations, selected once per plant ([`Algorithm`](super::Algorithm)):
+//! * two or three arms of 2, 3 or 4 links each (all alike; the paper's pair among them): every
+//!   block is a fixed-size value on the stack — per arm a [`FixedArm`] kernel (2-link arms: the
+//!   SPEC §2.1 closed forms from one `sin_cos` per link, [`TwoLinkArm`](crate::arm::TwoLinkArm),
+//!   `M_i⁻¹ = adj(M_i)/det M_i`; 3- and 4-link arms: [`FixedLinkArm`](crate::arm::FixedLinkArm),
+//!   the general algorithm in `SMatrix` values with one Cholesky of `M_i`), `K` a 4×4 or 6×6
+//!   `SMatrix` factored by the same in-place Cholesky, `M_o⁻¹` and `C_o` as diagonals;
 //! * the general algorithm on the workspace's dynamic-size buffers, for any arms.
 //!
 //! `tests/plant.rs` holds the two equal to round-off at random states.
