@@ -16,9 +16,9 @@
 //! per arm (2-link arms: 2×2 blocks from the SPEC §2.1 closed forms, closed-form `M⁻¹`; 3- and
 //! 4-link arms: the general algorithm in `SMatrix` values with a fixed-size Cholesky), with a
 //! 4×4 or 6×6 grasp-space Cholesky; any other plant runs the general dynamic-size algorithm
-//! ([`Plant::derivative_general`]), which stays public so tests hold the two equal. The reduced plant (2-link arms only) always uses the fixed-size
-//! per-arm terms ([`TwoLinkArm`]), with the inverse kinematics as link directions (no
-//! transcendental calls).
+//! ([`Plant::derivative_general`]), which stays public so tests hold the two equal. The reduced
+//! plant (2-link arms only) always uses the fixed-size per-arm terms ([`TwoLinkArm`]), with the
+//! inverse kinematics as link directions (no transcendental calls).
 
 pub mod chain;
 pub mod constrained;
