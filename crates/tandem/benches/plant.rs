@@ -11,12 +11,76 @@
 //! | 2026-11-25 | fixed-size 2-link path, 4×4 K, trig-free IK        | 170–180 ns, 1546 Ir | 188–192 ns, 1497 Ir | 0.71–0.73 µs |
 //!
 //! `plant/constrained_derivative_general` keeps the general algorithm measured on the same plant.
-use criterion::{Criterion, criterion_group, criterion_main};
+//!
+//! `tick/*` (issue 12): one control tick (sensors, the PD law, the plant's RK4 substeps at the
+//! paper's 1 kHz control / 0.2 ms plant step) of two 2-link arms (the paper), three 2-link
+//! arms ([`fixtures::three_arms`]) and two 3-link arms ([`fixtures::redundant_pair`]), side by
+//! side; divide by the arm count for the per-arm cost. The PD law, because the NN law is built
+//! for 2-link arms only. With `TANDEM_TICKS=<config>:<n>` in the environment the binary runs
+//! `n` ticks of that configuration and exits (for callgrind: the difference of two counts over
+//! the difference of `n` is the instructions per tick).
+use criterion::{Criterion, criterion_group};
 use nalgebra::Vector3;
 use std::hint::black_box;
+use tandem::control::{Controller, ControllerParams, LawParams};
+use tandem::disturbance::Disturbance;
 use tandem::fixtures;
 use tandem::integrate::Rk4;
-use tandem::plant::{ConstrainedOde, Plant};
+use tandem::pd::PdGains;
+use tandem::plant::{ConstrainedOde, Plant, PlantParams};
+use tandem::sensors::SensorParams;
+use tandem::sim::{Driver, SimParams, Simulation};
+use tandem::trajectory::Path;
+
+/// The three tick configurations: name, plant, joint-angle guess, arm count.
+fn tick_configs() -> Vec<(&'static str, PlantParams, Option<Vec<f64>>, usize)> {
+    let (p3, guess) = fixtures::redundant_pair();
+    vec![
+        ("two_2link", fixtures::paper(), None, 2),
+        ("three_2link", fixtures::three_arms(), None, 3),
+        ("two_3link", p3, Some(guess), 2),
+    ]
+}
+
+/// A long PD run of `plant` (ticks are taken one by one, never to its end).
+fn tick_sim(plant: &PlantParams, guess: Option<&[f64]>) -> Simulation {
+    let duration = 1.0e4;
+    let (c, _) = Controller::new(
+        &ControllerParams::paper(LawParams::Pd(PdGains::paper())),
+        plant,
+        Path::paper(),
+        duration,
+    )
+    .unwrap();
+    let sp = SimParams {
+        duration,
+        ..SimParams::paper()
+    };
+    Simulation::new(
+        plant,
+        &SensorParams::default(),
+        Driver::Controller(Box::new(c)),
+        Disturbance::paper(),
+        sp,
+        guess,
+    )
+    .unwrap()
+}
+
+fn ticks(c: &mut Criterion) {
+    let mut g = c.benchmark_group("tick");
+    for (name, p, guess, _) in tick_configs() {
+        let mut sim = tick_sim(&p, guess.as_deref());
+        let mut k = 0;
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                sim.tick(k).unwrap();
+                k += 1;
+            })
+        });
+    }
+    g.finish();
+}
 
 fn bench(c: &mut Criterion) {
     let plant = Plant::new(&fixtures::paper()).unwrap();
@@ -73,5 +137,23 @@ fn bench(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, bench);
-criterion_main!(benches);
+criterion_group!(benches, bench, ticks);
+
+fn main() {
+    if let Ok(spec) = std::env::var("TANDEM_TICKS") {
+        let (name, n) = spec.split_once(':').expect("TANDEM_TICKS=<config>:<n>");
+        let n: usize = n.parse().expect("tick count");
+        let (_, p, guess, _) = tick_configs()
+            .into_iter()
+            .find(|c| c.0 == name)
+            .expect("config: two_2link, three_2link or two_3link");
+        let mut sim = tick_sim(&p, guess.as_deref());
+        for k in 0..n {
+            sim.tick(k).unwrap();
+        }
+        black_box(sim.state());
+        return;
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

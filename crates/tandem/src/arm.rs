@@ -34,11 +34,14 @@
 //!   ([`TwoLinkArm::ik_pose`]), then `M`, `C`, `G`, `J_e`, `J̇_e`, `J̇_e q̇`, `det M` in closed
 //!   form ([`TwoLinkArm::terms`]), `M⁻¹` and the Cartesian terms (3)–(4) in closed form. Only
 //!   end-effector quantities; the plant's hot paths use it.
+//! * [`FixedLinkArm`] (from [`Arm::fixed`], for 3 and 4 links): the general algorithm in
+//!   fixed-size arrays and `SMatrix` values, producing the constrained plant's per-arm
+//!   [`ArmBlock`] (as [`TwoLinkArm`] does through [`FixedArm`] for 2 links).
 //!
 //! Cartesian dynamics (3)–(4) for square (2-joint) arms: `M_x = J⁻ᵀ M J⁻¹`,
 //! `C_x = J⁻ᵀ (C − M J⁻¹ J̇) J⁻¹` (the paper prints `J⁻ᵀ J̇`; SPEC §2.1), `G_x = J⁻ᵀ G`.
 
-use nalgebra::{DMatrix, DVector, Matrix2, Matrix2xX, Vector2};
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix2xX, SMatrix, SVector, Vector2};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, non_negative, positive};
@@ -205,6 +208,202 @@ pub struct Arm {
     elbow: Elbow,
     /// The 2-link fast path, selected once here (`None` for other link counts).
     two: Option<TwoLinkArm>,
+}
+
+/// An arm's block of the constrained plant's Schur-complement solve (SPEC §2.4), in fixed-size
+/// types: what [`Plant::derivative`](crate::plant::Plant::derivative) needs of arm `i` at one
+/// state, computed by [`FixedArm::block`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArmBlock<const N: usize> {
+    /// Unconstrained acceleration `a_0 = M⁻¹(τ − C q̇ − G)`, rad/s².
+    pub a0: SVector<f64, N>,
+    /// `Y = M⁻¹ J_eᵀ`, N × 2.
+    pub y: SMatrix<f64, N, 2>,
+    /// `J_e Y = J_e M⁻¹ J_eᵀ`, the arm's diagonal block of the grasp-space matrix `K`.
+    pub k: Matrix2<f64>,
+    /// End-effector Jacobian `J_e`, 2 × N, m/rad.
+    pub j: SMatrix<f64, 2, N>,
+    /// End-effector position, m.
+    pub p_ee: Vector2<f64>,
+    /// End-effector velocity, m/s.
+    pub v_ee: Vector2<f64>,
+    /// `J̇_e q̇`, m/s².
+    pub jdot_qdot: Vector2<f64>,
+}
+
+/// An arm with a fixed link count `N` whose constrained-plant block ([`ArmBlock`]) is computed
+/// entirely on the stack: [`TwoLinkArm`] (`N = 2`, SPEC §2.1 closed forms) and
+/// [`FixedLinkArm`] (`N = 3, 4`, the general algorithm in fixed-size types).
+pub trait FixedArm<const N: usize>: Copy {
+    /// The block at `(q, q̇, τ)` with gravity `g`; `None` if `M` is not positive definite.
+    fn block(&self, q: [f64; N], qd: [f64; N], tau: [f64; N], g: f64) -> Option<ArmBlock<N>>;
+}
+
+impl FixedArm<2> for TwoLinkArm {
+    /// Closed forms: [`TwoLinkArm::terms`], `M⁻¹ = adj M / det M`.
+    #[inline(always)]
+    fn block(&self, q: [f64; 2], qd: [f64; 2], tau: [f64; 2], g: f64) -> Option<ArmBlock<2>> {
+        let t = self.terms(&self.pose(q), qd, g);
+        if !(t.det_M > 0.0) {
+            return None;
+        }
+        let m_inv = t.m_inv();
+        let b = Vector2::new(tau[0], tau[1]) - t.C * Vector2::from(qd) - t.G;
+        let y = m_inv * t.J.transpose();
+        Some(ArmBlock {
+            a0: m_inv * b,
+            y,
+            k: t.J * y,
+            j: t.J,
+            p_ee: t.p_ee,
+            v_ee: t.v_ee,
+            jdot_qdot: t.jdot_qdot,
+        })
+    }
+}
+
+/// The general n-link algorithms of this module (kinematics, composite-rigid-body `M`,
+/// Christoffel `C`, `G`, Cholesky of `M`) for a fixed link count `N`: arrays and `SMatrix`
+/// values on the stack, loops of constant trip count (unrolled, no bounds checks): the sums
+/// of [`Arm::kinematics`] and `M` of [`Arm::general_dynamics`] in the same order (`M` filled
+/// as a symmetric matrix from the lever arms `c_k − P_i`), the bias `C q̇ + G` in O(n²)
+/// without forming `C` (`C q̇ = Σ_k m_k J_{c_k}ᵀ J̇_{c_k} q̇`, the Christoffel form), then one
+/// Cholesky of `M` and the substitutions for `a_0` and `M⁻¹ J_eᵀ` together (by reciprocal
+/// pivots). Equal to the general algorithm up to round-off. Built by [`Arm::fixed`]
+/// (`N = 3, 4` in the plant).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixedLinkArm<const N: usize> {
+    base: Vector2<f64>,
+    base_angle: f64,
+    m: [f64; N],
+    l: [f64; N],
+    lc: [f64; N],
+    inertia: [f64; N],
+}
+
+impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
+    #[inline(always)]
+    fn block(&self, q: [f64; N], qd: [f64; N], tau: [f64; N], g: f64) -> Option<ArmBlock<N>> {
+        // Forward pass (as `Arm::kinematics`): joint points, COMs and their velocities.
+        // `acc[k]` = J̇_{c_k} q̇ + (0, g): the COM's velocity-product acceleration plus gravity
+        // as an upward base acceleration (as in `Arm::rnea`).
+        let mut points = [Vector2::zeros(); N];
+        let mut com = [Vector2::zeros(); N];
+        let mut acc = [Vector2::zeros(); N];
+        let mut phi = self.base_angle;
+        let mut phid = 0.0;
+        let (mut p, mut pd) = (self.base, Vector2::zeros());
+        let mut jdq = Vector2::zeros();
+        let up_g = Vector2::new(0.0, g);
+        for k in 0..N {
+            phi += q[k];
+            phid += qd[k];
+            let (sk, ck) = phi.sin_cos();
+            let u = Vector2::new(ck, sk);
+            let up = perp(u);
+            let w2 = phid * phid;
+            points[k] = p;
+            com[k] = p + self.lc[k] * u;
+            acc[k] = jdq - (self.lc[k] * w2) * u + up_g;
+            p += self.l[k] * u;
+            pd += self.l[k] * phid * up;
+            jdq -= self.l[k] * phid * phid * u;
+        }
+        let mut j = SMatrix::<f64, 2, N>::zeros();
+        for i in 0..N {
+            j.set_column(i, &perp(p - points[i]));
+        }
+        // M (the sums of `Arm::general_dynamics`, same order, filled as a symmetric matrix from
+        // the lever arms r_ki = c_k − P_i) and the bias C q̇ + G without forming C: the columns
+        // of J_{c_k} are r_ki^⊥, so (C q̇)_i = Σ_{k≥i} m_k r_ki^⊥ · (J̇_{c_k} q̇) (the Christoffel
+        // form C = Σ_k m_k J_{c_k}ᵀ J̇_{c_k} of the module docs) and G_i = Σ_{k≥i} m_k r_ki^⊥ · (0, g).
+        let mut r = [[Vector2::zeros(); N]; N];
+        for k in 0..N {
+            for i in 0..=k {
+                r[k][i] = com[k] - points[i];
+            }
+        }
+        let mut mm = SMatrix::<f64, N, N>::zeros();
+        let mut rhs = SMatrix::<f64, N, 3>::zeros();
+        for i in 0..N {
+            for jj in i..N {
+                let mut mij = 0.0;
+                for k in jj..N {
+                    mij += self.m[k] * r[k][i].dot(&r[k][jj]) + self.inertia[k];
+                }
+                mm[(i, jj)] = mij;
+                mm[(jj, i)] = mij;
+            }
+            let mut bias = 0.0;
+            for k in i..N {
+                bias += self.m[k] * perp(r[k][i]).dot(&acc[k]);
+            }
+            rhs[(i, 0)] = tau[i] - bias;
+            rhs[(i, 1)] = j[(0, i)];
+            rhs[(i, 2)] = j[(1, i)];
+        }
+        // a0 = M⁻¹(τ − C q̇ − G) and Y = M⁻¹ J_eᵀ: one Cholesky M = L Lᵀ (the steps of
+        // `cholesky_in_place`), then both substitutions on the three right-hand sides at once.
+        let mut lo = mm;
+        let mut inv_diag = [0.0; N];
+        for jj in 0..N {
+            let mut dd = lo[(jj, jj)];
+            for k in 0..jj {
+                dd -= lo[(jj, k)] * lo[(jj, k)];
+            }
+            if !(dd > 0.0) || !dd.is_finite() {
+                return None;
+            }
+            let ljj = dd.sqrt();
+            lo[(jj, jj)] = ljj;
+            inv_diag[jj] = 1.0 / ljj;
+            for i in (jj + 1)..N {
+                let mut sum = lo[(i, jj)];
+                for k in 0..jj {
+                    sum -= lo[(i, k)] * lo[(jj, k)];
+                }
+                lo[(i, jj)] = sum / ljj;
+            }
+        }
+        for c in 0..3 {
+            // L z = b, then Lᵀ x = z.
+            for i in 0..N {
+                let mut sum = rhs[(i, c)];
+                for k in 0..i {
+                    sum -= lo[(i, k)] * rhs[(k, c)];
+                }
+                rhs[(i, c)] = sum * inv_diag[i];
+            }
+            for i in (0..N).rev() {
+                let mut sum = rhs[(i, c)];
+                for k in (i + 1)..N {
+                    sum -= lo[(k, i)] * rhs[(k, c)];
+                }
+                rhs[(i, c)] = sum * inv_diag[i];
+            }
+        }
+        let a0: SVector<f64, N> = rhs.column(0).into_owned();
+        let y: SMatrix<f64, N, 2> = rhs.fixed_columns::<2>(1).into_owned();
+        let mut kb = Matrix2::zeros();
+        for a in 0..2 {
+            for b in 0..2 {
+                let mut sum = 0.0;
+                for rr in 0..N {
+                    sum += j[(a, rr)] * y[(rr, b)];
+                }
+                kb[(a, b)] = sum;
+            }
+        }
+        Some(ArmBlock {
+            a0,
+            y,
+            k: kb,
+            j,
+            p_ee: p,
+            v_ee: pd,
+            jdot_qdot: jdq,
+        })
+    }
 }
 
 /// Per-arm scratch and results of one evaluation (the arm's part of the workspace).
@@ -430,34 +629,56 @@ impl Arm {
     /// Kinematics: joint points, COMs and their velocities, `J_e`, `J̇_e`, `J̇_e q̇`,
     /// end-effector position and velocity. Reads `(q, q̇)`; writes the kinematic fields of `t`.
     pub fn kinematics(&self, q: &[f64], qd: &[f64], t: &mut ArmTerms) {
-        let n = self.dof();
+        // The same body with the link count a constant for 2–4 links (unrolled loops).
+        match self.dof() {
+            2 => self.kinematics_n(2, q, qd, t),
+            3 => self.kinematics_n(3, q, qd, t),
+            4 => self.kinematics_n(4, q, qd, t),
+            n => self.kinematics_n(n, q, qd, t),
+        }
+    }
+
+    #[inline(always)]
+    fn kinematics_n(&self, n: usize, q: &[f64], qd: &[f64], t: &mut ArmTerms) {
         debug_assert!(q.len() >= n && qd.len() >= n);
+        let (q, qd) = (&q[..n], &qd[..n]);
+        // One length check per buffer; then the loops index in range by construction.
+        let (lc, l) = (&self.lc[..n], &self.l[..n]);
+        let (phis, phi_dots, us) = (&mut t.phi[..n], &mut t.phi_dot[..n], &mut t.u[..n]);
+        let (com, com_dot) = (&mut t.com[..n], &mut t.com_dot[..n]);
+        let (points, points_dot) = (&mut t.points[..n + 1], &mut t.points_dot[..n + 1]);
         // Forward pass: absolute angles, joint points, COMs and their velocities.
         let mut phi = self.base_angle;
         let mut phid = 0.0;
-        t.points[0] = self.base;
-        t.points_dot[0] = Vector2::zeros();
+        points[0] = self.base;
+        points_dot[0] = Vector2::zeros();
         let mut jdq = Vector2::zeros();
         for k in 0..n {
             phi += q[k];
             phid += qd[k];
-            t.phi[k] = phi;
-            t.phi_dot[k] = phid;
+            phis[k] = phi;
+            phi_dots[k] = phid;
             let (sk, ck) = phi.sin_cos();
             let u = Vector2::new(ck, sk);
-            t.u[k] = u;
+            us[k] = u;
             let up = perp(u);
-            t.com[k] = t.points[k] + self.lc[k] * u;
-            t.com_dot[k] = t.points_dot[k] + self.lc[k] * phid * up;
-            t.points[k + 1] = t.points[k] + self.l[k] * u;
-            t.points_dot[k + 1] = t.points_dot[k] + self.l[k] * phid * up;
-            jdq -= self.l[k] * phid * phid * u;
+            com[k] = points[k] + lc[k] * u;
+            com_dot[k] = points_dot[k] + lc[k] * phid * up;
+            points[k + 1] = points[k] + l[k] * u;
+            points_dot[k + 1] = points_dot[k] + l[k] * phid * up;
+            jdq -= l[k] * phid * phid * u;
         }
-        let pe = t.points[n];
-        let ve = t.points_dot[n];
+        let pe = points[n];
+        let ve = points_dot[n];
+        let jm = &mut t.J.as_mut_slice()[..2 * n];
+        let jdm = &mut t.Jdot.as_mut_slice()[..2 * n];
         for i in 0..n {
-            t.J.set_column(i, &perp(pe - t.points[i]));
-            t.Jdot.set_column(i, &perp(ve - t.points_dot[i]));
+            let c = perp(pe - points[i]);
+            jm[2 * i] = c.x;
+            jm[2 * i + 1] = c.y;
+            let cd = perp(ve - points_dot[i]);
+            jdm[2 * i] = cd.x;
+            jdm[2 * i + 1] = cd.y;
         }
         t.p_ee = pe;
         t.v_ee = ve;
@@ -477,7 +698,60 @@ impl Arm {
 
     /// The general algorithm for `M`, `C`, `G` (after [`Arm::kinematics`]); exposed so tests can
     /// compare it with the 2-link closed forms.
+    ///
+    /// For 3 and 4 links it runs a copy of the loops with the link count a constant (unrolled,
+    /// no bounds checks; the same operations in the same order, so the same bits).
     pub fn general_dynamics(&self, g: f64, t: &mut ArmTerms) {
+        match self.dof() {
+            3 => self.general_dynamics_n::<3>(g, t),
+            4 => self.general_dynamics_n::<4>(g, t),
+            _ => self.general_dynamics_dyn(g, t),
+        }
+    }
+
+    /// [`Arm::general_dynamics`] with the link count `N` a constant: one length check per
+    /// buffer, then fixed-trip loops.
+    #[inline]
+    fn general_dynamics_n<const N: usize>(&self, g: f64, t: &mut ArmTerms) {
+        let (m, inertia) = (&self.m[..N], &self.inertia[..N]);
+        let (com, com_dot) = (&t.com[..N], &t.com_dot[..N]);
+        let (points, points_dot) = (&t.points[..N], &t.points_dot[..N]);
+        let mm = &mut t.M.as_mut_slice()[..N * N];
+        let cc = &mut t.C.as_mut_slice()[..N * N];
+        let gg = &mut t.G.as_mut_slice()[..N];
+        // Lever arms c_k − P_i once; M_ji is M_ij (the same products, summed in the same
+        // order), so only j ≥ i is summed.
+        let mut r = [[Vector2::zeros(); N]; N];
+        for k in 0..N {
+            for i in 0..=k {
+                r[k][i] = com[k] - points[i];
+            }
+        }
+        for i in 0..N {
+            for j in 0..N {
+                let mut mij = 0.0;
+                let mut cij = 0.0;
+                for k in i.max(j)..N {
+                    if j >= i {
+                        mij += m[k] * r[k][i].dot(&r[k][j]) + inertia[k];
+                    }
+                    cij += m[k] * r[k][i].dot(&(com_dot[k] - points_dot[j]));
+                }
+                if j >= i {
+                    mm[i + N * j] = mij;
+                    mm[j + N * i] = mij;
+                }
+                cc[i + N * j] = cij;
+            }
+            let mut gi = 0.0;
+            for k in i..N {
+                gi += m[k] * r[k][i].x;
+            }
+            gg[i] = g * gi;
+        }
+    }
+
+    fn general_dynamics_dyn(&self, g: f64, t: &mut ArmTerms) {
         let n = self.dof();
         for i in 0..n {
             for j in 0..n {
@@ -586,6 +860,22 @@ impl Arm {
             Some(k) => k.inverse_kinematics(p_we),
             None => Err(IkFailure::NotTwoLink),
         }
+    }
+
+    /// The fixed-size kernel of an `N`-link arm ([`FixedLinkArm`]), `None` unless the arm has
+    /// exactly `N` links.
+    pub fn fixed<const N: usize>(&self) -> Option<FixedLinkArm<N>> {
+        (self.dof() == N).then(|| {
+            let arr = |v: &[f64]| std::array::from_fn(|k| v[k]);
+            FixedLinkArm {
+                base: self.base,
+                base_angle: self.base_angle,
+                m: arr(&self.m),
+                l: arr(&self.l),
+                lc: arr(&self.lc),
+                inertia: arr(&self.inertia),
+            }
+        })
     }
 
     /// The 2-link fast path (fixed-size kinematics and dynamics), `None` unless the arm has

@@ -39,6 +39,36 @@ fn params(law: LawParams) -> ControllerParams {
 }
 
 #[test]
+fn n_link_constrained_steps_allocate_nothing() {
+    // The fixed-size kernel of two 3-link arms (and the general path on the same plant).
+    let (p, guess) = fixtures::redundant_pair();
+    let plant = Plant::new(&p).unwrap();
+    let mut y = plant
+        .initial_state(
+            fixtures::paper_start(),
+            Vector3::new(0.01, 0.0, 0.1),
+            Some(&guess),
+        )
+        .unwrap();
+    let mut ws = plant.workspace();
+    let input = plant.zero_input();
+    let mut rk = Rk4::new(plant.state_dim());
+    let mut dy = vec![0.0; plant.state_dim()];
+    let n = count(|| {
+        for k in 0..100 {
+            let mut sys = ConstrainedOde {
+                plant: &plant,
+                ws: &mut ws,
+                input: &input,
+            };
+            rk.step(&mut sys, k as f64 * 1e-3, &mut y, 1e-3);
+            assert!(plant.derivative_general(&y, &input, &mut ws, &mut dy));
+        }
+    });
+    assert_eq!(n, 0, "3-link plant steps allocated {n} times");
+}
+
+#[test]
 fn plant_steps_allocate_nothing() {
     for p in [fixtures::paper(), fixtures::three_arms()] {
         let plant = Plant::new(&p).unwrap();

@@ -4,7 +4,7 @@
 
 use nalgebra::{DMatrix, Matrix2, Vector2};
 use proptest::prelude::*;
-use tandem::arm::{Arm, ArmParams, Elbow, LinkParams};
+use tandem::arm::{Arm, ArmParams, Elbow, FixedArm, LinkParams};
 use tandem::error::ModelError;
 
 use tandem::fixtures::SplitMix64 as Rng;
@@ -492,4 +492,58 @@ proptest! {
         let n = mdot_fd(&arm, &[q1, q2], &[w1, w2]) - 2.0 * &t.C;
         prop_assert!((&n + n.transpose()).norm() < 1e-8);
     }
+}
+
+#[test]
+fn fixed_link_kernels_equal_the_general_algorithm() {
+    // FixedLinkArm<N> (N = 3, 4) against Arm::dynamics + forward_dynamics on random arms and
+    // states: a0 = M⁻¹(τ − Cq̇ − G) (forward dynamics with no external force), Y = M⁻¹ J_eᵀ
+    // (forward dynamics with zero τ, q̇, g and a unit force, minus nothing), K = J_e Y, and the
+    // end-effector terms. The kinematics and M, C, G are the same sums; only the solve's
+    // operation order differs (reciprocal pivots), so 1e-12 relative (cond M ≲ 1e3 here).
+    fn check<const N: usize>(rng: &mut Rng) -> f64 {
+        let arm = random_arm(rng, N);
+        let k = arm.fixed::<N>().expect("N links");
+        assert!(arm.fixed::<5>().is_none());
+        let mut t = arm.terms();
+        let q: [f64; N] = std::array::from_fn(|_| rng.range(-3.0, 3.0));
+        let qd: [f64; N] = std::array::from_fn(|_| rng.range(-2.0, 2.0));
+        let tau: [f64; N] = std::array::from_fn(|_| rng.range(-5.0, 5.0));
+        let b = k.block(q, qd, tau, 9.8).expect("M is positive definite");
+        arm.dynamics(&q, &qd, 9.8, &mut t);
+        let mut a0 = [0.0; N];
+        arm.forward_dynamics(&qd, &tau, Vector2::zeros(), &mut t, &mut a0)
+            .unwrap();
+        let rel = |a: &[f64], b: &[f64]| {
+            let d: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+            let n: f64 = b.iter().map(|y| y * y).sum();
+            (d / n.max(1e-300)).sqrt()
+        };
+        let mut worst = rel(b.a0.as_slice(), &a0);
+        // Y's columns: M⁻¹ J_eᵀ e_c = forward dynamics of J_eᵀ e_c alone (zero C q̇ and G).
+        let zeros = [0.0; N];
+        for c in 0..2 {
+            arm.dynamics(&q, &zeros, 0.0, &mut t);
+            let f = if c == 0 { Vector2::x() } else { Vector2::y() };
+            let mut yc = [0.0; N];
+            arm.forward_dynamics(&zeros, &zeros, f, &mut t, &mut yc)
+                .unwrap();
+            worst = worst.max(rel(b.y.column(c).as_slice(), &yc));
+        }
+        arm.dynamics(&q, &qd, 9.8, &mut t);
+        let kk = t.J.clone() * nalgebra::DMatrix::from_column_slice(N, 2, b.y.as_slice());
+        worst = worst.max(rel(b.k.as_slice(), kk.as_slice()));
+        worst = worst.max(rel(b.j.as_slice(), t.J.as_slice()));
+        worst = worst.max(rel(b.p_ee.as_slice(), t.p_ee.as_slice()));
+        worst = worst.max(rel(b.v_ee.as_slice(), t.v_ee.as_slice()));
+        worst = worst.max(rel(b.jdot_qdot.as_slice(), t.jdot_qdot.as_slice()));
+        worst
+    }
+    let mut rng = Rng(2027);
+    let mut worst: f64 = 0.0;
+    for _ in 0..200 {
+        worst = worst.max(check::<3>(&mut rng)).max(check::<4>(&mut rng));
+    }
+    println!("FixedLinkArm vs general: worst relative difference {worst:.2e}");
+    assert!(worst < 1e-12, "{worst:e}");
 }

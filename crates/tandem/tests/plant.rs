@@ -413,8 +413,89 @@ fn random_state(plant: &Plant, rng: &mut Rng) -> Vec<f64> {
 fn each_plant_selects_its_constrained_algorithm() {
     let alg = |p: PlantParams| Plant::new(&p).unwrap().algorithm();
     assert_eq!(alg(fixtures::paper()), Algorithm::TwoArmsTwoLinks);
-    assert_eq!(alg(fixtures::three_arms()), Algorithm::General);
-    assert_eq!(alg(fixtures::redundant_pair().0), Algorithm::General);
+    let fixed = |arms, links| Algorithm::Fixed { arms, links };
+    assert_eq!(alg(fixtures::three_arms()), fixed(3, 2));
+    assert_eq!(alg(fixtures::redundant_pair().0), fixed(2, 3));
+    // Mixed link counts and other arm counts fall back to the general algorithm.
+    let mut mixed = fixtures::three_arms();
+    mixed.arms[2] = fixtures::redundant_pair().0.arms[0].clone();
+    assert_eq!(alg(mixed), Algorithm::General);
+    let mut one = fixtures::paper();
+    one.arms.truncate(1);
+    one.grasps.truncate(1);
+    assert_eq!(alg(one), Algorithm::General);
+}
+
+#[test]
+fn fixed_size_n_link_kernels_equal_the_general_algorithm() {
+    // Three 2-link arms (closed forms) and two 3-link arms (the general algorithm in fixed-size
+    // types, Cholesky by reciprocal pivots) against the dynamic-size path at consistent states
+    // near the paper's start, pushed off the constraint, with random torques and disturbance.
+    // Same equations, different operation order: round-off amplified by cond(K) (≲ 1e2 here),
+    // hence 1e-12 relative, as for the paper plant.
+    let (p3, guess) = fixtures::redundant_pair();
+    for (name, params, guess) in [
+        ("three 2-link arms", fixtures::three_arms(), None),
+        ("two 3-link arms", p3, Some(guess)),
+    ] {
+        let plant = Plant::new(&params).unwrap();
+        assert_ne!(plant.algorithm(), Algorithm::General, "{name}");
+        let mut rng = Rng(47);
+        let (mut ws_a, mut ws_b) = (plant.workspace(), plant.workspace());
+        let n = plant.state_dim();
+        let (mut dy_a, mut dy_b) = (vec![0.0; n], vec![0.0; n]);
+        let mut input = plant.zero_input();
+        let mut worst: f64 = 0.0;
+        let mut trials = 0;
+        while trials < 100 {
+            let x = fixtures::paper_start()
+                + Vector3::new(
+                    rng.range(-0.03, 0.03),
+                    rng.range(-0.03, 0.03),
+                    rng.range(-0.2, 0.2),
+                );
+            let xd = Vector3::new(
+                rng.range(-0.5, 0.5),
+                rng.range(-0.5, 0.5),
+                rng.range(-1.0, 1.0),
+            );
+            let Ok(mut y) = plant.initial_state(x, xd, guess.as_deref()) else {
+                continue;
+            };
+            trials += 1;
+            for v in y.iter_mut() {
+                *v += rng.range(-1e-3, 1e-3);
+            }
+            for t in input.tau.iter_mut() {
+                *t = rng.range(-5.0, 5.0);
+            }
+            input.f_d = Vector3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-0.1, 0.1),
+            );
+            assert!(plant.derivative(&y, &input, &mut ws_a, &mut dy_a));
+            assert!(plant.derivative_general(&y, &input, &mut ws_b, &mut dy_b));
+            let f = |ws: &PlantWorkspace| {
+                ws.forces
+                    .iter()
+                    .flat_map(|v| [v.x, v.y])
+                    .collect::<Vec<_>>()
+            };
+            let e = [
+                rel(&dy_a, &dy_b),
+                rel(&f(&ws_a), &f(&ws_b)),
+                rel(ws_a.xdd_o.as_slice(), ws_b.xdd_o.as_slice()),
+                (ws_a.kkt_pivot - ws_b.kkt_pivot).abs() / ws_b.kkt_pivot,
+            ];
+            for (what, e) in ["dy", "forces", "xdd_o", "kkt_pivot"].iter().zip(e) {
+                assert!(e < 1e-12, "{name}: {what} differs by {e:e} (relative)");
+                worst = worst.max(e);
+            }
+        }
+        assert_eq!((ws_a.regularised, ws_b.regularised), (0, 0));
+        println!("{name}: fixed-size vs general, worst relative difference {worst:.2e}");
+    }
 }
 
 #[test]

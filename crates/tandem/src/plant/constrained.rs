@@ -15,19 +15,21 @@
 //! stacked grasp Jacobians), `K λ = −Ȧṡ − A a_0 − 2ω_b φ̇ − ω_b² φ`, then `s̈ = a_0 + 𝕄⁻¹Aᵀλ`.
 //! Each arm's `M_i` is factored once per evaluation; no allocation.
 //!
-//! Two implementations of these equations, selected once per plant ([`Algorithm`]):
-//! * two 2-link arms (the paper): every block is a fixed-size value on the stack — the SPEC §2.1
-//!   closed forms from one `sin_cos` per link ([`TwoLinkArm`]), `M_i⁻¹ = adj(M_i)/det M_i` in
-//!   closed form, `K` a `Matrix4` factored by the same in-place Cholesky, `M_o⁻¹` and `C_o` as
-//!   diagonals;
+//! Two implementations of these equations, selected once per plant ([`Algorithm`](super::Algorithm)):
+//! * two or three arms of 2, 3 or 4 links each (all alike; the paper's pair among them): every
+//!   block is a fixed-size value on the stack — per arm a [`FixedArm`] kernel (2-link arms: the
+//!   SPEC §2.1 closed forms from one `sin_cos` per link, [`TwoLinkArm`](crate::arm::TwoLinkArm),
+//!   `M_i⁻¹ = adj(M_i)/det M_i`; 3- and 4-link arms: [`FixedLinkArm`](crate::arm::FixedLinkArm),
+//!   the general algorithm in `SMatrix` values with one Cholesky of `M_i`), `K` a 4×4 or 6×6
+//!   `SMatrix` factored by the same in-place Cholesky, `M_o⁻¹` and `C_o` as diagonals;
 //! * the general algorithm on the workspace's dynamic-size buffers, for any arms.
 //!
 //! `tests/plant.rs` holds the two equal to round-off at random states.
 
-use nalgebra::{Matrix2, Matrix4, Vector2, Vector3, Vector4};
+use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
 
-use super::{Algorithm, Plant, PlantInput, PlantWorkspace};
-use crate::arm::TwoLinkArm;
+use super::{Kernel, Plant, PlantInput, PlantWorkspace};
+use crate::arm::FixedArm;
 use crate::linalg::{cholesky_in_place, cholesky_solve_in_place};
 
 /// Relative regularisation of a singular grasp-space matrix: `K + ε tr(K) I`.
@@ -56,30 +58,40 @@ impl Plant {
         ws: &mut PlantWorkspace,
         dy: &mut [f64],
     ) -> bool {
-        match &self.pair {
-            Some(arms) => self.derivative_pair(arms, y, input, ws, dy),
-            None => self.derivative_general(y, input, ws, dy),
+        match &self.kernel {
+            Kernel::L2A2(a) => self.derivative_fixed::<_, 2, 2, 4>(a, y, input, ws, dy),
+            Kernel::L2A3(a) => self.derivative_fixed::<_, 2, 3, 6>(a, y, input, ws, dy),
+            Kernel::L3A2(a) => self.derivative_fixed::<_, 3, 2, 4>(a, y, input, ws, dy),
+            Kernel::L3A3(a) => self.derivative_fixed::<_, 3, 3, 6>(a, y, input, ws, dy),
+            Kernel::L4A2(a) => self.derivative_fixed::<_, 4, 2, 4>(a, y, input, ws, dy),
+            Kernel::L4A3(a) => self.derivative_fixed::<_, 4, 3, 6>(a, y, input, ws, dy),
+            Kernel::General => self.derivative_general(y, input, ws, dy),
         }
     }
 
-    /// The fixed-size constrained derivative of [`Algorithm::TwoArmsTwoLinks`]: the equations
-    /// and outputs of [`Plant::derivative_general`] (the same `K` factorisation), with every
-    /// block in registers. Reads `(y, input)`; writes `dy`, `ws.forces`, `ws.xdd_o`,
+    /// The fixed-size constrained derivative of `M` arms of `N` links each (`NK = 2M`): the
+    /// equations and outputs of [`Plant::derivative_general`] (the same `K` factorisation), with
+    /// every block in registers — each arm's [`ArmBlock`](crate::arm::ArmBlock) from its [`FixedArm`] kernel, `K` an
+    /// `NK × NK` `SMatrix`. Reads `(y, input)`; writes `dy`, `ws.forces`, `ws.xdd_o`,
     /// `ws.kkt_pivot`, `ws.regularised`.
-    fn derivative_pair(
+    #[inline]
+    fn derivative_fixed<A: FixedArm<N>, const N: usize, const M: usize, const NK: usize>(
         &self,
-        arms: &[TwoLinkArm; 2],
+        arms: &[A; M],
         y: &[f64],
         input: &PlantInput,
         ws: &mut PlantWorkspace,
         dy: &mut [f64],
     ) -> bool {
-        debug_assert_eq!(self.algorithm(), Algorithm::TwoArmsTwoLinks);
-        // y = [q (4), x_o (3), q̇ (4), ẋ_o (3)]; one length check for all the indexing below.
-        let (y, dy) = (&y[..14], &mut dy[..14]);
-        let tau = &input.tau[..4];
-        let x_o = Vector3::new(y[4], y[5], y[6]);
-        let xd_o = Vector3::new(y[11], y[12], y[13]);
+        debug_assert_eq!(2 * M, NK);
+        debug_assert_eq!(self.n_q, N * M);
+        // y = [q (n), x_o (3), q̇ (n), ẋ_o (3)]; one length check for all the indexing below.
+        let n = N * M;
+        let (y, dy) = (&y[..2 * n + 6], &mut dy[..2 * n + 6]);
+        let tau = &input.tau[..n];
+        let (forces, grasps) = (&mut ws.forces[..M], &self.grasps[..M]);
+        let x_o = Vector3::new(y[n], y[n + 1], y[n + 2]);
+        let xd_o = Vector3::new(y[2 * n + 3], y[2 * n + 4], y[2 * n + 5]);
         let p_o = Vector2::new(x_o.x, x_o.y);
         let v_o = Vector2::new(xd_o.x, xd_o.y);
         let (sin_th, cos_th) = x_o.z.sin_cos();
@@ -94,41 +106,42 @@ impl Plant {
         // Arm i (q_i, q̇_i, τ_i, x_o, ẋ_o) → a0_i = M_i⁻¹(τ_i − C_i q̇_i − G_i),
         // Y_i = M_i⁻¹ J_e,iᵀ, K_ii = J_e,i Y_i, d_i = (R(θ) r_i)^⊥ (so J_i = [I | d_i]) and
         // grasp i's right-hand side −Ȧṡ − A a0 − 2ω_b φ̇ − ω_b² φ.
-        let mut a0 = [Vector2::zeros(); 2];
-        let mut y_blk = [Matrix2::zeros(); 2];
-        let mut k_blk = [Matrix2::zeros(); 2];
-        let mut d = [Vector2::zeros(); 2];
-        let mut rhs = Vector4::zeros();
-        for i in 0..2 {
-            let arm = &arms[i];
-            let o = 2 * i;
-            let qd = [y[7 + o], y[8 + o]];
-            let t = arm.terms(&arm.pose([y[o], y[o + 1]]), qd, self.g);
-            if !(t.det_M > 0.0) {
-                return false;
-            }
-            let m_inv = t.m_inv();
-            let b = Vector2::new(tau[o], tau[o + 1]) - t.C * Vector2::from(qd) - t.G;
-            a0[i] = m_inv * b;
-            y_blk[i] = m_inv * t.J.transpose();
-            k_blk[i] = t.J * y_blk[i];
+        let mut a0 = [SVector::<f64, N>::zeros(); M];
+        let mut y_blk = [SMatrix::<f64, N, 2>::zeros(); M];
+        let mut k_blk = [Matrix2::zeros(); M];
+        let mut d = [Vector2::zeros(); M];
+        let mut rhs = SVector::<f64, NK>::zeros();
+        for i in 0..M {
+            let o = N * i;
+            let blk = match arms[i].block(
+                std::array::from_fn(|r| y[o + r]),
+                std::array::from_fn(|r| y[n + 3 + o + r]),
+                std::array::from_fn(|r| tau[o + r]),
+                self.g,
+            ) {
+                Some(b) => b,
+                None => return false,
+            };
+            a0[i] = blk.a0;
+            y_blk[i] = blk.y;
+            k_blk[i] = blk.k;
             // R(θ) r_i once; the grasp point, J_i ẋ_o and J̇_i ẋ_o = −R r_i θ̇² from it.
-            let r = self.grasps[i].r;
+            let r = grasps[i].r;
             let rw = Vector2::new(cos_th * r.x - sin_th * r.y, sin_th * r.x + cos_th * r.y);
             d[i] = perp(rw);
-            let phi = t.p_ee - (p_o + rw);
-            let phid = t.v_ee - (v_o + d[i] * xd_o.z);
-            let bias = t.jdot_qdot + rw * (xd_o.z * xd_o.z);
-            let ja0 = t.J * a0[i] - (a0_o_xy + d[i] * a0_o.z);
+            let phi = blk.p_ee - (p_o + rw);
+            let phid = blk.v_ee - (v_o + d[i] * xd_o.z);
+            let bias = blk.jdot_qdot + rw * (xd_o.z * xd_o.z);
+            let ja0 = blk.j * a0[i] - (a0_o_xy + d[i] * a0_o.z);
             let rh = -bias - ja0 - 2.0 * w * phid - w * w * phi;
-            rhs[o] = rh.x;
-            rhs[o + 1] = rh.y;
+            rhs[2 * i] = rh.x;
+            rhs[2 * i + 1] = rh.y;
         }
-        // K = diag(K_11, K_22) + 𝐉 M_o⁻¹ 𝐉ᵀ; with diagonal M_o⁻¹ its (i, j) block is
+        // K = diag(K_ii) + 𝐉 M_o⁻¹ 𝐉ᵀ; with diagonal M_o⁻¹ its (i, j) block is
         // diag(m_x, m_y) + (m_θ d_i) d_jᵀ.
-        let mut k = Matrix4::zeros();
-        for i in 0..2 {
-            for j in 0..2 {
+        let mut k = SMatrix::<f64, NK, NK>::zeros();
+        for i in 0..M {
+            for j in 0..M {
                 let mut blk = (mi.z * d[i]) * d[j].transpose();
                 blk[(0, 0)] += mi.x;
                 blk[(1, 1)] += mi.y;
@@ -140,38 +153,37 @@ impl Plant {
         }
         // K λ = rhs by the in-place Cholesky (regularised if K is singular); λ into rhs.
         let k_copy = k;
-        match cholesky_in_place(&mut k, 4) {
+        match cholesky_in_place(&mut k, NK) {
             Ok(p) => ws.kkt_pivot = p,
             Err(_) => {
                 let trace = k_copy.trace();
                 k = k_copy;
-                for dd in 0..4 {
+                for dd in 0..NK {
                     k[(dd, dd)] += K_REG * trace.max(f64::MIN_POSITIVE);
                 }
                 ws.regularised += 1;
                 ws.kkt_pivot = 0.0;
-                if cholesky_in_place(&mut k, 4).is_err() {
+                if cholesky_in_place(&mut k, NK).is_err() {
                     return false;
                 }
             }
         }
-        cholesky_solve_in_place(&k, 4, rhs.as_mut_slice());
+        cholesky_solve_in_place(&k, NK, rhs.as_mut_slice());
 
         // Accelerations: q̈_i = a0_i + Y_i λ_i; ẍ_o = a0_o − M_o⁻¹ Σ J_iᵀ λ_i.
-        dy[..4].copy_from_slice(&y[7..11]);
-        dy[4..7].copy_from_slice(xd_o.as_slice());
+        dy[..n].copy_from_slice(&y[n + 3..2 * n + 3]);
+        dy[n..n + 3].copy_from_slice(xd_o.as_slice());
         let mut f_sum = Vector3::zeros();
-        for i in 0..2 {
+        for i in 0..M {
             let lam = Vector2::new(rhs[2 * i], rhs[2 * i + 1]);
-            ws.forces[i] = lam;
+            forces[i] = lam;
             f_sum += Vector3::new(lam.x, lam.y, d[i].dot(&lam));
             let qdd = a0[i] + y_blk[i] * lam;
-            dy[7 + 2 * i] = qdd.x;
-            dy[8 + 2 * i] = qdd.y;
+            dy[n + 3 + N * i..n + 3 + N * (i + 1)].copy_from_slice(qdd.as_slice());
         }
         let xdd = a0_o - mi.component_mul(&f_sum);
         ws.xdd_o = xdd;
-        dy[11..14].copy_from_slice(xdd.as_slice());
+        dy[2 * n + 3..].copy_from_slice(xdd.as_slice());
         true
     }
 

@@ -11,13 +11,14 @@
 //! `q` stacks the arms' joint angles in arm order.
 //!
 //! # Fast paths
-//! [`Plant::new`] selects the constrained algorithm once ([`Algorithm`]): the paper's set-up, two
-//! 2-link arms, runs [`Plant::derivative`] entirely in fixed-size types (2×2 arm blocks from the
-//! SPEC §2.1 closed forms, closed-form `M⁻¹`, a 4×4 grasp-space Cholesky); any other plant runs
-//! the general dynamic-size algorithm ([`Plant::derivative_general`]), which stays public so
-//! tests hold the two equal. The reduced plant (2-link arms only) always uses the fixed-size
-//! per-arm terms ([`TwoLinkArm`]), with the inverse kinematics as link directions (no
-//! transcendental calls).
+//! [`Plant::new`] selects the constrained algorithm once ([`Algorithm`]): two or three arms of 2,
+//! 3 or 4 links each (all arms the same) run [`Plant::derivative`] entirely in fixed-size types,
+//! per arm (2-link arms: 2×2 blocks from the SPEC §2.1 closed forms, closed-form `M⁻¹`; 3- and
+//! 4-link arms: the general algorithm in `SMatrix` values with a fixed-size Cholesky), with a
+//! 4×4 or 6×6 grasp-space Cholesky; any other plant runs the general dynamic-size algorithm
+//! ([`Plant::derivative_general`]), which stays public so tests hold the two equal. The reduced
+//! plant (2-link arms only) always uses the fixed-size per-arm terms ([`TwoLinkArm`]), with the
+//! inverse kinematics as link directions (no transcendental calls).
 
 pub mod chain;
 pub mod constrained;
@@ -32,7 +33,7 @@ pub use chain::{
     SpatialStart, Stepper,
 };
 
-use crate::arm::{Arm, ArmParams, ArmTerms, Cartesian, IkFailure, TwoLinkArm};
+use crate::arm::{Arm, ArmParams, ArmTerms, Cartesian, FixedLinkArm, IkFailure, TwoLinkArm};
 use crate::error::{ModelError, non_negative};
 use crate::grasp::Grasp;
 use crate::object::{Object, ObjectParams};
@@ -84,11 +85,69 @@ pub struct PlantInput {
 /// The constrained-derivative algorithm of a plant, selected once by [`Plant::new`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Algorithm {
-    /// Exactly two 2-link arms (the paper's set-up): fixed-size 2×2 arm blocks and a 4×4
-    /// grasp-space solve, no dynamic-size buffers.
+    /// Exactly two 2-link arms (the paper's set-up): fixed-size 2×2 arm blocks (SPEC §2.1
+    /// closed forms) and a 4×4 grasp-space solve, no dynamic-size buffers.
     TwoArmsTwoLinks,
+    /// `arms` arms (2 or 3) of `links` links each (2, 3 or 4), other than two 2-link arms:
+    /// fixed-size per-arm kernels ([`FixedArm`](crate::arm::FixedArm)) and a `2·arms` square
+    /// fixed-size grasp-space solve.
+    Fixed {
+        /// Number of arms.
+        arms: usize,
+        /// Links per arm.
+        links: usize,
+    },
     /// Any number of arms with any number of joints: dynamic-size blocks in the workspace.
     General,
+}
+
+/// The per-plant kernel behind [`Algorithm`]: `L{links}A{arms}` holds each arm's fixed-size
+/// kernel.
+#[derive(Clone, Debug)]
+pub(crate) enum Kernel {
+    L2A2([TwoLinkArm; 2]),
+    L2A3([TwoLinkArm; 3]),
+    L3A2([FixedLinkArm<3>; 2]),
+    L3A3([FixedLinkArm<3>; 3]),
+    L4A2([FixedLinkArm<4>; 2]),
+    L4A3([FixedLinkArm<4>; 3]),
+    General,
+}
+
+impl Kernel {
+    /// Select the kernel for `arms` (once, at construction).
+    fn select(arms: &[Arm]) -> Kernel {
+        fn all<T: Copy, const M: usize>(
+            arms: &[Arm],
+            f: impl Fn(&Arm) -> Option<T>,
+        ) -> Option<[T; M]> {
+            if arms.len() != M {
+                return None;
+            }
+            let v: Option<Vec<T>> = arms.iter().map(f).collect();
+            v.map(|v| std::array::from_fn(|i| v[i]))
+        }
+        let two = |a: &Arm| a.two_link().copied();
+        if let Some(a) = all(arms, two) {
+            return Kernel::L2A2(a);
+        }
+        if let Some(a) = all(arms, two) {
+            return Kernel::L2A3(a);
+        }
+        if let Some(a) = all(arms, Arm::fixed::<3>) {
+            return Kernel::L3A2(a);
+        }
+        if let Some(a) = all(arms, Arm::fixed::<3>) {
+            return Kernel::L3A3(a);
+        }
+        if let Some(a) = all(arms, Arm::fixed::<4>) {
+            return Kernel::L4A2(a);
+        }
+        if let Some(a) = all(arms, Arm::fixed::<4>) {
+            return Kernel::L4A3(a);
+        }
+        Kernel::General
+    }
 }
 
 /// A validated, immutable plant model.
@@ -101,8 +160,8 @@ pub struct Plant {
     baumgarte: f64,
     offsets: Vec<usize>,
     n_q: usize,
-    /// The two arms' fast paths when the plant is [`Algorithm::TwoArmsTwoLinks`].
-    pair: Option<[TwoLinkArm; 2]>,
+    /// The constrained derivative's kernel, selected once ([`Plant::algorithm`]).
+    kernel: Kernel,
     /// Diagonal of `M_o⁻¹` ([`Object::new`] builds `M_o` diagonal), (1/kg, 1/kg, 1/(kg m²)).
     m_o_inv: Vector3<f64>,
     /// Diagonal of `C_o` (diagonal by construction), (N s/m, N s/m, N m s/rad).
@@ -202,10 +261,7 @@ impl Plant {
         let object = Object::new(&p.object)?;
         let g = non_negative("gravity", p.gravity)?;
         let baumgarte = non_negative("baumgarte", p.baumgarte)?;
-        let pair = match arms.as_slice() {
-            [a, b] => a.two_link().zip(b.two_link()).map(|(a, b)| [*a, *b]),
-            _ => None,
-        };
+        let kernel = Kernel::select(&arms);
         let m_o_inv = object.M_o_inv.diagonal();
         let c_o = object.C_o.diagonal();
         Ok(Plant {
@@ -216,7 +272,7 @@ impl Plant {
             baumgarte,
             offsets,
             n_q,
-            pair,
+            kernel,
             m_o_inv,
             c_o,
         })
@@ -224,10 +280,15 @@ impl Plant {
 
     /// The constrained-derivative algorithm selected at construction.
     pub fn algorithm(&self) -> Algorithm {
-        if self.pair.is_some() {
-            Algorithm::TwoArmsTwoLinks
-        } else {
-            Algorithm::General
+        let fixed = |arms, links| Algorithm::Fixed { arms, links };
+        match self.kernel {
+            Kernel::L2A2(_) => Algorithm::TwoArmsTwoLinks,
+            Kernel::L2A3(_) => fixed(3, 2),
+            Kernel::L3A2(_) => fixed(2, 3),
+            Kernel::L3A3(_) => fixed(3, 3),
+            Kernel::L4A2(_) => fixed(2, 4),
+            Kernel::L4A3(_) => fixed(3, 4),
+            Kernel::General => Algorithm::General,
         }
     }
     /// The arms.
