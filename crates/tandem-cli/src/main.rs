@@ -52,8 +52,11 @@ enum Command {
     /// timeseries.csv (every logged signal, units in the header), summary.json (metrics, seed,
     /// version, fault), scenario.toml (the resolved scenario, re-runnable), the paper's figures
     /// as PNG and SVG (xy_path, trajectories, z1, z2, wrench, weights, plus admittance,
-    /// grasp_forces, joint_torques, switching) and animation.svg. A run that hits a numerical
-    /// fault writes what it has and exits with code 1.
+    /// grasp_forces, joint_torques, switching) and animation.svg. A spatial scenario writes the
+    /// figures on six outputs (z1, z2, tracking, path, wrench, grasp_wrenches, internal_wrench,
+    /// joint_torques, joint_limits, weights, margins), viewer.html (the 3-D view, offline) and
+    /// snapshot_{front,side,top}. A run that hits a numerical fault writes what it has and exits
+    /// with code 1.
     Run(RunArgs),
     /// Run PD, NN (paper gains), NN (tuned gains) and CTC from one common start; side-by-side
     /// figures and a report. On a spatial scenario: NN, PD, PD + model gravity and CTC.
