@@ -448,3 +448,34 @@ fn three_arms_from_a_file_with_the_designed_gains_meet_the_s5_claims() {
     assert!(s["z1_p_max_after_2s_m"].as_f64().unwrap() < 1e-3, "{s}");
     assert!(s["z1_rot_max_after_2s_rad"].as_f64().unwrap() < 1e-3, "{s}");
 }
+
+#[test]
+fn a_urdf_chain_longer_than_any_arm_is_refused_before_the_plant_exists() {
+    // 40 revolute joints (the plant's matrices grow with the square of the joint count; a
+    // generated or whole-cell URDF must not allocate them).
+    let d = tmp("long");
+    let n = 40;
+    let mut urdf = String::from("<robot name=\"long\">\n");
+    for k in 0..=n {
+        urdf.push_str(&format!(
+            "<link name=\"l{k}\"><inertial><mass value=\"1\"/><inertia ixx=\"0.01\" iyy=\"0.01\" izz=\"0.01\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n"
+        ));
+    }
+    for k in 0..n {
+        urdf.push_str(&format!(
+            "<joint name=\"j{k}\" type=\"revolute\"><parent link=\"l{k}\"/><child link=\"l{}\"/><origin xyz=\"0 0 0.05\"/><axis xyz=\"0 0 1\"/><limit lower=\"-3\" upper=\"3\" effort=\"10\" velocity=\"1\"/></joint>\n",
+            k + 1
+        ));
+    }
+    urdf.push_str("</robot>\n");
+    std::fs::write(d.join("long.urdf"), urdf).unwrap();
+    bad(
+        &d,
+        &[
+            ("urdf = \"arm.urdf\"", "urdf = \"long.urdf\""),
+            ("base_link = \"base_link\"", "base_link = \"l0\""),
+            ("tool_link = \"tool0\"", "tool_link = \"l40\""),
+        ],
+        &["arms[0].urdf", "40 moving joints", "at most 16"],
+    );
+}

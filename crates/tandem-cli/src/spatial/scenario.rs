@@ -47,7 +47,7 @@ use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
 
 use crate::scenario::{
-    Embedded, MAX_ARMS, MetricsConfig, ScenarioError, Source, num, read_limited,
+    Embedded, MAX_ARMS, MAX_LINKS, MetricsConfig, ScenarioError, Source, num, read_limited,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -1081,6 +1081,22 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             };
             src.error_at(&field, format!("{field}: {origin}: {e}"))
         })?;
+        // The plant's matrices grow with the square of the joint count: a chain longer than any
+        // arm (a URDF of a whole robot cell, a generated file) is refused before they exist.
+        if chain.joints.len() > MAX_LINKS {
+            let field = if a.urdf.is_some() {
+                format!("{here}.urdf")
+            } else {
+                format!("{here}.model")
+            };
+            return Err(src.error_at(
+                &field,
+                format!(
+                    "{field}: the chain {base_link} → {tool_link} has {} moving joints; at most {MAX_LINKS} per arm are supported",
+                    chain.joints.len()
+                ),
+            ));
+        }
         for w in w {
             warnings.push(format!("{here} ({origin}): {w}"));
         }
