@@ -446,11 +446,13 @@ impl<const N: usize> AdaptiveNn<N> {
         self.w_n2 = [0.0; N];
     }
     /// The weights `Ŵ`: on the full grid interleaved by node (`w[k·N + j]`: node k, output j);
-    /// otherwise in the layout of [`StructuredNn::weights`].
-    pub fn weights(&self) -> &[f64] {
+    /// otherwise in the layout of [`StructuredNn::weights`]. With the `batched` kernel's
+    /// updates pending they are computed into a new buffer ([`RbfNetwork::weights_now`]), so
+    /// reading them does not change the run.
+    pub fn weights(&self) -> std::borrow::Cow<'_, [f64]> {
         match &self.network {
-            Network::Grid { net, .. } => net.weights(),
-            Network::Structured(s) => s.weights(),
+            Network::Grid { net, .. } => net.weights_now(),
+            Network::Structured(s) => std::borrow::Cow::Borrowed(s.weights()),
         }
     }
     /// The structured network, when the gains select one (`None` on the paper's full grid).
@@ -498,6 +500,8 @@ impl<const N: usize> AdaptiveNn<N> {
                 let phi_a = net.tick_at_outputs(rbf, &self.z, rbf_ws, q, &z2, &self.update);
                 // ‖Ŵ_j‖ for the record: ‖e Ŵ − c S‖² = e²‖Ŵ‖² − 2ec Ŵ·S + c²‖S‖², Ŵ·S = f̂_j.
                 if self.ticks.is_multiple_of(NORM_REFRESH) {
+                    // The exact norms need the stored weights to be `Ŵ` (kernel `batched`).
+                    net.flush();
                     let n = net.norms();
                     for j in 0..N {
                         self.w_n2[j] = n[j] * n[j];

@@ -49,20 +49,80 @@
 //! AVX-512); each lane keeps its own partial sums, reduced per output in a fixed order at the
 //! end. So results are bitwise reproducible, identical between the output-only, update-only and
 //! fused paths of a kernel, and identical between the portable and the AVX2 code (no FMA, so the
-//! rounding is the same). The FMA kernels (`avx2fma`, `avx512`, the default where the CPU has
-//! AVX-512F) agree with them within the tolerance of the determinism policy ([`Kernel`],
-//! `docs/performance.md`). This is the only `unsafe` in the module: the SIMD intrinsics and the
-//! call into a `#[target_feature]` function after detection.
+//! rounding is the same). The FMA kernels (`avx2fma`, `avx512`, and `batched`, the default
+//! where the CPU has AVX-512F) agree with them within the tolerance of the determinism policy
+//! ([`Kernel`], `docs/performance.md`). This is the only `unsafe` in the module: the SIMD
+//! intrinsics and the call into a `#[target_feature]` function after detection.
+//!
+//! # The batched update
+//!
+//! The update is linear in `Ŵ`, so [`Kernel::Batched`] holds it for [`BATCH_DEPTH`] ticks as
+//! a factor and rank-one terms `(g_m, A_m, B_m)` and applies them in one pass: most controller
+//! ticks then only read the weights (`f̂` with the held terms added through
+//! `(A_m ⊗ B_m)·(A ⊗ B) = (A_m·A)(B_m·B)`). Same map, other rounding; see the `batched`
+//! module. While terms are held, the accessors that read the stored weights panic
+//! ([`RbfNetwork::pending`], [`RbfNetwork::flush`], [`RbfNetwork::weights_now`]). The weights
+//! start on a 64-byte boundary, so no AVX-512 load straddles two cache lines.
 //!
 use nalgebra::{DMatrix, DVector, SVector};
 
 use crate::error::{ModelError, positive};
+
+mod batched;
+pub use batched::DEPTH as BATCH_DEPTH;
 
 /// Largest number of outputs of an [`RbfNetwork`].
 pub const MAX_OUTPUTS: usize = 8;
 
 /// Largest number of nodes accepted (a guard against typos such as 10 levels × 12 inputs).
 pub const MAX_NODES: usize = 1 << 24;
+
+/// A zero-initialised `f64` buffer whose first element is 64-byte aligned (a cache line and
+/// an AVX-512 register: aligned loads never straddle two lines). Over-allocates by 7 values.
+#[derive(Debug)]
+pub(crate) struct Aligned {
+    buf: Vec<f64>,
+    off: usize,
+    len: usize,
+}
+
+impl Aligned {
+    /// `len` zeros.
+    pub(crate) fn zeros(len: usize) -> Self {
+        let buf = vec![0.0; len + 7];
+        let off = buf.as_ptr().align_offset(64).min(7);
+        Self { buf, off, len }
+    }
+}
+
+impl AsRef<[f64]> for Aligned {
+    #[inline(always)]
+    fn as_ref(&self) -> &[f64] {
+        &self.buf[self.off..self.off + self.len]
+    }
+}
+
+impl AsMut<[f64]> for Aligned {
+    #[inline(always)]
+    fn as_mut(&mut self) -> &mut [f64] {
+        &mut self.buf[self.off..self.off + self.len]
+    }
+}
+
+impl Clone for Aligned {
+    /// A new aligned buffer with the same values (a derived clone could lose the alignment).
+    fn clone(&self) -> Self {
+        let mut c = Self::zeros(self.len);
+        c.as_mut().copy_from_slice(self.as_ref());
+        c
+    }
+}
+
+impl PartialEq for Aligned {
+    fn eq(&self, other: &Self) -> bool {
+        self.as_ref() == other.as_ref()
+    }
+}
 
 /// Where the centres come from.
 #[derive(Debug, Clone, PartialEq)]
@@ -301,6 +361,15 @@ impl Rbf {
                 Some((levels[0], levels[1], self.inv_width2))
             }
             _ => None,
+        }
+    }
+
+    /// `(len A, len B)`, the head and tail lengths of a grid basis (`None` for general
+    /// centres).
+    pub(crate) fn grid_dims(&self) -> Option<(usize, usize)> {
+        match &self.centres {
+            Centres::Grid { n_a, n_b, .. } => Some((*n_a, *n_b)),
+            Centres::General { .. } => None,
         }
     }
 
@@ -584,10 +653,14 @@ pub struct NnTick<const M: usize> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct RbfNetwork<const M: usize> {
     n_nodes: usize,
-    /// Node-major: `w[k·M + j]` is node `k`, output `j`.
-    w: Vec<f64>,
+    /// Node-major: `w[k·M + j]` is node `k`, output `j`; 64-byte aligned.
+    w: Aligned,
     /// The weight-pass kernel (chosen once, at construction; see [`Kernel`]).
     kernel: Kernel,
+    /// `(n_a, n_b)` of the grid basis the network was made for ([`RbfNetwork::for_basis`]).
+    grid: Option<(usize, usize)>,
+    /// The pending updates of [`Kernel::Batched`] (`None` with the other kernels).
+    batch: Option<batched::Batch<M>>,
 }
 
 impl<const M: usize> RbfNetwork<M> {
@@ -604,8 +677,10 @@ impl<const M: usize> RbfNetwork<M> {
         }
         Ok(Self {
             n_nodes,
-            w: vec![0.0; n_nodes * M],
+            w: Aligned::zeros(n_nodes * M),
             kernel: Kernel::from_env()?,
+            grid: None,
+            batch: None,
         })
     }
 
@@ -618,13 +693,55 @@ impl<const M: usize> RbfNetwork<M> {
     /// lacks it. The weights are kept.
     pub fn set_kernel(&mut self, kernel: Kernel) -> Result<(), ModelError> {
         kernel.check_available()?;
+        self.flush();
         self.kernel = kernel;
+        self.batch = match (kernel, self.grid) {
+            (Kernel::Batched, Some((na, nb))) if nb.is_multiple_of(8) => {
+                Some(batched::Batch::new(na, nb))
+            }
+            _ => None,
+        };
         Ok(())
     }
 
-    /// A zero network sized for `rbf`.
+    /// A zero network sized for `rbf`. On a grid basis with [`Kernel::Batched`] this also
+    /// allocates the batch buffers (about `16 · (n_a + n_b(M + 1))` values).
     pub fn for_basis(rbf: &Rbf) -> Result<Self, ModelError> {
-        Self::new(rbf.n_nodes())
+        let mut net = Self::new(rbf.n_nodes())?;
+        net.grid = rbf.grid_dims();
+        let kernel = net.kernel;
+        net.set_kernel(kernel)?;
+        Ok(net)
+    }
+
+    /// Updates held by [`Kernel::Batched`] and not yet applied to the stored weights (`0` with
+    /// the other kernels). The accessors that read the weights ([`RbfNetwork::weights`],
+    /// [`RbfNetwork::weight`], [`RbfNetwork::weights_matrix`], [`RbfNetwork::output`],
+    /// [`RbfNetwork::norms`]) need `0`: call [`RbfNetwork::flush`] first.
+    pub fn pending(&self) -> usize {
+        self.batch.as_ref().map_or(0, batched::Batch::pending)
+    }
+
+    /// Apply the updates [`Kernel::Batched`] holds, so that the stored weights are `Ŵ`
+    /// (a no-op with the other kernels, or when nothing is pending). No allocation.
+    pub fn flush(&mut self) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(b) = &mut self.batch {
+            // SAFETY: a batch exists only with `Kernel::Batched`, which is stored only after
+            // `Kernel::check_available` found AVX-512F on this CPU.
+            unsafe { b.flush(self.w.as_mut()) };
+        }
+    }
+
+    /// Panics if updates are pending (see [`RbfNetwork::pending`]).
+    #[track_caller]
+    fn assert_flushed(&self) {
+        let p = self.pending();
+        assert!(
+            p == 0,
+            "rbf_network: {p} weight updates are pending (kernel `batched`); call flush() \
+             before reading the weights"
+        );
     }
 
     /// Number of nodes `N_s`.
@@ -633,57 +750,98 @@ impl<const M: usize> RbfNetwork<M> {
     }
 
     /// `Ŵ`, node-major: `w[k·M + j]` is node `k`, output `j` (length `N_s·M`).
+    ///
+    /// # Panics
+    /// If updates are pending ([`RbfNetwork::pending`]; call [`RbfNetwork::flush`] first).
+    #[track_caller]
     pub fn weights(&self) -> &[f64] {
-        &self.w
+        self.assert_flushed();
+        self.w.as_ref()
     }
 
-    /// Mutable `Ŵ` in the layout of [`RbfNetwork::weights`] (e.g. to restore a checkpoint).
+    /// `Ŵ` in the layout of [`RbfNetwork::weights`], whether or not updates are pending:
+    /// borrowed when none are, else computed into a new buffer (allocates; the stored weights
+    /// and the flush schedule are not changed, so inspecting a run does not perturb it).
+    pub fn weights_now(&self) -> std::borrow::Cow<'_, [f64]> {
+        match &self.batch {
+            Some(b) if b.pending() > 0 => {
+                let mut out = vec![0.0; self.w.as_ref().len()];
+                b.materialize(self.w.as_ref(), &mut out);
+                std::borrow::Cow::Owned(out)
+            }
+            _ => std::borrow::Cow::Borrowed(self.w.as_ref()),
+        }
+    }
+
+    /// Mutable `Ŵ` in the layout of [`RbfNetwork::weights`] (e.g. to restore a checkpoint);
+    /// applies pending updates first.
     pub fn weights_mut(&mut self) -> &mut [f64] {
-        &mut self.w
+        self.flush();
+        self.w.as_mut()
     }
 
     /// Weight `Ŵ[k, j]` (node `k`, output `j`).
     ///
     /// # Panics
-    /// If `k ≥ N_s` or `j ≥ M`.
+    /// If `k ≥ N_s` or `j ≥ M`, or if updates are pending.
+    #[track_caller]
     pub fn weight(&self, k: usize, j: usize) -> f64 {
         assert!(k < self.n_nodes && j < M, "rbf_network: index");
-        self.w[k * M + j]
+        self.assert_flushed();
+        self.w.as_ref()[k * M + j]
     }
 
     /// Load `Ŵ` from the layout of [`RbfNetwork::weights`].
     pub fn set_weights(&mut self, w: &[f64]) -> Result<(), ModelError> {
-        if w.len() != self.w.len() {
+        if w.len() != self.w.as_ref().len() {
             return Err(ModelError::geometry(
                 "rbf_network.weights",
                 format!("length {} ≠ {} nodes × {M}", w.len(), self.n_nodes),
             ));
         }
-        self.w.copy_from_slice(w);
+        self.w.as_mut().copy_from_slice(w);
+        if let Some(b) = &mut self.batch {
+            b.clear();
+        }
         Ok(())
     }
 
     /// `Ŵ` as an `N_s × M` matrix (allocates).
+    ///
+    /// # Panics
+    /// If updates are pending.
+    #[track_caller]
     pub fn weights_matrix(&self) -> DMatrix<f64> {
-        DMatrix::from_row_slice(self.n_nodes, M, &self.w)
+        self.assert_flushed();
+        DMatrix::from_row_slice(self.n_nodes, M, self.w.as_ref())
     }
 
-    /// All weights back to 0.
+    /// All weights back to 0 (pending updates dropped).
     pub fn reset(&mut self) {
-        self.w.fill(0.0);
+        self.w.as_mut().fill(0.0);
+        if let Some(b) = &mut self.batch {
+            b.clear();
+        }
     }
 
     /// `f̂_j = Ŵ_jᵀ S` (41), without updating.
     ///
     /// # Panics
-    /// If `s.len() != N_s`.
+    /// If `s.len() != N_s`, or if updates are pending.
+    #[track_caller]
     pub fn output(&self, s: &[f64]) -> SVector<f64, M> {
         assert_eq!(s.len(), self.n_nodes, "rbf_network: S length");
+        self.assert_flushed();
         SVector::from(self.dispatch_read::<true, false>(s).0)
     }
 
     /// `‖Ŵ_j‖` per output.
+    ///
+    /// # Panics
+    /// If updates are pending.
+    #[track_caller]
     pub fn norms(&self) -> SVector<f64, M> {
+        self.assert_flushed();
         SVector::from(self.dispatch_read::<false, true>(&[]).1.map(f64::sqrt))
     }
 
@@ -700,6 +858,7 @@ impl<const M: usize> RbfNetwork<M> {
         upd: &NnUpdate<M>,
     ) -> SVector<f64, M> {
         assert_eq!(s.len(), self.n_nodes, "rbf_network: S length");
+        self.flush();
         let c = coefficients(q, z2, upd);
         SVector::from(
             self.dispatch_tick::<false>(s, &upd.decay, &c)
@@ -723,6 +882,7 @@ impl<const M: usize> RbfNetwork<M> {
         upd: &NnUpdate<M>,
     ) -> NnTick<M> {
         assert_eq!(s.len(), self.n_nodes, "rbf_network: S length");
+        self.flush();
         let c = coefficients(q, z2, upd);
         let (acc, n2) = self.dispatch_tick::<true>(s, &upd.decay, &c);
         NnTick {
@@ -797,14 +957,27 @@ impl<const M: usize> RbfNetwork<M> {
         // Grid: the factors, `A`, `B` and ‖S‖²; general centres: all of `S`.
         let grid = rbf.eval_factors(z, ws);
         #[cfg(target_arch = "x86_64")]
+        if grid
+            && !NORM
+            && !STORE
+            && let Some(batch) = &mut self.batch
+            && batch.fits(ws.a.len(), ws.b.len())
+        {
+            // SAFETY: a batch exists only with `Kernel::Batched`, stored only after
+            // `Kernel::check_available` found AVX-512F on this CPU.
+            let f = unsafe { batch.tick(self.w.as_mut(), &ws.a, &ws.b, &upd.decay, &c) };
+            return (f, [0.0; M]);
+        }
+        self.flush();
+        #[cfg(target_arch = "x86_64")]
         if grid {
             let nb = ws.b.len();
-            let (w, a, b, s, e) = (&mut self.w, &ws.a, &ws.b, &mut ws.s, &upd.decay);
+            let (w, a, b, s, e) = (self.w.as_mut(), &ws.a, &ws.b, &mut ws.s, &upd.decay);
             // SAFETY: a kernel is stored only after `Kernel::check_available` found its
             // features on this CPU.
             unsafe {
                 match self.kernel {
-                    Kernel::Avx512 if nb.is_multiple_of(BLOCK512) => {
+                    Kernel::Avx512 | Kernel::Batched if nb.is_multiple_of(BLOCK512) => {
                         return avx512::tick_grid::<M, NORM, STORE>(w, a, b, s, e, &c);
                     }
                     Kernel::Avx2Fma if nb.is_multiple_of(BLOCK) => {
@@ -834,12 +1007,16 @@ impl<const M: usize> RbfNetwork<M> {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: a kernel is stored only after `Kernel::check_available` found its features.
         match self.kernel {
-            Kernel::Avx512 => return unsafe { avx512::tick::<M, OUT>(&mut self.w, s, e, c) },
-            Kernel::Avx2 => return unsafe { avx2::tick::<M, OUT>(&mut self.w, s, e, c) },
-            Kernel::Avx2Fma => return unsafe { avx2::tick_fma::<M, OUT>(&mut self.w, s, e, c) },
+            Kernel::Avx512 | Kernel::Batched => {
+                return unsafe { avx512::tick::<M, OUT>(self.w.as_mut(), s, e, c) };
+            }
+            Kernel::Avx2 => return unsafe { avx2::tick::<M, OUT>(self.w.as_mut(), s, e, c) },
+            Kernel::Avx2Fma => {
+                return unsafe { avx2::tick_fma::<M, OUT>(self.w.as_mut(), s, e, c) };
+            }
             Kernel::Portable => {}
         }
-        kernel_tick::<M, OUT>(&mut self.w, s, e, c)
+        kernel_tick::<M, OUT>(self.w.as_mut(), s, e, c)
     }
 
     #[inline]
@@ -847,16 +1024,18 @@ impl<const M: usize> RbfNetwork<M> {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: as in `dispatch_tick`.
         match self.kernel {
-            Kernel::Avx512 => {
-                return unsafe { avx512::read::<M, OUT, NORM>(&self.w, s, self.n_nodes) };
+            Kernel::Avx512 | Kernel::Batched => {
+                return unsafe { avx512::read::<M, OUT, NORM>(self.w.as_ref(), s, self.n_nodes) };
             }
-            Kernel::Avx2 => return unsafe { avx2::read::<M, OUT, NORM>(&self.w, s, self.n_nodes) },
+            Kernel::Avx2 => {
+                return unsafe { avx2::read::<M, OUT, NORM>(self.w.as_ref(), s, self.n_nodes) };
+            }
             Kernel::Avx2Fma => {
-                return unsafe { avx2::read_fma::<M, OUT, NORM>(&self.w, s, self.n_nodes) };
+                return unsafe { avx2::read_fma::<M, OUT, NORM>(self.w.as_ref(), s, self.n_nodes) };
             }
             Kernel::Portable => {}
         }
-        kernel_read::<M, OUT, NORM>(&self.w, s, self.n_nodes)
+        kernel_read::<M, OUT, NORM>(self.w.as_ref(), s, self.n_nodes)
     }
 }
 
@@ -888,10 +1067,11 @@ pub const KERNEL_ENV: &str = "TANDEM_KERNEL";
 /// same IEEE operations in the same order and give the same bits (results pinned to bits are
 /// pinned to them). [`Kernel::Avx2Fma`] fuses `acc + w·S`, `e·w − c·S` and `n2 + w²` into
 /// single-rounding FMAs, and [`Kernel::Avx512`] also regroups the grid pass (`(c a_i)·b`,
-/// `a_i Σ b w`): each weight update differs by at most a few ulps per tick, and the results
-/// agree with the portable reference to a relative tolerance (tested: `1e-12` on the weights
-/// and outputs after 1000 ticks of the paper network). The default is the fastest kernel the
-/// CPU has.
+/// `a_i Σ b w`): each weight update differs by at most a few ulps per tick. [`Kernel::Batched`]
+/// applies the same exact update 16 ticks at a time (the decay as a running product, the
+/// outputs of held terms through dot products of the factors). The results agree with the
+/// portable reference to a relative tolerance (tested: `1e-12` on the weights and outputs
+/// after 1000 ticks of the paper network). The default is the fastest kernel the CPU has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Kernel {
     /// Plain Rust, any CPU; the reference.
@@ -900,27 +1080,34 @@ pub enum Kernel {
     Avx2,
     /// AVX2 with FMA: faster, not bit-identical (within the stated tolerance).
     Avx2Fma,
-    /// AVX-512F (512-bit registers, fused multiply-adds, blocks of 8 nodes): the fastest, not
-    /// bit-identical (within the stated tolerance). The default where available.
+    /// AVX-512F (512-bit registers, fused multiply-adds, blocks of 8 nodes): not
+    /// bit-identical (within the stated tolerance).
     Avx512,
+    /// AVX-512F with the update of [`RbfNetwork::tick_at_outputs`] held and applied
+    /// [`BATCH_DEPTH`] ticks at a time (module `batched`: exact algebra, a read-only pass on
+    /// most ticks): the fastest, not bit-identical (within the stated tolerance). The default
+    /// where available. Its other passes are those of [`Kernel::Avx512`].
+    Batched,
 }
 
 impl Kernel {
     /// Every kernel, in order of preference for bit-identity.
-    pub const ALL: [Kernel; 4] = [
+    pub const ALL: [Kernel; 5] = [
         Kernel::Portable,
         Kernel::Avx2,
         Kernel::Avx2Fma,
         Kernel::Avx512,
+        Kernel::Batched,
     ];
 
-    /// The name `TANDEM_KERNEL` accepts: `portable`, `avx2`, `avx2fma`, `avx512`.
+    /// The name `TANDEM_KERNEL` accepts: `portable`, `avx2`, `avx2fma`, `avx512`, `batched`.
     pub fn name(self) -> &'static str {
         match self {
             Kernel::Portable => "portable",
             Kernel::Avx2 => "avx2",
             Kernel::Avx2Fma => "avx2fma",
             Kernel::Avx512 => "avx512",
+            Kernel::Batched => "batched",
         }
     }
 
@@ -930,20 +1117,20 @@ impl Kernel {
             Kernel::Portable => true,
             Kernel::Avx2 => detect_avx2(),
             Kernel::Avx2Fma => detect_avx2() && detect_fma(),
-            Kernel::Avx512 => detect_avx512f(),
+            Kernel::Avx512 | Kernel::Batched => detect_avx512f(),
         }
     }
 
     /// Whether the kernel gives the same bits as [`Kernel::Portable`].
     pub fn is_bit_identical_to_portable(self) -> bool {
-        !matches!(self, Kernel::Avx2Fma | Kernel::Avx512)
+        !matches!(self, Kernel::Avx2Fma | Kernel::Avx512 | Kernel::Batched)
     }
 
-    /// The default: the fastest kernel the CPU has — AVX-512, else AVX2 (bit-identical to the
+    /// The default: the fastest kernel the CPU has — `batched` (AVX-512), else AVX2 (bit-identical to the
     /// reference), else portable.
     pub fn default_for_cpu() -> Kernel {
-        if Kernel::Avx512.is_available() {
-            Kernel::Avx512
+        if Kernel::Batched.is_available() {
+            Kernel::Batched
         } else if Kernel::Avx2.is_available() {
             Kernel::Avx2
         } else {
@@ -2100,7 +2287,7 @@ mod tests {
                 assert_eq!(fused, sep);
                 if grid_path.kernel.is_bit_identical_to_portable() {
                     assert_eq!(t, t_grid);
-                    assert_eq!(fused.w, grid_path.w);
+                    assert_eq!(fused.w.as_ref(), grid_path.w.as_ref());
                 } else {
                     // The AVX-512 grid pass applies `a_i` once per row and updates with
                     // `(c a_i) b`: other roundings (≤ ½ ulp each) than `c (a_i b)`, so within
@@ -2110,7 +2297,7 @@ mod tests {
                         assert!((t.f_hat[j] - t_grid.f_hat[j]).abs() <= 1e-12 * scale);
                         assert!((t.w_norm[j] - t_grid.w_norm[j]).abs() <= 1e-12 * scale);
                     }
-                    let dw = fused.w.iter().zip(&grid_path.w);
+                    let dw = fused.w.as_ref().iter().zip(grid_path.w.as_ref());
                     assert!(dw.fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) <= 1e-13);
                 }
                 // Against the textbook loops (different summation order).
@@ -2227,7 +2414,7 @@ mod tests {
             let tb = b.tick_at(&rbf_portable, &z, &mut ws_b, 0.7, &z2, &upd);
             assert_eq!(ta, tb);
             assert_eq!(ws.s(), ws_b.s());
-            assert_eq!(a.w, b.w);
+            assert_eq!(a.w.as_ref(), b.w.as_ref());
             assert_eq!(a.output(ws.s()), b.output(ws.s()));
             assert_eq!(a.norms(), b.norms());
         }
@@ -2275,6 +2462,157 @@ mod tests {
                 assert_eq!(net.weights(), reference.weights(), "{kernel}");
             }
             assert!(worst_w <= 1e-12 && worst_f <= 1e-12, "{kernel}");
+        }
+    }
+
+    /// The `batched` kernel (updates held `BATCH_DEPTH` ticks, module `batched`) against the
+    /// portable fused pass over 1000 controller ticks (`tick_at_outputs`: 62 flushes fused with
+    /// an output pass), from random weights, with `Q`, `z2` and the inputs changing every
+    /// tick, for 3 outputs on the paper grid and 1, 2 and 8 outputs on a 2 × 4 × 8 grid. Outputs
+    /// every tick and the weights (held updates included, `weights_now`) every 7th tick agree
+    /// within the policy's relative `1e-12`: the algebra is exact, only the rounding differs
+    /// (products regrouped as `(g a_i)·b`, `(A_m·A)(B_m·B)`; the decay as a running product of
+    /// factors), a few ulps of the largest weight; the decay keeps old differences from growing.
+    #[test]
+    fn batched_kernel_agrees_with_the_portable_reference() {
+        if !Kernel::Batched.is_available() {
+            eprintln!("skipped: no AVX-512F on this CPU");
+            return;
+        }
+        check_batched::<3>(&Rbf::paper(), 1000, 41);
+        let small = Rbf::grid(
+            &[vec![-1.0, 1.0], vec![-1.0, 0.0, 0.5, 1.0], vec![0.1; 8]],
+            3.0,
+        )
+        .unwrap();
+        check_batched::<1>(&small, 300, 42);
+        check_batched::<2>(&small, 300, 43);
+        check_batched::<8>(&small, 300, 44);
+    }
+
+    fn check_batched<const M: usize>(rbf: &Rbf, ticks: usize, seed: u64) {
+        let mut rng = Rng(seed);
+        let n_in = rbf.n_inputs();
+        let upd = NnUpdate::<M>::new(
+            SVector::from_fn(|j, _| 100.0 + 10.0 * j as f64),
+            SVector::from_fn(|j, _| 0.001 * (1 + j) as f64),
+            1e-3,
+        )
+        .unwrap();
+        let mut net = RbfNetwork::<M>::for_basis(rbf).unwrap();
+        net.set_kernel(Kernel::Batched).unwrap();
+        let w0: Vec<f64> = (0..rbf.n_nodes() * M)
+            .map(|_| rng.range(-2.0, 2.0))
+            .collect();
+        net.set_weights(&w0).unwrap();
+        let mut reference = net.clone();
+        reference.set_kernel(Kernel::Portable).unwrap();
+        let (mut ws, mut ws_r) = (rbf.workspace(), rbf.workspace());
+        let (mut worst_f, mut worst_w, mut max_pending) = (0.0f64, 0.0f64, 0);
+        for k in 0..ticks {
+            let z: Vec<f64> = (0..n_in).map(|_| rng.range(-1.5, 1.5)).collect();
+            let q = if k % 5 == 0 { 1.0 } else { rng.next_f64() };
+            let z2 = SVector::<f64, M>::from_fn(|_, _| rng.range(-0.1, 0.1));
+            let f = net.tick_at_outputs(rbf, &z, &mut ws, q, &z2, &upd);
+            let fr = reference.tick_at_outputs(rbf, &z, &mut ws_r, q, &z2, &upd);
+            assert_eq!(ws.s_norm2(), ws_r.s_norm2());
+            let scale = fr.abs().max() + 1e-300;
+            worst_f = worst_f.max((f - fr).abs().max() / scale);
+            assert_eq!(net.pending(), k % BATCH_DEPTH + 1, "tick {k}");
+            max_pending = max_pending.max(net.pending());
+            if k % 7 == 0 {
+                let (w, wr) = (net.weights_now(), reference.weights());
+                let wmax = wr.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                for (a, b) in w.iter().zip(wr) {
+                    worst_w = worst_w.max((a - b).abs() / wmax);
+                }
+            }
+        }
+        // An explicit flush stores exactly what `weights_now` computed, to round-off.
+        let held = net.weights_now().into_owned();
+        net.flush();
+        assert_eq!(net.pending(), 0);
+        let wmax = held.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (a, b) in net.weights().iter().zip(&held) {
+            assert!((a - b).abs() <= 1e-14 * wmax);
+        }
+        eprintln!(
+            "batched, M = {M}: max rel. diff outputs {worst_f:.2e}, weights {worst_w:.2e}, \
+             pending ≤ {max_pending}"
+        );
+        assert_eq!(max_pending, BATCH_DEPTH);
+        assert!(worst_f <= 1e-12 && worst_w <= 1e-12, "M = {M}");
+    }
+
+    /// With updates held, the accessors that read the stored weights refuse (a stale read
+    /// would be silent data corruption); every mutating entry point applies them first, and
+    /// `set_weights`/`reset` drop them. Bases the batched passes do not handle (general
+    /// centres, a tail not a multiple of 8) use the direct passes and never hold updates.
+    #[test]
+    fn batched_kernel_pending_updates_are_never_read_stale() {
+        if !Kernel::Batched.is_available() {
+            return;
+        }
+        let rbf = Rbf::paper();
+        let upd = paper_update();
+        let mut ws = rbf.workspace();
+        let z = [0.1; 12];
+        let z2 = Vector3::new(0.01, -0.02, 0.03);
+        let mut net = RbfNetwork::<3>::for_basis(&rbf).unwrap();
+        net.set_kernel(Kernel::Batched).unwrap();
+        net.tick_at_outputs(&rbf, &z, &mut ws, 1.0, &z2, &upd);
+        assert_eq!(net.pending(), 1);
+        for read in [
+            (|n: &RbfNetwork<3>| {
+                let _ = n.weights();
+            }) as fn(&RbfNetwork<3>),
+            |n| {
+                let _ = n.weight(0, 0);
+            },
+            |n| {
+                let _ = n.norms();
+            },
+            |n| {
+                let _ = n.weights_matrix();
+            },
+        ] {
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read(&net)));
+            let msg = r.unwrap_err();
+            let msg = msg.downcast_ref::<String>().unwrap();
+            assert!(msg.contains("pending") && msg.contains("flush()"), "{msg}");
+        }
+        // tick_at (norms wanted) flushes first, then runs the direct pass.
+        let mut other = net.clone();
+        other.tick_at(&rbf, &z, &mut ws, 1.0, &z2, &upd);
+        assert_eq!(other.pending(), 0);
+        let _ = other.weights();
+        // weights_mut flushes; set_weights and reset drop.
+        let mut m = net.clone();
+        let now = m.weights_now().into_owned();
+        assert_eq!(m.weights_mut().len(), now.len());
+        assert_eq!(m.pending(), 0);
+        let mut s = net.clone();
+        s.set_weights(&vec![0.5; now.len()]).unwrap();
+        assert_eq!(s.pending(), 0);
+        assert!(s.weights().iter().all(|&w| w == 0.5));
+        net.reset();
+        assert_eq!(net.pending(), 0);
+        assert!(net.weights().iter().all(|&w| w == 0.0));
+        // Direct passes for the bases the batched passes do not take.
+        let odd = Rbf::grid(&[vec![-1.0, 1.0], vec![-1.0, 0.0, 1.0]], 2.0).unwrap();
+        for rbf in [odd.clone(), odd.to_general()] {
+            let mut net = RbfNetwork::<3>::for_basis(&rbf).unwrap();
+            net.set_kernel(Kernel::Batched).unwrap();
+            let mut reference = net.clone();
+            reference.set_kernel(Kernel::Avx512).unwrap();
+            let (mut ws, mut ws_r) = (rbf.workspace(), rbf.workspace());
+            for k in 0..40 {
+                let z = [0.01 * k as f64, -0.3];
+                let a = net.tick_at_outputs(&rbf, &z, &mut ws, 1.0, &z2, &upd);
+                let b = reference.tick_at_outputs(&rbf, &z, &mut ws_r, 1.0, &z2, &upd);
+                assert_eq!(a, b);
+                assert_eq!(net.pending(), 0);
+            }
         }
     }
 
@@ -2328,7 +2666,7 @@ mod tests {
         // The default is the fastest kernel this CPU has.
         let d = Kernel::default_for_cpu();
         assert!(d.is_available());
-        let fastest = [Kernel::Avx512, Kernel::Avx2, Kernel::Portable]
+        let fastest = [Kernel::Batched, Kernel::Avx2, Kernel::Portable]
             .into_iter()
             .find(|k| k.is_available());
         assert_eq!(Some(d), fastest);

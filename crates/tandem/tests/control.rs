@@ -82,7 +82,7 @@ fn run_ticks(ticks: usize, mut each: impl FnMut(usize, &[f64])) -> Log {
     for k in 0..ticks {
         sim.tick(k).unwrap();
         if let Driver::Controller(c) = sim.driver() {
-            each(k, c.adaptive().unwrap().weights());
+            each(k, &c.adaptive().unwrap().weights());
         }
     }
     let (out, _) = sim.run(|_| {});

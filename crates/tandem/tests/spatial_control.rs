@@ -574,7 +574,7 @@ fn run_ticks(ticks: usize, mut each: impl FnMut(usize, &[f64])) -> (Log, tandem:
     .unwrap();
     for k in 0..ticks {
         sim.tick(k).unwrap();
-        each(k, sim.driver().adaptive().unwrap().weights());
+        each(k, &sim.driver().adaptive().unwrap().weights());
     }
     let (out, sim) = sim.run(|_| {});
     (out.log, *sim.driver().chart())

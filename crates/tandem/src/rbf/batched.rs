@@ -1,0 +1,473 @@
+//! The batched weight update ([`super::Kernel::Batched`]): the exact update of (44) applied
+//! [`DEPTH`] ticks at a time, so that most ticks only *read* the weights.
+//!
+//! # Why
+//!
+//! The fused pass reads and writes every weight each tick (96 KB each way for the paper
+//! network); on the project's machine it is bound by the L2 read-modify-write rate
+//! (`docs/performance.md`, "Roofline"). A read-only pass over the same bytes takes about half
+//! as long. The update is linear in `Ŵ`, so it can be deferred exactly.
+//!
+//! # The algebra
+//!
+//! With the stored weights `V`, a per-output factor `D_j` and `p ≤ DEPTH` pending terms
+//! `(g_m, A_m, B_m)`, the network's weights are
+//!
+//! $$ \hat W_j = D_j V_j - \sum_{m<p} g_{mj}\, A_m \otimes B_m . $$
+//!
+//! * **Output** (41), `S = A ⊗ B`: `f̂_j = D_j (V_jᵀS) − Σ_m g_mj (A_m·A)(B_m·B)`, since
+//!   `(A_m ⊗ B_m)·(A ⊗ B) = (A_m·A)(B_m·B)`: one read-only pass over `V` plus `2p` short dot
+//!   products.
+//! * **Update** (44), exact for held inputs (module docs of [`super`]):
+//!   `Ŵ_j ← e_j Ŵ_j − c_j S` becomes `D_j ← e_j D_j`, `g_mj ← e_j g_mj`, and a new term
+//!   `(c_j, A, B)`: no pass over `V`.
+//! * **Flush**, when `p = DEPTH` (at the start of the next tick, fused with its output pass) or
+//!   on demand ([`super::RbfNetwork::flush`]): `V_j ← D_j V_j − Σ_m g_mj A_m ⊗ B_m`, `D = 1`,
+//!   `p = 0`: one read-modify-write pass every `DEPTH` ticks.
+//!
+//! This is the same map as the fused tick in exact arithmetic; in floating point the rounding
+//! differs (products regrouped, the decay applied as a product of factors), and the results
+//! agree with the portable reference within the determinism policy's relative `1e-12` (test
+//! `every_available_kernel_agrees_with_the_portable_reference`). The flush schedule depends on
+//! the tick count only, so a run is bitwise reproducible.
+//!
+//! The passes are AVX-512F (the kernel is offered only where the CPU has it) and handle a grid
+//! basis whose tail length `n_b` is a multiple of 8; other bases use the direct kernel.
+
+use super::{Aligned, MAX_OUTPUTS};
+
+/// Ticks whose updates are held before they are applied to the stored weights. At 16 the flush
+/// pass (a read-modify-write with 16 multiply-adds a weight) costs about as much in arithmetic
+/// as in memory traffic, and its share of a tick is ≈ 1/16 of a full pass.
+pub const DEPTH: usize = 16;
+
+/// Lanes of one AVX-512 register.
+const LANE: usize = 8;
+
+/// Pending updates and their buffers (sized once, at set-up).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Batch<const M: usize> {
+    n_a: usize,
+    n_b: usize,
+    /// Pending terms `p`.
+    p: usize,
+    /// `D_j`.
+    d: [f64; M],
+    /// `g_mj`.
+    g: [[f64; M]; DEPTH],
+    /// `A_m`, `n_a` each.
+    a: Vec<f64>,
+    /// `B_m`, `n_b` each.
+    b: Vec<f64>,
+    /// `B_m` spread over the weight lanes: `n_b·M` each, entry `k·M + j` is `B_m[k]`.
+    bs: Aligned,
+    /// This tick's `B`, spread the same way.
+    cur: Aligned,
+}
+
+impl<const M: usize> Batch<M> {
+    /// Buffers for a grid basis with head length `n_a` and tail length `n_b` (`n_b % 8 == 0`).
+    pub(super) fn new(n_a: usize, n_b: usize) -> Self {
+        assert!(n_b.is_multiple_of(LANE) && (1..=MAX_OUTPUTS).contains(&M));
+        Self {
+            n_a,
+            n_b,
+            p: 0,
+            d: [1.0; M],
+            g: [[0.0; M]; DEPTH],
+            a: vec![0.0; DEPTH * n_a],
+            b: vec![0.0; DEPTH * n_b],
+            bs: Aligned::zeros(DEPTH * n_b * M),
+            cur: Aligned::zeros(n_b * M),
+        }
+    }
+
+    /// Whether the buffers fit a basis with these head and tail lengths.
+    pub(super) fn fits(&self, n_a: usize, n_b: usize) -> bool {
+        self.n_a == n_a && self.n_b == n_b
+    }
+
+    /// Pending terms.
+    pub(super) fn pending(&self) -> usize {
+        self.p
+    }
+
+    /// Forget the pending terms (the weights were overwritten).
+    pub(super) fn clear(&mut self) {
+        self.p = 0;
+        self.d = [1.0; M];
+    }
+
+    /// `Ŵ = D V − Σ_m g_m A_m ⊗ B_m` from the stored `w`, into `out` (plain scalar code, for
+    /// inspection; the stored weights are not changed).
+    pub(super) fn materialize(&self, w: &[f64], out: &mut [f64]) {
+        let (na, nb) = (self.n_a, self.n_b);
+        assert!(w.len() == na * nb * M && out.len() == w.len());
+        for (n, (o, &v)) in out.iter_mut().zip(w).enumerate() {
+            let (node, j) = (n / M, n % M);
+            let (i, k) = (node / nb, node % nb);
+            let mut x = self.d[j] * v;
+            for m in 0..self.p {
+                x -= self.g[m][j] * self.a[m * na + i] * self.b[m * nb + k];
+            }
+            *o = x;
+        }
+    }
+
+    /// Apply the pending terms to `w` (no-op if none).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    pub(super) unsafe fn flush(&mut self, w: &mut [f64]) {
+        if self.p > 0 {
+            // SAFETY: AVX-512F (caller's contract).
+            unsafe { avx512::apply::<M, false>(w, self, &[], self.p) };
+            self.clear();
+        }
+    }
+
+    /// One tick: `f̂` with the weights before the update, then the update deferred. `a`, `b`
+    /// are this tick's `A`, `B`; `e`, `c` the decay and the coefficient of `S` in (44).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics if the lengths do not match the buffers.
+    #[cfg(target_arch = "x86_64")]
+    pub(super) unsafe fn tick(
+        &mut self,
+        w: &mut [f64],
+        a: &[f64],
+        b: &[f64],
+        e: &[f64; M],
+        c: &[f64; M],
+    ) -> [f64; M] {
+        let (na, nb) = (self.n_a, self.n_b);
+        assert!(a.len() == na && b.len() == nb && w.len() == na * nb * M);
+        for (k, &bk) in b.iter().enumerate() {
+            self.cur.as_mut()[k * M..(k + 1) * M].fill(bk);
+        }
+        // SAFETY: AVX-512F (caller's contract).
+        let out = unsafe {
+            if self.p == DEPTH {
+                // Flush fused with this tick's output pass: f̂ = V'ᵀ S.
+                let out = avx512::apply::<M, true>(w, self, a, DEPTH);
+                self.clear();
+                out
+            } else {
+                let v = avx512::read::<M>(w, a, self.cur.as_ref(), nb);
+                let mut out: [f64; M] = std::array::from_fn(|j| self.d[j] * v[j]);
+                for m in 0..self.p {
+                    let ga = avx512::dot(&self.a[m * na..(m + 1) * na], a);
+                    let gb = avx512::dot(&self.b[m * nb..(m + 1) * nb], b);
+                    let s = ga * gb;
+                    for j in 0..M {
+                        out[j] -= self.g[m][j] * s;
+                    }
+                }
+                out
+            }
+        };
+        // The update (44), deferred: D ← e D, g_m ← e g_m, and the new term (c, A, B).
+        for j in 0..M {
+            self.d[j] *= e[j];
+        }
+        for gm in &mut self.g[..self.p] {
+            for j in 0..M {
+                gm[j] *= e[j];
+            }
+        }
+        let p = self.p;
+        self.g[p] = *c;
+        self.a[p * na..(p + 1) * na].copy_from_slice(a);
+        self.b[p * nb..(p + 1) * nb].copy_from_slice(b);
+        let row_len = nb * M;
+        self.bs.as_mut()[p * row_len..(p + 1) * row_len].copy_from_slice(self.cur.as_ref());
+        self.p += 1;
+        out
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use super::super::reduce512;
+    use super::{Batch, DEPTH, LANE, MAX_OUTPUTS};
+    use std::arch::x86_64::{
+        __m512d, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd, _mm512_mul_pd, _mm512_set1_pd,
+        _mm512_setzero_pd, _mm512_storeu_pd,
+    };
+
+    /// Load 8 lanes.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    unsafe fn load(x: &[f64]) -> __m512d {
+        assert!(x.len() >= LANE);
+        // SAFETY: bounds checked above (unaligned load); AVX-512F (caller's contract).
+        unsafe { _mm512_loadu_pd(x.as_ptr()) }
+    }
+
+    /// Store 8 lanes.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    unsafe fn store(x: &mut [f64], v: __m512d) {
+        assert!(x.len() >= LANE);
+        // SAFETY: bounds checked above (unaligned store); AVX-512F (caller's contract).
+        unsafe { _mm512_storeu_pd(x.as_mut_ptr(), v) }
+    }
+
+    /// `v_j` spread over register `q`'s lanes: lane `t` holds `v[(8q + t) % M]`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    unsafe fn spread<const M: usize>(v: &[f64; M], q: usize) -> __m512d {
+        let lanes: [f64; LANE] = std::array::from_fn(|t| v[(LANE * q + t) % M]);
+        // SAFETY: AVX-512F (caller's contract).
+        unsafe { load(&lanes) }
+    }
+
+    /// Per-output sums of `M` registers (lane `8q + t` is output `(8q + t) % M`), in the fixed
+    /// order of [`reduce512`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    unsafe fn sums<const M: usize>(v: &[__m512d; M]) -> [f64; M] {
+        let mut l = [0.0; LANE * MAX_OUTPUTS];
+        for (chunk, &x) in l.chunks_exact_mut(LANE).zip(v) {
+            // SAFETY: `chunk` holds 8 f64; AVX-512F (caller's contract).
+            unsafe { store(chunk, x) };
+        }
+        reduce512(&l)
+    }
+
+    /// `x·y` (equal lengths): 8 lanes of fused multiply-adds, the lanes summed in a fixed
+    /// order, the tail by scalar fused multiply-adds.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn dot(x: &[f64], y: &[f64]) -> f64 {
+        assert_eq!(x.len(), y.len());
+        let body = x.len() / LANE * LANE;
+        // SAFETY: AVX-512F (caller's contract); every load is in bounds.
+        unsafe {
+            let mut acc = _mm512_setzero_pd();
+            for (xc, yc) in x[..body]
+                .chunks_exact(LANE)
+                .zip(y[..body].chunks_exact(LANE))
+            {
+                acc = _mm512_fmadd_pd(load(xc), load(yc), acc);
+            }
+            let mut l = [0.0; LANE];
+            store(&mut l, acc);
+            let mut s = ((l[0] + l[4]) + (l[2] + l[6])) + ((l[1] + l[5]) + (l[3] + l[7]));
+            for (a, b) in x[body..].iter().zip(&y[body..]) {
+                s = a.mul_add(*b, s);
+            }
+            s
+        }
+    }
+
+    /// Load 8 lanes at `p + o` (no bounds check).
+    ///
+    /// # Safety
+    /// `p + o .. p + o + 8` in bounds; the CPU must support AVX-512F.
+    #[inline(always)]
+    unsafe fn ld(p: *const f64, o: usize) -> __m512d {
+        // SAFETY: the caller's contract.
+        unsafe { _mm512_loadu_pd(p.add(o)) }
+    }
+
+    /// Registers of column sums the output pass keeps (a row of the paper network: 64 nodes
+    /// × 3 outputs = 24 registers).
+    const COLS: usize = 24;
+
+    /// Columns `r0·8 .. (r0 + N)·8` of the output pass: per register `t`, the column sums
+    /// `c_t = Σ_i a_i V[i, ·]` (one broadcast a row, one fused multiply-add and one load a
+    /// register; the `N` sums are independent chains), then `out[q] += c_t·B` for the lane
+    /// pattern `q = (r0 + t) % M` of register `r0 + t`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F; `(r0 + N)·8 ≤ row_len`, `w` holds `a.len()` rows.
+    #[inline(always)]
+    unsafe fn read_cols<const M: usize, const N: usize>(
+        w: *const f64,
+        a: &[f64],
+        cur: *const f64,
+        row_len: usize,
+        r0: usize,
+        out: &mut [__m512d; M],
+    ) {
+        // SAFETY: AVX-512F and bounds (the caller's contract).
+        unsafe {
+            let mut c = [_mm512_setzero_pd(); N];
+            for (i, &ai) in a.iter().enumerate() {
+                let av = _mm512_set1_pd(ai);
+                let row = w.add(i * row_len + r0 * LANE);
+                for (t, ct) in c.iter_mut().enumerate() {
+                    *ct = _mm512_fmadd_pd(av, ld(row, t * LANE), *ct);
+                }
+            }
+            for (t, ct) in c.iter().enumerate() {
+                let q = (r0 + t) % M;
+                out[q] = _mm512_fmadd_pd(*ct, ld(cur, (r0 + t) * LANE), out[q]);
+            }
+        }
+    }
+
+    /// The output pass: `f̂_j = Σ_k B[k] Σ_i a_i V[i, k, j]`, read only. `cur` is `B` spread
+    /// over the weight lanes (entry `k·M + j` is `B[k]`). The row sums are taken first, in
+    /// [`COLS`] registers, so each weight costs one load and one fused multiply-add and `B`
+    /// is used once a column, not once a weight.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics unless `cur.len() = nb·M`, `nb % 8 = 0` and
+    /// `w.len() = a.len()·nb·M`.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn read<const M: usize>(
+        w: &[f64],
+        a: &[f64],
+        cur: &[f64],
+        nb: usize,
+    ) -> [f64; M] {
+        let row_len = nb * M;
+        assert!(nb.is_multiple_of(LANE) && cur.len() == row_len && w.len() == a.len() * row_len);
+        let regs = row_len / LANE;
+        // SAFETY: AVX-512F (caller's contract); `read_cols` stays inside rows of `row_len`
+        // values (`r0 + N ≤ regs`) and `cur`, by the assert.
+        unsafe {
+            let mut out = [_mm512_setzero_pd(); M];
+            let mut r0 = 0;
+            while r0 + COLS <= regs {
+                read_cols::<M, COLS>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                r0 += COLS;
+            }
+            while r0 + LANE <= regs {
+                read_cols::<M, LANE>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                r0 += LANE;
+            }
+            while r0 < regs {
+                read_cols::<M, 1>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                r0 += 1;
+            }
+            sums(&out)
+        }
+    }
+
+    /// Registers of a row the flush keeps at once (with the `M` coefficient registers and the
+    /// loaded operand, inside the 32 AVX-512 registers).
+    const FLUSH_COLS: usize = 12;
+
+    /// The flush of registers `r0 .. r0 + N` of row `i` (`r0 % M = 0`, so register `r0 + t`
+    /// has the lane pattern `t % M`): `v = D·w`; for each term `v −= (g_m a_{m,i})·B_m` (the
+    /// `N` registers as independent chains: one load and one fused multiply-add a register
+    /// and term); stored; if `OUT`, `racc[t % M] += v·B`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F; every offset in bounds (the caller's checks).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    unsafe fn flush_cols<const M: usize, const OUT: bool, const N: usize>(
+        row: *mut f64,
+        batch: &Batch<M>,
+        i: usize,
+        r0: usize,
+        p: usize,
+        d: &[__m512d; M],
+        g: &[[__m512d; M]; DEPTH],
+        racc: &mut [__m512d; M],
+    ) {
+        let (na, row_len) = (batch.n_a, batch.n_b * M);
+        let off = |t: usize| (r0 + t) * LANE;
+        // SAFETY: AVX-512F and bounds (the caller's contract).
+        unsafe {
+            let mut v: [__m512d; N] =
+                std::array::from_fn(|t| _mm512_mul_pd(d[t % M], ld(row, off(t))));
+            let (bs, am) = (batch.bs.as_ref().as_ptr(), batch.a.as_ptr());
+            for (m, gm) in g.iter().enumerate().take(p) {
+                let am_i = _mm512_set1_pd(*am.add(m * na + i));
+                let c: [__m512d; M] = std::array::from_fn(|q| _mm512_mul_pd(gm[q], am_i));
+                let bm = bs.add(m * row_len);
+                for (t, vt) in v.iter_mut().enumerate() {
+                    *vt = _mm512_fnmadd_pd(c[t % M], ld(bm, off(t)), *vt);
+                }
+            }
+            let cp = batch.cur.as_ref().as_ptr();
+            for (t, vt) in v.iter().enumerate() {
+                _mm512_storeu_pd(row.add(off(t)), *vt);
+                if OUT {
+                    racc[t % M] = _mm512_fmadd_pd(*vt, ld(cp, off(t)), racc[t % M]);
+                }
+            }
+        }
+    }
+
+    /// The flush pass: `V ← D V − Σ_{m<p} g_m A_m ⊗ B_m`, and, if `OUT`, `f̂ = V'ᵀ(A ⊗ B)`
+    /// with the new weights (`a` is this tick's `A`, `batch.cur` its spread `B`).
+    ///
+    /// Rows stream in order; a row is taken [`FLUSH_COLS`] registers at a time (or `M`, if `M`
+    /// does not divide it), and the `p` spread tails `B_m` (24 KB for the paper) stay in L1.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics unless `p ≤ DEPTH`, `w.len() = n_a·n_b·M` and,
+    /// if `OUT`, `a.len() = n_a`.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn apply<const M: usize, const OUT: bool>(
+        w: &mut [f64],
+        batch: &Batch<M>,
+        a: &[f64],
+        p: usize,
+    ) -> [f64; M] {
+        let (na, nb) = (batch.n_a, batch.n_b);
+        let row_len = nb * M;
+        assert!(
+            p <= DEPTH
+                && nb.is_multiple_of(LANE)
+                && w.len() == na * row_len
+                && batch.a.len() == DEPTH * na
+                && batch.bs.as_ref().len() == DEPTH * row_len
+                && batch.cur.as_ref().len() == row_len
+                && (!OUT || a.len() == na)
+        );
+        // Registers a row: `nb·M/8`, a multiple of `M` since `nb % 8 = 0`.
+        let regs = row_len / LANE;
+        let wide = FLUSH_COLS.is_multiple_of(M);
+        let wp = w.as_mut_ptr();
+        // SAFETY: AVX-512F (caller's contract); offsets: row `i < na`, registers
+        // `r0 + N ≤ regs`, term `m < p ≤ DEPTH`: in bounds by the assert.
+        unsafe {
+            let d: [__m512d; M] = std::array::from_fn(|q| spread(&batch.d, q));
+            let g: [[__m512d; M]; DEPTH] =
+                std::array::from_fn(|m| std::array::from_fn(|q| spread(&batch.g[m], q)));
+            let zero = _mm512_setzero_pd();
+            let mut out = [zero; M];
+            for i in 0..na {
+                let row = wp.add(i * row_len);
+                // Row `i`'s `Σ_k V'[i, k]·B[k]` per lane, weighted by `a_i` at the row's end.
+                let mut racc = [zero; M];
+                let mut r0 = 0;
+                if wide {
+                    while r0 + FLUSH_COLS <= regs {
+                        flush_cols::<M, OUT, FLUSH_COLS>(row, batch, i, r0, p, &d, &g, &mut racc);
+                        r0 += FLUSH_COLS;
+                    }
+                }
+                while r0 < regs {
+                    flush_cols::<M, OUT, M>(row, batch, i, r0, p, &d, &g, &mut racc);
+                    r0 += M;
+                }
+                if OUT {
+                    let av = _mm512_set1_pd(*a.as_ptr().add(i));
+                    for q in 0..M {
+                        out[q] = _mm512_fmadd_pd(av, racc[q], out[q]);
+                    }
+                }
+            }
+            if OUT { sums(&out) } else { [0.0; M] }
+        }
+    }
+}
