@@ -406,6 +406,64 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
     }
 }
 
+/// End-effector kinematics and gravity torques of an `N`-link arm at one state, in fixed-size
+/// types: what the controller's tick needs of a redundant arm (its pose estimate, `J_eᵀ`, and
+/// the null-space gravity compensation; SPEC §3 steps 1 and 5). Computed by
+/// [`FixedLinkArm::kinematics_gravity`]; the same values, bit for bit, as the matching
+/// [`ArmTerms`] fields after [`Arm::kinematics`] and [`Arm::general_dynamics`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixedKinematics<const N: usize> {
+    /// End-effector Jacobian `J_e`, 2 × N, m/rad.
+    pub j: SMatrix<f64, 2, N>,
+    /// End-effector position `p_WE`, m.
+    pub p_ee: Vector2<f64>,
+    /// End-effector velocity `J_e q̇`, m/s.
+    pub v_ee: Vector2<f64>,
+    /// Gravity torques `G(q)`, N m.
+    pub gravity: SVector<f64, N>,
+}
+
+impl<const N: usize> FixedLinkArm<N> {
+    /// End-effector position, velocity and Jacobian, and the gravity torques
+    /// `G_i = g Σ_{k≥i} m_k (c_k − P_i)_x` (module docs; gravity along −y, SPEC §1), at `(q, q̇)`:
+    /// one `sin_cos` per link, no `M`, no `C`. The operations of [`Arm::kinematics`] and of
+    /// `G` in [`Arm::general_dynamics`], in the same order, so the same bits.
+    #[inline]
+    pub fn kinematics_gravity(&self, q: [f64; N], qd: [f64; N], g: f64) -> FixedKinematics<N> {
+        let mut points = [Vector2::zeros(); N];
+        let mut com = [Vector2::zeros(); N];
+        let mut phi = self.base_angle;
+        let mut phid = 0.0;
+        let (mut p, mut pd) = (self.base, Vector2::zeros());
+        for k in 0..N {
+            phi += q[k];
+            phid += qd[k];
+            let (sk, ck) = phi.sin_cos();
+            let u = Vector2::new(ck, sk);
+            points[k] = p;
+            com[k] = p + self.lc[k] * u;
+            p += self.l[k] * u;
+            pd += self.l[k] * phid * perp(u);
+        }
+        let mut j = SMatrix::<f64, 2, N>::zeros();
+        let mut gravity = SVector::<f64, N>::zeros();
+        for i in 0..N {
+            j.set_column(i, &perp(p - points[i]));
+            let mut gi = 0.0;
+            for k in i..N {
+                gi += self.m[k] * (com[k] - points[i]).x;
+            }
+            gravity[i] = g * gi;
+        }
+        FixedKinematics {
+            j,
+            p_ee: p,
+            v_ee: pd,
+            gravity,
+        }
+    }
+}
+
 /// Per-arm scratch and results of one evaluation (the arm's part of the workspace).
 ///
 /// Sized once by [`Arm::terms`]; filled by [`Arm::kinematics`] and [`Arm::dynamics`].
