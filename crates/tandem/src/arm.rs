@@ -360,7 +360,7 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
             let c12 = m01 * m02 - m00 * m12;
             let c22 = m00 * m11 - m01 * m01;
             let det = m00 * c00 + m01 * c01 + m02 * c02;
-            if !(m00 > 0.0 && c22 > 0.0 && det > 0.0) || !det.is_finite() {
+            if !(m00 > 0.0 && c22 > 0.0 && det > 0.0 && det.is_finite()) {
                 return None;
             }
             let inv = 1.0 / det;
