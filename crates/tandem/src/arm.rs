@@ -36,7 +36,8 @@
 //!   end-effector quantities; the plant's hot paths use it.
 //! * [`FixedLinkArm`] (from [`Arm::fixed`], for 3 and 4 links): the general algorithm in
 //!   fixed-size arrays and `SMatrix` values, producing the constrained plant's per-arm
-//!   [`ArmBlock`] (as [`TwoLinkArm`] does through [`FixedArm`] for 2 links).
+//!   [`ArmBlock`] (as [`TwoLinkArm`] does through [`FixedArm`] for 2 links), and the
+//!   controller's per-tick `J_e`, end-effector state and `G` ([`FixedLinkArm::kinematics_gravity`]).
 //!
 //! Cartesian dynamics (3)–(4) for square (2-joint) arms: `M_x = J⁻ᵀ M J⁻¹`,
 //! `C_x = J⁻ᵀ (C − M J⁻¹ J̇) J⁻¹` (the paper prints `J⁻ᵀ J̇`; SPEC §2.1), `G_x = J⁻ᵀ G`.
@@ -267,10 +268,12 @@ impl FixedArm<2> for TwoLinkArm {
 /// values on the stack, loops of constant trip count (unrolled, no bounds checks): the sums
 /// of [`Arm::kinematics`] and `M` of [`Arm::general_dynamics`] in the same order (`M` filled
 /// as a symmetric matrix from the lever arms `c_k − P_i`), the bias `C q̇ + G` in O(n²)
-/// without forming `C` (`C q̇ = Σ_k m_k J_{c_k}ᵀ J̇_{c_k} q̇`, the Christoffel form), then one
-/// Cholesky of `M` and the substitutions for `a_0` and `M⁻¹ J_eᵀ` together (by reciprocal
-/// pivots). Equal to the general algorithm up to round-off. Built by [`Arm::fixed`]
-/// (`N = 3, 4` in the plant).
+/// without forming `C` (`C q̇ = Σ_k m_k J_{c_k}ᵀ J̇_{c_k} q̇`, the Christoffel form), then
+/// `a_0` and `M⁻¹ J_eᵀ` together: for `N = 3` by the closed-form inverse `adj M / det M` (a
+/// short dependency chain: one division; the tick of two 3-link arms is latency-bound), else
+/// by one Cholesky of `M` and the substitutions (by reciprocal pivots). Equal to the general
+/// algorithm up to round-off. Built by [`Arm::fixed`] (`N = 3, 4` in the plant);
+/// [`FixedLinkArm::kinematics_gravity`] is the controller's part of it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FixedLinkArm<const N: usize> {
     base: Vector2<f64>,
@@ -342,44 +345,78 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
             rhs[(i, 1)] = j[(0, i)];
             rhs[(i, 2)] = j[(1, i)];
         }
-        // a0 = M⁻¹(τ − C q̇ − G) and Y = M⁻¹ J_eᵀ: one Cholesky M = L Lᵀ (the steps of
-        // `cholesky_in_place`), then both substitutions on the three right-hand sides at once.
-        let mut lo = mm;
-        let mut inv_diag = [0.0; N];
-        for jj in 0..N {
-            let mut dd = lo[(jj, jj)];
-            for k in 0..jj {
-                dd -= lo[(jj, k)] * lo[(jj, k)];
-            }
-            if !(dd > 0.0) || !dd.is_finite() {
+        if N == 3 {
+            // a0 = M⁻¹(τ − C q̇ − G) and Y = M⁻¹ J_eᵀ with the closed-form inverse
+            // M⁻¹ = adj M / det M (one division, independent products: a short dependency
+            // chain, where the Cholesky's is three square roots and divisions long). M is
+            // positive definite iff its leading minors M_00, M_00 M_11 − M_01², det M are
+            // (Sylvester), as the Cholesky would find.
+            let (m00, m01, m02) = (mm[(0, 0)], mm[(0, 1)], mm[(0, 2)]);
+            let (m11, m12, m22) = (mm[(1, 1)], mm[(1, 2)], mm[(2, 2)]);
+            let c00 = m11 * m22 - m12 * m12;
+            let c01 = m02 * m12 - m01 * m22;
+            let c02 = m01 * m12 - m02 * m11;
+            let c11 = m00 * m22 - m02 * m02;
+            let c12 = m01 * m02 - m00 * m12;
+            let c22 = m00 * m11 - m01 * m01;
+            let det = m00 * c00 + m01 * c01 + m02 * c02;
+            if !(m00 > 0.0 && c22 > 0.0 && det > 0.0 && det.is_finite()) {
                 return None;
             }
-            let ljj = dd.sqrt();
-            lo[(jj, jj)] = ljj;
-            inv_diag[jj] = 1.0 / ljj;
-            for i in (jj + 1)..N {
-                let mut sum = lo[(i, jj)];
+            let inv = 1.0 / det;
+            let mut m_inv = SMatrix::<f64, N, N>::zeros();
+            for (r, c, v) in [
+                (0, 0, c00),
+                (0, 1, c01),
+                (0, 2, c02),
+                (1, 1, c11),
+                (1, 2, c12),
+                (2, 2, c22),
+            ] {
+                m_inv[(r, c)] = v * inv;
+                m_inv[(c, r)] = v * inv;
+            }
+            rhs = m_inv * rhs;
+        } else {
+            // a0 = M⁻¹(τ − C q̇ − G) and Y = M⁻¹ J_eᵀ: one Cholesky M = L Lᵀ (the steps of
+            // `cholesky_in_place`), then both substitutions on the three right-hand sides at once.
+            let mut lo = mm;
+            let mut inv_diag = [0.0; N];
+            for jj in 0..N {
+                let mut dd = lo[(jj, jj)];
                 for k in 0..jj {
-                    sum -= lo[(i, k)] * lo[(jj, k)];
+                    dd -= lo[(jj, k)] * lo[(jj, k)];
                 }
-                lo[(i, jj)] = sum / ljj;
+                if !(dd > 0.0) || !dd.is_finite() {
+                    return None;
+                }
+                let ljj = dd.sqrt();
+                lo[(jj, jj)] = ljj;
+                inv_diag[jj] = 1.0 / ljj;
+                for i in (jj + 1)..N {
+                    let mut sum = lo[(i, jj)];
+                    for k in 0..jj {
+                        sum -= lo[(i, k)] * lo[(jj, k)];
+                    }
+                    lo[(i, jj)] = sum / ljj;
+                }
             }
-        }
-        for c in 0..3 {
-            // L z = b, then Lᵀ x = z.
-            for i in 0..N {
-                let mut sum = rhs[(i, c)];
-                for k in 0..i {
-                    sum -= lo[(i, k)] * rhs[(k, c)];
+            for c in 0..3 {
+                // L z = b, then Lᵀ x = z.
+                for i in 0..N {
+                    let mut sum = rhs[(i, c)];
+                    for k in 0..i {
+                        sum -= lo[(i, k)] * rhs[(k, c)];
+                    }
+                    rhs[(i, c)] = sum * inv_diag[i];
                 }
-                rhs[(i, c)] = sum * inv_diag[i];
-            }
-            for i in (0..N).rev() {
-                let mut sum = rhs[(i, c)];
-                for k in (i + 1)..N {
-                    sum -= lo[(k, i)] * rhs[(k, c)];
+                for i in (0..N).rev() {
+                    let mut sum = rhs[(i, c)];
+                    for k in (i + 1)..N {
+                        sum -= lo[(k, i)] * rhs[(k, c)];
+                    }
+                    rhs[(i, c)] = sum * inv_diag[i];
                 }
-                rhs[(i, c)] = sum * inv_diag[i];
             }
         }
         let a0: SVector<f64, N> = rhs.column(0).into_owned();
@@ -403,6 +440,64 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
             v_ee: pd,
             jdot_qdot: jdq,
         })
+    }
+}
+
+/// End-effector kinematics and gravity torques of an `N`-link arm at one state, in fixed-size
+/// types: what the controller's tick needs of a redundant arm (its pose estimate, `J_eᵀ`, and
+/// the null-space gravity compensation; SPEC §3 steps 1 and 5). Computed by
+/// [`FixedLinkArm::kinematics_gravity`]; the same values, bit for bit, as the matching
+/// [`ArmTerms`] fields after [`Arm::kinematics`] and [`Arm::general_dynamics`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixedKinematics<const N: usize> {
+    /// End-effector Jacobian `J_e`, 2 × N, m/rad.
+    pub j: SMatrix<f64, 2, N>,
+    /// End-effector position `p_WE`, m.
+    pub p_ee: Vector2<f64>,
+    /// End-effector velocity `J_e q̇`, m/s.
+    pub v_ee: Vector2<f64>,
+    /// Gravity torques `G(q)`, N m.
+    pub gravity: SVector<f64, N>,
+}
+
+impl<const N: usize> FixedLinkArm<N> {
+    /// End-effector position, velocity and Jacobian, and the gravity torques
+    /// `G_i = g Σ_{k≥i} m_k (c_k − P_i)_x` (module docs; gravity along −y, SPEC §1), at `(q, q̇)`:
+    /// one `sin_cos` per link, no `M`, no `C`. The operations of [`Arm::kinematics`] and of
+    /// `G` in [`Arm::general_dynamics`], in the same order, so the same bits.
+    #[inline]
+    pub fn kinematics_gravity(&self, q: [f64; N], qd: [f64; N], g: f64) -> FixedKinematics<N> {
+        let mut points = [Vector2::zeros(); N];
+        let mut com = [Vector2::zeros(); N];
+        let mut phi = self.base_angle;
+        let mut phid = 0.0;
+        let (mut p, mut pd) = (self.base, Vector2::zeros());
+        for k in 0..N {
+            phi += q[k];
+            phid += qd[k];
+            let (sk, ck) = phi.sin_cos();
+            let u = Vector2::new(ck, sk);
+            points[k] = p;
+            com[k] = p + self.lc[k] * u;
+            p += self.l[k] * u;
+            pd += self.l[k] * phid * perp(u);
+        }
+        let mut j = SMatrix::<f64, 2, N>::zeros();
+        let mut gravity = SVector::<f64, N>::zeros();
+        for i in 0..N {
+            j.set_column(i, &perp(p - points[i]));
+            let mut gi = 0.0;
+            for k in i..N {
+                gi += self.m[k] * (com[k] - points[i]).x;
+            }
+            gravity[i] = g * gi;
+        }
+        FixedKinematics {
+            j,
+            p_ee: p,
+            v_ee: pd,
+            gravity,
+        }
     }
 }
 

@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams, Measurements, TickRecord};
+use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
 use tandem::disturbance::Disturbance;
 use tandem::fixtures;
 use tandem::integrate::Rk4;
@@ -15,6 +15,8 @@ use tandem::trajectory::Path;
 
 #[path = "support/counting.rs"]
 mod counting;
+#[path = "support/n_link.rs"]
+mod n_link;
 use counting::count;
 
 #[global_allocator]
@@ -156,6 +158,64 @@ fn controller_ticks_allocate_nothing() {
             assert_eq!(n, 0, "per-arm {name} controller ticks allocated {n} times");
         }
         assert!(tau.iter().all(|v| v.is_finite()));
+    }
+}
+
+#[test]
+fn n_link_controller_ticks_and_plant_steps_allocate_nothing() {
+    // The controller's fixed-size arm kernels (3 and 4 links, two and three arms) and its
+    // dynamic-size route (5 links), PD on the object and per arm; and the plant's fixed-size
+    // kernels for three 3-link arms and 4-link arms (two 3-link arms: above).
+    for (arms, links) in [(2, 3), (3, 3), (2, 4), (3, 4), (2, 5)] {
+        let (p, guess) = n_link::chain(arms, links);
+        let plant = Plant::new(&p).unwrap();
+        let mut y = plant
+            .initial_state(
+                fixtures::paper_start(),
+                Vector3::new(0.01, 0.0, 0.1),
+                Some(&guess),
+            )
+            .unwrap();
+        let forces = vec![1.0; 2 * arms];
+        let mut tau = vec![0.0; plant.n_q()];
+        let mut rec = TickRecord::default();
+        for scheme in [Scheme::Object, Scheme::PerArm] {
+            let mut cp = params(LawParams::Pd(PdGains::paper()));
+            cp.scheme = scheme;
+            let (mut c, _) = Controller::new(&cp, &p, Path::paper(), 10.0).unwrap();
+            let (q, _, qd, _) = plant.split(&y);
+            let meas = Measurements {
+                q,
+                qd,
+                wrenches: &forces,
+            };
+            c.start(0.0, &meas);
+            c.tick(0.0, &meas, &mut tau, &mut rec);
+            let n = count(|| {
+                for k in 1..200 {
+                    c.tick(k as f64 * 1e-3, &meas, &mut tau, &mut rec);
+                }
+            });
+            assert_eq!(
+                n, 0,
+                "{arms} {links}-link arms, {scheme:?}: ticks allocated {n} times"
+            );
+            assert!(tau.iter().all(|v| v.is_finite()) && tau.iter().any(|v| *v != 0.0));
+        }
+        let mut ws = plant.workspace();
+        let input = plant.zero_input();
+        let mut rk = Rk4::new(plant.state_dim());
+        let n = count(|| {
+            for k in 0..100 {
+                let mut sys = ConstrainedOde {
+                    plant: &plant,
+                    ws: &mut ws,
+                    input: &input,
+                };
+                rk.step(&mut sys, k as f64 * 1e-3, &mut y, 1e-3);
+            }
+        });
+        assert_eq!(n, 0, "{arms} {links}-link plant steps allocated {n} times");
     }
 }
 

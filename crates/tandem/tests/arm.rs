@@ -499,8 +499,9 @@ fn fixed_link_kernels_equal_the_general_algorithm() {
     // FixedLinkArm<N> (N = 3, 4) against Arm::dynamics + forward_dynamics on random arms and
     // states: a0 = M⁻¹(τ − Cq̇ − G) (forward dynamics with no external force), Y = M⁻¹ J_eᵀ
     // (forward dynamics with zero τ, q̇, g and a unit force, minus nothing), K = J_e Y, and the
-    // end-effector terms. The kinematics and M, C, G are the same sums; only the solve's
-    // operation order differs (reciprocal pivots), so 1e-12 relative (cond M ≲ 1e3 here).
+    // end-effector terms. The kinematics and M, C, G are the same sums; only the solve
+    // differs (reciprocal pivots; for N = 3 the closed-form inverse adj M / det M), each with
+    // errors of order cond(M)·ε, so 1e-12 relative (cond M ≲ 1e3 here; measured 3.6e-14).
     fn check<const N: usize>(rng: &mut Rng) -> f64 {
         let arm = random_arm(rng, N);
         let k = arm.fixed::<N>().expect("N links");
@@ -546,4 +547,33 @@ fn fixed_link_kernels_equal_the_general_algorithm() {
     }
     println!("FixedLinkArm vs general: worst relative difference {worst:.2e}");
     assert!(worst < 1e-12, "{worst:e}");
+}
+
+#[test]
+fn fixed_link_kinematics_and_gravity_are_the_arm_terms_bit_for_bit() {
+    // FixedLinkArm::kinematics_gravity (the controller's per-tick route for 3 and 4 links)
+    // against Arm::kinematics + Arm::general_dynamics on random arms and states: the same sums
+    // in the same order, so the same bits (exact equality; Rust contracts no a·b + c into an
+    // FMA, so nothing but the order could differ).
+    fn check<const N: usize>(rng: &mut Rng) {
+        let arm = random_arm(rng, N);
+        let k = arm.fixed::<N>().expect("N links");
+        let mut t = arm.terms();
+        let q: [f64; N] = std::array::from_fn(|_| rng.range(-3.0, 3.0));
+        let qd: [f64; N] = std::array::from_fn(|_| rng.range(-2.0, 2.0));
+        let g = rng.range(0.0, 10.0);
+        let f = k.kinematics_gravity(q, qd, g);
+        arm.kinematics(&q, &qd, &mut t);
+        arm.general_dynamics(g, &mut t);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(f.j.as_slice()), bits(t.J.as_slice()), "J_e, {N} links");
+        assert_eq!(bits(f.p_ee.as_slice()), bits(t.p_ee.as_slice()), "p_ee");
+        assert_eq!(bits(f.v_ee.as_slice()), bits(t.v_ee.as_slice()), "v_ee");
+        assert_eq!(bits(f.gravity.as_slice()), bits(t.G.as_slice()), "G");
+    }
+    let mut rng = Rng(2031);
+    for _ in 0..200 {
+        check::<3>(&mut rng);
+        check::<4>(&mut rng);
+    }
 }

@@ -11,6 +11,9 @@ use tandem::plant::{
 
 use tandem::fixtures::SplitMix64 as Rng;
 
+#[path = "support/n_link.rs"]
+mod n_link;
+
 /// Advance the constrained plant `steps` RK4 steps of `h` with a held input.
 fn run(
     plant: &Plant,
@@ -347,6 +350,26 @@ fn three_arm_chain_keeps_the_invariants() {
 }
 
 #[test]
+fn three_3_link_arms_and_4_link_arms_keep_the_invariants() {
+    // The fixed-size kernels of three 3-link arms and of two and three 4-link arms over 5 s of
+    // free, undamped fall (no torques, no object damping): energy conserved to RK4's error and
+    // the grasp constraint held (the bounds of `invariants`).
+    for (arms, links) in [(3, 3), (2, 4), (3, 4)] {
+        let (p, guess) = n_link::chain(arms, links);
+        let plant = Plant::new(&fixtures::undamped(p)).unwrap();
+        assert_eq!(plant.algorithm(), Algorithm::Fixed { arms, links });
+        let y = plant
+            .initial_state(
+                fixtures::paper_start(),
+                Vector3::new(0.0, 0.0, 0.2),
+                Some(&guess),
+            )
+            .unwrap();
+        invariants(&plant, y, &format!("{arms} {links}-link arms"));
+    }
+}
+
+#[test]
 fn bad_plant_input_is_named() {
     let mut p = PlantParams::paper();
     p.object.inertia[2] = -1.0;
@@ -426,75 +449,115 @@ fn each_plant_selects_its_constrained_algorithm() {
     assert_eq!(alg(one), Algorithm::General);
 }
 
+/// The fixed-size constrained derivative of `params` (`plant.derivative`) against the general
+/// dynamic-size algorithm (`derivative_general`) at 100 consistent states near the paper's
+/// start (object pose ±3 cm, ±0.2 rad; velocities up to 0.5 m/s, 1 rad/s), pushed off the
+/// constraint by up to 1e-3 (so the Baumgarte terms act), with random joint torques (±5 N m)
+/// and disturbance: `ẏ`, the grasp forces, `ẍ_o` and the KKT pivot. Returns the worst relative
+/// difference; fails above `tol` or if either path regularised a solve.
+fn fixed_vs_general(
+    name: &str,
+    params: &PlantParams,
+    guess: Option<&[f64]>,
+    expect: Algorithm,
+    seed: u64,
+    tol: f64,
+) -> f64 {
+    let plant = Plant::new(params).unwrap();
+    assert_eq!(plant.algorithm(), expect, "{name}");
+    let mut rng = Rng(seed);
+    let (mut ws_a, mut ws_b) = (plant.workspace(), plant.workspace());
+    let n = plant.state_dim();
+    let (mut dy_a, mut dy_b) = (vec![0.0; n], vec![0.0; n]);
+    let mut input = plant.zero_input();
+    let mut worst: f64 = 0.0;
+    let mut trials = 0;
+    let mut attempts = 0;
+    while trials < 100 {
+        attempts += 1;
+        assert!(attempts < 1000, "{name}: the start poses are out of reach");
+        let x = fixtures::paper_start()
+            + Vector3::new(
+                rng.range(-0.03, 0.03),
+                rng.range(-0.03, 0.03),
+                rng.range(-0.2, 0.2),
+            );
+        let xd = Vector3::new(
+            rng.range(-0.5, 0.5),
+            rng.range(-0.5, 0.5),
+            rng.range(-1.0, 1.0),
+        );
+        let Ok(mut y) = plant.initial_state(x, xd, guess) else {
+            continue;
+        };
+        trials += 1;
+        for v in y.iter_mut() {
+            *v += rng.range(-1e-3, 1e-3);
+        }
+        for t in input.tau.iter_mut() {
+            *t = rng.range(-5.0, 5.0);
+        }
+        input.f_d = Vector3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-0.1, 0.1),
+        );
+        assert!(plant.derivative(&y, &input, &mut ws_a, &mut dy_a));
+        assert!(plant.derivative_general(&y, &input, &mut ws_b, &mut dy_b));
+        let f = |ws: &PlantWorkspace| {
+            ws.forces
+                .iter()
+                .flat_map(|v| [v.x, v.y])
+                .collect::<Vec<_>>()
+        };
+        let e = [
+            rel(&dy_a, &dy_b),
+            rel(&f(&ws_a), &f(&ws_b)),
+            rel(ws_a.xdd_o.as_slice(), ws_b.xdd_o.as_slice()),
+            (ws_a.kkt_pivot - ws_b.kkt_pivot).abs() / ws_b.kkt_pivot,
+        ];
+        for (what, e) in ["dy", "forces", "xdd_o", "kkt_pivot"].iter().zip(e) {
+            assert!(e < tol, "{name}: {what} differs by {e:e} (relative)");
+            worst = worst.max(e);
+        }
+    }
+    assert_eq!((ws_a.regularised, ws_b.regularised), (0, 0), "{name}");
+    println!("{name}: fixed-size vs general, worst relative difference {worst:.2e}");
+    worst
+}
+
 #[test]
 fn fixed_size_n_link_kernels_equal_the_general_algorithm() {
     // Three 2-link arms (closed forms) and two 3-link arms (the general algorithm in fixed-size
-    // types, Cholesky by reciprocal pivots) against the dynamic-size path at consistent states
-    // near the paper's start, pushed off the constraint, with random torques and disturbance.
-    // Same equations, different operation order: round-off amplified by cond(K) (≲ 1e2 here),
-    // hence 1e-12 relative, as for the paper plant.
+    // types, Cholesky by reciprocal pivots) against the dynamic-size path. Same equations,
+    // different operation order: round-off amplified by cond(K) (≲ 1e2 here), hence 1e-12
+    // relative, as for the paper plant.
     let (p3, guess) = fixtures::redundant_pair();
-    for (name, params, guess) in [
-        ("three 2-link arms", fixtures::three_arms(), None),
-        ("two 3-link arms", p3, Some(guess)),
-    ] {
-        let plant = Plant::new(&params).unwrap();
-        assert_ne!(plant.algorithm(), Algorithm::General, "{name}");
-        let mut rng = Rng(47);
-        let (mut ws_a, mut ws_b) = (plant.workspace(), plant.workspace());
-        let n = plant.state_dim();
-        let (mut dy_a, mut dy_b) = (vec![0.0; n], vec![0.0; n]);
-        let mut input = plant.zero_input();
-        let mut worst: f64 = 0.0;
-        let mut trials = 0;
-        while trials < 100 {
-            let x = fixtures::paper_start()
-                + Vector3::new(
-                    rng.range(-0.03, 0.03),
-                    rng.range(-0.03, 0.03),
-                    rng.range(-0.2, 0.2),
-                );
-            let xd = Vector3::new(
-                rng.range(-0.5, 0.5),
-                rng.range(-0.5, 0.5),
-                rng.range(-1.0, 1.0),
-            );
-            let Ok(mut y) = plant.initial_state(x, xd, guess.as_deref()) else {
-                continue;
-            };
-            trials += 1;
-            for v in y.iter_mut() {
-                *v += rng.range(-1e-3, 1e-3);
-            }
-            for t in input.tau.iter_mut() {
-                *t = rng.range(-5.0, 5.0);
-            }
-            input.f_d = Vector3::new(
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-                rng.range(-0.1, 0.1),
-            );
-            assert!(plant.derivative(&y, &input, &mut ws_a, &mut dy_a));
-            assert!(plant.derivative_general(&y, &input, &mut ws_b, &mut dy_b));
-            let f = |ws: &PlantWorkspace| {
-                ws.forces
-                    .iter()
-                    .flat_map(|v| [v.x, v.y])
-                    .collect::<Vec<_>>()
-            };
-            let e = [
-                rel(&dy_a, &dy_b),
-                rel(&f(&ws_a), &f(&ws_b)),
-                rel(ws_a.xdd_o.as_slice(), ws_b.xdd_o.as_slice()),
-                (ws_a.kkt_pivot - ws_b.kkt_pivot).abs() / ws_b.kkt_pivot,
-            ];
-            for (what, e) in ["dy", "forces", "xdd_o", "kkt_pivot"].iter().zip(e) {
-                assert!(e < 1e-12, "{name}: {what} differs by {e:e} (relative)");
-                worst = worst.max(e);
-            }
-        }
-        assert_eq!((ws_a.regularised, ws_b.regularised), (0, 0));
-        println!("{name}: fixed-size vs general, worst relative difference {worst:.2e}");
+    let fixed = |arms, links| Algorithm::Fixed { arms, links };
+    fixed_vs_general(
+        "three 2-link arms",
+        &fixtures::three_arms(),
+        None,
+        fixed(3, 2),
+        47,
+        1e-12,
+    );
+    fixed_vs_general("two 3-link arms", &p3, Some(&guess), fixed(2, 3), 47, 1e-12);
+}
+
+#[test]
+fn fixed_size_kernels_of_three_3_link_and_of_4_link_arms_equal_the_general_algorithm() {
+    // The kernels that had no plant-level check: `derivative_fixed::<3, 3, ..>` (three 3-link
+    // arms, 6×6 K) and `<2, 4, ..>`, `<3, 4, ..>` (4-link arms, 4×4 and 6×6 K), against the
+    // dynamic-size algorithm. The per-arm blocks agree to ≤ 4e-14 (arm test
+    // `fixed_link_kernels_equal_the_general_algorithm`); the grasp-space solve amplifies that
+    // by cond(K) (≲ 1e2 at these poses). Measured worst: 2.6e-15, 3.5e-15, 4.1e-15; 1e-12
+    // relative (as for the other kernels) leaves that more than two orders of margin.
+    let fixed = |arms, links| Algorithm::Fixed { arms, links };
+    for (arms, links, seed) in [(3, 3, 53), (2, 4, 59), (3, 4, 61)] {
+        let (p, guess) = n_link::chain(arms, links);
+        let name = format!("{arms} {links}-link arms");
+        fixed_vs_general(&name, &p, Some(&guess), fixed(arms, links), seed, 1e-12);
     }
 }
 

@@ -19,11 +19,12 @@
 //! A tick allocates nothing and never emits NaN or infinity: a barrier hit saturates and is
 //! counted, a non-finite law output is replaced by zero torque and counted.
 
-use nalgebra::{Rotation2, SVector, Vector2, Vector3};
+use nalgebra::{Dim, Matrix, Matrix2, Rotation2, SVector, Storage, U2, Vector, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::adaptive::{AdaptiveNn, FuBound, NnGains, NnInternals};
 use crate::admittance::{Admittance, AdmittanceParams, AdmittanceState, AdmittanceWarning};
+use crate::arm::{Arm, FixedKinematics, FixedLinkArm, TwoLinkArm};
 use crate::ctc::{Ctc, CtcGains, nominal_params};
 use crate::error::{ModelError, non_negative, positive};
 use crate::grasp::{Grasp, GraspSet};
@@ -244,6 +245,109 @@ enum Law {
     PerArmNn(Vec<AdaptiveNn<2>>),
 }
 
+/// One arm's kinematics kernel for the tick, selected once by [`Controller::new`] from its link
+/// count, with what step 1 leaves for step 5: the 2-link closed forms (SPEC §2.1) and `J_e`;
+/// the general algorithm in fixed-size types for 3 and 4 links
+/// ([`FixedLinkArm::kinematics_gravity`]: `J_e` and `G(q)`, no `M` or `C`); other link counts
+/// the dynamic-size [`Arm::kinematics`] and [`Arm::general_dynamics`] into the workspace's
+/// [`ArmTerms`](crate::arm::ArmTerms).
+#[derive(Clone, Copy, Debug)]
+enum ArmKernel {
+    Two(TwoLinkArm, Matrix2<f64>),
+    Three(FixedLinkArm<3>, FixedKinematics<3>),
+    Four(FixedLinkArm<4>, FixedKinematics<4>),
+    General,
+}
+
+/// An arm's part of the tick: its kernel, the index of its first joint in the stacked joint
+/// vectors, and its end-effector position and velocity from step 1 (m, m/s).
+#[derive(Clone, Copy, Debug)]
+struct ArmSlot {
+    kernel: ArmKernel,
+    off: usize,
+    p_ee: Vector2<f64>,
+    v_ee: Vector2<f64>,
+}
+
+impl ArmSlot {
+    fn new(arm: &Arm, off: usize) -> Self {
+        let kernel = if let Some(tl) = arm.two_link() {
+            ArmKernel::Two(*tl, Matrix2::zeros())
+        } else if let Some(k) = arm.fixed::<3>() {
+            ArmKernel::Three(k, k.kinematics_gravity([0.0; 3], [0.0; 3], 0.0))
+        } else if let Some(k) = arm.fixed::<4>() {
+            ArmKernel::Four(k, k.kinematics_gravity([0.0; 4], [0.0; 4], 0.0))
+        } else {
+            ArmKernel::General
+        };
+        ArmSlot {
+            kernel,
+            off,
+            p_ee: Vector2::zeros(),
+            v_ee: Vector2::zeros(),
+        }
+    }
+}
+
+/// `N` entries of `v` from `off`, as an array (one length check).
+#[inline(always)]
+fn joints<const N: usize>(v: &[f64], off: usize) -> [f64; N] {
+    let s: &[f64; N] = v[off..off + N]
+        .try_into()
+        .expect("a slice of N entries converts to [f64; N]");
+    *s
+}
+
+/// Step 5 for one arm (SPEC §3): `τ_joint = J_eᵀ τ_x`; an arm with more than two joints adds
+/// damping and gravity compensation in the null space of `J_e`,
+/// `τ_null = (I − J_eᵀ(J_eJ_eᵀ)⁻¹J_e)(−K_N q̇ + Ĝ(q))` (`K_N` = [`NULL_SPACE_DAMPING`]); each
+/// torque is clipped to `±limit`, a non-finite one is replaced by zero. `j` is 2 × n, `gq` has
+/// n entries (read only when n > 2), `qd` and `tau` at least n. Generic over the column
+/// dimension, so 2–4 links run with the link count a constant (no bounds checks) and other
+/// counts on the dynamic-size terms, with the same operations in the same order. Returns
+/// whether a torque was clipped.
+#[inline(always)]
+fn joint_torques<C: Dim, SJ: Storage<f64, U2, C>, SG: Storage<f64, C>>(
+    j: &Matrix<f64, U2, C, SJ>,
+    gq: &Vector<f64, C, SG>,
+    qd: &[f64],
+    tau_x: Vector2<f64>,
+    limit: f64,
+    tau: &mut [f64],
+) -> bool {
+    let n = j.ncols();
+    let (qd, tau) = (&qd[..n], &mut tau[..n]);
+    let mut w_null = Vector2::zeros();
+    if n > 2 {
+        let (mut a, mut b, mut d) = (0.0, 0.0, 0.0);
+        let mut ju = Vector2::zeros();
+        for k in 0..n {
+            let (jx, jy) = (j[(0, k)], j[(1, k)]);
+            a += jx * jx;
+            b += jx * jy;
+            d += jy * jy;
+            let u = -NULL_SPACE_DAMPING * qd[k] + gq[k];
+            ju += Vector2::new(jx, jy) * u;
+        }
+        let det = a * d - b * b;
+        if det.abs() > 1e-12 {
+            w_null = Vector2::new(d * ju.x - b * ju.y, a * ju.y - b * ju.x) / det;
+        }
+    }
+    let mut clipped = false;
+    for k in 0..n {
+        let mut v = j[(0, k)] * tau_x.x + j[(1, k)] * tau_x.y;
+        if n > 2 {
+            let u = -NULL_SPACE_DAMPING * qd[k] + gq[k];
+            v += u - (j[(0, k)] * w_null.x + j[(1, k)] * w_null.y);
+        }
+        let c = v.clamp(-limit, limit);
+        clipped |= c != v;
+        tau[k] = if c.is_finite() { c } else { 0.0 };
+    }
+    clipped
+}
+
 /// A cooperative controller: validated gains and models, its own state (admittance, weights),
 /// and preallocated scratch. Build once, then call [`Controller::tick`] at the control rate.
 pub struct Controller {
@@ -265,7 +369,9 @@ pub struct Controller {
     theta_r_hint: f64,
     /// `(θ_d, R(θ_d))` of the last tick: a path with a constant angle needs no `sin_cos`.
     rot_d: (f64, Rotation2<f64>),
-    // Scratch.
+    /// Each arm's kinematics kernel and step-1 results.
+    arm_slots: Vec<ArmSlot>,
+    // Scratch (`ws.terms[i]`: arms on the dynamic-size route).
     ws: PlantWorkspace,
     pts: Vec<Vector2<f64>>,
     vels: Vec<Vector2<f64>>,
@@ -448,6 +554,12 @@ impl Controller {
         };
         let m = grasps.len();
         let ws = kin.workspace();
+        let arm_slots = kin
+            .arms()
+            .iter()
+            .enumerate()
+            .map(|(i, a)| ArmSlot::new(a, kin.offset(i)))
+            .collect();
         Ok((
             Controller {
                 kin,
@@ -465,6 +577,7 @@ impl Controller {
                 theta_hint: 0.0,
                 theta_r_hint: 0.0,
                 rot_d: (0.0, Rotation2::identity()),
+                arm_slots,
                 ws,
                 pts: vec![Vector2::zeros(); m],
                 vels: vec![Vector2::zeros(); m],
@@ -554,35 +667,45 @@ impl Controller {
         &mut self,
         meas: &Measurements,
     ) -> Option<(Vector3<f64>, Vector3<f64>, Rotation2<f64>)> {
-        for (i, arm) in self.kin.arms().iter().enumerate() {
-            let off = self.kin.offset(i);
-            let n = arm.dof();
-            let t = &mut self.ws.terms[i];
-            if let Some(tl) = arm.two_link() {
-                // Fast path: one sin_cos per link; J_e into the shared terms for step 5.
-                let pose = tl.pose([meas.q[off], meas.q[off + 1]]);
-                let qd = nalgebra::Vector2::new(meas.qd[off], meas.qd[off + 1]);
-                t.p_ee = tl.end_effector(&pose);
-                t.v_ee = pose.J * qd;
-                // Ĝ_x = J_e⁻ᵀ Ĝ(q) (3)–(4), for the internal-force feed-forward of step 5.
-                let g = tl.terms(&pose, [0.0, 0.0], self.kin.gravity()).G;
-                self.g_x[i] = pose
-                    .J
-                    .transpose()
-                    .lu()
-                    .solve(&g)
-                    .filter(|v| v.iter().all(|x| x.is_finite()))
-                    .unwrap_or_else(Vector2::zeros);
-                for r in 0..2 {
-                    for c in 0..2 {
-                        t.J[(r, c)] = pose.J[(r, c)];
-                    }
+        let g = self.kin.gravity();
+        for (i, a) in self.arm_slots.iter_mut().enumerate() {
+            let off = a.off;
+            match &mut a.kernel {
+                ArmKernel::Two(tl, j) => {
+                    // Fast path: one sin_cos per link; J_e kept for step 5.
+                    let pose = tl.pose(joints(meas.q, off));
+                    let qd = Vector2::from(joints::<2>(meas.qd, off));
+                    a.p_ee = tl.end_effector(&pose);
+                    a.v_ee = pose.J * qd;
+                    // Ĝ_x = J_e⁻ᵀ Ĝ(q) (3)–(4), for the internal-force feed-forward of step 5.
+                    let gq = tl.terms(&pose, [0.0, 0.0], g).G;
+                    self.g_x[i] = pose
+                        .J
+                        .transpose()
+                        .lu()
+                        .solve(&gq)
+                        .filter(|v| v.iter().all(|x| x.is_finite()))
+                        .unwrap_or_else(Vector2::zeros);
+                    *j = pose.J;
                 }
-            } else {
-                arm.kinematics(&meas.q[off..off + n], &meas.qd[off..off + n], t);
+                ArmKernel::Three(arm, k) => {
+                    *k = arm.kinematics_gravity(joints(meas.q, off), joints(meas.qd, off), g);
+                    (a.p_ee, a.v_ee) = (k.p_ee, k.v_ee);
+                }
+                ArmKernel::Four(arm, k) => {
+                    *k = arm.kinematics_gravity(joints(meas.q, off), joints(meas.qd, off), g);
+                    (a.p_ee, a.v_ee) = (k.p_ee, k.v_ee);
+                }
+                ArmKernel::General => {
+                    let arm = &self.kin.arms()[i];
+                    let n = arm.dof();
+                    let t = &mut self.ws.terms[i];
+                    arm.kinematics(&meas.q[off..off + n], &meas.qd[off..off + n], t);
+                    (a.p_ee, a.v_ee) = (t.p_ee, t.v_ee);
+                }
             }
-            self.pts[i] = t.p_ee;
-            self.vels[i] = t.v_ee;
+            self.pts[i] = a.p_ee;
+            self.vels[i] = a.v_ee;
         }
         let (x, rot) = self.set.fit_pose(&self.pts, self.theta_hint);
         let v = self.set.fit_velocity(&rot, &self.vels);
@@ -680,41 +803,25 @@ impl Controller {
                 *t += gx - r;
             }
         }
+        // The torque map of each arm on the kernel selected at set-up (2–4 links: fixed size).
         let g = self.kin.gravity();
-        for (i, arm) in self.kin.arms().iter().enumerate() {
-            let off = self.kin.offset(i);
-            let t = &mut self.ws.terms[i];
-            // Redundant arms: τ_x fixes only the end-effector; their self-motion gets damping
-            // and gravity compensation in the null space of J_e:
-            // τ_null = (I − J_eᵀ(J_eJ_eᵀ)⁻¹J_e)(−K_N q̇ + Ĝ(q)).
-            let mut w_null = Vector2::zeros();
-            if arm.dof() > 2 {
-                arm.general_dynamics(g, t);
-                let (mut a, mut b, mut d) = (0.0, 0.0, 0.0);
-                let mut ju = Vector2::zeros();
-                for k in 0..arm.dof() {
-                    let (jx, jy) = (t.J[(0, k)], t.J[(1, k)]);
-                    a += jx * jx;
-                    b += jx * jy;
-                    d += jy * jy;
-                    let u = -NULL_SPACE_DAMPING * meas.qd[off + k] + t.G[k];
-                    ju += Vector2::new(jx, jy) * u;
+        let lim = self.torque_limit;
+        for (i, a) in self.arm_slots.iter().enumerate() {
+            let (off, tx) = (a.off, self.tau_x[i]);
+            let (qd, out) = (&meas.qd[off..], &mut tau[off..]);
+            rec.torque_clipped |= match &a.kernel {
+                ArmKernel::Two(_, j) => joint_torques(j, &Vector2::zeros(), qd, tx, lim, out),
+                ArmKernel::Three(_, k) => joint_torques(&k.j, &k.gravity, qd, tx, lim, out),
+                ArmKernel::Four(_, k) => joint_torques(&k.j, &k.gravity, qd, tx, lim, out),
+                ArmKernel::General => {
+                    let arm = &self.kin.arms()[i];
+                    let t = &mut self.ws.terms[i];
+                    if arm.dof() > 2 {
+                        arm.general_dynamics(g, t);
+                    }
+                    joint_torques(&t.J, &t.G, qd, tx, lim, out)
                 }
-                let det = a * d - b * b;
-                if det.abs() > 1e-12 {
-                    w_null = Vector2::new(d * ju.x - b * ju.y, a * ju.y - b * ju.x) / det;
-                }
-            }
-            for k in 0..arm.dof() {
-                let mut v = t.J[(0, k)] * self.tau_x[i].x + t.J[(1, k)] * self.tau_x[i].y;
-                if arm.dof() > 2 {
-                    let u = -NULL_SPACE_DAMPING * meas.qd[off + k] + t.G[k];
-                    v += u - (t.J[(0, k)] * w_null.x + t.J[(1, k)] * w_null.y);
-                }
-                let c = v.clamp(-self.torque_limit, self.torque_limit);
-                rec.torque_clipped |= c != v;
-                tau[off + k] = if c.is_finite() { c } else { 0.0 };
-            }
+            };
         }
         if rec.barrier_hit {
             self.events.barrier_hits += 1;
@@ -736,8 +843,8 @@ impl Controller {
         let mut sub = NnInternals::<2>::default();
         let mut wn = Vector3::zeros();
         for i in 0..self.tau_x.len() {
-            let t = &self.ws.terms[i];
-            let (x1, x2) = (t.p_ee, t.v_ee);
+            let a = &self.arm_slots[i];
+            let (x1, x2) = (a.p_ee, a.v_ee);
             let (xr, xdr, xddr) = (self.ref_p[i], self.ref_v[i], self.ref_a[i]);
             let law = match &mut self.law {
                 Law::PerArmPd(pd) => {
@@ -822,5 +929,102 @@ impl Controller {
     /// Admittance offsets `e_i` of every arm (m), for logging.
     pub fn admittance_offsets(&self) -> impl Iterator<Item = Vector2<f64>> + '_ {
         self.adm_state.iter().map(|s| s.e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::arm::{ArmParams, Elbow, LinkParams};
+    use crate::fixtures::{self, SplitMix64};
+
+    /// Two 4-link arms (0.15 m links) on the paper's box, and an IK guess at the start pose.
+    fn four_link_pair() -> (PlantParams, Vec<f64>) {
+        let arm = |x: f64, elbow| ArmParams {
+            base: [x, 0.0],
+            base_angle: 0.0,
+            links: [(1.5, 0.02), (1.0, 0.01), (0.7, 0.007), (0.5, 0.005)]
+                .iter()
+                .map(|&(mass, inertia)| LinkParams {
+                    mass,
+                    length: 0.15,
+                    com: 0.075,
+                    inertia,
+                })
+                .collect(),
+            elbow,
+        };
+        let mut p = PlantParams::paper();
+        p.arms = vec![arm(-0.38, Elbow::Negative), arm(0.38, Elbow::Positive)];
+        let guess = vec![0.748, -1.495, 0.748, 0.0, -1.008, 2.017, 2.133, 0.0];
+        (p, guess)
+    }
+
+    #[test]
+    fn fixed_size_arm_kernels_tick_bit_for_bit_as_the_dynamic_route() {
+        // The tick with each arm on its fixed-size kernel (3 and 4 links) against the same
+        // controller forced onto the dynamic-size route (`ArmTerms`, the fallback for other
+        // link counts): the same operations in the same order, so every torque and every
+        // recorded value must be the same bits. PD on the object and per arm, with a torque
+        // limit so the clamp runs (it clips at least one torque in 25–85 % of the ticks); 200
+        // ticks at joint angles within ±2e-4 rad of the start pose, rates within ±0.01 rad/s
+        // and grasp forces within ±3 N, drawn afresh each tick.
+        let (p3, g3) = fixtures::redundant_pair();
+        let (p4, g4) = four_link_pair();
+        for (name, model, guess, links) in [("3-link", p3, g3, 3), ("4-link", p4, g4, 4)] {
+            for scheme in [Scheme::Object, Scheme::PerArm] {
+                let mut cp = ControllerParams::paper(LawParams::Pd(PdGains::paper()));
+                cp.scheme = scheme;
+                cp.torque_limit = Some(20.0);
+                let build = || Controller::new(&cp, &model, Path::paper(), 1.0).unwrap().0;
+                let (mut fixed, mut dynamic) = (build(), build());
+                for a in dynamic.arm_slots.iter_mut() {
+                    let selected = match a.kernel {
+                        ArmKernel::Three(..) => 3,
+                        ArmKernel::Four(..) => 4,
+                        _ => 0,
+                    };
+                    assert_eq!(selected, links, "{name}: kernel selected at set-up");
+                    a.kernel = ArmKernel::General;
+                }
+                let plant = Plant::new(&model).unwrap();
+                let y = plant
+                    .initial_state(fixtures::paper_start(), Vector3::zeros(), Some(&guess))
+                    .unwrap();
+                let nq = plant.n_q();
+                let mut rng = SplitMix64(7);
+                let (mut q, mut qd) = (y[..nq].to_vec(), vec![0.0; nq]);
+                let mut forces = [0.0; 4];
+                let (mut tau_a, mut tau_b) = (vec![0.0; nq], vec![0.0; nq]);
+                let (mut rec_a, mut rec_b) = (TickRecord::default(), TickRecord::default());
+                let mut clipped = 0;
+                for k in 0..200 {
+                    for (v, v0) in q.iter_mut().zip(&y[..nq]) {
+                        *v = v0 + rng.range(-2e-4, 2e-4);
+                    }
+                    qd.iter_mut().for_each(|v| *v = rng.range(-0.01, 0.01));
+                    forces.iter_mut().for_each(|v| *v = rng.range(-3.0, 3.0));
+                    let meas = Measurements {
+                        q: &q,
+                        qd: &qd,
+                        wrenches: &forces,
+                    };
+                    if k == 0 {
+                        fixed.start(0.0, &meas);
+                        dynamic.start(0.0, &meas);
+                    }
+                    let t = k as f64 * 1e-3;
+                    fixed.tick(t, &meas, &mut tau_a, &mut rec_a);
+                    dynamic.tick(t, &meas, &mut tau_b, &mut rec_b);
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&tau_a), bits(&tau_b), "{name} {scheme:?} tick {k}");
+                    assert_eq!(rec_a, rec_b, "{name} {scheme:?} tick {k}");
+                    assert!(tau_a.iter().any(|v| *v != 0.0));
+                    clipped += usize::from(rec_a.torque_clipped);
+                }
+                assert_eq!(fixed.events(), dynamic.events(), "{name} {scheme:?}");
+                println!("{name} {scheme:?}: 200 ticks identical, {clipped} with a clipped torque");
+            }
+        }
     }
 }
