@@ -6,8 +6,12 @@
 //!
 //! Bytes moved = 2 × buffer (read + write) for the update pass, 1 × for the read pass; divide
 //! by the median time. The buffers start on a 64-byte boundary, as the network's weights do
-//! (`rbf::Aligned`): an unaligned 64-byte load touches two cache lines, and the rates measured
-//! with plain `Vec`s (16-byte aligned) before 2026-12-02 were 10–35 % lower.
+//! (`rbf::Aligned`): an unaligned 64-byte load touches two cache lines; with plain `Vec`s
+//! (16-byte aligned), as before 2026-12-02 09:00 UTC, the read rates were 20–38 % lower.
+//!
+//! `machine/fma512_12x1000`: 12 000 AVX-512 fused multiply-adds in 12 independent chains
+//! (every chain summed into the result, so none is dead code): the FMA throughput, in FMAs a
+//! cycle = 12 000 / (time × clock).
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 
@@ -88,6 +92,31 @@ fn aligned_ones(len: usize) -> (Vec<f64>, usize) {
     (v, off)
 }
 
+/// 12 chains × 1000 AVX-512 FMAs `acc ← acc·x + y`; every chain feeds the result.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn fma512(x: f64, y: f64) -> f64 {
+    use std::arch::x86_64::{_mm512_add_pd, _mm512_fmadd_pd, _mm512_set1_pd, _mm512_storeu_pd};
+    let (xv, yv) = (_mm512_set1_pd(x), _mm512_set1_pd(y));
+    let mut acc = [_mm512_set1_pd(1.0); 12];
+    for _ in 0..1000 {
+        for a in acc.iter_mut() {
+            *a = _mm512_fmadd_pd(*a, xv, yv);
+        }
+    }
+    let mut s = acc[0];
+    for a in &acc[1..] {
+        s = _mm512_add_pd(s, *a);
+    }
+    let mut out = [0.0; 8];
+    // SAFETY: `out` holds 8 f64.
+    unsafe { _mm512_storeu_pd(out.as_mut_ptr(), s) };
+    out.iter().sum()
+}
+
 fn bench(c: &mut Criterion) {
     for kb in [32usize, 96, 192] {
         let n = kb * 1024 / 8;
@@ -103,6 +132,13 @@ fn bench(c: &mut Criterion) {
         g.throughput(Throughput::Bytes((kb * 1024) as u64));
         g.bench_function(format!("{kb}KB"), |b| b.iter(|| read(black_box(&*x))));
         g.finish();
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        c.bench_function("machine/fma512_12x1000", |b| {
+            // SAFETY: AVX-512F detected just above.
+            b.iter(|| unsafe { fma512(black_box(0.999_999), black_box(1e-9)) })
+        });
     }
     // 10 000 dependent adds (x86-64: 1000 blocks of 10 `add r, r'` in one asm statement, each
     // waiting for the last; register operands, since recent cores fold add-immediate chains at
