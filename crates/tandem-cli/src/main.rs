@@ -449,7 +449,7 @@ fn cmd_run_spatial(a: RunArgs, src: Source) -> Result<ExitCode> {
         a.replay_interpolation,
     )?;
     let (src, sc) = load_spatial(src, &o)?;
-    let slug = spatial::label(&sc).replace([' ', '+'], "-");
+    let slug = spatial::slug(&spatial::label(&sc));
     let out_dir = a
         .common
         .out

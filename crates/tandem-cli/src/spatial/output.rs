@@ -50,7 +50,8 @@ pub struct Finished {
     pub path: Se3Path,
     /// Simulated duration asked for, s.
     pub duration: f64,
-    /// The law's short name: `nn`, `pd`, `ctc`, `per-arm-pd`.
+    /// The law's short name, the [`super::slug`] of its label: `nn`, `pd`, `pd-gravity`, `ctc`,
+    /// `per-arm-pd`, `replay`.
     pub controller: String,
     /// A human label for tables and legends, e.g. `NN`.
     pub label: String,
@@ -1136,20 +1137,6 @@ pub fn markdown(runs: &[(&str, &Value)]) -> String {
     out
 }
 
-/// A folder name for a run label: lowercase letters, digits and `-`.
-fn slug(label: &str) -> String {
-    let mut s: String = label
-        .to_lowercase()
-        .chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
-        .collect();
-    while s.contains("--") {
-        s = s.replace("--", "-");
-    }
-    let s = s.trim_matches('-').to_string();
-    if s.is_empty() { "run".into() } else { s }
-}
-
 /// Writes a spatial comparison into `dir` (a temporary folder): one sub-folder per run with its
 /// own outputs ([`write()`]), the overlay figures ([`super::figures::compare_figures`]),
 /// `report.md` (side-by-side table, figures) and `summary.json` (the runs' summaries keyed by
@@ -1164,7 +1151,7 @@ pub fn write_compare(
     let mut summaries = Vec::new();
     let mut slugs: Vec<String> = Vec::new();
     for (label, f) in runs {
-        let mut s = slug(label);
+        let mut s = super::slug(label);
         let base = s.clone();
         let mut k = 2;
         while slugs.contains(&s) {
