@@ -44,7 +44,7 @@ use tandem::reference::admittance_se3::AdmittanceSe3Params;
 use tandem::reference::se3_path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};
 use tandem::se3::Chart;
 use tandem::sensors::{ChannelNoise, SensorParams};
-use tandem::sim::{Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
+use tandem::sim::{Drive, Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
 
 use crate::scenario::{
     Embedded, MAX_ARMS, MAX_LINKS, MetricsConfig, ScenarioError, Source, num, read_limited,
@@ -1536,6 +1536,24 @@ fn warning_text(src: &Source, sc: &SpatialScenario, dofs: &[usize], w: &ControlW
     }
 }
 
+/// The simulation of `driver` (the controller or a torque replay) on the built plant, start,
+/// sensors, disturbance and timing.
+fn simulation<D: Drive<SpatialPlant>>(
+    plant: SpatialPlant,
+    b: &SpatialBuilt,
+    driver: D,
+) -> Result<Box<Simulation<SpatialPlant, D>>, ModelError> {
+    Simulation::with_plant(
+        plant,
+        &b.start,
+        &b.sensors,
+        driver,
+        b.disturbance.clone(),
+        b.sim.clone(),
+    )
+    .map(Box::new)
+}
+
 /// Build the controller (the set-up checks of [`SpatialController::new`]: gains, bounds, the
 /// path inside the bounds and the arms' reach and joint limits, the posture) and the simulation.
 /// An NN law whose file gives no design inertia is designed on the path's chart-space inertia
@@ -1592,29 +1610,14 @@ pub fn make_simulation(
     .map_err(lib)?;
     let k_c: [f64; 6] = c.k_c().into();
     let chart = *c.chart();
-    match &b.replay {
+    let (sim, controller) = match &b.replay {
         None => {
             if path_inertia.is_none() {
                 path_inertia = Some(c.path_inertia().into());
             }
             warnings.extend(w.iter().map(|w| warning_text(src, sc, &dofs, w)));
-            let sim = Simulation::with_plant(
-                plant,
-                &b.start,
-                &b.sensors,
-                c,
-                b.disturbance.clone(),
-                b.sim.clone(),
-            )
-            .map_err(start_error)?;
-            Ok(SpatialReady {
-                sim: SpatialSim::Control(Box::new(sim)),
-                warnings,
-                controller: Some(cp),
-                path_inertia,
-                k_c,
-                chart,
-            })
+            let sim = simulation(plant, b, c).map_err(start_error)?;
+            (SpatialSim::Control(sim), Some(cp))
         }
         Some(file) => {
             let timing = crate::replay::Timing {
@@ -1633,23 +1636,17 @@ pub fn make_simulation(
                     span: None,
                     text: String::new(),
                 })?;
-            let sim = Simulation::with_plant(
-                plant,
-                &b.start,
-                &b.sensors,
-                replay,
-                b.disturbance.clone(),
-                b.sim.clone(),
-            )
-            .map_err(start_error)?;
-            Ok(SpatialReady {
-                sim: SpatialSim::Replay(Box::new(sim)),
-                warnings,
-                controller: None,
-                path_inertia: None,
-                k_c,
-                chart,
-            })
+            path_inertia = None;
+            let sim = simulation(plant, b, replay).map_err(start_error)?;
+            (SpatialSim::Replay(sim), None)
         }
-    }
+    };
+    Ok(SpatialReady {
+        sim,
+        warnings,
+        controller,
+        path_inertia,
+        k_c,
+        chart,
+    })
 }
