@@ -103,11 +103,6 @@ pub fn resolve(arg: Option<&str>) -> Result<Source, crate::BadInput> {
         let text = read_limited(p, MAX_SCENARIO_BYTES).map_err(|e| {
             crate::BadInput::msg(format!("cannot read scenario file {}: {e}", p.display()))
         })?;
-        // A UTF-8 byte-order mark (some editors write one) is not part of the TOML.
-        let text = match text.strip_prefix('\u{feff}') {
-            Some(t) => t.to_string(),
-            None => text,
-        };
         let name = p
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -161,7 +156,9 @@ pub const MAX_ARMS: usize = 16;
 /// See [`MAX_ARMS`].
 pub const MAX_LINKS: usize = 16;
 
-/// Read a UTF-8 file of at most `limit` bytes (a larger one is refused, never read whole).
+/// Read a UTF-8 file of at most `limit` bytes (a larger one is refused, never read whole). A
+/// leading UTF-8 byte-order mark (some editors write one) is dropped: it is not part of the
+/// TOML or the URDF. The scenario, sweep and URDF readers all read through here.
 pub fn read_limited(p: &FsPath, limit: u64) -> Result<String, String> {
     use std::io::Read;
     let f = std::fs::File::open(p).map_err(|e| e.to_string())?;
@@ -175,8 +172,13 @@ pub fn read_limited(p: &FsPath, limit: u64) -> Result<String, String> {
             limit >> 20
         ));
     }
-    String::from_utf8(buf).map_err(|e| {
-        let at = e.utf8_error().valid_up_to();
+    let bom = if buf.starts_with(b"\xef\xbb\xbf") {
+        3
+    } else {
+        0
+    };
+    String::from_utf8(buf.split_off(bom)).map_err(|e| {
+        let at = bom + e.utf8_error().valid_up_to();
         format!("the file is not UTF-8 text (invalid byte at offset {at})")
     })
 }
@@ -1952,6 +1954,23 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn read_limited_drops_a_byte_order_mark_and_counts_offsets_in_the_file() {
+        let d = std::env::temp_dir().join(format!("tandem-read-limited-{}", std::process::id()));
+        std::fs::create_dir_all(&d).expect("scratch folder");
+        let f = d.join("bom.toml");
+        std::fs::write(&f, "\u{feff}name = \"x\"\n").expect("write");
+        assert_eq!(read_limited(&f, 1 << 20).as_deref(), Ok("name = \"x\"\n"));
+        // Without a mark nothing is dropped (a mark inside the text stays).
+        std::fs::write(&f, "a\u{feff}").expect("write");
+        assert_eq!(read_limited(&f, 1 << 20).as_deref(), Ok("a\u{feff}"));
+        // A bad byte's offset is the file's, the mark counted.
+        std::fs::write(&f, b"\xef\xbb\xbfab\xff").expect("write");
+        let e = read_limited(&f, 1 << 20).expect_err("not UTF-8");
+        assert!(e.contains("offset 5"), "{e}");
+        let _ = std::fs::remove_dir_all(&d);
+    }
 
     #[test]
     fn every_embedded_scenario_parses_and_builds() {

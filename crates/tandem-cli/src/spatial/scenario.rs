@@ -1048,10 +1048,6 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
                         format!("{here}.urdf: cannot read {}: {e}", p.display()),
                     )
                 })?;
-                let text = match text.strip_prefix('\u{feff}') {
-                    Some(t) => t.to_string(),
-                    None => text,
-                };
                 inputs.push(p.clone());
                 (text, None, None, p.display().to_string())
             }
