@@ -413,6 +413,32 @@ fn bad_input_names_the_field_and_the_urdf_line() {
         &[("mass = 3.0", "mass = -3.0")],
         &["object.mass", "> 0"],
     );
+    // A start offset the arms cannot hold: the error names and points at run.start_offset
+    // (its line in the file), not at the first arm, and still says which arm fails.
+    let line = user_scenario(&d, "1.0", &[])
+        .to_str()
+        .map(|p| std::fs::read_to_string(p).unwrap())
+        .unwrap()
+        .lines()
+        .position(|l| l.starts_with("start_offset"))
+        .unwrap()
+        + 1;
+    for big in ["5.0", "1e300"] {
+        bad(
+            &d,
+            &[(
+                "start_offset = [-0.01, 0.0, 0.0",
+                &format!("start_offset = [{big}, 0.0, 0.0"),
+            )],
+            &[
+                "error: ",
+                ": run.start_offset = [",
+                "the start pose",
+                "arms[0]: cannot reach",
+                &format!("(line {line}, column 16)"),
+            ],
+        );
+    }
 }
 
 #[test]

@@ -1563,18 +1563,28 @@ pub fn make_simulation(
     let lib = |e: ModelError| model_error(src, sc, &dofs, e);
     let mut warnings = b.warnings.clone();
     let plant = SpatialPlant::new(&b.plant).map_err(lib)?;
+    // The controller's set-up has checked that every arm reaches the path, so an arm that
+    // cannot hold the start pose fails on the file's start offset when it gives one: the error
+    // names and points at `run.start_offset` (else at the arm).
     let start_error = |e: ModelError| {
-        let o = sc.run.start_offset.map(num);
+        let o = sc.run.start_offset;
         match &e {
             ModelError::Geometry { what, .. } if what.starts_with("arms") => {
-                let field = file_path(sc, &dofs, what);
-                src.error_at(
-                    &field,
-                    format!(
-                        "{field}: the start pose (the path at t = 0 offset by run.start_offset = [{}]) cannot be held: {e}",
-                        o.join(", ")
-                    ),
-                )
+                let offset = format!("[{}]", o.map(num).join(", "));
+                if o.iter().any(|v| *v != 0.0) {
+                    src.error_at(
+                        "run.start_offset",
+                        format!(
+                            "run.start_offset = {offset}: the start pose (the path at t = 0 offset by it) cannot be held: {e}"
+                        ),
+                    )
+                } else {
+                    let field = file_path(sc, &dofs, what);
+                    src.error_at(
+                        &field,
+                        format!("{field}: the start pose (the path at t = 0) cannot be held: {e}"),
+                    )
+                }
             }
             _ => lib(e),
         }
