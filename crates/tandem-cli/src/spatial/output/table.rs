@@ -174,57 +174,12 @@ pub fn rows(runs: &[(&str, &Value)]) -> Vec<(String, Vec<String>)> {
 
 /// The table as aligned text (one column per run; a header line when there are several).
 pub fn text(runs: &[(&str, &Value)]) -> String {
-    let rows = rows(runs);
-    let w0 = rows
-        .iter()
-        .map(|(n, _)| n.chars().count())
-        .max()
-        .unwrap_or(0);
-    let widths: Vec<usize> = (0..runs.len())
-        .map(|i| {
-            rows.iter()
-                .map(|(_, c)| c[i].chars().count())
-                .chain(std::iter::once(runs[i].0.chars().count()))
-                .max()
-                .unwrap_or(0)
-        })
-        .collect();
-    let pad = |s: &str, w: usize| format!("{s}{}", " ".repeat(w.saturating_sub(s.chars().count())));
-    let mut out = String::new();
-    let mut line = |name: &str, cells: Vec<&str>| {
-        let mut l = pad(name, w0);
-        for (i, c) in cells.iter().enumerate() {
-            l.push_str("  ");
-            l.push_str(&pad(c, widths[i]));
-        }
-        out.push_str(l.trim_end());
-        out.push('\n');
-    };
-    if runs.len() > 1 {
-        line("", runs.iter().map(|(n, _)| *n).collect());
-    }
-    for (name, cells) in &rows {
-        line(name, cells.iter().map(String::as_str).collect());
-    }
-    out
+    let names: Vec<&str> = runs.iter().map(|(n, _)| *n).collect();
+    crate::table::render_text(&names, &rows(runs))
 }
 
 /// The table in Markdown.
 pub fn markdown(runs: &[(&str, &Value)]) -> String {
-    let esc = |s: &str| s.replace('|', "\\|");
-    let mut out = String::from("| metric |");
-    for (name, _) in runs {
-        out.push_str(&format!(" {} |", esc(name)));
-    }
-    out.push_str("\n|---|");
-    out.push_str(&"---|".repeat(runs.len()));
-    out.push('\n');
-    for (name, cells) in rows(runs) {
-        out.push_str(&format!("| {} |", esc(&name)));
-        for c in cells {
-            out.push_str(&format!(" {} |", esc(&c)));
-        }
-        out.push('\n');
-    }
-    out
+    let names: Vec<&str> = runs.iter().map(|(n, _)| *n).collect();
+    crate::table::render_markdown(&names, &rows(runs))
 }
