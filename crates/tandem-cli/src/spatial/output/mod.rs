@@ -83,10 +83,7 @@ impl Finished {
     }
 }
 
-/// A column, or an empty slice when the log has none.
-pub(crate) fn col<'a>(log: &'a Log, name: &str) -> &'a [f64] {
-    log.get(name).unwrap_or(&[])
-}
+pub(crate) use crate::figures::col;
 
 /// The six columns `group.{axes}`, if all exist with one value per row.
 pub(crate) fn six<'a>(log: &'a Log, group: &str, axes: &[&str; 6]) -> Option<[&'a [f64]; 6]> {
