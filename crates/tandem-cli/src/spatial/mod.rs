@@ -180,10 +180,7 @@ pub fn cmd_run(p: Prepared, out: OutputDir, figures: bool) -> Result<bool> {
     bar.finish_and_clear();
     let (s, times, problems) = output::write(out.tmp_dir(), &name, &f, figures)?;
     write_text_atomic(&out.tmp_dir().join("scenario.toml"), &toml_text)?;
-    for p in &problems {
-        eprintln!("warning: {p}");
-    }
-    let dir = out.commit()?;
+    let dir = out.commit_with_warnings(&problems)?;
     println!("{name} — {}, {duration} s", f.label);
     print!("{}", output::text(&[(f.label.as_str(), &s)]));
     println!(
@@ -264,10 +261,7 @@ pub fn cmd_compare(
     let runs: Vec<(&str, &Finished)> = finished.iter().map(|f| (f.label.as_str(), f)).collect();
     let (summaries, problems) = output::write_compare(out.tmp_dir(), &name, &runs, figures)?;
     write_text_atomic(&out.tmp_dir().join("scenario.toml"), &toml_text)?;
-    for p in &problems {
-        eprintln!("warning: {p}");
-    }
-    let dir = out.commit()?;
+    let dir = out.commit_with_warnings(&problems)?;
     println!("{name} — compare, {} s", finished[0].duration);
     let cols: Vec<(&str, &serde_json::Value)> = finished
         .iter()
