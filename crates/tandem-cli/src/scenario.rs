@@ -39,7 +39,7 @@ use tandem::object::ObjectParams;
 use tandem::pd::PdGains;
 use tandem::plant::PlantParams;
 use tandem::sensors::{ChannelNoise, SensorParams};
-use tandem::sim::{Driver, Formulation, SimParams, Simulation};
+use tandem::sim::{Driver, Formulation, Replay, SimParams, Simulation};
 use tandem::trajectory::Path;
 
 use crate::suggest;
@@ -1478,6 +1478,49 @@ fn run_path(p: &str) -> String {
     format!("run.{p}")
 }
 
+/// A controller set-up warning with its place in the file: a gain's at the file path `gain_path`
+/// maps the library's parameter to, an admittance warning's at the path its sentence starts
+/// with (`admittance.m_e[0] …`). Planar and spatial scenarios.
+pub(crate) fn control_warning(
+    src: &Source,
+    w: &ControlWarning,
+    gain_path: impl Fn(&str) -> String,
+) -> String {
+    match w {
+        ControlWarning::Gain { param, reason } => src.warning_at(&gain_path(param), reason),
+        ControlWarning::Admittance(a) => {
+            let t = a.to_string();
+            let path = t.split_whitespace().next().unwrap_or("admittance");
+            src.warning_at(path, &t)
+        }
+    }
+}
+
+/// The torque replay `file` for `n_q` joints on the run's control period and duration
+/// (interpolation `mode`, default linear); an error names `controller.replay (or --replay)`.
+/// Planar and spatial scenarios.
+pub(crate) fn load_replay(
+    src: &Source,
+    file: &FsPath,
+    n_q: usize,
+    sim: &SimParams,
+    mode: Option<crate::replay::Interpolation>,
+) -> Result<Replay, ScenarioError> {
+    let timing = crate::replay::Timing {
+        control_period: sim.control_period,
+        duration: sim.duration,
+    };
+    crate::replay::load(file, n_q, timing, mode.unwrap_or_default()).map_err(|e| ScenarioError {
+        file: src.display.clone(),
+        message: format!(
+            "controller.replay (or --replay) = {}: {e:#}",
+            file.display()
+        ),
+        span: None,
+        text: String::new(),
+    })
+}
+
 /// Map a library parameter path of [`Controller::new`] to the file's.
 fn controller_path(kind: ControllerKind) -> impl Fn(&str) -> String {
     move |p: &str| {
@@ -1837,22 +1880,7 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
             let (c, w) = Controller::new(cp, &b.plant, b.path.clone(), b.sim.duration)
                 .map_err(|e| src.model_error(e, controller_path(sc.controller.kind)))?;
             let map = controller_path(sc.controller.kind);
-            warnings.extend(w.iter().map(|w: &ControlWarning| {
-                let (param, text) = match w {
-                    ControlWarning::Gain { param, reason } => (map(param), reason.clone()),
-                    ControlWarning::Admittance(a) => {
-                        let t = a.to_string();
-                        // The library's sentence starts with its own path, `admittance.m_e[0] ...`.
-                        let path = t
-                            .split_whitespace()
-                            .next()
-                            .unwrap_or("admittance")
-                            .to_string();
-                        (path, t)
-                    }
-                };
-                src.warning_at(&param, &text)
-            }));
+            warnings.extend(w.iter().map(|w| control_warning(src, w, &map)));
             // The start must be inside the output bounds the controller keeps (iBLF: |x_1j| < k_cj).
             if sc.controller.kind != ControllerKind::Replay {
                 let unit = ["m", "m", "rad"];
@@ -1877,21 +1905,8 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
         None => {
             let file = b.replay.as_deref().unwrap_or(FsPath::new(""));
             let n_q: usize = b.plant.arms.iter().map(|a| a.links.len()).sum();
-            let timing = crate::replay::Timing {
-                control_period: b.sim.control_period,
-                duration: b.sim.duration,
-            };
-            let mode = sc.controller.replay_interpolation.unwrap_or_default();
-            let replay =
-                crate::replay::load(file, n_q, timing, mode).map_err(|e| ScenarioError {
-                    file: src.display.clone(),
-                    message: format!(
-                        "controller.replay (or --replay) = {}: {e:#}",
-                        file.display()
-                    ),
-                    span: None,
-                    text: String::new(),
-                })?;
+            let mode = sc.controller.replay_interpolation;
+            let replay = load_replay(src, file, n_q, &b.sim, mode)?;
             Driver::Replay(replay)
         }
     };

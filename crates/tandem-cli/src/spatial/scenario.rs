@@ -27,7 +27,6 @@ use std::path::{Path as FsPath, PathBuf};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 use tandem::ModelError;
-use tandem::control::ControlWarning;
 use tandem::control::Scheme;
 use tandem::control::spatial::SpatialController;
 use tandem::control::spatial::{
@@ -47,7 +46,8 @@ use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Drive, Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
 
 use crate::scenario::{
-    Embedded, MAX_ARMS, MAX_LINKS, MetricsConfig, ScenarioError, Source, num, read_limited,
+    Embedded, MAX_ARMS, MAX_LINKS, MetricsConfig, ScenarioError, Source, control_warning,
+    load_replay, num, read_limited,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -1515,23 +1515,6 @@ pub fn dofs(b: &SpatialBuilt) -> Vec<usize> {
     b.plant.arms.iter().map(|a| a.chain.joints.len()).collect()
 }
 
-fn warning_text(src: &Source, sc: &SpatialScenario, dofs: &[usize], w: &ControlWarning) -> String {
-    match w {
-        ControlWarning::Gain { param, reason } => {
-            src.warning_at(&file_path(sc, dofs, param), reason)
-        }
-        ControlWarning::Admittance(a) => {
-            let t = a.to_string();
-            let path = t
-                .split_whitespace()
-                .next()
-                .unwrap_or("admittance")
-                .to_string();
-            src.warning_at(&path, &t)
-        }
-    }
-}
-
 /// The simulation of `driver` (the controller or a torque replay) on the built plant, start,
 /// sensors, disturbance and timing.
 fn simulation<D: Drive<SpatialPlant>>(
@@ -1621,27 +1604,17 @@ pub fn make_simulation(
             if path_inertia.is_none() {
                 path_inertia = Some(c.path_inertia().into());
             }
-            warnings.extend(w.iter().map(|w| warning_text(src, sc, &dofs, w)));
+            warnings.extend(
+                w.iter()
+                    .map(|w| control_warning(src, w, |p| file_path(sc, &dofs, p))),
+            );
             let sim = simulation(plant, b, c).map_err(start_error)?;
             (SpatialSim::Control(sim), Some(cp))
         }
         Some(file) => {
-            let timing = crate::replay::Timing {
-                control_period: b.sim.control_period,
-                duration: b.sim.duration,
-            };
-            let mode = sc.controller.replay_interpolation.unwrap_or_default();
             let n_q: usize = dofs.iter().sum();
-            let replay =
-                crate::replay::load(file, n_q, timing, mode).map_err(|e| ScenarioError {
-                    file: src.display.clone(),
-                    message: format!(
-                        "controller.replay (or --replay) = {}: {e:#}",
-                        file.display()
-                    ),
-                    span: None,
-                    text: String::new(),
-                })?;
+            let mode = sc.controller.replay_interpolation;
+            let replay = load_replay(src, file, n_q, &b.sim, mode)?;
             path_inertia = None;
             let sim = simulation(plant, b, replay).map_err(start_error)?;
             (SpatialSim::Replay(sim), None)
