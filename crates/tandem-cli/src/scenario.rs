@@ -168,7 +168,7 @@ pub fn read_limited(p: &FsPath, limit: u64) -> Result<String, String> {
         .map_err(|e| e.to_string())?;
     if buf.len() as u64 > limit {
         return Err(format!(
-            "the file is larger than {} MiB (a scenario is a few kB)",
+            "the file is larger than {} MiB (scenario, sweep and URDF files are far smaller)",
             limit >> 20
         ));
     }
@@ -1510,14 +1510,22 @@ pub(crate) fn load_replay(
         control_period: sim.control_period,
         duration: sim.duration,
     };
-    crate::replay::load(file, n_q, timing, mode.unwrap_or_default()).map_err(|e| ScenarioError {
-        file: src.display.clone(),
-        message: format!(
+    crate::replay::load(file, n_q, timing, mode.unwrap_or_default()).map_err(|e| {
+        let message = format!(
             "controller.replay (or --replay) = {}: {e:#}",
             file.display()
-        ),
-        span: None,
-        text: String::new(),
+        );
+        // The caret on the file's `replay = …` when it sets one (else the path came from
+        // --replay alone and there is no line to show).
+        match span_of(&src.text, "controller.replay") {
+            Some((_, true)) => src.error_at("controller.replay", message),
+            _ => ScenarioError {
+                file: src.display.clone(),
+                message,
+                span: None,
+                text: String::new(),
+            },
+        }
     })
 }
 

@@ -413,6 +413,36 @@ fn bad_input_names_the_field_and_the_urdf_line() {
         &[("mass = 3.0", "mass = -3.0")],
         &["object.mass", "> 0"],
     );
+    // Hostile files: a URDF or a replay that is a folder, a URDF that is a binary file, NaN.
+    std::fs::create_dir_all(d.join("folder")).unwrap();
+    let mut binary = b"\x7fELF\x02\x01\x01\x00".to_vec();
+    binary.extend((0u8..=255).cycle().take(4000));
+    std::fs::write(d.join("bin.urdf"), binary).unwrap();
+    bad(
+        &d,
+        &[("urdf = \"arm.urdf\"", "urdf = \"folder\"")],
+        &["arms[0].urdf", "cannot read", "folder", "line 20"],
+    );
+    bad(
+        &d,
+        &[("urdf = \"arm.urdf\"", "urdf = \"bin.urdf\"")],
+        &["arms[0].urdf", "not UTF-8 text", "offset 136", "line 20"],
+    );
+    bad(
+        &d,
+        &[("kind = \"nn\"", "kind = \"replay\"\nreplay = \"folder\"")],
+        &["controller.replay", "folder", "(line 78, column 10)"],
+    );
+    bad(
+        &d,
+        &[("mass = 3.0", "mass = nan")],
+        &["object.mass = NaN", "finite"],
+    );
+    bad(
+        &d,
+        &[("start_offset = [-0.01,", "start_offset = [nan,")],
+        &["run.start_offset[0]", "finite"],
+    );
     // A start offset the arms cannot hold: the error names and points at run.start_offset
     // (its line in the file), not at the first arm, and still says which arm fails.
     let line = user_scenario(&d, "1.0", &[])
