@@ -443,6 +443,18 @@ fn bad_input_names_the_field_and_the_urdf_line() {
         &[("start_offset = [-0.01,", "start_offset = [nan,")],
         &["run.start_offset[0]", "finite"],
     );
+    // The NN design's inputs are named as the file gives them, with their place (they were
+    // reported as the designed gain `controller.nn.k1[0]`, "not set in the file").
+    bad(
+        &d,
+        &[("k1 = 8.0, omega_n", "k1 = nan, omega_n")],
+        &["controller.nn.design.k1 = NaN", "> 0", "(line 97, column 63)"],
+    );
+    bad(
+        &d,
+        &[("inertia = [20.0,", "inertia = [-20.0,")],
+        &["controller.nn.design.inertia[0] = -20", "> 0", "(line 97, column 23)"],
+    );
     // A start offset the arms cannot hold: the error names and points at run.start_offset
     // (its line in the file), not at the first arm, and still says which arm fails.
     let line = user_scenario(&d, "1.0", &[])

@@ -1176,6 +1176,28 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
 
     // Controller.
     let c = &sc.controller;
+    // The NN design's inputs (SPEC §3.4's per-axis design): checked here, by their own names,
+    // before the gains designed from them are (a NaN `k1` would otherwise surface as the
+    // designed `controller.nn.k1[0]`, a field the file does not set).
+    if c.kind == SpatialKind::Nn {
+        let d = &c.nn.design;
+        let mut fields: Vec<(String, f64)> = vec![
+            ("controller.nn.design.k1".into(), d.k1),
+            ("controller.nn.design.omega_n".into(), d.omega_n),
+            ("controller.nn.design.zeta".into(), d.zeta),
+        ];
+        for (j, m) in d.inertia.iter().flatten().enumerate() {
+            fields.push((format!("controller.nn.design.inertia[{j}]"), *m));
+        }
+        for (name, v) in fields {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(src.error_at(
+                    &name,
+                    format!("{name} = {}: must be finite and > 0", num(v)),
+                ));
+            }
+        }
+    }
     let controller = {
         let law = match c.kind {
             SpatialKind::Nn => SpatialLaw::Nn(nn_gains(&c.nn, None)),
