@@ -1114,7 +1114,44 @@ pub fn check_name(src: &Source, n: &str) -> Result<(), ScenarioError> {
 /// compared with the one at the same path, whatever struct (the CLI's or the library's) it
 /// filled.
 fn check_lengths<T: Serialize>(src: &Source, sc: &T) -> Result<(), ScenarioError> {
+    use toml::de::DeValue;
+    first_in_file(src, sc, &mut |path, v, back| match (v.get_ref(), back) {
+        (DeValue::Array(a), toml::Value::Array(b)) if a.len() != b.len() => Some(format!(
+            "{path} has {} entries; it takes exactly {}",
+            a.len(),
+            b.len()
+        )),
+        _ => None,
+    })
+}
+
+/// A number that is not finite (`nan`, `inf`) anywhere in the file's known fields, also in a
+/// section the run does not use (the gains of another law, which `tandem compare` would use),
+/// is an error naming the field. Run after the field-specific checks, whose messages say more.
+pub(crate) fn check_finite<T: Serialize>(src: &Source, sc: &T) -> Result<(), ScenarioError> {
+    first_in_file(src, sc, &mut |path, _, back| match back {
+        toml::Value::Float(x) if !x.is_finite() => {
+            Some(format!("{path} = {}: must be a finite number", num(*x)))
+        }
+        _ => None,
+    })
+}
+
+/// Walks the fields the file sets together with their values as read (`sc` serialized back),
+/// depth first in the file's order, and returns the first for which `visit(path, in the file,
+/// as read)` gives a message as an error at that field.
+fn first_in_file<T: Serialize>(
+    src: &Source,
+    sc: &T,
+    visit: &mut dyn FnMut(
+        &str,
+        &toml::Spanned<toml::de::DeValue<'_>>,
+        &toml::Value,
+    ) -> Option<String>,
+) -> Result<(), ScenarioError> {
     use toml::de::{DeTable, DeValue};
+    type Visit<'v> =
+        dyn FnMut(&str, &toml::Spanned<DeValue<'_>>, &toml::Value) -> Option<String> + 'v;
     let Ok(back) = toml::Value::try_from(sc) else {
         return Ok(());
     };
@@ -1125,54 +1162,42 @@ fn check_lengths<T: Serialize>(src: &Source, sc: &T) -> Result<(), ScenarioError
         path: &str,
         v: &toml::Spanned<DeValue<'_>>,
         back: &toml::Value,
-        found: &mut Option<(String, usize, usize, Range<usize>)>,
-    ) {
-        if found.is_some() {
-            return;
+        visit: &mut Visit<'_>,
+    ) -> Option<(String, Range<usize>)> {
+        if let Some(m) = visit(path, v, back) {
+            return Some((m, v.span()));
         }
         match (v.get_ref(), back) {
-            (DeValue::Array(a), toml::Value::Array(b)) => {
-                if a.len() != b.len() {
-                    *found = Some((path.to_string(), a.len(), b.len(), v.span()));
-                    return;
-                }
-                for (i, (x, y)) in a.iter().zip(b.iter()).enumerate() {
-                    walk(&format!("{path}[{i}]"), x, y, found);
-                }
-            }
-            (DeValue::Table(t), toml::Value::Table(b)) => {
-                for (k, x) in t.iter() {
-                    if let Some(y) = b.get(k.get_ref().as_ref()) {
-                        let key = k.get_ref().as_ref();
-                        let p = if path.is_empty() {
-                            key.to_string()
-                        } else {
-                            format!("{path}.{key}")
-                        };
-                        walk(&p, x, y, found);
-                    }
-                }
-            }
-            _ => {}
+            (DeValue::Array(a), toml::Value::Array(b)) => a
+                .iter()
+                .zip(b.iter())
+                .enumerate()
+                .find_map(|(i, (x, y))| walk(&format!("{path}[{i}]"), x, y, visit)),
+            (DeValue::Table(t), toml::Value::Table(b)) => t.iter().find_map(|(k, x)| {
+                let key = k.get_ref().as_ref();
+                let y = b.get(key)?;
+                let p = if path.is_empty() {
+                    key.to_string()
+                } else {
+                    format!("{path}.{key}")
+                };
+                walk(&p, x, y, visit)
+            }),
+            _ => None,
         }
     }
-    let mut found = None;
-    let top = root.get_ref();
-    if let toml::Value::Table(b) = &back {
-        for (k, x) in top.iter() {
-            if let Some(y) = b.get(k.get_ref().as_ref()) {
-                walk(k.get_ref().as_ref(), x, y, &mut found);
-            }
-        }
-    }
+    let toml::Value::Table(b) = &back else {
+        return Ok(());
+    };
+    let found = root.get_ref().iter().find_map(|(k, x)| {
+        let key = k.get_ref().as_ref();
+        walk(key, x, b.get(key)?, visit)
+    });
     match found {
         None => Ok(()),
-        Some((path, got, want, span)) => Err(ScenarioError {
+        Some((message, span)) => Err(ScenarioError {
             file: src.display.clone(),
-            message: format!(
-                "{path} has {got} entries; it takes exactly {want}{}",
-                at_line(&src.text, &Some(span.clone()))
-            ),
+            message: format!("{message}{}", at_line(&src.text, &Some(span.clone()))),
             span: Some(span),
             text: src.text.clone(),
         }),

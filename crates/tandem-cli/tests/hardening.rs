@@ -430,6 +430,27 @@ fn refused(d: &Path, edits: &[(&str, &str)]) -> String {
 }
 
 #[test]
+fn a_non_finite_number_in_another_laws_section_is_refused() {
+    // The NN run does not use the CTC or PD gains, but `tandem compare` does: `nan` or `inf`
+    // there passed validation before.
+    let d = scratch("other-law");
+    for (edit, want) in [
+        (
+            ("model_error = 0.0", "model_error = nan"),
+            "controller.ctc.model_error = NaN: must be a finite number (line 163, column 15)",
+        ),
+        (
+            ("k_d = [450.0,", "k_d = [inf,"),
+            "controller.pd.k_d[0] = inf: must be a finite number (line 158, column 8)",
+        ),
+    ] {
+        let e = refused(&d, &[edit]);
+        assert!(e.contains(want), "{edit:?}: {e}");
+    }
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
 fn too_long_arrays_are_errors_never_cut_short() {
     let d = scratch("arrays");
     for (edit, field, line) in [

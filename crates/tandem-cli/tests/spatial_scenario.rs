@@ -448,12 +448,26 @@ fn bad_input_names_the_field_and_the_urdf_line() {
     bad(
         &d,
         &[("k1 = 8.0, omega_n", "k1 = nan, omega_n")],
-        &["controller.nn.design.k1 = NaN", "> 0", "(line 97, column 63)"],
+        &[
+            "controller.nn.design.k1 = NaN",
+            "> 0",
+            "(line 97, column 63)",
+        ],
     );
     bad(
         &d,
         &[("inertia = [20.0,", "inertia = [-20.0,")],
-        &["controller.nn.design.inertia[0] = -20", "> 0", "(line 97, column 23)"],
+        &[
+            "controller.nn.design.inertia[0] = -20",
+            "> 0",
+            "(line 97, column 23)",
+        ],
+    );
+    // A non-finite number in a law this run does not use (`tandem compare` runs them all).
+    bad(
+        &d,
+        &[("model_error = 0.0", "model_error = nan")],
+        &["controller.ctc.model_error = NaN", "finite", "line 106"],
     );
     // A start offset the arms cannot hold: the error names and points at run.start_offset
     // (its line in the file), not at the first arm, and still says which arm fails.

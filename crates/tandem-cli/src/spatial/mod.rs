@@ -75,6 +75,8 @@ pub struct Prepared {
 pub fn prepare(sc: SpatialScenario, src: &Source) -> Result<Prepared, ScenarioError> {
     let built = scenario::build(&sc, src)?;
     let ready = scenario::make_simulation(&sc, &built, src)?;
+    // Last: a NaN or infinity the run's own checks did not meet (another law's section).
+    crate::scenario::check_finite(src, &sc)?;
     let name = sc.name.clone().unwrap_or_else(|| src.name.clone());
     // The run's `scenario.toml` lives in the output folder: its file references (URDFs, the
     // replay) become absolute so that it runs from there.
