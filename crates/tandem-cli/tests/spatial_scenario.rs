@@ -463,6 +463,13 @@ fn bad_input_names_the_field_and_the_urdf_line() {
             "(line 97, column 23)",
         ],
     );
+    // A NaN in a frame's axes is named by its entry (it passed the orthonormality test: the
+    // largest entry of |RᵀR − I| skipped it, and the library named only `arms[0].grasp`).
+    bad(
+        &d,
+        &[("[1.0, 0.0, 0.0]] }", "[1.0, 0.0, nan]] }")],
+        &["arms[0].grasp.axes[2][2]: must be finite", "line 27"],
+    );
     // A non-finite number in a law this run does not use (`tandem compare` runs them all).
     bad(
         &d,

@@ -849,6 +849,16 @@ fn rotation(
         )));
     }
     if let Some(a) = axes {
+        // Each entry first: nalgebra's `max` passes over a NaN, so the orthonormality test
+        // below would not see one.
+        for (i, ax) in a.iter().enumerate() {
+            if let Some(j) = ax.iter().position(|v| !v.is_finite()) {
+                return Err((
+                    format!("{}[{i}][{j}]", join("axes")),
+                    "must be finite".into(),
+                ));
+            }
+        }
         let m = Matrix3::from_columns(&[
             Vector3::from(a[0]),
             Vector3::from(a[1]),
