@@ -1137,21 +1137,20 @@ pub(crate) fn check_finite<T: Serialize>(src: &Source, sc: &T) -> Result<(), Sce
     })
 }
 
+/// What [`first_in_file`] asks of each field: `(path, the value in the file, the value as read)`
+/// → an error message, or `None` to go on.
+type Visit<'v> =
+    dyn FnMut(&str, &toml::Spanned<toml::de::DeValue<'_>>, &toml::Value) -> Option<String> + 'v;
+
 /// Walks the fields the file sets together with their values as read (`sc` serialized back),
 /// depth first in the file's order, and returns the first for which `visit(path, in the file,
 /// as read)` gives a message as an error at that field.
 fn first_in_file<T: Serialize>(
     src: &Source,
     sc: &T,
-    visit: &mut dyn FnMut(
-        &str,
-        &toml::Spanned<toml::de::DeValue<'_>>,
-        &toml::Value,
-    ) -> Option<String>,
+    visit: &mut Visit<'_>,
 ) -> Result<(), ScenarioError> {
     use toml::de::{DeTable, DeValue};
-    type Visit<'v> =
-        dyn FnMut(&str, &toml::Spanned<DeValue<'_>>, &toml::Value) -> Option<String> + 'v;
     let Ok(back) = toml::Value::try_from(sc) else {
         return Ok(());
     };
