@@ -400,7 +400,7 @@ impl Kind {
     fn label(&self) -> String {
         match self {
             Kind::Planar(p) => runner::label(&p.sc),
-            Kind::Spatial(p) => spatial::human_label(&p.sc),
+            Kind::Spatial(p) => spatial::label(&p.sc),
         }
     }
     fn duration(&self) -> f64 {

@@ -30,7 +30,11 @@ fn format_now(log: &Log, out: &mut Vec<u8>) {
 /// The same, the way the writer before issue 12 did (`format!` text, one `String` per number,
 /// through `csv::StringRecord`).
 fn format_before(log: &Log, out: &mut Vec<u8>) {
-    let mut w = csv::Writer::from_writer(out);
+    rows_before(&mut csv::Writer::from_writer(out), log);
+}
+
+/// The rows of `log` through `w` as the writer before issue 12 wrote them.
+fn rows_before<W: std::io::Write>(w: &mut csv::Writer<W>, log: &Log) {
     let cols: Vec<&[f64]> = log.columns.iter().map(|c| c.data.as_slice()).collect();
     let mut rec = csv::StringRecord::with_capacity(16 * cols.len(), cols.len());
     for i in 0..cols[0].len() {
@@ -61,16 +65,7 @@ fn write_before(path: &std::path::Path, log: &Log) {
     let file = std::fs::File::create(path).expect("create");
     let mut w = csv::Writer::from_writer(std::io::BufWriter::new(file));
     w.write_record(log.names()).expect("header");
-    let cols: Vec<&[f64]> = log.columns.iter().map(|c| c.data.as_slice()).collect();
-    let mut rec = csv::StringRecord::with_capacity(16 * cols.len(), cols.len());
-    for i in 0..cols[0].len() {
-        rec.clear();
-        for c in &cols {
-            rec.push_field(&text(c[i]));
-        }
-        w.write_record(&rec).expect("row");
-    }
-    w.flush().expect("flush");
+    rows_before(&mut w, log);
 }
 
 fn median(mut v: Vec<f64>) -> f64 {

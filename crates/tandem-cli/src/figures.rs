@@ -47,8 +47,62 @@ pub struct FigureInfo {
 const AX: [&str; 3] = ["x", "y", "theta"];
 const AX_SYM: [&str; 3] = ["x", "y", "θ"];
 
-fn col<'a>(log: &'a Log, name: &str) -> &'a [f64] {
+/// A column, or an empty slice when the log has none.
+pub(crate) fn col<'a>(log: &'a Log, name: &str) -> &'a [f64] {
     log.get(name).unwrap_or(&[])
+}
+
+/// One panel per arm of its joint torques `tau_q{k}` (arm `i + 1` has `dofs[i]` joints; the
+/// columns are numbered across the arms), for the planar and the spatial `joint_torques`
+/// figure. A column that is missing or not of `t`'s length is left out.
+pub(crate) fn joint_torque_panels<'a>(
+    log: &'a Log,
+    t: &'a [f64],
+    dofs: &[usize],
+) -> Vec<Panel<'a>> {
+    let mut off = 0;
+    dofs.iter()
+        .enumerate()
+        .map(|(i, &n)| {
+            let mut p = Panel::new(
+                format!("arm {}", i + 1),
+                "t [s]",
+                format!("τ_q (arm {}) [N m]", i + 1),
+            );
+            for k in 0..n {
+                let c = col(log, &format!("tau_q{}", off + k + 1));
+                if c.len() == t.len() {
+                    p = p.with(Series::new(
+                        format!("joint {}", k + 1),
+                        t,
+                        c,
+                        Style::solid(k),
+                    ));
+                }
+            }
+            off += n;
+            p
+        })
+        .collect()
+}
+
+/// The constraint margin of several runs, `(label, t, margin)`, on one panel with the violation
+/// line at zero (the `compare_margin` figure, planar and spatial). A run whose margin is empty
+/// or not of its `t`'s length is left out.
+pub(crate) fn margin_panel<'a>(
+    runs: impl IntoIterator<Item = (&'a str, &'a [f64], &'a [f64])>,
+) -> Panel<'a> {
+    let mut m = Panel::new(
+        "constraint margin 1 − max_j |x_1j|/k_cj",
+        "t [s]",
+        "margin [1]",
+    );
+    for (i, (label, t, margin)) in runs.into_iter().enumerate() {
+        if margin.len() == t.len() && !t.is_empty() {
+            m = m.with(Series::new(label, t, margin, Style::solid(i)));
+        }
+    }
+    m.hline(0.0, "violation")
 }
 
 fn unit(j: usize, lin: &str, rot: &str) -> String {
@@ -350,28 +404,7 @@ pub fn run_figures(dir: &Path, log: &Log, info: &FigureInfo) -> Result<Vec<Strin
         jobs.push((
             "joint_torques".into(),
             Box::new(move || {
-                let mut off = 0;
-                let panels: Vec<Panel> = joints
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &n)| {
-                        let mut p = Panel::new(
-                            format!("arm {}", i + 1),
-                            "t [s]",
-                            format!("τ_q (arm {}) [N m]", i + 1),
-                        );
-                        for k in 0..n {
-                            p = p.with(Series::new(
-                                format!("joint {}", k + 1),
-                                t,
-                                col(log, &format!("tau_q{}", off + k + 1)),
-                                Style::solid(k),
-                            ));
-                        }
-                        off += n;
-                        p
-                    })
-                    .collect();
+                let panels = joint_torque_panels(log, t, &joints);
                 plot::panels(&stem, &ttl, &panels, joints.len().min(2))
             }),
         ));
@@ -564,20 +597,11 @@ pub fn compare_figures(
         jobs.push((
             "compare_margin".into(),
             Box::new(move || {
-                let mut m = Panel::new(
-                    "constraint margin 1 − max_j |x_1j|/k_cj",
-                    "t [s]",
-                    "margin [1]",
+                let m = margin_panel(
+                    runs.iter()
+                        .map(|r| (r.label.as_str(), col(r.log, "t"), col(r.log, "margin"))),
                 );
-                for (i, r) in runs.iter().enumerate() {
-                    m = m.with(Series::new(
-                        r.label.clone(),
-                        col(r.log, "t"),
-                        col(r.log, "margin"),
-                        Style::solid(i),
-                    ));
-                }
-                plot::panels(&stem, &ttl, &[m.hline(0.0, "violation")], 1)
+                plot::panels(&stem, &ttl, &[m], 1)
             }),
         ));
     }

@@ -370,10 +370,7 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
             figures: !a.common.no_figures,
         },
     )?;
-    for p in &problems {
-        eprintln!("warning: {p}");
-    }
-    let dir = out.commit()?;
+    let dir = out.commit_with_warnings(&problems)?;
     println!(
         "{} — {}, {} s{}",
         src.name,
@@ -449,7 +446,7 @@ fn cmd_run_spatial(a: RunArgs, src: Source) -> Result<ExitCode> {
         a.replay_interpolation,
     )?;
     let (src, sc) = load_spatial(src, &o)?;
-    let slug = spatial::label(&sc).replace([' ', '+'], "-");
+    let slug = spatial::slug(&spatial::label(&sc));
     let out_dir = a
         .common
         .out
@@ -627,10 +624,7 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
         &dir.join("scenario.toml"),
         &runner::scenario_toml(&base, &src.name, None)?,
     )?;
-    for p in &problems {
-        eprintln!("warning: {p}");
-    }
-    let final_dir = out.commit()?;
+    let final_dir = out.commit_with_warnings(&problems)?;
     println!(
         "{} — comparison, {} s, common start ({}, {}, {})",
         src.name,
@@ -823,10 +817,7 @@ fn cmd_sweep(a: SweepArgs) -> Result<ExitCode> {
         &rows,
         !a.no_figures,
     )?;
-    for p in &problems {
-        eprintln!("warning: {p}");
-    }
-    let dir = out.commit()?;
+    let dir = out.commit_with_warnings(&problems)?;
     println!(
         "{} runs{} in {} s on {threads} thread{}: {ok} completed, {faulted} faulted, {invalid} invalid; table {}",
         rows.len(),
@@ -854,10 +845,7 @@ fn cmd_merge(a: MergeArgs) -> Result<ExitCode> {
         &m.rows,
         !a.no_figures,
     )?;
-    for p in &problems {
-        eprintln!("warning: {p}");
-    }
-    let dir = out.commit()?;
+    let dir = out.commit_with_warnings(&problems)?;
     println!(
         "merged {} folders, {} runs: table {}",
         a.dirs.len(),

@@ -217,6 +217,15 @@ impl OutputDir {
         &self.final_dir
     }
 
+    /// Prints the writers' `warnings` (the problems a run's outputs survive, such as a figure
+    /// error) as `warning: …` lines on stderr, then [`commit`](Self::commit)s.
+    pub fn commit_with_warnings(self, warnings: &[String]) -> Result<PathBuf> {
+        for w in warnings {
+            eprintln!("warning: {w}");
+        }
+        self.commit()
+    }
+
     /// Moves the finished folder into place and returns its path.
     ///
     /// If `final_dir` exists (only allowed with `force`), it is first renamed aside, then the new

@@ -27,6 +27,8 @@ pub struct Prepared {
 pub fn prepare(sc: Scenario, src: &Source) -> Result<Prepared, ScenarioError> {
     let built = scenario::build(&sc, src)?;
     let ready = scenario::make_simulation(&sc, &built, src)?;
+    // Last: a NaN or infinity the run's own checks did not meet (another law's section).
+    scenario::check_finite(src, &sc)?;
     Ok(Prepared { sc, built, ready })
 }
 

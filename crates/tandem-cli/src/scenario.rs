@@ -39,7 +39,7 @@ use tandem::object::ObjectParams;
 use tandem::pd::PdGains;
 use tandem::plant::PlantParams;
 use tandem::sensors::{ChannelNoise, SensorParams};
-use tandem::sim::{Driver, Formulation, SimParams, Simulation};
+use tandem::sim::{Driver, Formulation, Replay, SimParams, Simulation};
 use tandem::trajectory::Path;
 
 use crate::suggest;
@@ -103,11 +103,6 @@ pub fn resolve(arg: Option<&str>) -> Result<Source, crate::BadInput> {
         let text = read_limited(p, MAX_SCENARIO_BYTES).map_err(|e| {
             crate::BadInput::msg(format!("cannot read scenario file {}: {e}", p.display()))
         })?;
-        // A UTF-8 byte-order mark (some editors write one) is not part of the TOML.
-        let text = match text.strip_prefix('\u{feff}') {
-            Some(t) => t.to_string(),
-            None => text,
-        };
         let name = p
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -161,7 +156,9 @@ pub const MAX_ARMS: usize = 16;
 /// See [`MAX_ARMS`].
 pub const MAX_LINKS: usize = 16;
 
-/// Read a UTF-8 file of at most `limit` bytes (a larger one is refused, never read whole).
+/// Read a UTF-8 file of at most `limit` bytes (a larger one is refused, never read whole). A
+/// leading UTF-8 byte-order mark (some editors write one) is dropped: it is not part of the
+/// TOML or the URDF. The scenario, sweep and URDF readers all read through here.
 pub fn read_limited(p: &FsPath, limit: u64) -> Result<String, String> {
     use std::io::Read;
     let f = std::fs::File::open(p).map_err(|e| e.to_string())?;
@@ -171,12 +168,17 @@ pub fn read_limited(p: &FsPath, limit: u64) -> Result<String, String> {
         .map_err(|e| e.to_string())?;
     if buf.len() as u64 > limit {
         return Err(format!(
-            "the file is larger than {} MiB (a scenario is a few kB)",
+            "the file is larger than {} MiB (scenario, sweep and URDF files are far smaller)",
             limit >> 20
         ));
     }
-    String::from_utf8(buf).map_err(|e| {
-        let at = e.utf8_error().valid_up_to();
+    let bom = if buf.starts_with(b"\xef\xbb\xbf") {
+        3
+    } else {
+        0
+    };
+    String::from_utf8(buf.split_off(bom)).map_err(|e| {
+        let at = bom + e.utf8_error().valid_up_to();
         format!("the file is not UTF-8 text (invalid byte at offset {at})")
     })
 }
@@ -1112,6 +1114,42 @@ pub fn check_name(src: &Source, n: &str) -> Result<(), ScenarioError> {
 /// compared with the one at the same path, whatever struct (the CLI's or the library's) it
 /// filled.
 fn check_lengths<T: Serialize>(src: &Source, sc: &T) -> Result<(), ScenarioError> {
+    use toml::de::DeValue;
+    first_in_file(src, sc, &mut |path, v, back| match (v.get_ref(), back) {
+        (DeValue::Array(a), toml::Value::Array(b)) if a.len() != b.len() => Some(format!(
+            "{path} has {} entries; it takes exactly {}",
+            a.len(),
+            b.len()
+        )),
+        _ => None,
+    })
+}
+
+/// A number that is not finite (`nan`, `inf`) anywhere in the file's known fields, also in a
+/// section the run does not use (the gains of another law, which `tandem compare` would use),
+/// is an error naming the field. Run after the field-specific checks, whose messages say more.
+pub(crate) fn check_finite<T: Serialize>(src: &Source, sc: &T) -> Result<(), ScenarioError> {
+    first_in_file(src, sc, &mut |path, _, back| match back {
+        toml::Value::Float(x) if !x.is_finite() => {
+            Some(format!("{path} = {}: must be a finite number", num(*x)))
+        }
+        _ => None,
+    })
+}
+
+/// What [`first_in_file`] asks of each field: `(path, the value in the file, the value as read)`
+/// → an error message, or `None` to go on.
+type Visit<'v> =
+    dyn FnMut(&str, &toml::Spanned<toml::de::DeValue<'_>>, &toml::Value) -> Option<String> + 'v;
+
+/// Walks the fields the file sets together with their values as read (`sc` serialized back),
+/// depth first in the file's order, and returns the first for which `visit(path, in the file,
+/// as read)` gives a message as an error at that field.
+fn first_in_file<T: Serialize>(
+    src: &Source,
+    sc: &T,
+    visit: &mut Visit<'_>,
+) -> Result<(), ScenarioError> {
     use toml::de::{DeTable, DeValue};
     let Ok(back) = toml::Value::try_from(sc) else {
         return Ok(());
@@ -1123,54 +1161,42 @@ fn check_lengths<T: Serialize>(src: &Source, sc: &T) -> Result<(), ScenarioError
         path: &str,
         v: &toml::Spanned<DeValue<'_>>,
         back: &toml::Value,
-        found: &mut Option<(String, usize, usize, Range<usize>)>,
-    ) {
-        if found.is_some() {
-            return;
+        visit: &mut Visit<'_>,
+    ) -> Option<(String, Range<usize>)> {
+        if let Some(m) = visit(path, v, back) {
+            return Some((m, v.span()));
         }
         match (v.get_ref(), back) {
-            (DeValue::Array(a), toml::Value::Array(b)) => {
-                if a.len() != b.len() {
-                    *found = Some((path.to_string(), a.len(), b.len(), v.span()));
-                    return;
-                }
-                for (i, (x, y)) in a.iter().zip(b.iter()).enumerate() {
-                    walk(&format!("{path}[{i}]"), x, y, found);
-                }
-            }
-            (DeValue::Table(t), toml::Value::Table(b)) => {
-                for (k, x) in t.iter() {
-                    if let Some(y) = b.get(k.get_ref().as_ref()) {
-                        let key = k.get_ref().as_ref();
-                        let p = if path.is_empty() {
-                            key.to_string()
-                        } else {
-                            format!("{path}.{key}")
-                        };
-                        walk(&p, x, y, found);
-                    }
-                }
-            }
-            _ => {}
+            (DeValue::Array(a), toml::Value::Array(b)) => a
+                .iter()
+                .zip(b.iter())
+                .enumerate()
+                .find_map(|(i, (x, y))| walk(&format!("{path}[{i}]"), x, y, visit)),
+            (DeValue::Table(t), toml::Value::Table(b)) => t.iter().find_map(|(k, x)| {
+                let key = k.get_ref().as_ref();
+                let y = b.get(key)?;
+                let p = if path.is_empty() {
+                    key.to_string()
+                } else {
+                    format!("{path}.{key}")
+                };
+                walk(&p, x, y, visit)
+            }),
+            _ => None,
         }
     }
-    let mut found = None;
-    let top = root.get_ref();
-    if let toml::Value::Table(b) = &back {
-        for (k, x) in top.iter() {
-            if let Some(y) = b.get(k.get_ref().as_ref()) {
-                walk(k.get_ref().as_ref(), x, y, &mut found);
-            }
-        }
-    }
+    let toml::Value::Table(b) = &back else {
+        return Ok(());
+    };
+    let found = root.get_ref().iter().find_map(|(k, x)| {
+        let key = k.get_ref().as_ref();
+        walk(key, x, b.get(key)?, visit)
+    });
     match found {
         None => Ok(()),
-        Some((path, got, want, span)) => Err(ScenarioError {
+        Some((message, span)) => Err(ScenarioError {
             file: src.display.clone(),
-            message: format!(
-                "{path} has {got} entries; it takes exactly {want}{}",
-                at_line(&src.text, &Some(span.clone()))
-            ),
+            message: format!("{message}{}", at_line(&src.text, &Some(span.clone()))),
             span: Some(span),
             text: src.text.clone(),
         }),
@@ -1474,6 +1500,57 @@ fn path_path(p: &str) -> String {
 /// Map a library parameter path of the run settings to the file's.
 fn run_path(p: &str) -> String {
     format!("run.{p}")
+}
+
+/// A controller set-up warning with its place in the file: a gain's at the file path `gain_path`
+/// maps the library's parameter to, an admittance warning's at the path its sentence starts
+/// with (`admittance.m_e[0] …`). Planar and spatial scenarios.
+pub(crate) fn control_warning(
+    src: &Source,
+    w: &ControlWarning,
+    gain_path: impl Fn(&str) -> String,
+) -> String {
+    match w {
+        ControlWarning::Gain { param, reason } => src.warning_at(&gain_path(param), reason),
+        ControlWarning::Admittance(a) => {
+            let t = a.to_string();
+            let path = t.split_whitespace().next().unwrap_or("admittance");
+            src.warning_at(path, &t)
+        }
+    }
+}
+
+/// The torque replay `file` for `n_q` joints on the run's control period and duration
+/// (interpolation `mode`, default linear); an error names `controller.replay (or --replay)`.
+/// Planar and spatial scenarios.
+pub(crate) fn load_replay(
+    src: &Source,
+    file: &FsPath,
+    n_q: usize,
+    sim: &SimParams,
+    mode: Option<crate::replay::Interpolation>,
+) -> Result<Replay, ScenarioError> {
+    let timing = crate::replay::Timing {
+        control_period: sim.control_period,
+        duration: sim.duration,
+    };
+    crate::replay::load(file, n_q, timing, mode.unwrap_or_default()).map_err(|e| {
+        let message = format!(
+            "controller.replay (or --replay) = {}: {e:#}",
+            file.display()
+        );
+        // The caret on the file's `replay = …` when it sets one (else the path came from
+        // --replay alone and there is no line to show).
+        match span_of(&src.text, "controller.replay") {
+            Some((_, true)) => src.error_at("controller.replay", message),
+            _ => ScenarioError {
+                file: src.display.clone(),
+                message,
+                span: None,
+                text: String::new(),
+            },
+        }
+    })
 }
 
 /// Map a library parameter path of [`Controller::new`] to the file's.
@@ -1835,22 +1912,7 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
             let (c, w) = Controller::new(cp, &b.plant, b.path.clone(), b.sim.duration)
                 .map_err(|e| src.model_error(e, controller_path(sc.controller.kind)))?;
             let map = controller_path(sc.controller.kind);
-            warnings.extend(w.iter().map(|w: &ControlWarning| {
-                let (param, text) = match w {
-                    ControlWarning::Gain { param, reason } => (map(param), reason.clone()),
-                    ControlWarning::Admittance(a) => {
-                        let t = a.to_string();
-                        // The library's sentence starts with its own path, `admittance.m_e[0] ...`.
-                        let path = t
-                            .split_whitespace()
-                            .next()
-                            .unwrap_or("admittance")
-                            .to_string();
-                        (path, t)
-                    }
-                };
-                src.warning_at(&param, &text)
-            }));
+            warnings.extend(w.iter().map(|w| control_warning(src, w, &map)));
             // The start must be inside the output bounds the controller keeps (iBLF: |x_1j| < k_cj).
             if sc.controller.kind != ControllerKind::Replay {
                 let unit = ["m", "m", "rad"];
@@ -1875,21 +1937,8 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
         None => {
             let file = b.replay.as_deref().unwrap_or(FsPath::new(""));
             let n_q: usize = b.plant.arms.iter().map(|a| a.links.len()).sum();
-            let timing = crate::replay::Timing {
-                control_period: b.sim.control_period,
-                duration: b.sim.duration,
-            };
-            let mode = sc.controller.replay_interpolation.unwrap_or_default();
-            let replay =
-                crate::replay::load(file, n_q, timing, mode).map_err(|e| ScenarioError {
-                    file: src.display.clone(),
-                    message: format!(
-                        "controller.replay (or --replay) = {}: {e:#}",
-                        file.display()
-                    ),
-                    span: None,
-                    text: String::new(),
-                })?;
+            let mode = sc.controller.replay_interpolation;
+            let replay = load_replay(src, file, n_q, &b.sim, mode)?;
             Driver::Replay(replay)
         }
     };
@@ -1952,6 +2001,23 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn read_limited_drops_a_byte_order_mark_and_counts_offsets_in_the_file() {
+        let d = std::env::temp_dir().join(format!("tandem-read-limited-{}", std::process::id()));
+        std::fs::create_dir_all(&d).expect("scratch folder");
+        let f = d.join("bom.toml");
+        std::fs::write(&f, "\u{feff}name = \"x\"\n").expect("write");
+        assert_eq!(read_limited(&f, 1 << 20).as_deref(), Ok("name = \"x\"\n"));
+        // Without a mark nothing is dropped (a mark inside the text stays).
+        std::fs::write(&f, "a\u{feff}").expect("write");
+        assert_eq!(read_limited(&f, 1 << 20).as_deref(), Ok("a\u{feff}"));
+        // A bad byte's offset is the file's, the mark counted.
+        std::fs::write(&f, b"\xef\xbb\xbfab\xff").expect("write");
+        let e = read_limited(&f, 1 << 20).expect_err("not UTF-8");
+        assert!(e.contains("offset 5"), "{e}");
+        let _ = std::fs::remove_dir_all(&d);
+    }
 
     #[test]
     fn every_embedded_scenario_parses_and_builds() {

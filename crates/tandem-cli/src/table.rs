@@ -156,58 +156,66 @@ fn no_rows(s: &Summary) -> bool {
 
 /// Aligned text.
 pub fn text(runs: &[(&str, &Summary)]) -> String {
-    let rows = rows(runs);
+    let names: Vec<&str> = runs.iter().map(|(n, _)| *n).collect();
+    render_text(&names, &rows(runs))
+}
+
+/// A Markdown table.
+pub fn markdown(runs: &[(&str, &Summary)]) -> String {
+    let names: Vec<&str> = runs.iter().map(|(n, _)| *n).collect();
+    render_markdown(&names, &rows(runs))
+}
+
+/// `rows` (a metric and one cell per run) as aligned text: the metric column, then one column
+/// per run, two spaces apart, trailing spaces trimmed; a header line of the run `names` when
+/// there are several. The planar and the spatial tables both print through here.
+pub fn render_text(names: &[&str], rows: &[(String, Vec<String>)]) -> String {
     let w0 = rows
         .iter()
         .map(|(n, _)| n.chars().count())
         .max()
         .unwrap_or(0);
-    let widths: Vec<usize> = (0..runs.len())
+    let widths: Vec<usize> = (0..names.len())
         .map(|i| {
             rows.iter()
                 .map(|(_, c)| c[i].chars().count())
-                .chain(std::iter::once(runs[i].0.chars().count()))
+                .chain(std::iter::once(names[i].chars().count()))
                 .max()
                 .unwrap_or(0)
         })
         .collect();
     let pad = |s: &str, w: usize| format!("{s}{}", " ".repeat(w.saturating_sub(s.chars().count())));
     let mut out = String::new();
-    if runs.len() > 1 {
-        out.push_str(&pad("", w0));
-        for (i, (name, _)) in runs.iter().enumerate() {
-            out.push_str("  ");
-            out.push_str(&pad(name, widths[i]));
-        }
-        out.truncate(out.trim_end().len());
-        out.push('\n');
-    }
-    for (name, cells) in &rows {
+    let mut line = |name: &str, cells: &mut dyn Iterator<Item = &str>| {
         out.push_str(&pad(name, w0));
-        for (i, c) in cells.iter().enumerate() {
+        for (c, w) in cells.zip(&widths) {
             out.push_str("  ");
-            out.push_str(&pad(c, widths[i]));
+            out.push_str(&pad(c, *w));
         }
         out.truncate(out.trim_end().len());
         out.push('\n');
+    };
+    if names.len() > 1 {
+        line("", &mut names.iter().copied());
+    }
+    for (name, cells) in rows {
+        line(name, &mut cells.iter().map(String::as_str));
     }
     out
 }
 
-/// A Markdown table.
-pub fn markdown(runs: &[(&str, &Summary)]) -> String {
-    let rows = rows(runs);
+/// `rows` (a metric and one cell per run) as a Markdown table under the run `names` (`|`
+/// escaped).
+pub fn render_markdown(names: &[&str], rows: &[(String, Vec<String>)]) -> String {
     let esc = |s: &str| s.replace('|', "\\|");
     let mut out = String::from("| metric |");
-    for (name, _) in runs {
+    for name in names {
         out.push_str(&format!(" {} |", esc(name)));
     }
     out.push_str("\n|---|");
-    for _ in runs {
-        out.push_str("---|");
-    }
+    out.push_str(&"---|".repeat(names.len()));
     out.push('\n');
-    for (name, cells) in &rows {
+    for (name, cells) in rows {
         out.push_str(&format!("| {} |", esc(name)));
         for c in cells {
             out.push_str(&format!(" {} |", esc(c)));
@@ -219,7 +227,32 @@ pub fn markdown(runs: &[(&str, &Summary)]) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::num;
+    use super::{num, render_markdown, render_text};
+
+    #[test]
+    fn tables_align_and_escape() {
+        let rows = vec![
+            (
+                "status".to_string(),
+                vec!["ok".to_string(), "FAULT: a|b".to_string()],
+            ),
+            (
+                "RMS".to_string(),
+                vec!["1.5 mm".to_string(), "".to_string()],
+            ),
+        ];
+        // Widths: the metric column 6, the runs' columns the longest of name and cells; the
+        // header line only with several runs; trailing spaces trimmed.
+        assert_eq!(
+            render_text(&["NN", "PD"], &rows),
+            "        NN      PD\nstatus  ok      FAULT: a|b\nRMS     1.5 mm\n"
+        );
+        assert_eq!(render_text(&["NN"], &rows[1..]), "RMS  1.5 mm\n");
+        assert_eq!(
+            render_markdown(&["NN", "P|D"], &rows[..1]),
+            "| metric | NN | P\\|D |\n|---|---|---|\n| status | ok | FAULT: a\\|b |\n"
+        );
+    }
 
     #[test]
     fn numbers_are_short() {

@@ -164,15 +164,30 @@ fn reached(stage: usize) {
     STAGES[stage].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
 }
 
-/// Parse, validate and run 50 ms; check what a run writes.
-fn check(text: &str) -> Result<(), TestCaseError> {
-    let src = scenario::Source {
+/// A mutated scenario text as a file `fuzz.toml` (relative paths from the temporary folder).
+fn fuzz_source(text: &str) -> scenario::Source {
+    scenario::Source {
         name: "fuzz".into(),
         display: "fuzz.toml".into(),
         text: text.to_string(),
         dir: std::env::temp_dir(),
         file: None,
-    };
+    }
+}
+
+/// Every logged value is finite (numerical trouble is a fault, never a NaN in the outputs).
+fn all_finite(log: &tandem::sim::Log) -> Result<(), TestCaseError> {
+    for c in &log.columns {
+        if let Some(v) = c.data.iter().find(|v| !v.is_finite()) {
+            return Err(TestCaseError::fail(format!("column {} logged {v}", c.name)));
+        }
+    }
+    Ok(())
+}
+
+/// Parse, validate and run 50 ms; check what a run writes.
+fn check(text: &str) -> Result<(), TestCaseError> {
+    let src = fuzz_source(text);
     let Ok(mut sc) = scenario::parse(&src) else {
         reached(0);
         return Ok(());
@@ -191,11 +206,7 @@ fn check(text: &str) -> Result<(), TestCaseError> {
     };
     let f = runner::execute(p, |_| {});
     reached(if f.outcome.fault.is_some() { 3 } else { 2 });
-    for c in &f.outcome.log.columns {
-        if let Some(v) = c.data.iter().find(|v| !v.is_finite()) {
-            return Err(TestCaseError::fail(format!("column {} logged {v}", c.name)));
-        }
-    }
+    all_finite(&f.outcome.log)?;
     let s = runner::summary_json(&f, "fuzz", None);
     let reasons = &s["unavailable"];
     for (k, v) in s.as_object().into_iter().flatten() {
@@ -211,13 +222,7 @@ fn check(text: &str) -> Result<(), TestCaseError> {
 /// Parse, validate and run 50 ms of a spatial scenario (PD law: the same set-up checks as the
 /// NN law without its `f^U` sampling); check what a run writes.
 fn check_spatial(text: &str) -> Result<(), TestCaseError> {
-    let src = scenario::Source {
-        name: "fuzz".into(),
-        display: "fuzz.toml".into(),
-        text: text.to_string(),
-        dir: std::env::temp_dir(),
-        file: None,
-    };
+    let src = fuzz_source(text);
     let o = spatial::SpatialOverrides {
         duration: Some(0.05),
         controller: Some(spatial::scenario::SpatialKind::Pd),
@@ -233,11 +238,7 @@ fn check_spatial(text: &str) -> Result<(), TestCaseError> {
     };
     let f = spatial::execute(p, |_| {}).map_err(|e| TestCaseError::fail(format!("{e:#}")))?;
     reached(if f.outcome.fault.is_some() { 3 } else { 2 });
-    for c in &f.outcome.log.columns {
-        if let Some(v) = c.data.iter().find(|v| !v.is_finite()) {
-            return Err(TestCaseError::fail(format!("column {} logged {v}", c.name)));
-        }
-    }
+    all_finite(&f.outcome.log)?;
     Ok(())
 }
 

@@ -4,78 +4,9 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
-const BIN: &str = env!("CARGO_BIN_EXE_tandem");
-
-/// A fresh, empty scratch folder.
-fn scratch(name: &str) -> PathBuf {
-    static N: AtomicUsize = AtomicUsize::new(0);
-    let d = std::env::temp_dir().join(format!(
-        "tandem-harden-{name}-{}-{}",
-        std::process::id(),
-        N.fetch_add(1, Ordering::Relaxed)
-    ));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).expect("create scratch folder");
-    d
-}
-
-/// Run the binary in `cwd`.
-fn tandem(cwd: &Path, args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("run tandem")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn code(o: &Output) -> i32 {
-    o.status.code().unwrap_or(-1)
-}
-
-/// Assert exit code `c`, showing the output otherwise.
-fn exit(o: &Output, c: i32) {
-    assert_eq!(
-        code(o),
-        c,
-        "exit code\nstdout:\n{}\nstderr:\n{}",
-        stdout(o),
-        stderr(o)
-    );
-}
-
-/// The embedded paper scenario's text.
-fn paper_text(cwd: &Path) -> String {
-    let o = tandem(cwd, &["scenario", "show", "paper"]);
-    exit(&o, 0);
-    stdout(&o)
-}
-
-/// The paper scenario with each `from` replaced by `to` (which must occur once at least).
-fn paper_edited(cwd: &Path, edits: &[(&str, &str)]) -> String {
-    let mut text = paper_text(cwd);
-    for (from, to) in edits {
-        assert!(text.contains(from), "the paper scenario has no `{from}`");
-        text = text.replacen(from, to, 1);
-    }
-    text
-}
-
-/// Write the edited paper scenario into `dir/name`.
-fn paper_with(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
-    let p = dir.join(name);
-    fs::write(&p, paper_edited(dir, edits)).expect("write scenario");
-    p
-}
+mod support;
+use support::*;
 
 /// Every file under `dir` with its content (sorted), to compare a tree before and after.
 fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
@@ -326,10 +257,6 @@ fn duration_1e9_is_refused_at_validation_not_allocated() {
 // ---------------------------------------------------------------------------------------------
 // 4. Non-finite values are faults; missing metrics are null with a reason.
 
-fn read_json(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&fs::read_to_string(path).expect("read json")).expect("parse json")
-}
-
 /// No NaN or infinity anywhere in a CSV file or in a JSON file's text.
 fn assert_all_finite(dir: &Path) {
     let csv = fs::read_to_string(dir.join("timeseries.csv")).expect("csv");
@@ -500,6 +427,27 @@ fn refused(d: &Path, edits: &[(&str, &str)]) -> String {
     let o = tandem_within(d, &["validate", "bad.toml"], 20.0);
     exit(&o, 2);
     stderr(&o)
+}
+
+#[test]
+fn a_non_finite_number_in_another_laws_section_is_refused() {
+    // The NN run does not use the CTC or PD gains, but `tandem compare` does: `nan` or `inf`
+    // there passed validation before.
+    let d = scratch("other-law");
+    for (edit, want) in [
+        (
+            ("model_error = 0.0", "model_error = nan"),
+            "controller.ctc.model_error = NaN: must be a finite number (line 163, column 15)",
+        ),
+        (
+            ("k_d = [450.0,", "k_d = [inf,"),
+            "controller.pd.k_d[0] = inf: must be a finite number (line 158, column 8)",
+        ),
+    ] {
+        let e = refused(&d, &[edit]);
+        assert!(e.contains(want), "{edit:?}: {e}");
+    }
+    let _ = fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -784,30 +732,6 @@ fn a_utf8_byte_order_mark_is_accepted() {
 // ---------------------------------------------------------------------------------------------
 // 7. Replay robust to real logs.
 
-/// A CSV file as (header, columns).
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = fs::read_to_string(path).expect("csv");
-    let mut lines = text.lines();
-    let header: Vec<String> = lines
-        .next()
-        .unwrap_or("")
-        .split(',')
-        .map(str::to_string)
-        .collect();
-    let mut cols = vec![Vec::new(); header.len()];
-    for l in lines {
-        for (c, v) in l.split(',').enumerate() {
-            cols[c].push(v.parse::<f64>().expect("number"));
-        }
-    }
-    (header, cols)
-}
-
-fn col<'a>(h: &[String], c: &'a [Vec<f64>], name: &str) -> &'a [f64] {
-    let i = h.iter().position(|n| n == name).expect(name);
-    &c[i]
-}
-
 #[test]
 fn replay_of_a_log_one_rounding_unit_off_replays_on_its_tick() {
     let d = scratch("clock");
@@ -824,7 +748,7 @@ fn replay_of_a_log_one_rounding_unit_off_replays_on_its_tick() {
     // The same torques stamped by an accumulated clock (t += 0.001): 0.0010000000000000002, ...
     let mut text = String::from("t [s],tau_q1 [N m],tau_q2 [N m],tau_q3 [N m],tau_q4 [N m]\n");
     let tau: Vec<&[f64]> = (1..=4)
-        .map(|k| col(&h, &c, &format!("tau_q{k} [N m]")))
+        .map(|k| column(&h, &c, &format!("tau_q{k} [N m]")))
         .collect();
     let mut t = 0.0f64;
     let mut off = 0;
@@ -841,9 +765,9 @@ fn replay_of_a_log_one_rounding_unit_off_replays_on_its_tick() {
     exit(&tandem(&d, &b), 0);
     let (hb, cb) = read_csv(&d.join("re/timeseries.csv"));
     for name in ["x_o.x [m]", "x_o.y [m]", "x_o.theta [rad]"] {
-        let err = col(&h, &c, name)
+        let err = column(&h, &c, name)
             .iter()
-            .zip(col(&hb, &cb, name))
+            .zip(column(&hb, &cb, name))
             .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
         assert!(err <= 1e-9, "{name}: the replay is off by {err}");
     }

@@ -10,6 +10,9 @@ use serde_json::Value;
 use tandem::control::spatial::{SpatialCtcGains, SpatialLaw, SpatialPdGains};
 use tandem_cli::spatial::output::{self, Derived, Finished};
 
+mod support;
+use support::*;
+
 /// The figures every NN run writes (PNG and SVG each).
 const FIGURES: [&str; 11] = [
     "z1",
@@ -198,92 +201,6 @@ fn presets_are_listed() {
         .unwrap();
     let s = String::from_utf8_lossy(&out.stdout);
     assert!(s.contains("dual-ur5") && s.contains("dual-franka"), "{s}");
-}
-
-fn be32(b: &[u8], at: usize) -> u32 {
-    u32::from_be_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]])
-}
-
-/// CRC-32 (ISO-HDLC, as PNG uses).
-fn crc32(data: &[u8]) -> u32 {
-    let mut c = 0xFFFF_FFFFu32;
-    for &b in data {
-        c ^= u32::from(b);
-        for _ in 0..8 {
-            c = if c & 1 != 0 {
-                0xEDB8_8320 ^ (c >> 1)
-            } else {
-                c >> 1
-            };
-        }
-    }
-    !c
-}
-
-/// Checks a PNG file's structure: signature, IHDR size and colour type, every chunk's CRC,
-/// non-empty image data, IEND last. Returns (width, height).
-fn check_png(path: &Path) -> (u32, u32) {
-    let b = fs::read(path).expect("read png");
-    assert_eq!(&b[..8], b"\x89PNG\r\n\x1a\n", "PNG signature");
-    assert_eq!(&b[12..16], b"IHDR");
-    let (w, h) = (be32(&b, 16), be32(&b, 20));
-    assert_eq!(b[24], 8, "bit depth");
-    let mut at = 8;
-    let mut idat = 0usize;
-    let mut last = [0u8; 4];
-    while at + 12 <= b.len() {
-        let len = be32(&b, at) as usize;
-        let kind = &b[at + 4..at + 8];
-        let body = &b[at + 4..at + 8 + len];
-        assert_eq!(crc32(body), be32(&b, at + 8 + len), "CRC of chunk {kind:?}");
-        if kind == b"IDAT" {
-            idat += len;
-        }
-        last.copy_from_slice(kind);
-        at += 12 + len;
-    }
-    assert_eq!(at, b.len(), "chunks fill the file");
-    assert_eq!(&last, b"IEND");
-    assert!(idat > 1000, "image data is non-trivial ({idat} bytes)");
-    (w, h)
-}
-
-/// A minimal well-formedness check: every element opened is closed in order, one root `svg`.
-fn check_xml(text: &str) {
-    assert!(text.contains("<svg"), "has an <svg> element");
-    assert!(text.trim_end().ends_with("</svg>"), "ends with </svg>");
-    let mut stack: Vec<String> = Vec::new();
-    let mut roots = 0;
-    let mut rest = text;
-    while let Some(start) = rest.find('<') {
-        let end = rest[start..].find('>').expect("tag closed") + start;
-        let tag = &rest[start + 1..end];
-        rest = &rest[end + 1..];
-        if tag.starts_with('?') || tag.starts_with('!') {
-            continue;
-        }
-        if let Some(name) = tag.strip_prefix('/') {
-            let open = stack.pop().expect("closing tag without opening");
-            assert_eq!(open, name.trim(), "tags nest");
-            continue;
-        }
-        let name: String = tag
-            .chars()
-            .take_while(|c| !c.is_whitespace() && *c != '/')
-            .collect();
-        if stack.is_empty() {
-            roots += 1;
-        }
-        if !tag.ends_with('/') {
-            stack.push(name);
-        }
-    }
-    assert!(stack.is_empty(), "unclosed elements: {stack:?}");
-    assert_eq!(roots, 1, "one root element");
-    assert!(
-        !text.contains("NaN") && !text.contains("inf\""),
-        "no non-finite numbers"
-    );
 }
 
 /// A finished run of the S6 set-up `setup` with `law` (for the laws no preset runs yet).

@@ -413,6 +413,95 @@ fn bad_input_names_the_field_and_the_urdf_line() {
         &[("mass = 3.0", "mass = -3.0")],
         &["object.mass", "> 0"],
     );
+    // Hostile files: a URDF or a replay that is a folder, a URDF that is a binary file, NaN.
+    std::fs::create_dir_all(d.join("folder")).unwrap();
+    let mut binary = b"\x7fELF\x02\x01\x01\x00".to_vec();
+    binary.extend((0u8..=255).cycle().take(4000));
+    std::fs::write(d.join("bin.urdf"), binary).unwrap();
+    bad(
+        &d,
+        &[("urdf = \"arm.urdf\"", "urdf = \"folder\"")],
+        &["arms[0].urdf", "cannot read", "folder", "line 20"],
+    );
+    bad(
+        &d,
+        &[("urdf = \"arm.urdf\"", "urdf = \"bin.urdf\"")],
+        &["arms[0].urdf", "not UTF-8 text", "offset 136", "line 20"],
+    );
+    bad(
+        &d,
+        &[("kind = \"nn\"", "kind = \"replay\"\nreplay = \"folder\"")],
+        &["controller.replay", "folder", "(line 78, column 10)"],
+    );
+    bad(
+        &d,
+        &[("mass = 3.0", "mass = nan")],
+        &["object.mass = NaN", "finite"],
+    );
+    bad(
+        &d,
+        &[("start_offset = [-0.01,", "start_offset = [nan,")],
+        &["run.start_offset[0]", "finite"],
+    );
+    // The NN design's inputs are named as the file gives them, with their place (they were
+    // reported as the designed gain `controller.nn.k1[0]`, "not set in the file").
+    bad(
+        &d,
+        &[("k1 = 8.0, omega_n", "k1 = nan, omega_n")],
+        &[
+            "controller.nn.design.k1 = NaN",
+            "> 0",
+            "(line 97, column 63)",
+        ],
+    );
+    bad(
+        &d,
+        &[("inertia = [20.0,", "inertia = [-20.0,")],
+        &[
+            "controller.nn.design.inertia[0] = -20",
+            "> 0",
+            "(line 97, column 23)",
+        ],
+    );
+    // A NaN in a frame's axes is named by its entry (it passed the orthonormality test: the
+    // largest entry of |RᵀR − I| skipped it, and the library named only `arms[0].grasp`).
+    bad(
+        &d,
+        &[("[1.0, 0.0, 0.0]] }", "[1.0, 0.0, nan]] }")],
+        &["arms[0].grasp.axes[2][2]: must be finite", "line 27"],
+    );
+    // A non-finite number in a law this run does not use (`tandem compare` runs them all).
+    bad(
+        &d,
+        &[("model_error = 0.0", "model_error = nan")],
+        &["controller.ctc.model_error = NaN", "finite", "line 106"],
+    );
+    // A start offset the arms cannot hold: the error names and points at run.start_offset
+    // (its line in the file), not at the first arm, and still says which arm fails.
+    let line = user_scenario(&d, "1.0", &[])
+        .to_str()
+        .map(|p| std::fs::read_to_string(p).unwrap())
+        .unwrap()
+        .lines()
+        .position(|l| l.starts_with("start_offset"))
+        .unwrap()
+        + 1;
+    for big in ["5.0", "1e300"] {
+        bad(
+            &d,
+            &[(
+                "start_offset = [-0.01, 0.0, 0.0",
+                &format!("start_offset = [{big}, 0.0, 0.0"),
+            )],
+            &[
+                "error: ",
+                ": run.start_offset = [",
+                "the start pose",
+                "arms[0]: cannot reach",
+                &format!("(line {line}, column 16)"),
+            ],
+        );
+    }
 }
 
 #[test]

@@ -8,41 +8,9 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
-const BIN: &str = env!("CARGO_BIN_EXE_tandem");
-
-fn scratch(name: &str) -> PathBuf {
-    static N: AtomicUsize = AtomicUsize::new(0);
-    let d = std::env::temp_dir().join(format!(
-        "tandem-sweep-test-{name}-{}-{}",
-        std::process::id(),
-        N.fetch_add(1, Ordering::Relaxed)
-    ));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).expect("create scratch folder");
-    d
-}
-
-fn tandem(cwd: &Path, args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("SLURM_ARRAY_TASK_COUNT")
-        .output()
-        .expect("run tandem")
-}
-
-fn ok(o: &Output) {
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "tandem failed\nstdout:\n{}\nstderr:\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
+mod support;
+use support::*;
 
 fn bad(o: &Output) -> String {
     let e = String::from_utf8_lossy(&o.stderr).into_owned();
@@ -72,32 +40,36 @@ fn read(p: &Path) -> Vec<u8> {
     fs::read(p).unwrap_or_else(|e| panic!("read {}: {e}", p.display()))
 }
 
-#[test]
-fn shards_merge_into_the_unsharded_table_for_any_thread_count() {
-    let d = scratch("shards");
-    fs::write(d.join("s.toml"), SWEEP).unwrap();
-    ok(&tandem(
-        &d,
-        &["sweep", "s.toml", "--out", "one", "--threads", "1"],
-    ));
-    ok(&tandem(
-        &d,
-        &[
-            "sweep",
-            "s.toml",
-            "--out",
-            "two",
-            "--threads",
-            "2",
-            "--no-figures",
-        ],
-    ));
+/// Runs `s.toml` in `d` on one thread into `one/` (with `extra` arguments) and on two threads
+/// without figures into `two/`; asserts the two tables are byte-identical and returns it.
+fn one_and_two_threads(d: &Path, extra: &[&str]) -> Vec<u8> {
+    let mut args = vec!["sweep", "s.toml", "--out", "one", "--threads", "1"];
+    args.extend_from_slice(extra);
+    ok(&tandem(d, &args));
+    let two = [
+        "sweep",
+        "s.toml",
+        "--out",
+        "two",
+        "--threads",
+        "2",
+        "--no-figures",
+    ];
+    ok(&tandem(d, &two));
     let whole = read(&d.join("one/runs.csv"));
     assert_eq!(
         whole,
         read(&d.join("two/runs.csv")),
         "1 thread vs 2 threads"
     );
+    whole
+}
+
+#[test]
+fn shards_merge_into_the_unsharded_table_for_any_thread_count() {
+    let d = scratch("shards");
+    fs::write(d.join("s.toml"), SWEEP).unwrap();
+    let whole = one_and_two_threads(&d, &[]);
     let text = String::from_utf8(whole.clone()).unwrap();
     assert_eq!(text.lines().count(), 7, "header + 6 runs:\n{text}");
     assert!(text.starts_with(
@@ -396,36 +368,7 @@ duration = 1.0
 fn spatial_sweeps_run_merge_and_carry_the_box_mass() {
     let d = scratch("spatial");
     fs::write(d.join("s.toml"), SPATIAL_SWEEP).unwrap();
-    ok(&tandem(
-        &d,
-        &[
-            "sweep",
-            "s.toml",
-            "--out",
-            "one",
-            "--threads",
-            "1",
-            "--keep-runs",
-        ],
-    ));
-    ok(&tandem(
-        &d,
-        &[
-            "sweep",
-            "s.toml",
-            "--out",
-            "two",
-            "--threads",
-            "2",
-            "--no-figures",
-        ],
-    ));
-    let whole = read(&d.join("one/runs.csv"));
-    assert_eq!(
-        whole,
-        read(&d.join("two/runs.csv")),
-        "1 thread vs 2 threads"
-    );
+    let whole = one_and_two_threads(&d, &["--keep-runs"]);
     let text = String::from_utf8(whole.clone()).unwrap();
     // The spatial header: the varied fields, then the spatial summary's metrics.
     assert!(

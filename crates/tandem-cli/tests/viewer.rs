@@ -22,37 +22,16 @@ mod viewer;
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use serde_json::Value;
 use tandem::nalgebra::Vector3;
 use tandem::reference::se3_path::{CircleParams, Se3Path};
 use viewer::{Scene3d, demo};
 
+mod support;
+use support::*;
+
 const BOX: [f64; 3] = [0.4, 0.2, 0.2];
-
-/// A fresh, empty scratch folder.
-fn scratch(name: &str) -> PathBuf {
-    static N: AtomicUsize = AtomicUsize::new(0);
-    let d = std::env::temp_dir().join(format!(
-        "tandem-viewer-{name}-{}-{}",
-        std::process::id(),
-        N.fetch_add(1, Ordering::Relaxed)
-    ));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).expect("create scratch folder");
-    d
-}
-
-fn listing(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = fs::read_dir(dir)
-        .expect("read_dir")
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
 
 /// The S6 path played kinematically on the dual UR5 over `seconds` at `fps`.
 fn ur5_scene(seconds: f64, fps: f64) -> Scene3d {

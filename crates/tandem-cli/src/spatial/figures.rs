@@ -24,7 +24,7 @@ use anyhow::Result;
 use tandem::control::spatial::{AXES, WRENCH_AXES};
 
 use super::output::{Derived, Finished, TRANSIENT, col, six};
-use crate::figures::{Job, run_jobs};
+use crate::figures::{Job, joint_torque_panels, margin_panel, run_jobs};
 use crate::plot::{self, Panel, Series, Style};
 
 /// Axis symbols of the six outputs in titles.
@@ -273,31 +273,7 @@ pub fn run_figures(dir: &Path, scenario: &str, f: &Finished, d: &Derived) -> Res
         jobs.push((
             "joint_torques".into(),
             Box::new(move || {
-                let mut off = 0;
-                let panels: Vec<Panel> = dofs
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &n)| {
-                        let mut p = Panel::new(
-                            format!("arm {}", i + 1),
-                            "t [s]",
-                            format!("τ_q (arm {}) [N m]", i + 1),
-                        );
-                        for k in 0..n {
-                            let c = col(log, &format!("tau_q{}", off + k + 1));
-                            if c.len() == t.len() {
-                                p = p.with(Series::new(
-                                    format!("joint {}", k + 1),
-                                    t,
-                                    c,
-                                    Style::solid(k),
-                                ));
-                            }
-                        }
-                        off += n;
-                        p
-                    })
-                    .collect();
+                let panels = joint_torque_panels(log, t, &dofs);
                 plot::panels(&path, &ttl, &panels, 1)
             }),
         ));
@@ -560,17 +536,8 @@ pub fn compare_figures(dir: &Path, name: &str, runs: &[(&str, &Finished)]) -> Re
         jobs.push((
             "compare_margin".into(),
             Box::new(move || {
-                let mut m = Panel::new(
-                    "constraint margin 1 − max_j |x_1j|/k_cj",
-                    "t [s]",
-                    "margin [1]",
-                );
-                for (i, r) in data.iter().enumerate() {
-                    if r.margin.len() == r.t.len() && !r.t.is_empty() {
-                        m = m.with(Series::new(r.label, r.t, r.margin, Style::solid(i)));
-                    }
-                }
-                plot::panels(&path, &ttl, &[m.hline(0.0, "violation")], 1)
+                let m = margin_panel(data.iter().map(|r| (r.label, r.t, r.margin)));
+                plot::panels(&path, &ttl, &[m], 1)
             }),
         ));
     }

@@ -75,6 +75,8 @@ pub struct Prepared {
 pub fn prepare(sc: SpatialScenario, src: &Source) -> Result<Prepared, ScenarioError> {
     let built = scenario::build(&sc, src)?;
     let ready = scenario::make_simulation(&sc, &built, src)?;
+    // Last: a NaN or infinity the run's own checks did not meet (another law's section).
+    crate::scenario::check_finite(src, &sc)?;
     let name = sc.name.clone().unwrap_or_else(|| src.name.clone());
     // The run's `scenario.toml` lives in the output folder: its file references (URDFs, the
     // replay) become absolute so that it runs from there.
@@ -99,17 +101,38 @@ pub fn prepare(sc: SpatialScenario, src: &Source) -> Result<Prepared, ScenarioEr
     })
 }
 
-/// The label of a run's law (`nn`, `pd`, `pd+g`, `ctc`, `per-arm pd`, `replay`).
+/// The label of a run's law, for tables, legends and messages: `NN`, `PD`, `PD + gravity`,
+/// `CTC`, `per-arm PD`, `replay`. Its [`slug`] names the law in `summary.json` (`controller`),
+/// in the default output folder of `tandem run` and in the sub-folders of `tandem compare`.
 pub fn label(sc: &SpatialScenario) -> String {
     let c = &sc.controller;
-    let mut l = c.kind.name().to_string();
-    if c.kind == SpatialKind::Pd && c.pd.gravity_compensation {
-        l.push_str("+g");
-    }
+    let l = match c.kind {
+        SpatialKind::Nn => "NN",
+        SpatialKind::Pd if c.pd.gravity_compensation => "PD + gravity",
+        SpatialKind::Pd => "PD",
+        SpatialKind::Ctc => "CTC",
+        SpatialKind::Replay => "replay",
+    };
     if c.scheme == scenario::SchemeConfig::PerArm && c.kind != SpatialKind::Replay {
-        l = format!("per-arm {l}");
+        format!("per-arm {l}")
+    } else {
+        l.to_string()
     }
-    l
+}
+
+/// A folder name for a run label: lowercase letters, digits and `-` (`PD + gravity` →
+/// `pd-gravity`; `run` when nothing is left).
+pub fn slug(label: &str) -> String {
+    let mut s: String = label
+        .to_lowercase()
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
+        .collect();
+    while s.contains("--") {
+        s = s.replace("--", "-");
+    }
+    let s = s.trim_matches('-').to_string();
+    if s.is_empty() { "run".into() } else { s }
 }
 
 /// Run the embedded spatial scenario `name` (`dual-ur5`, `dual-franka`) for `duration` s with
@@ -128,23 +151,6 @@ pub fn run(name: &str, duration: f64) -> Result<Finished> {
     execute(p, |_| {})
 }
 
-/// A human label of a run's law for tables and legends (`NN`, `PD`, `PD + gravity`, `CTC`,
-/// `per-arm PD`, `replay`).
-pub fn human_label(sc: &SpatialScenario) -> String {
-    let c = &sc.controller;
-    let mut l = match c.kind {
-        SpatialKind::Nn => "NN".to_string(),
-        SpatialKind::Pd if c.pd.gravity_compensation => "PD + gravity".to_string(),
-        SpatialKind::Pd => "PD".to_string(),
-        SpatialKind::Ctc => "CTC".to_string(),
-        SpatialKind::Replay => "replay".to_string(),
-    };
-    if c.scheme == scenario::SchemeConfig::PerArm && c.kind != SpatialKind::Replay {
-        l = format!("per-arm {l}");
-    }
-    l
-}
-
 /// Run a prepared scenario, reporting progress in [0, 1].
 pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Result<Finished> {
     let outcome = p.ready.sim.run(progress);
@@ -154,8 +160,8 @@ pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Result<Finished> {
         box_size: p.built.box_size,
         path: p.built.path.clone(),
         duration: p.built.sim.duration,
-        controller: label(&p.sc).replace([' ', '+'], "-"),
-        label: human_label(&p.sc),
+        controller: slug(&label(&p.sc)),
+        label: label(&p.sc),
         k_c: p.ready.k_c,
         chart: p.ready.chart,
         warnings: p.ready.warnings.clone(),
@@ -176,10 +182,7 @@ pub fn cmd_run(p: Prepared, out: OutputDir, figures: bool) -> Result<bool> {
     bar.finish_and_clear();
     let (s, times, problems) = output::write(out.tmp_dir(), &name, &f, figures)?;
     write_text_atomic(&out.tmp_dir().join("scenario.toml"), &toml_text)?;
-    for p in &problems {
-        eprintln!("warning: {p}");
-    }
-    let dir = out.commit()?;
+    let dir = out.commit_with_warnings(&problems)?;
     println!("{name} — {}, {duration} s", f.label);
     print!("{}", output::text(&[(f.label.as_str(), &s)]));
     println!(
@@ -260,10 +263,7 @@ pub fn cmd_compare(
     let runs: Vec<(&str, &Finished)> = finished.iter().map(|f| (f.label.as_str(), f)).collect();
     let (summaries, problems) = output::write_compare(out.tmp_dir(), &name, &runs, figures)?;
     write_text_atomic(&out.tmp_dir().join("scenario.toml"), &toml_text)?;
-    for p in &problems {
-        eprintln!("warning: {p}");
-    }
-    let dir = out.commit()?;
+    let dir = out.commit_with_warnings(&problems)?;
     println!("{name} — compare, {} s", finished[0].duration);
     let cols: Vec<(&str, &serde_json::Value)> = finished
         .iter()
@@ -293,4 +293,45 @@ pub fn scenario_toml(sc: &SpatialScenario, name: &str) -> Result<String> {
     Ok(format!(
         "# The scenario of this run as tandem read it (defaults and command-line overrides\n# applied). Re-run it with `tandem run scenario.toml`.\n\n{body}"
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One label function names every law; its slug is what `summary.json`, `tandem run`'s
+    /// default folder and `tandem compare`'s sub-folders use, so that a run and the same law in
+    /// a comparison land in folders of the same name (PD with gravity was `pd-g` in one and
+    /// `pd-gravity` in the other).
+    #[test]
+    fn one_label_and_its_slug_name_every_law() {
+        let src = crate::scenario::embedded_source(&scenario::EMBEDDED[0]);
+        let base = scenario::parse(&src).expect("embedded spatial scenario");
+        let mut got: Vec<(String, String)> = compare_variants(&base)
+            .iter()
+            .map(|v| (label(v), slug(&label(v))))
+            .collect();
+        let mut per_arm = base.clone();
+        per_arm.controller.kind = SpatialKind::Pd;
+        per_arm.controller.scheme = scenario::SchemeConfig::PerArm;
+        let mut replay = per_arm.clone();
+        replay.controller.kind = SpatialKind::Replay;
+        for v in [&per_arm, &replay] {
+            got.push((label(v), slug(&label(v))));
+        }
+        let want = [
+            ("NN", "nn"),
+            ("PD", "pd"),
+            ("PD + gravity", "pd-gravity"),
+            ("CTC", "ctc"),
+            ("per-arm PD", "per-arm-pd"),
+            ("replay", "replay"),
+        ];
+        let want: Vec<(String, String)> = want
+            .iter()
+            .map(|(a, b)| (a.to_string(), b.to_string()))
+            .collect();
+        assert_eq!(got, want);
+        assert_eq!(slug(" +/ "), "run");
+    }
 }

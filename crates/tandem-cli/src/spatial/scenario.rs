@@ -27,7 +27,6 @@ use std::path::{Path as FsPath, PathBuf};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 use tandem::ModelError;
-use tandem::control::ControlWarning;
 use tandem::control::Scheme;
 use tandem::control::spatial::SpatialController;
 use tandem::control::spatial::{
@@ -44,10 +43,11 @@ use tandem::reference::admittance_se3::AdmittanceSe3Params;
 use tandem::reference::se3_path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};
 use tandem::se3::Chart;
 use tandem::sensors::{ChannelNoise, SensorParams};
-use tandem::sim::{Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
+use tandem::sim::{Drive, Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
 
 use crate::scenario::{
-    Embedded, MAX_ARMS, MAX_LINKS, MetricsConfig, ScenarioError, Source, num, read_limited,
+    Embedded, MAX_ARMS, MAX_LINKS, MetricsConfig, ScenarioError, Source, control_warning,
+    load_replay, num, read_limited,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -849,6 +849,16 @@ fn rotation(
         )));
     }
     if let Some(a) = axes {
+        // Each entry first: nalgebra's `max` passes over a NaN, so the orthonormality test
+        // below would not see one.
+        for (i, ax) in a.iter().enumerate() {
+            if let Some(j) = ax.iter().position(|v| !v.is_finite()) {
+                return Err((
+                    format!("{}[{i}][{j}]", join("axes")),
+                    "must be finite".into(),
+                ));
+            }
+        }
         let m = Matrix3::from_columns(&[
             Vector3::from(a[0]),
             Vector3::from(a[1]),
@@ -1048,10 +1058,6 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
                         format!("{here}.urdf: cannot read {}: {e}", p.display()),
                     )
                 })?;
-                let text = match text.strip_prefix('\u{feff}') {
-                    Some(t) => t.to_string(),
-                    None => text,
-                };
                 inputs.push(p.clone());
                 (text, None, None, p.display().to_string())
             }
@@ -1180,6 +1186,28 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
 
     // Controller.
     let c = &sc.controller;
+    // The NN design's inputs (SPEC §3.4's per-axis design): checked here, by their own names,
+    // before the gains designed from them are (a NaN `k1` would otherwise surface as the
+    // designed `controller.nn.k1[0]`, a field the file does not set).
+    if c.kind == SpatialKind::Nn {
+        let d = &c.nn.design;
+        let mut fields: Vec<(String, f64)> = vec![
+            ("controller.nn.design.k1".into(), d.k1),
+            ("controller.nn.design.omega_n".into(), d.omega_n),
+            ("controller.nn.design.zeta".into(), d.zeta),
+        ];
+        for (j, m) in d.inertia.iter().flatten().enumerate() {
+            fields.push((format!("controller.nn.design.inertia[{j}]"), *m));
+        }
+        for (name, v) in fields {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(src.error_at(
+                    &name,
+                    format!("{name} = {}: must be finite and > 0", num(v)),
+                ));
+            }
+        }
+    }
     let controller = {
         let law = match c.kind {
             SpatialKind::Nn => SpatialLaw::Nn(nn_gains(&c.nn, None)),
@@ -1519,21 +1547,22 @@ pub fn dofs(b: &SpatialBuilt) -> Vec<usize> {
     b.plant.arms.iter().map(|a| a.chain.joints.len()).collect()
 }
 
-fn warning_text(src: &Source, sc: &SpatialScenario, dofs: &[usize], w: &ControlWarning) -> String {
-    match w {
-        ControlWarning::Gain { param, reason } => {
-            src.warning_at(&file_path(sc, dofs, param), reason)
-        }
-        ControlWarning::Admittance(a) => {
-            let t = a.to_string();
-            let path = t
-                .split_whitespace()
-                .next()
-                .unwrap_or("admittance")
-                .to_string();
-            src.warning_at(&path, &t)
-        }
-    }
+/// The simulation of `driver` (the controller or a torque replay) on the built plant, start,
+/// sensors, disturbance and timing.
+fn simulation<D: Drive<SpatialPlant>>(
+    plant: SpatialPlant,
+    b: &SpatialBuilt,
+    driver: D,
+) -> Result<Box<Simulation<SpatialPlant, D>>, ModelError> {
+    Simulation::with_plant(
+        plant,
+        &b.start,
+        &b.sensors,
+        driver,
+        b.disturbance.clone(),
+        b.sim.clone(),
+    )
+    .map(Box::new)
 }
 
 /// Build the controller (the set-up checks of [`SpatialController::new`]: gains, bounds, the
@@ -1549,18 +1578,28 @@ pub fn make_simulation(
     let lib = |e: ModelError| model_error(src, sc, &dofs, e);
     let mut warnings = b.warnings.clone();
     let plant = SpatialPlant::new(&b.plant).map_err(lib)?;
+    // The controller's set-up has checked that every arm reaches the path, so an arm that
+    // cannot hold the start pose fails on the file's start offset when it gives one: the error
+    // names and points at `run.start_offset` (else at the arm).
     let start_error = |e: ModelError| {
-        let o = sc.run.start_offset.map(num);
+        let o = sc.run.start_offset;
         match &e {
             ModelError::Geometry { what, .. } if what.starts_with("arms") => {
-                let field = file_path(sc, &dofs, what);
-                src.error_at(
-                    &field,
-                    format!(
-                        "{field}: the start pose (the path at t = 0 offset by run.start_offset = [{}]) cannot be held: {e}",
-                        o.join(", ")
-                    ),
-                )
+                let offset = format!("[{}]", o.map(num).join(", "));
+                if o.iter().any(|v| *v != 0.0) {
+                    src.error_at(
+                        "run.start_offset",
+                        format!(
+                            "run.start_offset = {offset}: the start pose (the path at t = 0 offset by it) cannot be held: {e}"
+                        ),
+                    )
+                } else {
+                    let field = file_path(sc, &dofs, what);
+                    src.error_at(
+                        &field,
+                        format!("{field}: the start pose (the path at t = 0) cannot be held: {e}"),
+                    )
+                }
             }
             _ => lib(e),
         }
@@ -1592,64 +1631,33 @@ pub fn make_simulation(
     .map_err(lib)?;
     let k_c: [f64; 6] = c.k_c().into();
     let chart = *c.chart();
-    match &b.replay {
+    let (sim, controller) = match &b.replay {
         None => {
             if path_inertia.is_none() {
                 path_inertia = Some(c.path_inertia().into());
             }
-            warnings.extend(w.iter().map(|w| warning_text(src, sc, &dofs, w)));
-            let sim = Simulation::with_plant(
-                plant,
-                &b.start,
-                &b.sensors,
-                c,
-                b.disturbance.clone(),
-                b.sim.clone(),
-            )
-            .map_err(start_error)?;
-            Ok(SpatialReady {
-                sim: SpatialSim::Control(Box::new(sim)),
-                warnings,
-                controller: Some(cp),
-                path_inertia,
-                k_c,
-                chart,
-            })
+            warnings.extend(
+                w.iter()
+                    .map(|w| control_warning(src, w, |p| file_path(sc, &dofs, p))),
+            );
+            let sim = simulation(plant, b, c).map_err(start_error)?;
+            (SpatialSim::Control(sim), Some(cp))
         }
         Some(file) => {
-            let timing = crate::replay::Timing {
-                control_period: b.sim.control_period,
-                duration: b.sim.duration,
-            };
-            let mode = sc.controller.replay_interpolation.unwrap_or_default();
             let n_q: usize = dofs.iter().sum();
-            let replay =
-                crate::replay::load(file, n_q, timing, mode).map_err(|e| ScenarioError {
-                    file: src.display.clone(),
-                    message: format!(
-                        "controller.replay (or --replay) = {}: {e:#}",
-                        file.display()
-                    ),
-                    span: None,
-                    text: String::new(),
-                })?;
-            let sim = Simulation::with_plant(
-                plant,
-                &b.start,
-                &b.sensors,
-                replay,
-                b.disturbance.clone(),
-                b.sim.clone(),
-            )
-            .map_err(start_error)?;
-            Ok(SpatialReady {
-                sim: SpatialSim::Replay(Box::new(sim)),
-                warnings,
-                controller: None,
-                path_inertia: None,
-                k_c,
-                chart,
-            })
+            let mode = sc.controller.replay_interpolation;
+            let replay = load_replay(src, file, n_q, &b.sim, mode)?;
+            path_inertia = None;
+            let sim = simulation(plant, b, replay).map_err(start_error)?;
+            (SpatialSim::Replay(sim), None)
         }
-    }
+    };
+    Ok(SpatialReady {
+        sim,
+        warnings,
+        controller,
+        path_inertia,
+        k_c,
+        chart,
+    })
 }
