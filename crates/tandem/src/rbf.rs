@@ -1841,7 +1841,7 @@ mod avx512 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[inline(always)]
-    unsafe fn load(x: &[f64]) -> __m512d {
+    pub(super) unsafe fn load(x: &[f64]) -> __m512d {
         assert!(x.len() >= B);
         // SAFETY: bounds checked above (unaligned load); AVX-512F (caller's contract).
         unsafe { _mm512_loadu_pd(x.as_ptr()) }
@@ -1852,7 +1852,7 @@ mod avx512 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[inline(always)]
-    unsafe fn store(x: &mut [f64], v: __m512d) {
+    pub(super) unsafe fn store(x: &mut [f64], v: __m512d) {
         assert!(x.len() >= B);
         // SAFETY: bounds checked above (unaligned store); AVX-512F (caller's contract).
         unsafe { _mm512_storeu_pd(x.as_mut_ptr(), v) }

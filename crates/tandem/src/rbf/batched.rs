@@ -189,34 +189,13 @@ impl<const M: usize> Batch<M> {
 
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
+    use super::super::avx512::{load, store};
     use super::super::reduce512;
     use super::{Batch, DEPTH, LANE, MAX_OUTPUTS};
     use std::arch::x86_64::{
         __m512d, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd, _mm512_mul_pd, _mm512_set1_pd,
         _mm512_setzero_pd, _mm512_storeu_pd,
     };
-
-    /// Load 8 lanes.
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[inline(always)]
-    unsafe fn load(x: &[f64]) -> __m512d {
-        assert!(x.len() >= LANE);
-        // SAFETY: bounds checked above (unaligned load); AVX-512F (caller's contract).
-        unsafe { _mm512_loadu_pd(x.as_ptr()) }
-    }
-
-    /// Store 8 lanes.
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[inline(always)]
-    unsafe fn store(x: &mut [f64], v: __m512d) {
-        assert!(x.len() >= LANE);
-        // SAFETY: bounds checked above (unaligned store); AVX-512F (caller's contract).
-        unsafe { _mm512_storeu_pd(x.as_mut_ptr(), v) }
-    }
 
     /// `v_j` spread over register `q`'s lanes: lane `t` holds `v[(8q + t) % M]`.
     ///
