@@ -233,6 +233,12 @@ fn default_sigpipe() {}
 fn main() -> ExitCode {
     default_sigpipe();
     let cli = Cli::parse();
+    // `TANDEM_KERNEL` is read from the environment, not from a scenario: refuse a bad value
+    // here, naming the variable, before any file is read or written.
+    if let Err(e) = tandem::rbf::Kernel::from_env() {
+        eprintln!("error: environment variable {e}");
+        return ExitCode::from(2);
+    }
     let result = match cli.command {
         Command::Run(a) => cmd_run(a),
         Command::Compare(a) => cmd_compare(a),

@@ -1026,3 +1026,34 @@ fn a_closed_pipe_ends_tandem_quietly_not_with_a_panic() {
     }
     let _ = fs::remove_dir_all(&d);
 }
+
+/// `TANDEM_KERNEL` is an environment variable, not a scenario field: a bad value is refused
+/// before anything is read or written, with an error that names the variable and lists the
+/// valid kernels; a valid one runs.
+#[test]
+fn a_bad_tandem_kernel_names_the_environment_variable_and_writes_nothing() {
+    let dir = support::scratch("kernel_env");
+    let run = |k: &str| {
+        Command::new(support::BIN)
+            .args(["run", "--duration", "0.2", "--out", "o"])
+            .current_dir(&dir)
+            .env("TANDEM_KERNEL", k)
+            .output()
+            .expect("run tandem")
+    };
+    let o = run("sse9");
+    support::exit(&o, 2);
+    let e = support::stderr(&o);
+    assert!(
+        e.contains("environment variable TANDEM_KERNEL")
+            && e.contains("unknown kernel `sse9`")
+            && e.contains("portable")
+            && e.contains("batched")
+            && !e.contains("line "),
+        "{e}"
+    );
+    assert!(!dir.join("o").exists());
+    let o = run("portable");
+    support::exit(&o, 0);
+    assert!(dir.join("o/summary.json").is_file());
+}
