@@ -114,7 +114,16 @@ fn floor(text: &str, mut i: usize) -> usize {
 
 fn apply(text: &str, m: &Mutation) -> String {
     let mut lines: Vec<&str> = text.split_inclusive('\n').collect();
-    let n = lines.len().max(1);
+    let n = lines.len();
+    // An earlier mutation may have emptied the text: the line mutations have nothing to act on.
+    if n == 0
+        && matches!(
+            m,
+            Mutation::Delete(_) | Mutation::Duplicate(_) | Mutation::Swap(..)
+        )
+    {
+        return text.to_string();
+    }
     match m {
         Mutation::Number(k, _) | Mutation::Float(k, _) if !numbers(text).is_empty() => {
             let nums = numbers(text);
@@ -353,4 +362,20 @@ fn the_unmutated_spatial_presets_reach_the_run() {
         );
         check_spatial(e.text).unwrap();
     }
+}
+
+/// A mutation chain can empty the text (a truncation to 0 bytes); the line mutations after it
+/// leave the empty text as it is (proptest found `Delete` panicking on it in CI).
+#[test]
+fn line_mutations_of_an_empty_text_leave_it_empty() {
+    for m in [
+        Mutation::Delete(3),
+        Mutation::Duplicate(5),
+        Mutation::Swap(1, 7),
+        Mutation::Lengthen(2),
+        Mutation::Truncate(0.5),
+    ] {
+        assert_eq!(apply("", &m), "");
+    }
+    assert_eq!(apply("a\nb\n", &Mutation::Delete(1)), "a\n");
 }
