@@ -234,7 +234,9 @@ fn main() -> ExitCode {
     default_sigpipe();
     let cli = Cli::parse();
     // `TANDEM_KERNEL` is read from the environment, not from a scenario: refuse a bad value
-    // here, naming the variable, before any file is read or written.
+    // here, before any file is read or written, also for runs that never build a network (a
+    // PD run would otherwise ignore it). The library path reports it the same way
+    // (`Source::model_error`).
     if let Err(e) = tandem::rbf::Kernel::from_env() {
         eprintln!("error: environment variable {e}");
         return ExitCode::from(2);

@@ -972,6 +972,10 @@ impl Source {
                 let path = map(&param);
                 self.error_at(&path, format!("{path} = {}: {reason}", num(value)))
             }
+            // The kernel comes from the environment, not from the file: no field, no line.
+            ModelError::Geometry { what, reason } if what == tandem::rbf::KERNEL_ENV => {
+                self.error_at("", format!("environment variable {what}: {reason}"))
+            }
             ModelError::Geometry { what, reason } => {
                 let path = map(&what);
                 self.error_at(&path, format!("{path}: {reason}"))
@@ -2017,6 +2021,24 @@ mod tests {
         let e = read_limited(&f, 1 << 20).expect_err("not UTF-8");
         assert!(e.contains("offset 5"), "{e}");
         let _ = std::fs::remove_dir_all(&d);
+    }
+
+    /// A bad `TANDEM_KERNEL` reaching a scenario's build (the library path the Python package
+    /// takes) names the environment variable, not a field or a line of the file.
+    #[test]
+    fn a_kernel_error_names_the_environment_variable_not_a_field() {
+        let src = embedded_source(&EMBEDDED[0]);
+        let e = tandem::rbf::Kernel::parse("sse9").expect_err("unknown kernel");
+        let msg = src
+            .model_error(e, |p| format!("controller.{p}"))
+            .to_string();
+        assert!(
+            msg.contains("environment variable TANDEM_KERNEL: unknown kernel `sse9`")
+                && !msg.contains("controller.")
+                && !msg.contains("line ")
+                && !msg.contains("not set in the file"),
+            "{msg}"
+        );
     }
 
     #[test]

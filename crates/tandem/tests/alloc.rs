@@ -77,23 +77,12 @@ fn plant_steps_allocate_nothing() {
         let mut y = plant
             .initial_state(fixtures::paper_start(), Vector3::new(0.01, 0.0, 0.1), None)
             .unwrap();
-        let mut ws = plant.workspace();
-        let input = plant.zero_input();
-        let mut rk = Rk4::new(plant.state_dim());
         let mut yr = [0.19, 0.0, 0.0, 0.01, 0.0, 0.1];
         let mut rkr = Rk4::new(6);
-        let n = count(|| {
-            for k in 0..100 {
-                let mut sys = ConstrainedOde {
-                    plant: &plant,
-                    ws: &mut ws,
-                    input: &input,
-                };
-                rk.step(&mut sys, k as f64 * 1e-3, &mut y, 1e-3);
-            }
-        });
+        let n = constrained_step_allocations(&plant, &mut y);
         assert_eq!(n, 0, "constrained plant steps allocated {n} times");
         if plant.arms().len() == 2 {
+            let (mut ws, input) = (plant.workspace(), plant.zero_input());
             let n = count(|| {
                 for k in 0..100 {
                     let mut sys = ReducedOde {
@@ -202,19 +191,7 @@ fn n_link_controller_ticks_and_plant_steps_allocate_nothing() {
             );
             assert!(tau.iter().all(|v| v.is_finite()) && tau.iter().any(|v| *v != 0.0));
         }
-        let mut ws = plant.workspace();
-        let input = plant.zero_input();
-        let mut rk = Rk4::new(plant.state_dim());
-        let n = count(|| {
-            for k in 0..100 {
-                let mut sys = ConstrainedOde {
-                    plant: &plant,
-                    ws: &mut ws,
-                    input: &input,
-                };
-                rk.step(&mut sys, k as f64 * 1e-3, &mut y, 1e-3);
-            }
-        });
+        let n = constrained_step_allocations(&plant, &mut y);
         assert_eq!(n, 0, "{arms} {links}-link plant steps allocated {n} times");
     }
 }
@@ -525,4 +502,22 @@ fn fault_injected_driver_ticks_allocate_nothing() {
         .fold(0.0, f64::max);
     // 2 N m against the paper's tens of N m moves the state by far more than round-off.
     assert!(d > 1e-6, "the faults did not act: state difference {d:e}");
+}
+
+/// Allocations during 100 RK4 steps of the constrained plant from `y` (workspace, input and
+/// integrator made before counting).
+fn constrained_step_allocations(plant: &Plant, y: &mut [f64]) -> usize {
+    let mut ws = plant.workspace();
+    let input = plant.zero_input();
+    let mut rk = Rk4::new(plant.state_dim());
+    count(|| {
+        for k in 0..100 {
+            let mut sys = ConstrainedOde {
+                plant,
+                ws: &mut ws,
+                input: &input,
+            };
+            rk.step(&mut sys, k as f64 * 1e-3, y, 1e-3);
+        }
+    })
 }

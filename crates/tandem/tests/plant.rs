@@ -398,6 +398,41 @@ fn bad_plant_input_is_named() {
 }
 
 /// `‖a − b‖ / ‖b‖` over slices.
+/// Random joint torques and object force into `input`, then the plant's (fixed-size)
+/// derivative and the general algorithm's at `y`: their relative differences in `ẏ`, the grasp
+/// forces, `ẍ_o` and the KKT pivot.
+fn fixed_and_general_differ(
+    plant: &Plant,
+    y: &[f64],
+    input: &mut PlantInput,
+    rng: &mut Rng,
+    [ws_a, ws_b]: [&mut PlantWorkspace; 2],
+    [dy_a, dy_b]: [&mut Vec<f64>; 2],
+) -> [f64; 4] {
+    for t in input.tau.iter_mut() {
+        *t = rng.range(-5.0, 5.0);
+    }
+    input.f_d = Vector3::new(
+        rng.range(-1.0, 1.0),
+        rng.range(-1.0, 1.0),
+        rng.range(-0.1, 0.1),
+    );
+    assert!(plant.derivative(y, input, ws_a, dy_a));
+    assert!(plant.derivative_general(y, input, ws_b, dy_b));
+    let f = |ws: &PlantWorkspace| {
+        ws.forces
+            .iter()
+            .flat_map(|v| [v.x, v.y])
+            .collect::<Vec<_>>()
+    };
+    [
+        rel(dy_a, dy_b),
+        rel(&f(ws_a), &f(ws_b)),
+        rel(ws_a.xdd_o.as_slice(), ws_b.xdd_o.as_slice()),
+        (ws_a.kkt_pivot - ws_b.kkt_pivot).abs() / ws_b.kkt_pivot,
+    ]
+}
+
 fn rel(a: &[f64], b: &[f64]) -> f64 {
     let d: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
     let n: f64 = b.iter().map(|y| y * y).sum();
@@ -494,28 +529,14 @@ fn fixed_vs_general(
         for v in y.iter_mut() {
             *v += rng.range(-1e-3, 1e-3);
         }
-        for t in input.tau.iter_mut() {
-            *t = rng.range(-5.0, 5.0);
-        }
-        input.f_d = Vector3::new(
-            rng.range(-1.0, 1.0),
-            rng.range(-1.0, 1.0),
-            rng.range(-0.1, 0.1),
+        let e = fixed_and_general_differ(
+            &plant,
+            &y,
+            &mut input,
+            &mut rng,
+            [&mut ws_a, &mut ws_b],
+            [&mut dy_a, &mut dy_b],
         );
-        assert!(plant.derivative(&y, &input, &mut ws_a, &mut dy_a));
-        assert!(plant.derivative_general(&y, &input, &mut ws_b, &mut dy_b));
-        let f = |ws: &PlantWorkspace| {
-            ws.forces
-                .iter()
-                .flat_map(|v| [v.x, v.y])
-                .collect::<Vec<_>>()
-        };
-        let e = [
-            rel(&dy_a, &dy_b),
-            rel(&f(&ws_a), &f(&ws_b)),
-            rel(ws_a.xdd_o.as_slice(), ws_b.xdd_o.as_slice()),
-            (ws_a.kkt_pivot - ws_b.kkt_pivot).abs() / ws_b.kkt_pivot,
-        ];
         for (what, e) in ["dy", "forces", "xdd_o", "kkt_pivot"].iter().zip(e) {
             assert!(e < tol, "{name}: {what} differs by {e:e} (relative)");
             worst = worst.max(e);
@@ -575,28 +596,14 @@ fn fixed_size_constrained_derivative_equals_the_general_algorithm() {
     let mut worst: f64 = 0.0;
     for trial in 0..300 {
         let y = random_state(&plant, &mut rng);
-        for t in input.tau.iter_mut() {
-            *t = rng.range(-5.0, 5.0);
-        }
-        input.f_d = Vector3::new(
-            rng.range(-1.0, 1.0),
-            rng.range(-1.0, 1.0),
-            rng.range(-0.1, 0.1),
+        let e = fixed_and_general_differ(
+            &plant,
+            &y,
+            &mut input,
+            &mut rng,
+            [&mut ws_a, &mut ws_b],
+            [&mut dy_a, &mut dy_b],
         );
-        assert!(plant.derivative(&y, &input, &mut ws_a, &mut dy_a));
-        assert!(plant.derivative_general(&y, &input, &mut ws_b, &mut dy_b));
-        let f = |ws: &PlantWorkspace| {
-            ws.forces
-                .iter()
-                .flat_map(|v| [v.x, v.y])
-                .collect::<Vec<_>>()
-        };
-        let e = [
-            rel(&dy_a, &dy_b),
-            rel(&f(&ws_a), &f(&ws_b)),
-            rel(ws_a.xdd_o.as_slice(), ws_b.xdd_o.as_slice()),
-            (ws_a.kkt_pivot - ws_b.kkt_pivot).abs() / ws_b.kkt_pivot,
-        ];
         for (name, e) in ["dy", "forces", "xdd_o", "kkt_pivot"].iter().zip(e) {
             assert!(
                 e < 1e-12,
