@@ -77,39 +77,41 @@ pub const MAX_OUTPUTS: usize = 8;
 /// Largest number of nodes accepted (a guard against typos such as 10 levels × 12 inputs).
 pub const MAX_NODES: usize = 1 << 24;
 
-/// A zero-initialised `f64` buffer whose first element is 64-byte aligned (a cache line and
-/// an AVX-512 register: aligned loads never straddle two lines). Over-allocates by 7 values.
+/// A zero-initialised buffer (of `f64`, or `f32` for the single-precision store of
+/// [`Kernel::BatchedF32`]) whose first element is 64-byte aligned (a cache line and an AVX-512
+/// register: aligned loads never straddle two lines). Over-allocates by one register.
 #[derive(Debug)]
-pub(crate) struct Aligned {
-    buf: Vec<f64>,
+pub(crate) struct Aligned<T = f64> {
+    buf: Vec<T>,
     off: usize,
     len: usize,
 }
 
-impl Aligned {
+impl<T: Copy + Default> Aligned<T> {
     /// `len` zeros.
     pub(crate) fn zeros(len: usize) -> Self {
-        let buf = vec![0.0; len + 7];
-        let off = buf.as_ptr().align_offset(64).min(7);
+        let spare = 64 / std::mem::size_of::<T>() - 1;
+        let buf = vec![T::default(); len + spare];
+        let off = buf.as_ptr().align_offset(64).min(spare);
         Self { buf, off, len }
     }
 }
 
-impl AsRef<[f64]> for Aligned {
+impl<T> AsRef<[T]> for Aligned<T> {
     #[inline(always)]
-    fn as_ref(&self) -> &[f64] {
+    fn as_ref(&self) -> &[T] {
         &self.buf[self.off..self.off + self.len]
     }
 }
 
-impl AsMut<[f64]> for Aligned {
+impl<T> AsMut<[T]> for Aligned<T> {
     #[inline(always)]
-    fn as_mut(&mut self) -> &mut [f64] {
+    fn as_mut(&mut self) -> &mut [T] {
         &mut self.buf[self.off..self.off + self.len]
     }
 }
 
-impl Clone for Aligned {
+impl<T: Copy + Default> Clone for Aligned<T> {
     /// A new aligned buffer with the same values (a derived clone could lose the alignment).
     fn clone(&self) -> Self {
         let mut c = Self::zeros(self.len);
@@ -118,7 +120,7 @@ impl Clone for Aligned {
     }
 }
 
-impl PartialEq for Aligned {
+impl<T: PartialEq> PartialEq for Aligned<T> {
     fn eq(&self, other: &Self) -> bool {
         self.as_ref() == other.as_ref()
     }
@@ -659,8 +661,9 @@ pub struct RbfNetwork<const M: usize> {
     kernel: Kernel,
     /// `(n_a, n_b)` of the grid basis the network was made for ([`RbfNetwork::for_basis`]).
     grid: Option<(usize, usize)>,
-    /// The pending updates of [`Kernel::Batched`] (`None` with the other kernels).
-    batch: Option<batched::Batch<M>>,
+    /// The held updates of [`Kernel::Batched`] and [`Kernel::BatchedF32`] (and the latter's
+    /// `f32` store); `None` with the other kernels.
+    batch: Option<batched::Held<M>>,
 }
 
 impl<const M: usize> RbfNetwork<M> {
@@ -696,16 +699,16 @@ impl<const M: usize> RbfNetwork<M> {
         self.flush();
         self.kernel = kernel;
         self.batch = match (kernel, self.grid) {
-            (Kernel::Batched, Some((na, nb))) if nb.is_multiple_of(8) => {
-                Some(batched::Batch::new(na, nb))
-            }
+            (Kernel::Batched, Some((na, nb))) => batched::Held::new(false, na, nb),
+            (Kernel::BatchedF32, Some((na, nb))) => batched::Held::new(true, na, nb),
             _ => None,
         };
         Ok(())
     }
 
     /// A zero network sized for `rbf`. On a grid basis with [`Kernel::Batched`] this also
-    /// allocates the batch buffers (about `16 · (n_a + n_b(M + 1))` values).
+    /// allocates the batch buffers (about `16 · (n_a + n_b(M + 1))` values; with
+    /// [`Kernel::BatchedF32`] also the `f32` copy of the weights).
     pub fn for_basis(rbf: &Rbf) -> Result<Self, ModelError> {
         let mut net = Self::new(rbf.n_nodes())?;
         net.grid = rbf.grid_dims();
@@ -719,28 +722,37 @@ impl<const M: usize> RbfNetwork<M> {
     /// [`RbfNetwork::weight`], [`RbfNetwork::weights_matrix`], [`RbfNetwork::output`],
     /// [`RbfNetwork::norms`]) need `0`: call [`RbfNetwork::flush`] first.
     pub fn pending(&self) -> usize {
-        self.batch.as_ref().map_or(0, batched::Batch::pending)
+        self.batch.as_ref().map_or(0, batched::Held::pending)
     }
 
-    /// Apply the updates [`Kernel::Batched`] holds, so that the stored weights are `Ŵ`
-    /// (a no-op with the other kernels, or when nothing is pending). No allocation.
+    /// Whether the stored `f64` weights are not `Ŵ` now: updates are pending, or
+    /// ([`Kernel::BatchedF32`]) the weights live in the kernel's `f32` store. The accessors
+    /// that read the weights need `false`: call [`RbfNetwork::flush`] first.
+    pub fn is_stale(&self) -> bool {
+        self.batch.as_ref().is_some_and(batched::Held::stale)
+    }
+
+    /// Apply the updates [`Kernel::Batched`] holds (or bring back the `f32` weights of
+    /// [`Kernel::BatchedF32`]), so that the stored weights are `Ŵ` (a no-op with the other
+    /// kernels, or when nothing is held). No allocation.
     pub fn flush(&mut self) {
         #[cfg(target_arch = "x86_64")]
         if let Some(b) = &mut self.batch {
-            // SAFETY: a batch exists only with `Kernel::Batched`, which is stored only after
-            // `Kernel::check_available` found AVX-512F on this CPU.
+            // SAFETY: a batch exists only with `Kernel::Batched` or `Kernel::BatchedF32`, which
+            // are stored only after `Kernel::check_available` found AVX-512F on this CPU.
             unsafe { b.flush(self.w.as_mut()) };
         }
     }
 
-    /// Panics if updates are pending (see [`RbfNetwork::pending`]).
+    /// Panics if the stored weights are stale (see [`RbfNetwork::is_stale`]).
     #[track_caller]
     fn assert_flushed(&self) {
-        let p = self.pending();
         assert!(
-            p == 0,
-            "rbf_network: {p} weight updates are pending (kernel `batched`); call flush() \
-             before reading the weights"
+            !self.is_stale(),
+            "rbf_network: {} weight updates are pending (kernel `{}`); call flush() before \
+             reading the weights",
+            self.pending(),
+            self.kernel
         );
     }
 
@@ -752,7 +764,8 @@ impl<const M: usize> RbfNetwork<M> {
     /// `Ŵ`, node-major: `w[k·M + j]` is node `k`, output `j` (length `N_s·M`).
     ///
     /// # Panics
-    /// If updates are pending ([`RbfNetwork::pending`]; call [`RbfNetwork::flush`] first).
+    /// If the stored weights are stale ([`RbfNetwork::is_stale`]; call [`RbfNetwork::flush`]
+    /// first).
     #[track_caller]
     pub fn weights(&self) -> &[f64] {
         self.assert_flushed();
@@ -764,7 +777,7 @@ impl<const M: usize> RbfNetwork<M> {
     /// and the flush schedule are not changed, so inspecting a run does not perturb it).
     pub fn weights_now(&self) -> std::borrow::Cow<'_, [f64]> {
         match &self.batch {
-            Some(b) if b.pending() > 0 => {
+            Some(b) if b.stale() => {
                 let mut out = vec![0.0; self.w.as_ref().len()];
                 b.materialize(self.w.as_ref(), &mut out);
                 std::borrow::Cow::Owned(out)
@@ -963,8 +976,8 @@ impl<const M: usize> RbfNetwork<M> {
             && let Some(batch) = &mut self.batch
             && batch.fits(ws.a.len(), ws.b.len())
         {
-            // SAFETY: a batch exists only with `Kernel::Batched`, stored only after
-            // `Kernel::check_available` found AVX-512F on this CPU.
+            // SAFETY: a batch exists only with `Kernel::Batched` or `Kernel::BatchedF32`,
+            // stored only after `Kernel::check_available` found AVX-512F on this CPU.
             let f = unsafe { batch.tick(self.w.as_mut(), &ws.a, &ws.b, &upd.decay, &c) };
             return (f, [0.0; M]);
         }
@@ -977,7 +990,9 @@ impl<const M: usize> RbfNetwork<M> {
             // features on this CPU.
             unsafe {
                 match self.kernel {
-                    Kernel::Avx512 | Kernel::Batched if nb.is_multiple_of(BLOCK512) => {
+                    Kernel::Avx512 | Kernel::Batched | Kernel::BatchedF32
+                        if nb.is_multiple_of(BLOCK512) =>
+                    {
                         return avx512::tick_grid::<M, NORM, STORE>(w, a, b, s, e, &c);
                     }
                     Kernel::Avx2Fma if nb.is_multiple_of(BLOCK) => {
@@ -1007,7 +1022,7 @@ impl<const M: usize> RbfNetwork<M> {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: a kernel is stored only after `Kernel::check_available` found its features.
         match self.kernel {
-            Kernel::Avx512 | Kernel::Batched => {
+            Kernel::Avx512 | Kernel::Batched | Kernel::BatchedF32 => {
                 return unsafe { avx512::tick::<M, OUT>(self.w.as_mut(), s, e, c) };
             }
             Kernel::Avx2 => return unsafe { avx2::tick::<M, OUT>(self.w.as_mut(), s, e, c) },
@@ -1024,7 +1039,7 @@ impl<const M: usize> RbfNetwork<M> {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: as in `dispatch_tick`.
         match self.kernel {
-            Kernel::Avx512 | Kernel::Batched => {
+            Kernel::Avx512 | Kernel::Batched | Kernel::BatchedF32 => {
                 return unsafe { avx512::read::<M, OUT, NORM>(self.w.as_ref(), s, self.n_nodes) };
             }
             Kernel::Avx2 => {
@@ -1088,19 +1103,26 @@ pub enum Kernel {
     /// most ticks): the fastest, not bit-identical (within the stated tolerance). The default
     /// where available. Its other passes are those of [`Kernel::Avx512`].
     Batched,
+    /// [`Kernel::Batched`] with the weights kept in **single precision** (`f32`) while the
+    /// controller runs: half the bytes of every pass, `f32` arithmetic in the passes, `f64`
+    /// for the decay, the terms' coefficients and the final sums. Not within the `f64`
+    /// kernels' tolerance: its own, stated and tested (`docs/performance.md`). Opt-in.
+    BatchedF32,
 }
 
 impl Kernel {
     /// Every kernel, in order of preference for bit-identity.
-    pub const ALL: [Kernel; 5] = [
+    pub const ALL: [Kernel; 6] = [
         Kernel::Portable,
         Kernel::Avx2,
         Kernel::Avx2Fma,
         Kernel::Avx512,
         Kernel::Batched,
+        Kernel::BatchedF32,
     ];
 
-    /// The name `TANDEM_KERNEL` accepts: `portable`, `avx2`, `avx2fma`, `avx512`, `batched`.
+    /// The name `TANDEM_KERNEL` accepts: `portable`, `avx2`, `avx2fma`, `avx512`, `batched`,
+    /// `batched-f32`.
     pub fn name(self) -> &'static str {
         match self {
             Kernel::Portable => "portable",
@@ -1108,6 +1130,7 @@ impl Kernel {
             Kernel::Avx2Fma => "avx2fma",
             Kernel::Avx512 => "avx512",
             Kernel::Batched => "batched",
+            Kernel::BatchedF32 => "batched-f32",
         }
     }
 
@@ -1117,13 +1140,16 @@ impl Kernel {
             Kernel::Portable => true,
             Kernel::Avx2 => detect_avx2(),
             Kernel::Avx2Fma => detect_avx2() && detect_fma(),
-            Kernel::Avx512 | Kernel::Batched => detect_avx512f(),
+            Kernel::Avx512 | Kernel::Batched | Kernel::BatchedF32 => detect_avx512f(),
         }
     }
 
     /// Whether the kernel gives the same bits as [`Kernel::Portable`].
     pub fn is_bit_identical_to_portable(self) -> bool {
-        !matches!(self, Kernel::Avx2Fma | Kernel::Avx512 | Kernel::Batched)
+        !matches!(
+            self,
+            Kernel::Avx2Fma | Kernel::Avx512 | Kernel::Batched | Kernel::BatchedF32
+        )
     }
 
     /// The default: the fastest kernel the CPU has — `batched` (AVX-512), else AVX2 (bit-identical to the
@@ -2479,18 +2505,48 @@ mod tests {
             eprintln!("skipped: no AVX-512F on this CPU");
             return;
         }
-        check_batched::<3>(&Rbf::paper(), 1000, 41);
+        let k = Kernel::Batched;
+        check_batched::<3>(&Rbf::paper(), 1000, 41, k, 1e-12);
         let small = Rbf::grid(
             &[vec![-1.0, 1.0], vec![-1.0, 0.0, 0.5, 1.0], vec![0.1; 8]],
             3.0,
         )
         .unwrap();
-        check_batched::<1>(&small, 300, 42);
-        check_batched::<2>(&small, 300, 43);
-        check_batched::<8>(&small, 300, 44);
+        check_batched::<1>(&small, 300, 42, k, 1e-12);
+        check_batched::<2>(&small, 300, 43, k, 1e-12);
+        check_batched::<8>(&small, 300, 44, k, 1e-12);
     }
 
-    fn check_batched<const M: usize>(rbf: &Rbf, ticks: usize, seed: u64) {
+    /// The single-precision store ([`Kernel::BatchedF32`]) against the portable reference:
+    /// its own tolerance, a relative `2e-6` on the outputs (relative to `Σ_k |Ŵ_kj| S_k`, the
+    /// scale of their rounding errors) and on the weights (relative to the largest), over up
+    /// to 1000 ticks. An `f32` rounding is `6e-8` relative; the passes sum 64-term columns
+    /// and 16 terms in `f32`, and a flush adds one rounding of each weight every 16 ticks.
+    #[test]
+    fn batched_f32_kernel_agrees_with_the_portable_reference_in_single_precision() {
+        if !Kernel::BatchedF32.is_available() {
+            eprintln!("skipped: no AVX-512F on this CPU");
+            return;
+        }
+        let k = Kernel::BatchedF32;
+        check_batched::<3>(&Rbf::paper(), 1000, 51, k, 2e-6);
+        // Tail of 16 (the `f32` passes' register): 2 × 4 head, 16 tail levels.
+        let small = Rbf::grid(
+            &[
+                vec![-1.0, 1.0],
+                vec![-1.0, 0.0, 0.5, 1.0],
+                (0..16).map(|l| -1.0 + 0.125 * l as f64).collect(),
+            ],
+            3.0,
+        )
+        .unwrap();
+        assert_eq!(small.grid_dims(), Some((8, 16)));
+        check_batched::<1>(&small, 300, 52, k, 2e-6);
+        check_batched::<2>(&small, 300, 53, k, 2e-6);
+        check_batched::<8>(&small, 300, 54, k, 2e-6);
+    }
+
+    fn check_batched<const M: usize>(rbf: &Rbf, ticks: usize, seed: u64, kernel: Kernel, tol: f64) {
         let mut rng = Rng(seed);
         let n_in = rbf.n_inputs();
         let upd = NnUpdate::<M>::new(
@@ -2500,7 +2556,7 @@ mod tests {
         )
         .unwrap();
         let mut net = RbfNetwork::<M>::for_basis(rbf).unwrap();
-        net.set_kernel(Kernel::Batched).unwrap();
+        net.set_kernel(kernel).unwrap();
         let w0: Vec<f64> = (0..rbf.n_nodes() * M)
             .map(|_| rng.range(-2.0, 2.0))
             .collect();
@@ -2513,10 +2569,21 @@ mod tests {
             let z: Vec<f64> = (0..n_in).map(|_| rng.range(-1.5, 1.5)).collect();
             let q = if k % 5 == 0 { 1.0 } else { rng.next_f64() };
             let z2 = SVector::<f64, M>::from_fn(|_, _| rng.range(-0.1, 0.1));
+            // Single precision is held to the scale its rounding errors have: `Σ_k |Ŵ_kj| S_k`
+            // (an output may cancel to far below it); double precision to `|f̂|` itself.
+            let scale = if kernel == Kernel::BatchedF32 {
+                let s = rbf.eval(&z);
+                let w = reference.weights();
+                (0..M)
+                    .map(|j| (0..s.len()).map(|k| w[k * M + j].abs() * s[k]).sum::<f64>())
+                    .fold(0.0, f64::max)
+            } else {
+                0.0
+            };
             let f = net.tick_at_outputs(rbf, &z, &mut ws, q, &z2, &upd);
             let fr = reference.tick_at_outputs(rbf, &z, &mut ws_r, q, &z2, &upd);
             assert_eq!(ws.s_norm2(), ws_r.s_norm2());
-            let scale = fr.abs().max() + 1e-300;
+            let scale = scale.max(fr.abs().max()) + 1e-300;
             worst_f = worst_f.max((f - fr).abs().max() / scale);
             assert_eq!(net.pending(), k % BATCH_DEPTH + 1, "tick {k}");
             max_pending = max_pending.max(net.pending());
@@ -2528,20 +2595,26 @@ mod tests {
                 }
             }
         }
-        // An explicit flush stores exactly what `weights_now` computed, to round-off.
+        // An explicit flush stores what `weights_now` computed, to the store's round-off.
         let held = net.weights_now().into_owned();
         net.flush();
         assert_eq!(net.pending(), 0);
+        assert!(!net.is_stale());
         let wmax = held.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let eps = if kernel == Kernel::BatchedF32 {
+            1e-6
+        } else {
+            1e-14
+        };
         for (a, b) in net.weights().iter().zip(&held) {
-            assert!((a - b).abs() <= 1e-14 * wmax);
+            assert!((a - b).abs() <= eps * wmax);
         }
         eprintln!(
-            "batched, M = {M}: max rel. diff outputs {worst_f:.2e}, weights {worst_w:.2e}, \
+            "{kernel}, M = {M}: max rel. diff outputs {worst_f:.2e}, weights {worst_w:.2e}, \
              pending ≤ {max_pending}"
         );
         assert_eq!(max_pending, BATCH_DEPTH);
-        assert!(worst_f <= 1e-12 && worst_w <= 1e-12, "M = {M}");
+        assert!(worst_f <= tol && worst_w <= tol, "{kernel}, M = {M}");
     }
 
     /// With updates held, the accessors that read the stored weights refuse (a stale read

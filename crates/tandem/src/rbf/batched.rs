@@ -44,12 +44,12 @@ use super::{Aligned, MAX_OUTPUTS};
 /// read-modify-write of the weights alone would be 1.6 µs.
 pub const DEPTH: usize = 16;
 
-/// Lanes of one AVX-512 register.
+/// Lanes of one AVX-512 register of `f64`.
 const LANE: usize = 8;
 
-/// Pending updates and their buffers (sized once, at set-up).
+/// The held update, whatever the store: the factor `D`, and the terms `(g_m, A_m, B_m)`.
 #[derive(Debug, Clone, PartialEq)]
-pub(super) struct Batch<const M: usize> {
+struct Terms<const M: usize> {
     n_a: usize,
     n_b: usize,
     /// Pending terms `p`.
@@ -62,16 +62,11 @@ pub(super) struct Batch<const M: usize> {
     a: Vec<f64>,
     /// `B_m`, `n_b` each.
     b: Vec<f64>,
-    /// `B_m` spread over the weight lanes: `n_b·M` each, entry `k·M + j` is `B_m[k]`.
-    bs: Aligned,
-    /// This tick's `B`, spread the same way.
-    cur: Aligned,
 }
 
-impl<const M: usize> Batch<M> {
-    /// Buffers for a grid basis with head length `n_a` and tail length `n_b` (`n_b % 8 == 0`).
-    pub(super) fn new(n_a: usize, n_b: usize) -> Self {
-        assert!(n_b.is_multiple_of(LANE) && (1..=MAX_OUTPUTS).contains(&M));
+impl<const M: usize> Terms<M> {
+    fn new(n_a: usize, n_b: usize) -> Self {
+        assert!((1..=MAX_OUTPUTS).contains(&M));
         Self {
             n_a,
             n_b,
@@ -80,36 +75,23 @@ impl<const M: usize> Batch<M> {
             g: [[0.0; M]; DEPTH],
             a: vec![0.0; DEPTH * n_a],
             b: vec![0.0; DEPTH * n_b],
-            bs: Aligned::zeros(DEPTH * n_b * M),
-            cur: Aligned::zeros(n_b * M),
         }
     }
 
-    /// Whether the buffers fit a basis with these head and tail lengths.
-    pub(super) fn fits(&self, n_a: usize, n_b: usize) -> bool {
-        self.n_a == n_a && self.n_b == n_b
-    }
-
-    /// Pending terms.
-    pub(super) fn pending(&self) -> usize {
-        self.p
-    }
-
-    /// Forget the pending terms (the weights were overwritten).
-    pub(super) fn clear(&mut self) {
+    fn clear(&mut self) {
         self.p = 0;
         self.d = [1.0; M];
     }
 
-    /// `Ŵ = D V − Σ_m g_m A_m ⊗ B_m` from the stored `w`, into `out` (plain scalar code, for
-    /// inspection; the stored weights are not changed).
-    pub(super) fn materialize(&self, w: &[f64], out: &mut [f64]) {
+    /// `Ŵ[n] = D_j v(n) − Σ_m g_mj A_m[i] B_m[k]` (node `n / M = i·n_b + k`, output
+    /// `j = n % M`) into `out`, in plain scalar code (for inspection).
+    fn materialize(&self, v: impl Fn(usize) -> f64, out: &mut [f64]) {
         let (na, nb) = (self.n_a, self.n_b);
-        assert!(w.len() == na * nb * M && out.len() == w.len());
-        for (n, (o, &v)) in out.iter_mut().zip(w).enumerate() {
+        assert_eq!(out.len(), na * nb * M);
+        for (n, o) in out.iter_mut().enumerate() {
             let (node, j) = (n / M, n % M);
             let (i, k) = (node / nb, node % nb);
-            let mut x = self.d[j] * v;
+            let mut x = self.d[j] * v(n);
             for m in 0..self.p {
                 x -= self.g[m][j] * self.a[m * na + i] * self.b[m * nb + k];
             }
@@ -117,16 +99,131 @@ impl<const M: usize> Batch<M> {
         }
     }
 
-    /// Apply the pending terms to `w` (no-op if none).
+    /// The output (41) from the stored weights' part `v_j = V_jᵀS`:
+    /// `f̂_j = D_j v_j − Σ_m g_mj (A_m·A)(B_m·B)`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn outputs(&self, v: [f64; M], a: &[f64], b: &[f64]) -> [f64; M] {
+        let (na, nb) = (self.n_a, self.n_b);
+        let mut out: [f64; M] = std::array::from_fn(|j| self.d[j] * v[j]);
+        for m in 0..self.p {
+            // SAFETY: AVX-512F (caller's contract).
+            let s = unsafe {
+                avx512::dot(&self.a[m * na..(m + 1) * na], a)
+                    * avx512::dot(&self.b[m * nb..(m + 1) * nb], b)
+            };
+            for j in 0..M {
+                out[j] -= self.g[m][j] * s;
+            }
+        }
+        out
+    }
+
+    /// The update (44), deferred: `D ← e D`, `g_m ← e g_m`, and the new term `(c, A, B)`.
+    /// Returns the new term's index. Panics if `DEPTH` terms are already held.
+    fn push(&mut self, a: &[f64], b: &[f64], e: &[f64; M], c: &[f64; M]) -> usize {
+        let (na, nb, p) = (self.n_a, self.n_b, self.p);
+        assert!(p < DEPTH);
+        for j in 0..M {
+            self.d[j] *= e[j];
+        }
+        for gm in &mut self.g[..p] {
+            for j in 0..M {
+                gm[j] *= e[j];
+            }
+        }
+        self.g[p] = *c;
+        self.a[p * na..(p + 1) * na].copy_from_slice(a);
+        self.b[p * nb..(p + 1) * nb].copy_from_slice(b);
+        self.p += 1;
+        p
+    }
+}
+
+/// The held update of [`super::Kernel::Batched`] (stored weights `f64`, in the network) or of
+/// [`super::Kernel::BatchedF32`] (stored weights `f32`, in the kernel), with buffers sized once,
+/// at set-up.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Held<const M: usize> {
+    F64(Batch<M>),
+    F32(Batch32<M>),
+}
+
+impl<const M: usize> Held<M> {
+    /// Buffers for a grid basis with head length `n_a` and tail length `n_b`, or `None` if the
+    /// passes do not handle it (`f64`: `n_b % 8 ≠ 0`; `f32`: `n_b % 16 ≠ 0`).
+    pub(super) fn new(single: bool, n_a: usize, n_b: usize) -> Option<Self> {
+        if single {
+            n_b.is_multiple_of(LANE32)
+                .then(|| Held::F32(Batch32::new(n_a, n_b)))
+        } else {
+            n_b.is_multiple_of(LANE)
+                .then(|| Held::F64(Batch::new(n_a, n_b)))
+        }
+    }
+
+    fn terms(&self) -> &Terms<M> {
+        match self {
+            Held::F64(b) => &b.t,
+            Held::F32(b) => &b.t,
+        }
+    }
+
+    /// Whether the buffers fit a basis with these head and tail lengths.
+    pub(super) fn fits(&self, n_a: usize, n_b: usize) -> bool {
+        let t = self.terms();
+        t.n_a == n_a && t.n_b == n_b
+    }
+
+    /// Pending terms.
+    pub(super) fn pending(&self) -> usize {
+        self.terms().p
+    }
+
+    /// Whether the network's `f64` weights are not `Ŵ`: terms are pending, or (single
+    /// precision) the weights live in the kernel's `f32` store.
+    pub(super) fn stale(&self) -> bool {
+        match self {
+            Held::F64(b) => b.t.p > 0,
+            Held::F32(b) => b.live,
+        }
+    }
+
+    /// Forget the pending terms and the `f32` store (the network's weights were overwritten).
+    pub(super) fn clear(&mut self) {
+        match self {
+            Held::F64(b) => b.t.clear(),
+            Held::F32(b) => {
+                b.t.clear();
+                b.live = false;
+            }
+        }
+    }
+
+    /// `Ŵ` from the network's stored `w` (or the kernel's `f32` store), into `out`; nothing
+    /// is changed.
+    pub(super) fn materialize(&self, w: &[f64], out: &mut [f64]) {
+        assert_eq!(w.len(), out.len());
+        match self {
+            Held::F32(b) if b.live => b.t.materialize(|n| f64::from(b.v.as_ref()[n]), out),
+            _ => self.terms().materialize(|n| w[n], out),
+        }
+    }
+
+    /// Make the network's `w` hold `Ŵ` (no-op if it does).
     ///
     /// # Safety
     /// The CPU must support AVX-512F.
     #[cfg(target_arch = "x86_64")]
     pub(super) unsafe fn flush(&mut self, w: &mut [f64]) {
-        if self.p > 0 {
-            // SAFETY: AVX-512F (caller's contract).
-            unsafe { avx512::apply::<M, false>(w, self, &[], self.p) };
-            self.clear();
+        // SAFETY: AVX-512F (caller's contract).
+        unsafe {
+            match self {
+                Held::F64(b) => b.flush(w),
+                Held::F32(b) => b.flush(w),
+            }
         }
     }
 
@@ -144,48 +241,198 @@ impl<const M: usize> Batch<M> {
         e: &[f64; M],
         c: &[f64; M],
     ) -> [f64; M] {
-        let (na, nb) = (self.n_a, self.n_b);
+        // SAFETY: AVX-512F (caller's contract).
+        unsafe {
+            match self {
+                Held::F64(h) => h.tick(w, a, b, e, c),
+                Held::F32(h) => h.tick(w, a, b, e, c),
+            }
+        }
+    }
+}
+
+/// The `f64` store: the network's own weights, and the held `B_m` spread over the weight
+/// lanes.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Batch<const M: usize> {
+    t: Terms<M>,
+    /// `B_m` spread over the weight lanes: `n_b·M` each, entry `k·M + j` is `B_m[k]`.
+    bs: Aligned,
+    /// This tick's `B`, spread the same way.
+    cur: Aligned,
+}
+
+impl<const M: usize> Batch<M> {
+    /// Buffers for a grid basis with head length `n_a` and tail length `n_b` (`n_b % 8 == 0`).
+    fn new(n_a: usize, n_b: usize) -> Self {
+        assert!(n_b.is_multiple_of(LANE));
+        Self {
+            t: Terms::new(n_a, n_b),
+            bs: Aligned::zeros(DEPTH * n_b * M),
+            cur: Aligned::zeros(n_b * M),
+        }
+    }
+
+    /// Apply the pending terms to `w` (no-op if none).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn flush(&mut self, w: &mut [f64]) {
+        if self.t.p > 0 {
+            // SAFETY: AVX-512F (caller's contract).
+            unsafe { avx512::apply::<M, false>(w, self, &[], self.t.p) };
+            self.t.clear();
+        }
+    }
+
+    /// [`Held::tick`] on the `f64` store.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn tick(
+        &mut self,
+        w: &mut [f64],
+        a: &[f64],
+        b: &[f64],
+        e: &[f64; M],
+        c: &[f64; M],
+    ) -> [f64; M] {
+        let (na, nb) = (self.t.n_a, self.t.n_b);
         assert!(a.len() == na && b.len() == nb && w.len() == na * nb * M);
         for (k, &bk) in b.iter().enumerate() {
             self.cur.as_mut()[k * M..(k + 1) * M].fill(bk);
         }
         // SAFETY: AVX-512F (caller's contract).
         let out = unsafe {
-            if self.p == DEPTH {
+            if self.t.p == DEPTH {
                 // Flush fused with this tick's output pass: f̂ = V'ᵀ S.
                 let out = avx512::apply::<M, true>(w, self, a, DEPTH);
-                self.clear();
+                self.t.clear();
                 out
             } else {
                 let v = avx512::read::<M>(w, a, self.cur.as_ref(), nb);
-                let mut out: [f64; M] = std::array::from_fn(|j| self.d[j] * v[j]);
-                for m in 0..self.p {
-                    let ga = avx512::dot(&self.a[m * na..(m + 1) * na], a);
-                    let gb = avx512::dot(&self.b[m * nb..(m + 1) * nb], b);
-                    let s = ga * gb;
-                    for j in 0..M {
-                        out[j] -= self.g[m][j] * s;
-                    }
-                }
-                out
+                self.t.outputs(v, a, b)
             }
         };
-        // The update (44), deferred: D ← e D, g_m ← e g_m, and the new term (c, A, B).
-        for j in 0..M {
-            self.d[j] *= e[j];
-        }
-        for gm in &mut self.g[..self.p] {
-            for j in 0..M {
-                gm[j] *= e[j];
-            }
-        }
-        let p = self.p;
-        self.g[p] = *c;
-        self.a[p * na..(p + 1) * na].copy_from_slice(a);
-        self.b[p * nb..(p + 1) * nb].copy_from_slice(b);
+        let p = self.t.push(a, b, e, c);
         let row_len = nb * M;
         self.bs.as_mut()[p * row_len..(p + 1) * row_len].copy_from_slice(self.cur.as_ref());
-        self.p += 1;
+        out
+    }
+}
+
+/// Lanes of one AVX-512 register of `f32`.
+const LANE32: usize = 16;
+
+/// The `f32` store of [`super::Kernel::BatchedF32`]: the weights `V` in single precision
+/// (authoritative while `live`; the network's `f64` weights are then stale), and the held
+/// `A_m`, `B_m` in single precision for the flush.
+///
+/// The passes compute in `f32` (the column sums, the flush's term sums) and reduce the outputs
+/// in `f64`; `D` and the `g_m` stay `f64` and are rounded once a pass. The flush applies the
+/// decay as `v − ((1 − D) v + t)`, with `1 − D` and the terms' sum `t` each formed before they
+/// meet `v`, so that a decay or an increment small against `v` is not lost to the rounding of
+/// `D·v` (`1 − D` is about `2.4e-5` for the paper's tuned gains, 400 `f32` ulps of 1).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Batch32<const M: usize> {
+    t: Terms<M>,
+    /// `V`, `n_a·n_b·M` values, the layout of the network's weights.
+    v: Aligned<f32>,
+    /// Whether `v` holds the weights (else the network's `f64` weights do).
+    live: bool,
+    /// `A_m` in `f32`, `n_a` each.
+    a32: Vec<f32>,
+    /// This tick's `A` in `f32`.
+    cur_a: Vec<f32>,
+    /// `B_m` spread over the weight lanes, in `f32`: `n_b·M` each, entry `k·M + j` is `B_m[k]`.
+    bs: Aligned<f32>,
+    /// This tick's `B`, spread the same way.
+    cur: Aligned<f32>,
+}
+
+impl<const M: usize> Batch32<M> {
+    /// Buffers for a grid basis with head length `n_a` and tail length `n_b` (`n_b % 16 == 0`).
+    fn new(n_a: usize, n_b: usize) -> Self {
+        assert!(n_b.is_multiple_of(LANE32));
+        Self {
+            t: Terms::new(n_a, n_b),
+            v: Aligned::zeros(n_a * n_b * M),
+            live: false,
+            a32: vec![0.0; DEPTH * n_a],
+            cur_a: vec![0.0; n_a],
+            bs: Aligned::zeros(DEPTH * n_b * M),
+            cur: Aligned::zeros(n_b * M),
+        }
+    }
+
+    /// Make `v` hold the weights, from the network's `w` (rounded to `f32`) if it does not.
+    fn load(&mut self, w: &[f64]) {
+        if !self.live {
+            for (v, &x) in self.v.as_mut().iter_mut().zip(w) {
+                *v = x as f32;
+            }
+            self.live = true;
+        }
+    }
+
+    /// Apply the pending terms to `v` and widen it into `w`, which holds the weights again.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn flush(&mut self, w: &mut [f64]) {
+        if self.live {
+            if self.t.p > 0 {
+                // SAFETY: AVX-512F (caller's contract).
+                unsafe { avx512f32::apply::<M, false>(self, self.t.p) };
+                self.t.clear();
+            }
+            for (x, &v) in w.iter_mut().zip(self.v.as_ref()) {
+                *x = f64::from(v);
+            }
+            self.live = false;
+        }
+    }
+
+    /// [`Held::tick`] on the `f32` store.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn tick(
+        &mut self,
+        w: &mut [f64],
+        a: &[f64],
+        b: &[f64],
+        e: &[f64; M],
+        c: &[f64; M],
+    ) -> [f64; M] {
+        let (na, nb) = (self.t.n_a, self.t.n_b);
+        assert!(a.len() == na && b.len() == nb && w.len() == na * nb * M);
+        self.load(w);
+        for (k, &bk) in b.iter().enumerate() {
+            self.cur.as_mut()[k * M..(k + 1) * M].fill(bk as f32);
+        }
+        for (o, &x) in self.cur_a.iter_mut().zip(a) {
+            *o = x as f32;
+        }
+        // SAFETY: AVX-512F (caller's contract).
+        let out = unsafe {
+            if self.t.p == DEPTH {
+                let out = avx512f32::apply::<M, true>(self, DEPTH);
+                self.t.clear();
+                out
+            } else {
+                let v = avx512f32::read::<M>(self.v.as_ref(), &self.cur_a, self.cur.as_ref(), nb);
+                self.t.outputs(v, a, b)
+            }
+        };
+        let p = self.t.push(a, b, e, c);
+        let row_len = nb * M;
+        self.bs.as_mut()[p * row_len..(p + 1) * row_len].copy_from_slice(self.cur.as_ref());
+        self.a32[p * na..(p + 1) * na].copy_from_slice(&self.cur_a);
         out
     }
 }
@@ -363,13 +610,13 @@ mod avx512 {
         g: &[[__m512d; M]; DEPTH],
         racc: &mut [__m512d; M],
     ) {
-        let (na, row_len) = (batch.n_a, batch.n_b * M);
+        let (na, row_len) = (batch.t.n_a, batch.t.n_b * M);
         let off = |t: usize| (r0 + t) * LANE;
         // SAFETY: AVX-512F and bounds (the caller's contract).
         unsafe {
             let mut v: [__m512d; N] =
                 std::array::from_fn(|t| _mm512_mul_pd(d[t % M], ld(row, off(t))));
-            let (bs, am) = (batch.bs.as_ref().as_ptr(), batch.a.as_ptr());
+            let (bs, am) = (batch.bs.as_ref().as_ptr(), batch.t.a.as_ptr());
             for (m, gm) in g.iter().enumerate().take(p) {
                 let am_i = _mm512_set1_pd(*am.add(m * na + i));
                 let c: [__m512d; M] = std::array::from_fn(|q| _mm512_mul_pd(gm[q], am_i));
@@ -404,13 +651,13 @@ mod avx512 {
         a: &[f64],
         p: usize,
     ) -> [f64; M] {
-        let (na, nb) = (batch.n_a, batch.n_b);
+        let (na, nb) = (batch.t.n_a, batch.t.n_b);
         let row_len = nb * M;
         assert!(
             p <= DEPTH
                 && nb.is_multiple_of(LANE)
                 && w.len() == na * row_len
-                && batch.a.len() == DEPTH * na
+                && batch.t.a.len() == DEPTH * na
                 && batch.bs.as_ref().len() == DEPTH * row_len
                 && batch.cur.as_ref().len() == row_len
                 && (!OUT || a.len() == na)
@@ -422,9 +669,9 @@ mod avx512 {
         // SAFETY: AVX-512F (caller's contract); offsets: row `i < na`, registers
         // `r0 + N ≤ regs`, term `m < p ≤ DEPTH`: in bounds by the assert.
         unsafe {
-            let d: [__m512d; M] = std::array::from_fn(|q| spread(&batch.d, q));
+            let d: [__m512d; M] = std::array::from_fn(|q| spread(&batch.t.d, q));
             let g: [[__m512d; M]; DEPTH] =
-                std::array::from_fn(|m| std::array::from_fn(|q| spread(&batch.g[m], q)));
+                std::array::from_fn(|m| std::array::from_fn(|q| spread(&batch.t.g[m], q)));
             let zero = _mm512_setzero_pd();
             let mut out = [zero; M];
             for i in 0..na {
@@ -446,6 +693,256 @@ mod avx512 {
                     let av = _mm512_set1_pd(*a.as_ptr().add(i));
                     for q in 0..M {
                         out[q] = _mm512_fmadd_pd(av, racc[q], out[q]);
+                    }
+                }
+            }
+            if OUT { sums(&out) } else { [0.0; M] }
+        }
+    }
+}
+
+/// The passes of the `f32` store: as those of `avx512`, on 16 lanes of `f32`.
+#[cfg(target_arch = "x86_64")]
+mod avx512f32 {
+    use super::{Batch32, DEPTH, LANE32, MAX_OUTPUTS};
+    use std::arch::x86_64::{
+        __m512, _mm512_fmadd_ps, _mm512_loadu_ps, _mm512_mul_ps, _mm512_set1_ps, _mm512_setzero_ps,
+        _mm512_storeu_ps, _mm512_sub_ps,
+    };
+
+    /// `v_j` spread over register `q`'s lanes: lane `t` holds `v[(16q + t) % M]`.
+    #[inline(always)]
+    fn spread<const M: usize>(v: &[f32; M], q: usize) -> [f32; LANE32] {
+        std::array::from_fn(|t| v[(LANE32 * q + t) % M])
+    }
+
+    /// Load 16 lanes at `p + o` (no bounds check).
+    ///
+    /// # Safety
+    /// `p + o .. p + o + 16` in bounds; the CPU must support AVX-512F.
+    #[inline(always)]
+    unsafe fn ld(p: *const f32, o: usize) -> __m512 {
+        // SAFETY: the caller's contract.
+        unsafe { _mm512_loadu_ps(p.add(o)) }
+    }
+
+    /// Per-output sums in `f64` of `M` registers (lane `16q + t` is output `(16q + t) % M`),
+    /// in a fixed order (pairwise).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    unsafe fn sums<const M: usize>(v: &[__m512; M]) -> [f64; M] {
+        let mut l = [0.0f32; LANE32 * MAX_OUTPUTS];
+        for (chunk, &x) in l.chunks_exact_mut(LANE32).zip(v) {
+            // SAFETY: `chunk` holds 16 f32; AVX-512F (caller's contract).
+            unsafe { _mm512_storeu_ps(chunk.as_mut_ptr(), x) };
+        }
+        std::array::from_fn(|j| {
+            let mut x: [f64; LANE32] = std::array::from_fn(|t| f64::from(l[t * M + j]));
+            let mut n = LANE32;
+            while n > 1 {
+                n /= 2;
+                for t in 0..n {
+                    x[t] += x[t + n];
+                }
+            }
+            x[0]
+        })
+    }
+
+    /// Columns `r0·16 .. (r0 + N)·16` of the output pass (as `avx512::read_cols`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F; `(r0 + N)·16 ≤ row_len`, `w` holds `a.len()` rows.
+    #[inline(always)]
+    unsafe fn read_cols<const M: usize, const N: usize>(
+        w: *const f32,
+        a: &[f32],
+        cur: *const f32,
+        row_len: usize,
+        r0: usize,
+        out: &mut [__m512; M],
+    ) {
+        // SAFETY: AVX-512F and bounds (the caller's contract).
+        unsafe {
+            let mut c = [_mm512_setzero_ps(); N];
+            for (i, &ai) in a.iter().enumerate() {
+                let av = _mm512_set1_ps(ai);
+                let row = w.add(i * row_len + r0 * LANE32);
+                for (t, ct) in c.iter_mut().enumerate() {
+                    *ct = _mm512_fmadd_ps(av, ld(row, t * LANE32), *ct);
+                }
+            }
+            for (t, ct) in c.iter().enumerate() {
+                let q = (r0 + t) % M;
+                out[q] = _mm512_fmadd_ps(*ct, ld(cur, (r0 + t) * LANE32), out[q]);
+            }
+        }
+    }
+
+    /// The output pass, read only: `Σ_k B[k] Σ_i a_i V[i, k, j]` per output, the sums in `f32`
+    /// and their final reduction in `f64`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics unless `cur.len() = nb·M`, `nb % 16 = 0` and
+    /// `w.len() = a.len()·nb·M`.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn read<const M: usize>(
+        w: &[f32],
+        a: &[f32],
+        cur: &[f32],
+        nb: usize,
+    ) -> [f64; M] {
+        let row_len = nb * M;
+        assert!(nb.is_multiple_of(LANE32) && cur.len() == row_len && w.len() == a.len() * row_len);
+        let regs = row_len / LANE32;
+        // SAFETY: AVX-512F (caller's contract); `read_cols` stays inside rows of `row_len`
+        // values (`r0 + N ≤ regs`) and `cur`, by the assert.
+        unsafe {
+            let mut out = [_mm512_setzero_ps(); M];
+            let mut r0 = 0;
+            while r0 + 24 <= regs {
+                read_cols::<M, 24>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                r0 += 24;
+            }
+            while r0 + 12 <= regs {
+                read_cols::<M, 12>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                r0 += 12;
+            }
+            while r0 + 4 <= regs {
+                read_cols::<M, 4>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                r0 += 4;
+            }
+            while r0 < regs {
+                read_cols::<M, 1>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                r0 += 1;
+            }
+            sums(&out)
+        }
+    }
+
+    /// Registers of a row the flush takes at once.
+    const FLUSH_COLS: usize = 12;
+
+    /// What the flush reads: the held terms' `A_m` and spread `B_m`, this tick's spread `B`.
+    struct Terms32 {
+        na: usize,
+        row_len: usize,
+        am: *const f32,
+        bs: *const f32,
+        cur: *const f32,
+    }
+
+    /// The flush of registers `r0 .. r0 + N` of row `i` (`r0 % M = 0`): the terms' sum
+    /// `t = Σ_m (g_m a_{m,i})·B_m` from zero, then `v ← v − ((1 − D)·v + t)`; stored; if `OUT`,
+    /// `racc[t % M] += v·B`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F; every offset in bounds (the caller's checks).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    unsafe fn flush_cols<const M: usize, const OUT: bool, const N: usize>(
+        row: *mut f32,
+        tm: &Terms32,
+        i: usize,
+        r0: usize,
+        p: usize,
+        dm: &[__m512; M],
+        g: &[[__m512; M]; DEPTH],
+        racc: &mut [__m512; M],
+    ) {
+        let (na, row_len) = (tm.na, tm.row_len);
+        let off = |t: usize| (r0 + t) * LANE32;
+        // SAFETY: AVX-512F and bounds (the caller's contract).
+        unsafe {
+            let mut acc = [_mm512_setzero_ps(); N];
+            let (bs, am) = (tm.bs, tm.am);
+            for (m, gm) in g.iter().enumerate().take(p) {
+                let am_i = _mm512_set1_ps(*am.add(m * na + i));
+                let c: [__m512; M] = std::array::from_fn(|q| _mm512_mul_ps(gm[q], am_i));
+                let bm = bs.add(m * row_len);
+                for (t, at) in acc.iter_mut().enumerate() {
+                    *at = _mm512_fmadd_ps(c[t % M], ld(bm, off(t)), *at);
+                }
+            }
+            let cp = tm.cur;
+            for (t, at) in acc.iter().enumerate() {
+                let v = ld(row, off(t));
+                let v = _mm512_sub_ps(v, _mm512_fmadd_ps(dm[t % M], v, *at));
+                _mm512_storeu_ps(row.add(off(t)), v);
+                if OUT {
+                    racc[t % M] = _mm512_fmadd_ps(v, ld(cp, off(t)), racc[t % M]);
+                }
+            }
+        }
+    }
+
+    /// The flush pass on the `f32` store: `V ← D V − Σ_{m<p} g_m A_m ⊗ B_m`, and, if `OUT`,
+    /// `f̂ = V'ᵀ(A ⊗ B)` with the new weights (this tick's `A`, `B` from `batch.cur_a`,
+    /// `batch.cur`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics unless `p ≤ DEPTH` and the buffers match.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn apply<const M: usize, const OUT: bool>(
+        batch: &mut Batch32<M>,
+        p: usize,
+    ) -> [f64; M] {
+        let (na, nb) = (batch.t.n_a, batch.t.n_b);
+        let row_len = nb * M;
+        assert!(
+            p <= DEPTH
+                && nb.is_multiple_of(LANE32)
+                && batch.v.as_ref().len() == na * row_len
+                && batch.a32.len() == DEPTH * na
+                && batch.cur_a.len() == na
+                && batch.bs.as_ref().len() == DEPTH * row_len
+                && batch.cur.as_ref().len() == row_len
+        );
+        let regs = row_len / LANE32;
+        let wide = FLUSH_COLS.is_multiple_of(M);
+        // `1 − D` and the `g_m`, rounded to `f32` once, spread over the lanes.
+        let dm: [f32; M] = std::array::from_fn(|j| (1.0 - batch.t.d[j]) as f32);
+        let gs: [[f32; M]; DEPTH] =
+            std::array::from_fn(|m| std::array::from_fn(|j| batch.t.g[m][j] as f32));
+        // SAFETY: AVX-512F (caller's contract); offsets: row `i < na`, registers
+        // `r0 + N ≤ regs`, term `m < p ≤ DEPTH`: in bounds by the assert. `vp` is the only
+        // pointer written through (`v`); the others point into other fields, only read.
+        unsafe {
+            let dm: [__m512; M] = std::array::from_fn(|q| _mm512_loadu_ps(spread(&dm, q).as_ptr()));
+            let g: [[__m512; M]; DEPTH] = std::array::from_fn(|m| {
+                std::array::from_fn(|q| _mm512_loadu_ps(spread(&gs[m], q).as_ptr()))
+            });
+            let tm = Terms32 {
+                na,
+                row_len,
+                am: batch.a32.as_ptr(),
+                bs: batch.bs.as_ref().as_ptr(),
+                cur: batch.cur.as_ref().as_ptr(),
+            };
+            let cur_a = batch.cur_a.as_ptr();
+            let vp = batch.v.as_mut().as_mut_ptr();
+            let zero = _mm512_setzero_ps();
+            let mut out = [zero; M];
+            for i in 0..na {
+                let row = vp.add(i * row_len);
+                let mut racc = [zero; M];
+                let mut r0 = 0;
+                if wide {
+                    while r0 + FLUSH_COLS <= regs {
+                        flush_cols::<M, OUT, FLUSH_COLS>(row, &tm, i, r0, p, &dm, &g, &mut racc);
+                        r0 += FLUSH_COLS;
+                    }
+                }
+                while r0 < regs {
+                    flush_cols::<M, OUT, M>(row, &tm, i, r0, p, &dm, &g, &mut racc);
+                    r0 += M;
+                }
+                if OUT {
+                    let av = _mm512_set1_ps(*cur_a.add(i));
+                    for q in 0..M {
+                        out[q] = _mm512_fmadd_ps(av, racc[q], out[q]);
                     }
                 }
             }
