@@ -375,6 +375,15 @@ impl Rbf {
         }
     }
 
+    /// Where each input's factors start in [`RbfWorkspace`]'s factor buffer: input `i` owns
+    /// `offsets[i]..offsets[i + 1]` (`None` for general centres).
+    pub(crate) fn grid_offsets(&self) -> Option<&[usize]> {
+        match &self.centres {
+            Centres::Grid { offsets, .. } => Some(offsets),
+            Centres::General { .. } => None,
+        }
+    }
+
     /// Whether the Kronecker fast path is used.
     pub fn is_grid(&self) -> bool {
         matches!(self.centres, Centres::Grid { .. })
@@ -659,8 +668,9 @@ pub struct RbfNetwork<const M: usize> {
     w: Aligned,
     /// The weight-pass kernel (chosen once, at construction; see [`Kernel`]).
     kernel: Kernel,
-    /// `(n_a, n_b)` of the grid basis the network was made for ([`RbfNetwork::for_basis`]).
-    grid: Option<(usize, usize)>,
+    /// `(n_a, n_b, n_f)` of the grid basis the network was made for
+    /// ([`RbfNetwork::for_basis`]): the head and tail lengths, and the number of factors.
+    grid: Option<(usize, usize, usize)>,
     /// The held updates of [`Kernel::Batched`] and [`Kernel::BatchedF32`] (and the latter's
     /// `f32` store); `None` with the other kernels.
     batch: Option<batched::Held<M>>,
@@ -699,8 +709,8 @@ impl<const M: usize> RbfNetwork<M> {
         self.flush();
         self.kernel = kernel;
         self.batch = match (kernel, self.grid) {
-            (Kernel::Batched, Some((na, nb))) => batched::Held::new(false, na, nb),
-            (Kernel::BatchedF32, Some((na, nb))) => batched::Held::new(true, na, nb),
+            (Kernel::Batched, Some((na, nb, nf))) => batched::Held::new(false, na, nb, nf),
+            (Kernel::BatchedF32, Some((na, nb, nf))) => batched::Held::new(true, na, nb, nf),
             _ => None,
         };
         Ok(())
@@ -711,7 +721,10 @@ impl<const M: usize> RbfNetwork<M> {
     /// [`Kernel::BatchedF32`] also the `f32` copy of the weights).
     pub fn for_basis(rbf: &Rbf) -> Result<Self, ModelError> {
         let mut net = Self::new(rbf.n_nodes())?;
-        net.grid = rbf.grid_dims();
+        net.grid = rbf
+            .grid_dims()
+            .zip(rbf.grid_offsets())
+            .map(|((na, nb), off)| (na, nb, off[off.len() - 1]));
         let kernel = net.kernel;
         net.set_kernel(kernel)?;
         Ok(net)
@@ -974,11 +987,19 @@ impl<const M: usize> RbfNetwork<M> {
             && !NORM
             && !STORE
             && let Some(batch) = &mut self.batch
-            && batch.fits(ws.a.len(), ws.b.len())
+            && let Some(offsets) = rbf.grid_offsets()
+            && batch.fits(ws.a.len(), ws.b.len(), ws.f.len())
         {
             // SAFETY: a batch exists only with `Kernel::Batched` or `Kernel::BatchedF32`,
             // stored only after `Kernel::check_available` found AVX-512F on this CPU.
-            let f = unsafe { batch.tick(self.w.as_mut(), &ws.a, &ws.b, &upd.decay, &c) };
+            let f = unsafe {
+                batch.tick(
+                    self.w.as_mut(),
+                    (&ws.a, &ws.b, &ws.f, offsets),
+                    &upd.decay,
+                    &c,
+                )
+            };
             return (f, [0.0; M]);
         }
         self.flush();
@@ -1152,11 +1173,20 @@ impl Kernel {
         )
     }
 
-    /// The default: the fastest kernel the CPU has — `batched` (AVX-512), else AVX2 (bit-identical to the
-    /// reference), else portable.
+    /// The default: the fastest double-precision kernel the CPU has. With AVX-512F that is
+    /// `batched` on Intel's cores, where a read-only pass over the weights takes about a third
+    /// of a read-modify-write pass, and `avx512` on AMD's, where both take the same time and
+    /// the batched flush's arithmetic does not pay (measured: `docs/performance.md`). Else AVX2
+    /// (bit-identical to the reference), else portable. The vendor is read from `cpuid`, so
+    /// the choice is fixed for a machine. [`Kernel::BatchedF32`] is never the default: it
+    /// changes the precision of the stored weights.
     pub fn default_for_cpu() -> Kernel {
         if Kernel::Batched.is_available() {
-            Kernel::Batched
+            if detect_amd() {
+                Kernel::Avx512
+            } else {
+                Kernel::Batched
+            }
         } else if Kernel::Avx2.is_available() {
             Kernel::Avx2
         } else {
@@ -1227,6 +1257,25 @@ fn detect_avx512f() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx512f")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Whether `cpuid` names AMD as the vendor.
+fn detect_amd() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: `cpuid` leaf 0 exists on every x86_64 CPU (the vendor string).
+        #[allow(unused_unsafe)]
+        let r = unsafe { std::arch::x86_64::__cpuid(0) };
+        let mut v = [0u8; 12];
+        v[..4].copy_from_slice(&r.ebx.to_le_bytes());
+        v[4..8].copy_from_slice(&r.edx.to_le_bytes());
+        v[8..].copy_from_slice(&r.ecx.to_le_bytes());
+        &v == b"AuthenticAMD"
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -2626,15 +2675,22 @@ mod tests {
         if !Kernel::Batched.is_available() {
             return;
         }
+        for kernel in [Kernel::Batched, Kernel::BatchedF32] {
+            held_updates_are_never_read_stale(kernel);
+        }
+    }
+
+    fn held_updates_are_never_read_stale(kernel: Kernel) {
         let rbf = Rbf::paper();
         let upd = paper_update();
         let mut ws = rbf.workspace();
         let z = [0.1; 12];
         let z2 = Vector3::new(0.01, -0.02, 0.03);
         let mut net = RbfNetwork::<3>::for_basis(&rbf).unwrap();
-        net.set_kernel(Kernel::Batched).unwrap();
+        net.set_kernel(kernel).unwrap();
         net.tick_at_outputs(&rbf, &z, &mut ws, 1.0, &z2, &upd);
         assert_eq!(net.pending(), 1);
+        assert!(net.is_stale());
         for read in [
             (|n: &RbfNetwork<3>| {
                 let _ = n.weights();
@@ -2658,24 +2714,57 @@ mod tests {
         let mut other = net.clone();
         other.tick_at(&rbf, &z, &mut ws, 1.0, &z2, &upd);
         assert_eq!(other.pending(), 0);
+        assert!(!other.is_stale());
         let _ = other.weights();
+        // After a flush the weights are readable until the next batched tick, with a full
+        // batch held and applied in between too.
+        let mut f = net.clone();
+        for _ in 0..2 * BATCH_DEPTH + 3 {
+            f.tick_at_outputs(&rbf, &z, &mut ws, 1.0, &z2, &upd);
+            assert!(f.is_stale());
+        }
+        let now = f.weights_now().into_owned();
+        f.flush();
+        assert!(!f.is_stale());
+        let scale = now.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let eps = if kernel == Kernel::BatchedF32 {
+            1e-6
+        } else {
+            1e-14
+        };
+        assert!(
+            f.weights()
+                .iter()
+                .zip(&now)
+                .all(|(a, b)| (a - b).abs() <= eps * scale)
+        );
         // weights_mut flushes; set_weights and reset drop.
         let mut m = net.clone();
         let now = m.weights_now().into_owned();
         assert_eq!(m.weights_mut().len(), now.len());
         assert_eq!(m.pending(), 0);
+        assert!(!m.is_stale());
         let mut s = net.clone();
         s.set_weights(&vec![0.5; now.len()]).unwrap();
         assert_eq!(s.pending(), 0);
+        assert!(!s.is_stale());
         assert!(s.weights().iter().all(|&w| w == 0.5));
+        // The next tick works from the weights just set (0.5 is exact in `f32`).
+        let mut fresh = RbfNetwork::<3>::for_basis(&rbf).unwrap();
+        fresh.set_kernel(Kernel::Portable).unwrap();
+        fresh.set_weights(&vec![0.5; now.len()]).unwrap();
+        let a = s.tick_at_outputs(&rbf, &z, &mut ws, 1.0, &z2, &upd);
+        let b = fresh.tick_at_outputs(&rbf, &z, &mut ws, 1.0, &z2, &upd);
+        assert!((a - b).abs().max() <= 1e-6 * b.abs().max(), "{a} {b}");
         net.reset();
         assert_eq!(net.pending(), 0);
+        assert!(!net.is_stale());
         assert!(net.weights().iter().all(|&w| w == 0.0));
         // Direct passes for the bases the batched passes do not take.
         let odd = Rbf::grid(&[vec![-1.0, 1.0], vec![-1.0, 0.0, 1.0]], 2.0).unwrap();
         for rbf in [odd.clone(), odd.to_general()] {
             let mut net = RbfNetwork::<3>::for_basis(&rbf).unwrap();
-            net.set_kernel(Kernel::Batched).unwrap();
+            net.set_kernel(kernel).unwrap();
             let mut reference = net.clone();
             reference.set_kernel(Kernel::Avx512).unwrap();
             let (mut ws, mut ws_r) = (rbf.workspace(), rbf.workspace());
@@ -2685,6 +2774,7 @@ mod tests {
                 let b = reference.tick_at_outputs(&rbf, &z, &mut ws_r, 1.0, &z2, &upd);
                 assert_eq!(a, b);
                 assert_eq!(net.pending(), 0);
+                assert!(!net.is_stale());
             }
         }
     }
@@ -2736,13 +2826,20 @@ mod tests {
                 && e.contains("avx512"),
             "{e}"
         );
-        // The default is the fastest kernel this CPU has.
+        // The default is the fastest double-precision kernel this CPU has (AVX-512: by vendor),
+        // never the single-precision store.
         let d = Kernel::default_for_cpu();
-        assert!(d.is_available());
-        let fastest = [Kernel::Batched, Kernel::Avx2, Kernel::Portable]
+        assert!(d.is_available() && d != Kernel::BatchedF32);
+        let wide = if detect_amd() {
+            Kernel::Avx512
+        } else {
+            Kernel::Batched
+        };
+        let fastest = [wide, Kernel::Avx2, Kernel::Portable]
             .into_iter()
             .find(|k| k.is_available());
         assert_eq!(Some(d), fastest);
+        assert!(Kernel::parse("batched-f32").is_ok() == Kernel::BatchedF32.is_available());
     }
 
     #[test]

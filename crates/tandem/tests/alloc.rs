@@ -521,3 +521,36 @@ fn constrained_step_allocations(plant: &Plant, y: &mut [f64]) -> usize {
         }
     })
 }
+
+/// Every weight-pass kernel this CPU has, the held-update ones included (their flushes, the
+/// `f32` store's load and widening, and the norms refresh), ticks without allocating.
+#[test]
+fn rbf_ticks_allocate_nothing_with_every_kernel() {
+    use tandem::rbf::{BATCH_DEPTH, Kernel, NnUpdate, Rbf, RbfNetwork};
+    let rbf = Rbf::paper();
+    let upd = NnUpdate::new(
+        Vector3::new(1.6, 1.5, 0.5),
+        Vector3::new(1e-3, 1e-3, 1e-3),
+        1e-3,
+    )
+    .unwrap();
+    for kernel in Kernel::ALL.into_iter().filter(|k| k.is_available()) {
+        let mut net = RbfNetwork::<3>::for_basis(&rbf).unwrap();
+        net.set_kernel(kernel).unwrap();
+        let mut ws = rbf.workspace();
+        let z2 = Vector3::new(0.01, -0.02, 0.03);
+        let mut z = [0.1; 12];
+        net.tick_at_outputs(&rbf, &z, &mut ws, 1.0, &z2, &upd);
+        let n = count(|| {
+            for k in 0..3 * BATCH_DEPTH + 5 {
+                z[k % 12] = 0.01 * k as f64;
+                net.tick_at_outputs(&rbf, &z, &mut ws, 0.5, &z2, &upd);
+                if k == 2 * BATCH_DEPTH {
+                    net.flush();
+                    let _ = net.norms();
+                }
+            }
+        });
+        assert_eq!(n, 0, "{kernel}: {n} allocations");
+    }
+}

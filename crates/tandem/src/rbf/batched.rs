@@ -47,11 +47,17 @@ pub const DEPTH: usize = 16;
 /// Lanes of one AVX-512 register of `f64`.
 const LANE: usize = 8;
 
-/// The held update, whatever the store: the factor `D`, and the terms `(g_m, A_m, B_m)`.
+/// A tick's basis on a grid: `A`, `B`, the per-input factors `f` (all inputs, level after
+/// level) and where each input's factors start (`offsets`, as in [`super::Rbf`]).
+pub(super) type Basis<'a> = (&'a [f64], &'a [f64], &'a [f64], &'a [usize]);
+
+/// The held update, whatever the store: the factor `D`, and the terms `(g_m, A_m, B_m)` with
+/// the per-input factors of `A_m ⊗ B_m`.
 #[derive(Debug, Clone, PartialEq)]
 struct Terms<const M: usize> {
     n_a: usize,
     n_b: usize,
+    n_f: usize,
     /// Pending terms `p`.
     p: usize,
     /// `D_j`.
@@ -62,19 +68,24 @@ struct Terms<const M: usize> {
     a: Vec<f64>,
     /// `B_m`, `n_b` each.
     b: Vec<f64>,
+    /// The factors of term `m`, level-major: `fs[l·DEPTH + m]` is factor `l` of term `m`
+    /// (so that one register holds a factor of 8 terms).
+    fs: Vec<f64>,
 }
 
 impl<const M: usize> Terms<M> {
-    fn new(n_a: usize, n_b: usize) -> Self {
+    fn new(n_a: usize, n_b: usize, n_f: usize) -> Self {
         assert!((1..=MAX_OUTPUTS).contains(&M));
         Self {
             n_a,
             n_b,
+            n_f,
             p: 0,
             d: [1.0; M],
             g: [[0.0; M]; DEPTH],
             a: vec![0.0; DEPTH * n_a],
             b: vec![0.0; DEPTH * n_b],
+            fs: vec![0.0; DEPTH * n_f],
         }
     }
 
@@ -100,32 +111,33 @@ impl<const M: usize> Terms<M> {
     }
 
     /// The output (41) from the stored weights' part `v_j = V_jᵀS`:
-    /// `f̂_j = D_j v_j − Σ_m g_mj (A_m·A)(B_m·B)`.
+    /// `f̂_j = D_j v_j − Σ_m g_mj (A_m ⊗ B_m)·S`, where the held terms' products with
+    /// `S = f_0 ⊗ … ⊗ f_{N−1}` are products of the per-input dot products,
+    /// `(A_m ⊗ B_m)·S = Π_i f_{m,i}·f_i`: a few operations a factor, for all terms at once.
     ///
     /// # Safety
     /// The CPU must support AVX-512F.
     #[cfg(target_arch = "x86_64")]
-    unsafe fn outputs(&self, v: [f64; M], a: &[f64], b: &[f64]) -> [f64; M] {
-        let (na, nb) = (self.n_a, self.n_b);
-        let mut out: [f64; M] = std::array::from_fn(|j| self.d[j] * v[j]);
-        for m in 0..self.p {
-            // SAFETY: AVX-512F (caller's contract).
-            let s = unsafe {
-                avx512::dot(&self.a[m * na..(m + 1) * na], a)
-                    * avx512::dot(&self.b[m * nb..(m + 1) * nb], b)
-            };
-            for j in 0..M {
-                out[j] -= self.g[m][j] * s;
+    unsafe fn outputs(&self, v: [f64; M], f: &[f64], offsets: &[usize]) -> [f64; M] {
+        // SAFETY: AVX-512F (caller's contract).
+        let s = unsafe { avx512::held_products(&self.fs, f, offsets) };
+        std::array::from_fn(|j| {
+            let mut o = self.d[j] * v[j];
+            for (gm, sm) in self.g[..self.p].iter().zip(&s) {
+                o -= gm[j] * sm;
             }
-        }
-        out
+            o
+        })
     }
 
     /// The update (44), deferred: `D ← e D`, `g_m ← e g_m`, and the new term `(c, A, B)`.
     /// Returns the new term's index. Panics if `DEPTH` terms are already held.
-    fn push(&mut self, a: &[f64], b: &[f64], e: &[f64; M], c: &[f64; M]) -> usize {
+    fn push(&mut self, (a, b, f, _): Basis<'_>, e: &[f64; M], c: &[f64; M]) -> usize {
         let (na, nb, p) = (self.n_a, self.n_b, self.p);
-        assert!(p < DEPTH);
+        assert!(p < DEPTH && f.len() == self.n_f);
+        for (l, &fl) in f.iter().enumerate() {
+            self.fs[l * DEPTH + p] = fl;
+        }
         for j in 0..M {
             self.d[j] *= e[j];
         }
@@ -154,13 +166,13 @@ pub(super) enum Held<const M: usize> {
 impl<const M: usize> Held<M> {
     /// Buffers for a grid basis with head length `n_a` and tail length `n_b`, or `None` if the
     /// passes do not handle it (`f64`: `n_b % 8 ≠ 0`; `f32`: `n_b % 16 ≠ 0`).
-    pub(super) fn new(single: bool, n_a: usize, n_b: usize) -> Option<Self> {
+    pub(super) fn new(single: bool, n_a: usize, n_b: usize, n_f: usize) -> Option<Self> {
         if single {
             n_b.is_multiple_of(LANE32)
-                .then(|| Held::F32(Batch32::new(n_a, n_b)))
+                .then(|| Held::F32(Batch32::new(n_a, n_b, n_f)))
         } else {
             n_b.is_multiple_of(LANE)
-                .then(|| Held::F64(Batch::new(n_a, n_b)))
+                .then(|| Held::F64(Batch::new(n_a, n_b, n_f)))
         }
     }
 
@@ -171,10 +183,10 @@ impl<const M: usize> Held<M> {
         }
     }
 
-    /// Whether the buffers fit a basis with these head and tail lengths.
-    pub(super) fn fits(&self, n_a: usize, n_b: usize) -> bool {
+    /// Whether the buffers fit a basis with these head and tail lengths and factors.
+    pub(super) fn fits(&self, n_a: usize, n_b: usize, n_f: usize) -> bool {
         let t = self.terms();
-        t.n_a == n_a && t.n_b == n_b
+        t.n_a == n_a && t.n_b == n_b && t.n_f == n_f
     }
 
     /// Pending terms.
@@ -227,8 +239,8 @@ impl<const M: usize> Held<M> {
         }
     }
 
-    /// One tick: `f̂` with the weights before the update, then the update deferred. `a`, `b`
-    /// are this tick's `A`, `B`; `e`, `c` the decay and the coefficient of `S` in (44).
+    /// One tick: `f̂` with the weights before the update, then the update deferred. `basis`
+    /// is this tick's `S` on the grid; `e`, `c` the decay and the coefficient of `S` in (44).
     ///
     /// # Safety
     /// The CPU must support AVX-512F. Panics if the lengths do not match the buffers.
@@ -236,16 +248,15 @@ impl<const M: usize> Held<M> {
     pub(super) unsafe fn tick(
         &mut self,
         w: &mut [f64],
-        a: &[f64],
-        b: &[f64],
+        basis: Basis<'_>,
         e: &[f64; M],
         c: &[f64; M],
     ) -> [f64; M] {
         // SAFETY: AVX-512F (caller's contract).
         unsafe {
             match self {
-                Held::F64(h) => h.tick(w, a, b, e, c),
-                Held::F32(h) => h.tick(w, a, b, e, c),
+                Held::F64(h) => h.tick(w, basis, e, c),
+                Held::F32(h) => h.tick(w, basis, e, c),
             }
         }
     }
@@ -264,10 +275,10 @@ pub(super) struct Batch<const M: usize> {
 
 impl<const M: usize> Batch<M> {
     /// Buffers for a grid basis with head length `n_a` and tail length `n_b` (`n_b % 8 == 0`).
-    fn new(n_a: usize, n_b: usize) -> Self {
+    fn new(n_a: usize, n_b: usize, n_f: usize) -> Self {
         assert!(n_b.is_multiple_of(LANE));
         Self {
-            t: Terms::new(n_a, n_b),
+            t: Terms::new(n_a, n_b, n_f),
             bs: Aligned::zeros(DEPTH * n_b * M),
             cur: Aligned::zeros(n_b * M),
         }
@@ -294,12 +305,12 @@ impl<const M: usize> Batch<M> {
     unsafe fn tick(
         &mut self,
         w: &mut [f64],
-        a: &[f64],
-        b: &[f64],
+        basis: Basis<'_>,
         e: &[f64; M],
         c: &[f64; M],
     ) -> [f64; M] {
         let (na, nb) = (self.t.n_a, self.t.n_b);
+        let (a, b, f, offsets) = basis;
         assert!(a.len() == na && b.len() == nb && w.len() == na * nb * M);
         for (k, &bk) in b.iter().enumerate() {
             self.cur.as_mut()[k * M..(k + 1) * M].fill(bk);
@@ -313,10 +324,10 @@ impl<const M: usize> Batch<M> {
                 out
             } else {
                 let v = avx512::read::<M>(w, a, self.cur.as_ref(), nb);
-                self.t.outputs(v, a, b)
+                self.t.outputs(v, f, offsets)
             }
         };
-        let p = self.t.push(a, b, e, c);
+        let p = self.t.push(basis, e, c);
         let row_len = nb * M;
         self.bs.as_mut()[p * row_len..(p + 1) * row_len].copy_from_slice(self.cur.as_ref());
         out
@@ -354,10 +365,10 @@ pub(super) struct Batch32<const M: usize> {
 
 impl<const M: usize> Batch32<M> {
     /// Buffers for a grid basis with head length `n_a` and tail length `n_b` (`n_b % 16 == 0`).
-    fn new(n_a: usize, n_b: usize) -> Self {
+    fn new(n_a: usize, n_b: usize, n_f: usize) -> Self {
         assert!(n_b.is_multiple_of(LANE32));
         Self {
-            t: Terms::new(n_a, n_b),
+            t: Terms::new(n_a, n_b, n_f),
             v: Aligned::zeros(n_a * n_b * M),
             live: false,
             a32: vec![0.0; DEPTH * n_a],
@@ -404,12 +415,12 @@ impl<const M: usize> Batch32<M> {
     unsafe fn tick(
         &mut self,
         w: &mut [f64],
-        a: &[f64],
-        b: &[f64],
+        basis: Basis<'_>,
         e: &[f64; M],
         c: &[f64; M],
     ) -> [f64; M] {
         let (na, nb) = (self.t.n_a, self.t.n_b);
+        let (a, b, f, offsets) = basis;
         assert!(a.len() == na && b.len() == nb && w.len() == na * nb * M);
         self.load(w);
         for (k, &bk) in b.iter().enumerate() {
@@ -426,10 +437,10 @@ impl<const M: usize> Batch32<M> {
                 out
             } else {
                 let v = avx512f32::read::<M>(self.v.as_ref(), &self.cur_a, self.cur.as_ref(), nb);
-                self.t.outputs(v, a, b)
+                self.t.outputs(v, f, offsets)
             }
         };
-        let p = self.t.push(a, b, e, c);
+        let p = self.t.push(basis, e, c);
         let row_len = nb * M;
         self.bs.as_mut()[p * row_len..(p + 1) * row_len].copy_from_slice(self.cur.as_ref());
         self.a32[p * na..(p + 1) * na].copy_from_slice(&self.cur_a);
@@ -473,32 +484,29 @@ mod avx512 {
         reduce512(&l)
     }
 
-    /// `x·y` (equal lengths): 8 lanes of fused multiply-adds, the lanes summed in a fixed
-    /// order, the tail by scalar fused multiply-adds.
+    /// `s_m = Π_i Σ_{l ∈ input i} fs[l·DEPTH + m]·f[l]` for all `DEPTH` terms at once (the
+    /// lanes are terms; lanes of terms not held are computed and ignored).
     ///
     /// # Safety
-    /// The CPU must support AVX-512F.
+    /// The CPU must support AVX-512F. Panics unless `fs.len() = DEPTH·f.len()` and `offsets`
+    /// ends at `f.len()`.
     #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn dot(x: &[f64], y: &[f64]) -> f64 {
-        assert_eq!(x.len(), y.len());
-        let body = x.len() / LANE * LANE;
-        // SAFETY: AVX-512F (caller's contract); every load is in bounds.
-        unsafe {
-            let mut acc = _mm512_setzero_pd();
-            for (xc, yc) in x[..body]
-                .chunks_exact(LANE)
-                .zip(y[..body].chunks_exact(LANE))
-            {
-                acc = _mm512_fmadd_pd(load(xc), load(yc), acc);
+    pub(super) unsafe fn held_products(fs: &[f64], f: &[f64], offsets: &[usize]) -> [f64; DEPTH] {
+        assert!(fs.len() == DEPTH * f.len() && offsets.last() == Some(&f.len()));
+        let mut s = [1.0; DEPTH];
+        for w in offsets.windows(2) {
+            let mut d = [0.0; DEPTH];
+            for l in w[0]..w[1] {
+                let fl = f[l];
+                for (dm, &x) in d.iter_mut().zip(&fs[l * DEPTH..(l + 1) * DEPTH]) {
+                    *dm = x.mul_add(fl, *dm);
+                }
             }
-            let mut l = [0.0; LANE];
-            store(&mut l, acc);
-            let mut s = ((l[0] + l[4]) + (l[2] + l[6])) + ((l[1] + l[5]) + (l[3] + l[7]));
-            for (a, b) in x[body..].iter().zip(&y[body..]) {
-                s = a.mul_add(*b, s);
+            for (sm, dm) in s.iter_mut().zip(&d) {
+                *sm *= dm;
             }
-            s
         }
+        s
     }
 
     /// Load 8 lanes at `p + o` (no bounds check).
