@@ -1,0 +1,322 @@
+//! `S(Z)`'s grid factors for the AVX-512 kernels: the exponentials of (8) eight at a time, and
+//! the Kronecker products `A`, `B` a register at a time.
+//!
+//! * [`exp`] replaces 24 calls to the C library's `exp` (the paper's grid) by three register
+//!   evaluations. It is not the library's function, so the factors differ from the portable
+//!   reference's by an ulp or two; the AVX-512 kernels are within the determinism policy's
+//!   tolerance, not bit-identical, so this is theirs to take (tested against `f64::exp`).
+//! * [`kron`] forms the same products in the same order as `super::kron_into`, so its bits
+//!   are the same: the tail inputs whose levels multiply to 8 (the last three of the paper's
+//!   grid) vary inside a register, and every register is its prefix product times those
+//!   inputs' lane patterns, multiplied in input order.
+
+#![cfg(target_arch = "x86_64")]
+
+use std::arch::x86_64::{
+    __m512d, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd, _mm512_max_pd, _mm512_min_pd,
+    _mm512_mul_pd, _mm512_roundscale_pd, _mm512_scalef_pd, _mm512_set1_pd, _mm512_setzero_pd,
+    _mm512_storeu_pd, _mm512_sub_pd,
+};
+
+/// Lanes of an AVX-512 register of `f64`.
+const LANE: usize = 8;
+
+/// `e^x` on 8 lanes: `x = k ln 2 + r` with `k = round(x / ln 2)` and `|r| ≤ ln 2 / 2`
+/// (Cody–Waite, `ln 2` in two parts), `e^r` by its Taylor polynomial to degree 13 (truncation
+/// below `5e-18` relative) in Horner form with fused multiply-adds, and `2^k e^r` by
+/// `vscalefpd`, which gives 0 for very negative `x`, `+∞` for very positive `x`, and keeps
+/// NaN. Measured against `f64::exp` (test `vector_exp_is_within_two_ulps`): within 2 ulps.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[target_feature(enable = "avx512f")]
+pub(super) unsafe fn exp(x: __m512d) -> __m512d {
+    const LOG2E: f64 = std::f64::consts::LOG2_E;
+    // ln 2 = LN2_HI + LN2_LO, LN2_HI with its low 11 bits clear (k·LN2_HI exact for |k| < 2^11).
+    const LN2_HI: f64 = 0.693_147_180_369_123_8;
+    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+    // 1/n! for n = 13 down to 0.
+    const C: [f64; 14] = [
+        1.0 / 6_227_020_800.0,
+        1.0 / 479_001_600.0,
+        1.0 / 39_916_800.0,
+        1.0 / 3_628_800.0,
+        1.0 / 362_880.0,
+        1.0 / 40_320.0,
+        1.0 / 5_040.0,
+        1.0 / 720.0,
+        1.0 / 120.0,
+        1.0 / 24.0,
+        1.0 / 6.0,
+        0.5,
+        1.0,
+        1.0,
+    ];
+    // Below −746 the result is 0 and above 710 it is +∞ anyway; the clamp keeps `k` small
+    // enough for `k·LN2_HI` to be exact, and ±∞ out of the reduction (∞ − ∞). `max`/`min`
+    // return their second operand when either is NaN, so NaN passes through.
+    let x = _mm512_max_pd(_mm512_set1_pd(-746.0), x);
+    let x = _mm512_min_pd(_mm512_set1_pd(710.0), x);
+    // k = round(x / ln 2) (imm 0x08: to nearest, exceptions suppressed).
+    let k = _mm512_roundscale_pd::<0x08>(_mm512_mul_pd(x, _mm512_set1_pd(LOG2E)));
+    let r = _mm512_fnmadd_pd(k, _mm512_set1_pd(LN2_HI), x);
+    let r = _mm512_fnmadd_pd(k, _mm512_set1_pd(LN2_LO), r);
+    let mut p = _mm512_set1_pd(C[0]);
+    for &c in &C[1..] {
+        p = _mm512_fmadd_pd(p, r, _mm512_set1_pd(c));
+    }
+    _mm512_scalef_pd(p, k)
+}
+
+/// `f[l] = e^{−(z_{i(l)} − c_l)² / ϑ²}` for every level `l` (input `i(l)` owns `l`), with the
+/// argument formed as the portable path forms it.
+///
+/// # Safety
+/// The CPU must support AVX-512F. Panics unless `levels.len() = f.len() = offsets[N]`.
+#[target_feature(enable = "avx512f")]
+pub(super) unsafe fn gaussians(
+    z: &[f64],
+    levels: &[f64],
+    offsets: &[usize],
+    inv_width2: f64,
+    f: &mut [f64],
+) {
+    let n = f.len();
+    assert!(levels.len() == n && offsets.last() == Some(&n) && offsets.len() == z.len() + 1);
+    let mut zl = [0.0; LANE];
+    let mut cl = [0.0; LANE];
+    let mut out = [0.0; LANE];
+    let mut input = 0;
+    let mut l0 = 0;
+    while l0 < n {
+        let len = LANE.min(n - l0);
+        for t in 0..len {
+            while offsets[input + 1] <= l0 + t {
+                input += 1;
+            }
+            zl[t] = z[input];
+            cl[t] = levels[l0 + t];
+        }
+        // SAFETY: AVX-512F (caller's contract); the arrays hold 8 lanes.
+        unsafe {
+            let d = _mm512_sub_pd(_mm512_loadu_pd(zl.as_ptr()), _mm512_loadu_pd(cl.as_ptr()));
+            let arg = _mm512_mul_pd(
+                _mm512_mul_pd(_mm512_mul_pd(d, d), _mm512_set1_pd(-1.0)),
+                _mm512_set1_pd(inv_width2),
+            );
+            _mm512_storeu_pd(out.as_mut_ptr(), exp(arg));
+        }
+        f[l0..l0 + len].copy_from_slice(&out[..len]);
+        l0 += len;
+    }
+}
+
+/// `out = f_from ⊗ … ⊗ f_{to−1}` (the last input varying fastest), the same products in the
+/// same order as `super::kron_into`, hence the same bits; `tmp` as long as `out`.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[target_feature(enable = "avx512f")]
+pub(super) unsafe fn kron(
+    f: &[f64],
+    offsets: &[usize],
+    from: usize,
+    to: usize,
+    out: &mut [f64],
+    tmp: &mut [f64],
+) {
+    // The tail inputs whose levels multiply to exactly one register.
+    let mut split = to;
+    let mut lanes = 1;
+    while split > from && lanes < LANE {
+        lanes *= offsets[split] - offsets[split - 1];
+        split -= 1;
+    }
+    if lanes != LANE || out.len() < LANE {
+        super::kron_into(f, offsets, from, to, out, tmp);
+        return;
+    }
+    let regs = out.len() / LANE;
+    let prefix = &mut tmp[..regs];
+    kron_prefix(f, offsets, from, split, prefix);
+    // SAFETY: AVX-512F (caller's contract); every access in bounds (`regs·8 = out.len()`).
+    unsafe {
+        // The inputs' lane patterns: lane `t` holds the level of input `i` that index `t` has,
+        // `(t / stride) % n`: runs of `stride` lanes a level, repeated.
+        let mut pattern = [_mm512_setzero_pd(); LANE];
+        let mut stride = LANE;
+        for (i, pat) in (split..to).zip(&mut pattern) {
+            let fi = &f[offsets[i]..offsets[i + 1]];
+            stride /= fi.len();
+            let mut lanes = [0.0; LANE];
+            let mut runs = lanes.chunks_exact_mut(stride);
+            for _ in 0..LANE / (stride * fi.len()) {
+                for &fl in fi {
+                    runs.next().expect("8 lanes").fill(fl);
+                }
+            }
+            *pat = _mm512_loadu_pd(lanes.as_ptr());
+        }
+        let pattern = &pattern[..to - split];
+        for (r, &pr) in prefix.iter().enumerate() {
+            let mut x = _mm512_set1_pd(pr);
+            for &pat in pattern {
+                x = _mm512_mul_pd(x, pat);
+            }
+            _mm512_storeu_pd(out.as_mut_ptr().add(r * LANE), x);
+        }
+    }
+}
+
+/// The prefix products `f_from ⊗ … ⊗ f_{to−1}` into `out`, in the order of `kron_into`
+/// (forward, from 1), without a second buffer: built in place from the back.
+fn kron_prefix(f: &[f64], offsets: &[usize], from: usize, to: usize, out: &mut [f64]) {
+    out[0] = 1.0;
+    let mut len = 1;
+    for i in from..to {
+        let fi = &f[offsets[i]..offsets[i + 1]];
+        let n = fi.len();
+        // dst[r·n + l] = src[r]·f_i[l], from the last r down, so src[r] is read before it is
+        // overwritten (r·n + l ≥ r).
+        for r in (0..len).rev() {
+            let v = out[r];
+            for (l, &fl) in fi.iter().enumerate().rev() {
+                out[r * n + l] = v * fl;
+            }
+        }
+        len *= n;
+    }
+    debug_assert_eq!(len, out.len());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn avx512() -> bool {
+        std::arch::is_x86_feature_detected!("avx512f")
+    }
+
+    fn ulps(a: f64, b: f64) -> u64 {
+        if a == b {
+            return 0;
+        }
+        (a.to_bits() as i64 - b.to_bits() as i64).unsigned_abs()
+    }
+
+    fn exp8(x: [f64; 8]) -> [f64; 8] {
+        let mut out = [0.0; 8];
+        // SAFETY: only called after `avx512()`; 8 lanes each way.
+        unsafe { _mm512_storeu_pd(out.as_mut_ptr(), exp(_mm512_loadu_pd(x.as_ptr()))) };
+        out
+    }
+
+    #[test]
+    fn vector_exp_is_within_two_ulps() {
+        if !avx512() {
+            return;
+        }
+        let mut worst = 0;
+        let mut s = 0x9e37_79b9_7f4a_7c15_u64;
+        for k in 0..200_000 {
+            let mut x = [0.0; 8];
+            for v in &mut x {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                let u = (s >> 11) as f64 / (1u64 << 53) as f64;
+                // Mostly the Gaussians' range (−2, 0], then down to underflow.
+                *v = if k % 4 == 0 { -745.0 * u } else { -2.0 * u };
+            }
+            for (a, b) in exp8(x).iter().zip(x.map(f64::exp)) {
+                // Subnormal results: compare absolutely (one subnormal ulp is 5e-324).
+                let d = if b < f64::MIN_POSITIVE {
+                    ((a - b).abs() / 4.9e-324) as u64
+                } else {
+                    ulps(*a, b)
+                };
+                worst = worst.max(d);
+            }
+        }
+        eprintln!("vector exp: worst {worst} ulps against f64::exp");
+        assert!(worst <= 2, "worst {worst} ulps");
+        // Edges: 0, −0, ±∞, NaN, the underflow threshold, large positive.
+        let e = exp8([
+            0.0,
+            -0.0,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NAN,
+            -746.0,
+            -1e300,
+            800.0,
+        ]);
+        assert_eq!(e[..2], [1.0, 1.0]);
+        assert_eq!(e[2], 0.0);
+        assert_eq!(e[3], f64::INFINITY);
+        assert!(e[4].is_nan());
+        assert_eq!(e[5..7], [0.0, 0.0]);
+        assert_eq!(e[7], f64::INFINITY);
+    }
+
+    /// The register-wide Kronecker product gives the bits of `kron_into`, for grids with and
+    /// without a tail of 8 lanes (the others fall back).
+    #[test]
+    fn register_kron_equals_the_scalar_kron_bitwise() {
+        if !avx512() {
+            return;
+        }
+        let grids: [&[usize]; 6] = [
+            &[2, 2, 2, 2, 2, 2],
+            &[2, 2, 2],
+            &[4, 2],
+            &[3, 8],
+            &[2, 3, 4, 2],
+            &[3, 3],
+        ];
+        let mut s = 7u64;
+        for levels in grids {
+            let mut offsets = vec![0];
+            for n in levels {
+                offsets.push(offsets.last().unwrap() + n);
+            }
+            let f: Vec<f64> = (0..offsets[levels.len()])
+                .map(|_| {
+                    s = s.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                    0.1 + (s >> 11) as f64 / (1u64 << 53) as f64
+                })
+                .collect();
+            let len: usize = levels.iter().product();
+            let (mut a, mut t) = (vec![0.0; len], vec![0.0; len]);
+            let (mut b, mut u) = (vec![0.0; len], vec![0.0; len]);
+            // SAFETY: AVX-512F checked above.
+            unsafe { kron(&f, &offsets, 0, levels.len(), &mut a, &mut t) };
+            crate::rbf::kron_into(&f, &offsets, 0, levels.len(), &mut b, &mut u);
+            assert!(
+                a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
+                "{levels:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn vector_gaussians_match_the_scalar_ones() {
+        if !avx512() {
+            return;
+        }
+        let levels = [-1.0, 1.0, -1.0, 0.0, 0.5, 1.0, -2.0, 2.0, 0.0, 0.3, 0.7];
+        let offsets = [0, 2, 6, 8, 11];
+        let z = [0.3, -0.7, 1e200, f64::NAN];
+        let mut f = [0.0; 11];
+        // SAFETY: AVX-512F checked above.
+        unsafe { gaussians(&z, &levels, &offsets, 1.0 / 3.0, &mut f) };
+        for i in 0..4 {
+            for l in offsets[i]..offsets[i + 1] {
+                let d = z[i] - levels[l];
+                let e = (-(d * d) * (1.0 / 3.0)).exp();
+                assert!(ulps(f[l], e) <= 2 || (f[l].is_nan() && e.is_nan()), "{l}");
+            }
+        }
+        assert_eq!(f[6..8], [0.0, 0.0]);
+    }
+}
