@@ -132,7 +132,7 @@ fn fill_replay_columns(log: &mut Log, built: &Built, k_c: [f64; 3]) {
 }
 
 /// The content of `summary.json`: the library's summary, the scenario's name and seed, the
-/// tandem version, warnings, and (in `timing`, excluded from determinism checks) wall times.
+/// tandem version, the RBF kernel, warnings, and (in `timing`, excluded from determinism checks) wall times.
 pub fn summary_json(f: &Finished, scenario: &str, output_time: Option<f64>) -> Value {
     let mut v = serde_json::to_value(&f.summary).unwrap_or(Value::Null);
     let mut timing = serde_json::Map::new();
@@ -150,6 +150,12 @@ pub fn summary_json(f: &Finished, scenario: &str, output_time: Option<f64>) -> V
     head.insert("scenario".into(), json!(scenario));
     head.insert("seed".into(), json!(f.sc.run.seed));
     head.insert("tandem_version".into(), json!(env!("CARGO_PKG_VERSION")));
+    // The RBF weight-pass kernel in effect (results differ across kernels within the
+    // determinism policy's tolerance; `batched-f32` within its own).
+    head.insert(
+        "rbf_kernel".into(),
+        json!(tandem::rbf::Kernel::from_env().ok().map(|k| k.name())),
+    );
     head.insert("label".into(), json!(f.label()));
     head.insert("duration".into(), json!(f.built.sim.duration));
     head.insert(

@@ -49,9 +49,10 @@
 //! AVX-512); each lane keeps its own partial sums, reduced per output in a fixed order at the
 //! end. So results are bitwise reproducible, identical between the output-only, update-only and
 //! fused paths of a kernel, and identical between the portable and the AVX2 code (no FMA, so the
-//! rounding is the same). The FMA kernels (`avx2fma`, `avx512`, and `batched`, the default
-//! where the CPU has AVX-512F) agree with them within the tolerance of the determinism policy
-//! ([`Kernel`], `docs/performance.md`). This is the only `unsafe` in the module: the SIMD
+//! rounding is the same). The FMA kernels (`avx2fma`, `avx512` and `batched`; the default
+//! where the CPU has AVX-512F is one of the last two, by vendor) agree with them within the
+//! tolerance of the determinism policy ([`Kernel`], `docs/performance.md`); `batched-f32`, which
+//! keeps the weights in single precision, within its own. This is the only `unsafe` in the module: the SIMD
 //! intrinsics and the call into a `#[target_feature]` function after detection.
 //!
 //! # The batched update
@@ -1138,9 +1139,12 @@ pub const KERNEL_ENV: &str = "TANDEM_KERNEL";
 /// single-rounding FMAs, and [`Kernel::Avx512`] also regroups the grid pass (`(c a_i)·b`,
 /// `a_i Σ b w`): each weight update differs by at most a few ulps per tick. [`Kernel::Batched`]
 /// applies the same exact update 16 ticks at a time (the decay as a running product, the
-/// outputs of held terms through dot products of the factors). The results agree with the
-/// portable reference to a relative tolerance (tested: `1e-12` on the weights and outputs
-/// after 1000 ticks of the paper network). The default is the fastest kernel the CPU has.
+/// outputs of held terms through dot products of the factors). The AVX-512 kernels also
+/// evaluate `S(Z)`'s exponentials with their own vector `exp` (within 1 ulp). The results agree
+/// with the portable reference to a relative tolerance (tested: `1e-12` on the weights and
+/// outputs after 1000 ticks of the paper network). [`Kernel::BatchedF32`] stores the weights in
+/// single precision and has its own tolerance (tested: `2e-6`). The default is the fastest
+/// double-precision kernel the CPU has ([`Kernel::default_for_cpu`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Kernel {
     /// Plain Rust, any CPU; the reference.

@@ -33,6 +33,15 @@
 //!
 //! The passes are AVX-512F (the kernel is offered only where the CPU has it) and handle a grid
 //! basis whose tail length `n_b` is a multiple of 8; other bases use the direct kernel.
+//!
+//! # Single precision
+//!
+//! [`super::Kernel::BatchedF32`] runs the same algebra on an `f32` copy of `V` that the kernel
+//! owns while the controller ticks ([`Batch32`]): every pass moves half the bytes (48 KB for the
+//! paper network, the size of an L1 data cache) and does its arithmetic on 16 lanes. `D`, the
+//! `g_m`, the held terms' dot products and the final sums stay `f64`. The network's own `f64`
+//! weights are brought up to date on [`super::RbfNetwork::flush`]; until then they are stale,
+//! and the accessors that read them refuse ([`super::RbfNetwork::is_stale`]).
 
 use super::{Aligned, MAX_OUTPUTS};
 
