@@ -1,7 +1,8 @@
 //! Machine bounds for the roofline table of `docs/performance.md`: the memory rate of the
 //! weight pass's access pattern (read, modify and write back every element of a buffer once,
 //! `x ← a·x + b·x`, in 512-bit registers where the CPU has AVX-512, else 256-bit) for buffers
-//! that live in L1 (32 KB) and in L2 (96 KB: the paper network's weights; 192 KB), a read-only
+//! that live in L1 (32 KB), at the edge of L1 (48 KB: the paper network's weights in `f32`) and
+//! in L2 (96 KB: the paper network's weights in `f64`; 192 KB), a read-only
 //! pass, and the clock (a chain of dependent integer adds: one a cycle).
 //!
 //! Bytes moved = 2 × buffer (read + write) for the update pass, 1 × for the read pass; divide
@@ -118,7 +119,7 @@ unsafe fn fma512(x: f64, y: f64) -> f64 {
 }
 
 fn bench(c: &mut Criterion) {
-    for kb in [32usize, 96, 192] {
+    for kb in [32usize, 48, 96, 192] {
         let n = kb * 1024 / 8;
         let (mut buf, off) = aligned_ones(n);
         let x = &mut buf[off..off + n];

@@ -370,6 +370,11 @@ pub(super) struct Batch32<const M: usize> {
     bs: Aligned<f32>,
     /// This tick's `B`, spread the same way.
     cur: Aligned<f32>,
+    /// This tick's `B` in `f32`, padded by a register.
+    b32: Vec<f32>,
+    /// The spread as permutes: register `r` of `cur` is lanes `spread[r]` of `b32[first[r]..]`.
+    spread: Vec<[u32; LANE32]>,
+    first: Vec<usize>,
 }
 
 impl<const M: usize> Batch32<M> {
@@ -384,6 +389,13 @@ impl<const M: usize> Batch32<M> {
             cur_a: vec![0.0; n_a],
             bs: Aligned::zeros(DEPTH * n_b * M),
             cur: Aligned::zeros(n_b * M),
+            b32: vec![0.0; n_b + LANE32],
+            // Entry `e = 16r + t` of a spread row is `B[e / M]`; a register's entries span at
+            // most 16 consecutive `k`, starting at `first[r] = 16r / M`.
+            spread: (0..n_b * M / LANE32)
+                .map(|r| std::array::from_fn(|t| ((LANE32 * r + t) / M - LANE32 * r / M) as u32))
+                .collect(),
+            first: (0..n_b * M / LANE32).map(|r| LANE32 * r / M).collect(),
         }
     }
 
@@ -432,12 +444,14 @@ impl<const M: usize> Batch32<M> {
         let (a, b, f, offsets) = basis;
         assert!(a.len() == na && b.len() == nb && w.len() == na * nb * M);
         self.load(w);
-        for (k, &bk) in b.iter().enumerate() {
-            self.cur.as_mut()[k * M..(k + 1) * M].fill(bk as f32);
+        for (o, &x) in self.b32.iter_mut().zip(b) {
+            *o = x as f32;
         }
         for (o, &x) in self.cur_a.iter_mut().zip(a) {
             *o = x as f32;
         }
+        // SAFETY: AVX-512F (caller's contract).
+        unsafe { avx512f32::spread_rows(&self.b32, &self.spread, &self.first, self.cur.as_mut()) };
         // SAFETY: AVX-512F (caller's contract).
         let out = unsafe {
             if self.t.p == DEPTH {
@@ -723,9 +737,34 @@ mod avx512 {
 mod avx512f32 {
     use super::{Batch32, DEPTH, LANE32, MAX_OUTPUTS};
     use std::arch::x86_64::{
-        __m512, _mm512_fmadd_ps, _mm512_loadu_ps, _mm512_mul_ps, _mm512_set1_ps, _mm512_setzero_ps,
-        _mm512_storeu_ps, _mm512_sub_ps,
+        __m512, _mm512_fmadd_ps, _mm512_loadu_ps, _mm512_loadu_si512, _mm512_mul_ps,
+        _mm512_permutexvar_ps, _mm512_set1_ps, _mm512_setzero_ps, _mm512_storeu_ps, _mm512_sub_ps,
     };
+
+    /// `cur` = `B` spread over the weight lanes, a register at a time: register `r` is lanes
+    /// `idx[r]` of the 16 values of `b32` from `first[r]` (one load and one permute).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics unless `cur.len() = 16·idx.len()`, `first` is as
+    /// long as `idx` and `b32` holds 16 values from every `first[r]`.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn spread_rows(
+        b32: &[f32],
+        idx: &[[u32; LANE32]],
+        first: &[usize],
+        cur: &mut [f32],
+    ) {
+        assert!(cur.len() == LANE32 * idx.len() && first.len() == idx.len());
+        for ((c, ix), &f0) in cur.chunks_exact_mut(LANE32).zip(idx).zip(first) {
+            let src = &b32[f0..f0 + LANE32];
+            // SAFETY: 16 lanes each, in bounds by the slicing; AVX-512F (caller's contract).
+            unsafe {
+                let i = _mm512_loadu_si512(ix.as_ptr().cast());
+                let x = _mm512_permutexvar_ps(i, _mm512_loadu_ps(src.as_ptr()));
+                _mm512_storeu_ps(c.as_mut_ptr(), x);
+            }
+        }
+    }
 
     /// `v_j` spread over register `q`'s lanes: lane `t` holds `v[(16q + t) % M]`.
     #[inline(always)]
