@@ -13,9 +13,10 @@
 #![cfg(target_arch = "x86_64")]
 
 use std::arch::x86_64::{
-    __m512d, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd, _mm512_max_pd, _mm512_min_pd,
-    _mm512_mul_pd, _mm512_roundscale_pd, _mm512_scalef_pd, _mm512_set1_pd, _mm512_setzero_pd,
-    _mm512_storeu_pd, _mm512_sub_pd,
+    __m512d, _mm512_and_si512, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd,
+    _mm512_maskz_loadu_pd, _mm512_max_pd, _mm512_min_pd, _mm512_mul_pd, _mm512_permutexvar_pd,
+    _mm512_roundscale_pd, _mm512_scalef_pd, _mm512_set_epi64, _mm512_set1_epi64, _mm512_set1_pd,
+    _mm512_setzero_pd, _mm512_srlv_epi64, _mm512_storeu_pd, _mm512_sub_pd,
 };
 
 /// Lanes of an AVX-512 register of `f64`.
@@ -142,20 +143,21 @@ pub(super) unsafe fn kron(
     // SAFETY: AVX-512F (caller's contract); every access in bounds (`regs·8 = out.len()`).
     unsafe {
         // The inputs' lane patterns: lane `t` holds the level of input `i` that index `t` has,
-        // `(t / stride) % n`: runs of `stride` lanes a level, repeated.
+        // `(t / stride) % n`. The levels of the tail multiply to 8, so every `n` and `stride`
+        // is a power of two: `(t >> log2 stride) & (n − 1)`, formed in registers (lanes built
+        // in memory would stall the load that reads them back).
+        let iota = _mm512_set_epi64(7, 6, 5, 4, 3, 2, 1, 0);
         let mut pattern = [_mm512_setzero_pd(); LANE];
         let mut stride = LANE;
         for (i, pat) in (split..to).zip(&mut pattern) {
-            let fi = &f[offsets[i]..offsets[i + 1]];
-            stride /= fi.len();
-            let mut lanes = [0.0; LANE];
-            let mut runs = lanes.chunks_exact_mut(stride);
-            for _ in 0..LANE / (stride * fi.len()) {
-                for &fl in fi {
-                    runs.next().expect("8 lanes").fill(fl);
-                }
-            }
-            *pat = _mm512_loadu_pd(lanes.as_ptr());
+            let n = offsets[i + 1] - offsets[i];
+            stride /= n;
+            let idx = _mm512_and_si512(
+                _mm512_srlv_epi64(iota, _mm512_set1_epi64(stride.trailing_zeros().into())),
+                _mm512_set1_epi64(n as i64 - 1),
+            );
+            let levels = _mm512_maskz_loadu_pd(((1u32 << n) - 1) as u8, f.as_ptr().add(offsets[i]));
+            *pat = _mm512_permutexvar_pd(idx, levels);
         }
         let pattern = &pattern[..to - split];
         for (r, &pr) in prefix.iter().enumerate() {
