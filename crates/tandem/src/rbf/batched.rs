@@ -444,14 +444,12 @@ impl<const M: usize> Batch32<M> {
         let (a, b, f, offsets) = basis;
         assert!(a.len() == na && b.len() == nb && w.len() == na * nb * M);
         self.load(w);
-        for (o, &x) in self.b32.iter_mut().zip(b) {
-            *o = x as f32;
-        }
-        for (o, &x) in self.cur_a.iter_mut().zip(a) {
-            *o = x as f32;
-        }
         // SAFETY: AVX-512F (caller's contract).
-        unsafe { avx512f32::spread_rows(&self.b32, &self.spread, &self.first, self.cur.as_mut()) };
+        unsafe {
+            avx512f32::narrow(b, &mut self.b32[..nb]);
+            avx512f32::narrow(a, &mut self.cur_a);
+            avx512f32::spread_rows(&self.b32, &self.spread, &self.first, self.cur.as_mut());
+        }
         // SAFETY: AVX-512F (caller's contract).
         let out = unsafe {
             if self.t.p == DEPTH {
@@ -737,9 +735,33 @@ mod avx512 {
 mod avx512f32 {
     use super::{Batch32, DEPTH, LANE32, MAX_OUTPUTS};
     use std::arch::x86_64::{
-        __m512, _mm512_fmadd_ps, _mm512_loadu_ps, _mm512_loadu_si512, _mm512_mul_ps,
-        _mm512_permutexvar_ps, _mm512_set1_ps, _mm512_setzero_ps, _mm512_storeu_ps, _mm512_sub_ps,
+        __m512, _mm256_storeu_ps, _mm512_cvtpd_ps, _mm512_fmadd_ps, _mm512_loadu_pd,
+        _mm512_loadu_ps, _mm512_loadu_si512, _mm512_mul_ps, _mm512_permutexvar_ps, _mm512_set1_ps,
+        _mm512_setzero_ps, _mm512_storeu_ps, _mm512_sub_ps,
     };
+
+    /// `dst = src` rounded to `f32`, 8 values a register.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics unless the lengths are equal.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn narrow(src: &[f64], dst: &mut [f32]) {
+        assert_eq!(src.len(), dst.len());
+        let body = src.len() / 8 * 8;
+        for (s, d) in src[..body]
+            .chunks_exact(8)
+            .zip(dst[..body].chunks_exact_mut(8))
+        {
+            // SAFETY: 8 values each way; AVX-512F (caller's contract).
+            unsafe {
+                let x = _mm512_cvtpd_ps(_mm512_loadu_pd(s.as_ptr()));
+                _mm256_storeu_ps(d.as_mut_ptr(), x);
+            }
+        }
+        for (s, d) in src[body..].iter().zip(&mut dst[body..]) {
+            *d = *s as f32;
+        }
+    }
 
     /// `cur` = `B` spread over the weight lanes, a register at a time: register `r` is lanes
     /// `idx[r]` of the 16 values of `b32` from `first[r]` (one load and one permute).
