@@ -280,6 +280,11 @@ pub(super) struct Batch<const M: usize> {
     bs: Aligned,
     /// This tick's `B`, spread the same way.
     cur: Aligned,
+    /// The spread as permutes: register `r` of `cur` is lanes `spread[r]` of `B[first[r]..]`
+    /// (`B` copied into `b8`, padded by a register).
+    spread: Vec<[u64; LANE]>,
+    first: Vec<usize>,
+    b8: Vec<f64>,
 }
 
 impl<const M: usize> Batch<M> {
@@ -290,6 +295,11 @@ impl<const M: usize> Batch<M> {
             t: Terms::new(n_a, n_b, n_f),
             bs: Aligned::zeros(DEPTH * n_b * M),
             cur: Aligned::zeros(n_b * M),
+            spread: (0..n_b * M / LANE)
+                .map(|r| std::array::from_fn(|t| ((LANE * r + t) / M - LANE * r / M) as u64))
+                .collect(),
+            first: (0..n_b * M / LANE).map(|r| LANE * r / M).collect(),
+            b8: vec![0.0; n_b + LANE],
         }
     }
 
@@ -321,9 +331,9 @@ impl<const M: usize> Batch<M> {
         let (na, nb) = (self.t.n_a, self.t.n_b);
         let (a, b, f, offsets) = basis;
         assert!(a.len() == na && b.len() == nb && w.len() == na * nb * M);
-        for (k, &bk) in b.iter().enumerate() {
-            self.cur.as_mut()[k * M..(k + 1) * M].fill(bk);
-        }
+        self.b8[..nb].copy_from_slice(b);
+        // SAFETY: AVX-512F (caller's contract).
+        unsafe { avx512::spread_rows(&self.b8, &self.spread, &self.first, self.cur.as_mut()) };
         // SAFETY: AVX-512F (caller's contract).
         let out = unsafe {
             if self.t.p == DEPTH {
@@ -475,8 +485,8 @@ mod avx512 {
     use super::super::reduce512;
     use super::{Batch, DEPTH, LANE, MAX_OUTPUTS};
     use std::arch::x86_64::{
-        __m512d, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd, _mm512_mul_pd, _mm512_set1_pd,
-        _mm512_setzero_pd, _mm512_storeu_pd,
+        __m512d, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd, _mm512_loadu_si512,
+        _mm512_mul_pd, _mm512_permutexvar_pd, _mm512_set1_pd, _mm512_setzero_pd, _mm512_storeu_pd,
     };
 
     /// `v_j` spread over register `q`'s lanes: lane `t` holds `v[(8q + t) % M]`.
@@ -503,6 +513,31 @@ mod avx512 {
             unsafe { store(chunk, x) };
         }
         reduce512(&l)
+    }
+
+    /// `cur` = `B` spread over the weight lanes, a register at a time: register `r` is lanes
+    /// `idx[r]` of the 8 values of `b8` from `first[r]` (one load and one permute).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics unless `cur.len() = 8·idx.len()`, `first` is as
+    /// long as `idx` and `b8` holds 8 values from every `first[r]`.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn spread_rows(
+        b8: &[f64],
+        idx: &[[u64; LANE]],
+        first: &[usize],
+        cur: &mut [f64],
+    ) {
+        assert!(cur.len() == LANE * idx.len() && first.len() == idx.len());
+        for ((c, ix), &f0) in cur.chunks_exact_mut(LANE).zip(idx).zip(first) {
+            let src = &b8[f0..f0 + LANE];
+            // SAFETY: 8 lanes each, in bounds by the slicing; AVX-512F (caller's contract).
+            unsafe {
+                let i = _mm512_loadu_si512(ix.as_ptr().cast());
+                let x = _mm512_permutexvar_pd(i, _mm512_loadu_pd(src.as_ptr()));
+                _mm512_storeu_pd(c.as_mut_ptr(), x);
+            }
+        }
     }
 
     /// `s_m = Π_i Σ_{l ∈ input i} fs[l·DEPTH + m]·f[l]` for all `DEPTH` terms at once (the
