@@ -446,9 +446,9 @@ impl<const N: usize> AdaptiveNn<N> {
         self.w_n2 = [0.0; N];
     }
     /// The weights `Ŵ`: on the full grid interleaved by node (`w[k·N + j]`: node k, output j);
-    /// otherwise in the layout of [`StructuredNn::weights`]. With the `batched` kernel's
-    /// updates pending they are computed into a new buffer ([`RbfNetwork::weights_now`]), so
-    /// reading them does not change the run.
+    /// otherwise in the layout of [`StructuredNn::weights`]. With the `batched` kernels'
+    /// updates pending (or `batched-f32`'s weights in its `f32` store) they are computed into a
+    /// new buffer ([`RbfNetwork::weights_now`]), so reading them does not change the run.
     pub fn weights(&self) -> std::borrow::Cow<'_, [f64]> {
         match &self.network {
             Network::Grid { net, .. } => net.weights_now(),
@@ -500,7 +500,8 @@ impl<const N: usize> AdaptiveNn<N> {
                 let phi_a = net.tick_at_outputs(rbf, &self.z, rbf_ws, q, &z2, &self.update);
                 // ‖Ŵ_j‖ for the record: ‖e Ŵ − c S‖² = e²‖Ŵ‖² − 2ec Ŵ·S + c²‖S‖², Ŵ·S = f̂_j.
                 if self.ticks.is_multiple_of(NORM_REFRESH) {
-                    // The exact norms need the stored weights to be `Ŵ` (kernel `batched`).
+                    // The exact norms need the stored weights to be `Ŵ` (kernels `batched`,
+                    // `batched-f32`).
                     net.flush();
                     let n = net.norms();
                     for j in 0..N {

@@ -16,8 +16,9 @@
 //! $$ \hat W_j = D_j V_j - \sum_{m<p} g_{mj}\, A_m \otimes B_m . $$
 //!
 //! * **Output** (41), `S = A ⊗ B`: `f̂_j = D_j (V_jᵀS) − Σ_m g_mj (A_m·A)(B_m·B)`, since
-//!   `(A_m ⊗ B_m)·(A ⊗ B) = (A_m·A)(B_m·B)`: one read-only pass over `V` plus `2p` short dot
-//!   products.
+//!   `(A_m ⊗ B_m)·(A ⊗ B) = (A_m·A)(B_m·B)`: one read-only pass over `V`, plus the held terms'
+//!   products with `S`, which are products of per-input dot products (`Π_i f_{m,i}·f_i`, a few
+//!   operations a factor for all terms at once).
 //! * **Update** (44), exact for held inputs (module docs of [`super`]):
 //!   `Ŵ_j ← e_j Ŵ_j − c_j S` becomes `D_j ← e_j D_j`, `g_mj ← e_j g_mj`, and a new term
 //!   `(c_j, A, B)`: no pass over `V`.
@@ -39,7 +40,7 @@
 //! [`super::Kernel::BatchedF32`] runs the same algebra on an `f32` copy of `V` that the kernel
 //! owns while the controller ticks ([`Batch32`]): every pass moves half the bytes (48 KB for the
 //! paper network, the size of an L1 data cache) and does its arithmetic on 16 lanes. `D`, the
-//! `g_m`, the held terms' dot products and the final sums stay `f64`. The network's own `f64`
+//! `g_m`, the held terms' products with `S` and the final sums stay `f64`. The network's own `f64`
 //! weights are brought up to date on [`super::RbfNetwork::flush`]; until then they are stale,
 //! and the accessors that read them refuse ([`super::RbfNetwork::is_stale`]).
 
@@ -48,9 +49,10 @@ use super::{Aligned, MAX_OUTPUTS};
 /// Ticks whose updates are held before they are applied to the stored weights. The flush's
 /// arithmetic per tick does not depend on it (one multiply-add a weight a tick); its memory
 /// traffic per tick falls as `1/DEPTH`, while the held `B_m` (`DEPTH · n_b · M` values: 24 KB
-/// at 16 for the paper) must stay in L1 during the flush and the dot products per tick grow
-/// with it. Measured at 16 (`docs/performance.md`): the flush takes 6.8 µs, of which the
-/// read-modify-write of the weights alone would be 1.6 µs.
+/// at 16 for the paper, half that in `f32`) must stay in L1 during the flush. Measured
+/// (`docs/performance.md`): at 16 the `f64` flush takes 6.8 µs on the Xeon VM, of which the
+/// read-modify-write of the weights alone would be 1.6 µs; at 32 the `f64` pass went from
+/// 1.16 to 1.51 µs on the EPYC VM (48 KB of `B_m` no longer fit L1) and `f32` did not gain.
 pub const DEPTH: usize = 16;
 
 /// Lanes of one AVX-512 register of `f64`.
