@@ -330,7 +330,10 @@ impl ClosedChain for super::Plant {
         out: &mut [f64],
     ) -> Result<(), ChainFault> {
         let ok = match st.formulation {
-            Formulation::Constrained => super::Plant::derivative(self, y, input, ws, &mut st.dy),
+            // Kept for the first RK4 stage of the step that follows at this state.
+            Formulation::Constrained => {
+                super::Plant::derivative_keep(self, y, input, ws, &mut st.dy)
+            }
             Formulation::Reduced => {
                 let mut d = [0.0; 6];
                 self.reduced_derivative(&reduced_state(self, y), input, ws, &mut d)
@@ -355,7 +358,16 @@ impl ClosedChain for super::Plant {
     ) -> Result<(), ChainFault> {
         match st.formulation {
             Formulation::Constrained => {
-                if self.advance(&mut st.rk, t, y, input, ws, h, n) {
+                // As `advance`, with the first stage on the state part that
+                // `grasp_wrenches` kept at this `y` (if it did): bit for bit the same.
+                let mut sys = super::ReusingOde {
+                    plant: self,
+                    ws,
+                    input,
+                    first: true,
+                };
+                st.rk.substeps(&mut sys, t, y, h * n as f64, n);
+                if y.iter().all(|v| v.is_finite()) {
                     Ok(())
                 } else {
                     Err(ChainFault::NonFinite)
