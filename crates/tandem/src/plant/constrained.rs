@@ -226,7 +226,7 @@ impl Plant {
                                 .kept_y
                                 .iter()
                                 .zip(y)
-                                .all(|(a, b)| a.to_bits() == b.to_bits()) =>
+                                .fold(true, |eq, (a, b)| eq & (a.to_bits() == b.to_bits())) =>
                     {
                         self.input_part::<_, $n, $m, $nk>(
                             $a,
@@ -245,13 +245,9 @@ impl Plant {
                             ws.kept_valid = false;
                             return false;
                         };
-                        *slot = st;
-                        ws.kept_valid = true;
-                        let len = ws.kept_y.len();
-                        ws.kept_y.copy_from_slice(&y[..len]);
-                        self.input_part::<_, $n, $m, $nk>(
+                        let ok = self.input_part::<_, $n, $m, $nk>(
                             $a,
-                            slot,
+                            &st,
                             y,
                             input,
                             forces,
@@ -259,7 +255,12 @@ impl Plant {
                             kkt_pivot,
                             regularised,
                             dy,
-                        )
+                        );
+                        *slot = st;
+                        ws.kept_valid = true;
+                        let len = ws.kept_y.len();
+                        ws.kept_y.copy_from_slice(&y[..len]);
+                        ok
                     }
                 }
             }};
