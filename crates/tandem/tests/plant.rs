@@ -909,3 +909,22 @@ fn issue_12_a_reused_state_part_gives_the_fresh_derivative_bit_for_bit() {
         }
     }
 }
+
+#[test]
+fn issue_12_one_kinematics_pass_gives_the_drift_and_the_singular_value_bits() {
+    // The loop's health check shares the arms' kinematics between the constraint residual and
+    // the smallest singular value: the same bits as the two separate calls.
+    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let mut ws = plant.workspace();
+    let mut rng = Rng(3);
+    for _ in 0..50 {
+        let y = random_state(&plant, &mut rng);
+        let ((ep, ev), s) = plant.residual_and_min_singular_value(&y, &mut ws);
+        let (ep1, ev1) = plant.constraint_residual(&y, &mut ws);
+        let s1 = plant.min_singular_value(&y, &mut ws);
+        assert_eq!(
+            [ep.to_bits(), ev.to_bits(), s.to_bits()],
+            [ep1.to_bits(), ev1.to_bits(), s1.to_bits()]
+        );
+    }
+}

@@ -187,6 +187,16 @@ pub trait ClosedChain {
     /// Grasp-constraint drift of a state `(position, m; rotation, rad)`; the planar point
     /// grasps constrain no rotation (0).
     fn drift(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64);
+    /// [`drift`](Self::drift) and [`min_singular_value`](Self::min_singular_value) of one
+    /// state (the loop's health check), the same values as the two calls; a plant may share
+    /// their kinematics.
+    fn drift_and_min_singular_value(
+        &self,
+        y: &[f64],
+        ws: &mut Self::Workspace,
+    ) -> ((f64, f64), f64) {
+        (self.drift(y, ws), self.min_singular_value(y, ws))
+    }
     /// Evaluations so far that needed a regularised grasp-space solve.
     fn regularised(ws: &Self::Workspace) -> u64;
     /// The object's pose of a state for a fault report: planar `(x, y, θ)`; spatial
@@ -405,6 +415,15 @@ impl ClosedChain for super::Plant {
     }
     fn drift(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64) {
         (super::Plant::constraint_residual(self, y, ws).0, 0.0)
+    }
+    /// One kinematics pass per arm for both ([`super::Plant::residual_and_min_singular_value`]).
+    fn drift_and_min_singular_value(
+        &self,
+        y: &[f64],
+        ws: &mut Self::Workspace,
+    ) -> ((f64, f64), f64) {
+        let ((ep, _), s) = super::Plant::residual_and_min_singular_value(self, y, ws);
+        ((ep, 0.0), s)
     }
     fn regularised(ws: &Self::Workspace) -> u64 {
         ws.regularised

@@ -535,6 +535,29 @@ impl Plant {
         }
         s
     }
+
+    /// [`Plant::constraint_residual`] and [`Plant::min_singular_value`] of one state from one
+    /// [`Arm::kinematics`] per arm (the two would compute the same kinematics twice): the same
+    /// values, bit for bit. Writes `ws.terms`.
+    pub fn residual_and_min_singular_value(
+        &self,
+        y: &[f64],
+        ws: &mut PlantWorkspace,
+    ) -> ((f64, f64), f64) {
+        let (q, x_o, qd, xd_o) = self.split(y);
+        let (mut ep, mut ev) = (0.0f64, 0.0f64);
+        let mut s = f64::INFINITY;
+        for (i, arm) in self.arms.iter().enumerate() {
+            let off = self.offsets[i];
+            let dof = arm.dof();
+            arm.kinematics(&q[off..off + dof], &qd[off..off + dof], &mut ws.terms[i]);
+            let t = &ws.terms[i];
+            ep = ep.max((t.p_ee - self.grasps[i].point(&x_o)).norm());
+            ev = ev.max((t.v_ee - self.grasps[i].jacobian(x_o.z) * xd_o).norm());
+            s = s.min(arm.min_singular_value(t));
+        }
+        ((ep, ev), s)
+    }
 }
 
 fn ik_error(arm: &Arm, i: usize, target: Vector2<f64>, e: IkFailure) -> ModelError {
