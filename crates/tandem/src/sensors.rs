@@ -272,6 +272,15 @@ impl Group {
         self.sample_with(truth, None)
     }
 
+    /// [`Group::sample`] of an ideal group whose truth is the slice `u` (channel `c` is
+    /// `u[c]`): filter states and readings ← `u`, as the general path leaves them.
+    #[inline]
+    fn sample_ideal_slice(&mut self, u: &[f64]) {
+        self.filter.copy_from_slice(u);
+        self.reading.copy_from_slice(u);
+        self.dropped.fill(false);
+    }
+
     /// [`Group::sample`], with the dropouts taken from `drops` (one per sensor, another group's
     /// last draws: one packet) instead of drawn.
     fn sample_with(&mut self, truth: impl Fn(usize) -> f64, drops: Option<&[bool]>) {
@@ -559,6 +568,13 @@ impl Sensors {
             "Sensors: wrenches has the wrong length"
         );
         self.check_dims(q, qd, wrenches.len() / w);
+        if w == 2 && self.q.ideal && self.qd.ideal && self.force.ideal {
+            // Ideal planar sensors: the readings are the truth (Group::sample's ideal path).
+            self.q.sample_ideal_slice(q);
+            self.qd.sample_ideal_slice(qd);
+            self.force.sample_ideal_slice(wrenches);
+            return;
+        }
         self.q.sample(|c| q[c]);
         self.qd.sample(|c| qd[c]);
         if w == 2 {
@@ -688,6 +704,32 @@ mod tests {
                 };
                 assert_eq!(bits(&fast), bits(&general));
                 assert_eq!(fast.dropped, general.dropped);
+            }
+        }
+        // Sensors::sample_flat's whole-slice copy for ideal planar sensors: the general path's
+        // bits.
+        let mut fast = Sensors::new(&SensorParams::default(), 4, 2, H).unwrap();
+        let mut general = fast.clone();
+        for g in [&mut general.q, &mut general.qd, &mut general.force] {
+            g.ideal = false;
+        }
+        for k in 1..50 {
+            let (q, qd, f) = truth(k);
+            let w: Vec<f64> = f.iter().flat_map(|v| [v.x, v.y]).collect();
+            fast.sample_flat(&q, &qd, &w);
+            general.sample_flat(&q, &qd, &w);
+            for (a, b) in [
+                (&fast.q, &general.q),
+                (&fast.qd, &general.qd),
+                (&fast.force, &general.force),
+            ] {
+                let bits = |g: &Group| {
+                    (g.filter.iter().chain(&g.reading))
+                        .map(|v| v.to_bits())
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(bits(a), bits(b));
+                assert_eq!(a.dropped, b.dropped);
             }
         }
         // Any imperfection leaves the general path.
