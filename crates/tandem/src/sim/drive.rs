@@ -183,10 +183,10 @@ impl Record for TickRecord {
     }
     fn non_finite(&self) -> Option<String> {
         // One pass without early exit over every value (the common case: all finite): a sum
-        // of `x − x` is 0 unless some `x` is NaN or infinite.
-        let mut z = (self.q_switch - self.q_switch) + (self.margin - self.margin);
+        // of `0 · x` is ±0 unless some `x` is NaN or infinite.
+        let mut z = 0.0 * self.q_switch + 0.0 * self.margin;
         for v in self.groups() {
-            z += (v.x - v.x) + (v.y - v.y) + (v.z - v.z);
+            z += 0.0 * v.x + 0.0 * v.y + 0.0 * v.z;
         }
         if z == 0.0 && !self.non_finite {
             return None;
