@@ -27,7 +27,7 @@ use tandem::disturbance::Disturbance;
 use tandem::fixtures;
 use tandem::integrate::Rk4;
 use tandem::pd::PdGains;
-use tandem::plant::{ConstrainedOde, Plant, PlantParams};
+use tandem::plant::{ClosedChain, ConstrainedOde, Formulation, Plant, PlantParams};
 use tandem::sensors::SensorParams;
 use tandem::sim::{Driver, SimParams, Simulation};
 use tandem::trajectory::Path;
@@ -133,6 +133,23 @@ fn bench(c: &mut Criterion) {
                 input: &input,
             };
             rk.step(&mut sys, 0.0, &mut yy, 1e-3);
+        })
+    });
+    // The loop's plant work of one control tick (issue 12): the grasp forces at (y, u_{k−1})
+    // (`grasp_wrenches`), then one RK4 step at 1 ms with u_k held (`step_with`).
+    let mut st = plant.stepper(Formulation::Constrained).unwrap();
+    let mut u_prev = input.clone();
+    u_prev.tau.copy_from_slice(&[4.9, 1.4, -1.1, -0.3]);
+    let mut out = [0.0; 4];
+    c.bench_function("plant/tick_forces_and_step", |b| {
+        b.iter(|| {
+            yy.copy_from_slice(&y);
+            plant
+                .grasp_wrenches(&mut st, black_box(&yy), &u_prev, &mut ws, &mut out)
+                .unwrap();
+            plant
+                .step_with(&mut st, 0.0, &mut yy, &input, &mut ws, 1e-3, 1)
+                .unwrap();
         })
     });
 }

@@ -232,34 +232,78 @@ pub struct ArmBlock<const N: usize> {
     pub jdot_qdot: Vector2<f64>,
 }
 
+/// What the torque-dependent part of an arm's block needs of its state: the torque enters
+/// (1) only through `a_0 = M⁻¹(τ − C q̇ − G)` (SPEC §2.4), so this is `M⁻¹` (or its Cholesky
+/// factor) and the bias, kept from [`FixedArm::state_block`] for [`FixedArm::a0`].
+/// Each kernel says how it fills the fields.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArmSolve<const N: usize> {
+    /// [`TwoLinkArm`] and 3-link [`FixedLinkArm`]: `M⁻¹ = adj M / det M`; 4-link: the
+    /// Cholesky factor `L` of `M = L Lᵀ` (lower triangle).
+    pub m: SMatrix<f64, N, N>,
+    /// 4-link [`FixedLinkArm`]: `1 / L_ii` (zeros otherwise).
+    pub inv_diag: SVector<f64, N>,
+    /// [`TwoLinkArm`]: `C q̇`; [`FixedLinkArm`]: the whole bias `C q̇ + G`, N m.
+    pub bias: SVector<f64, N>,
+    /// [`TwoLinkArm`]: `G` (zeros for [`FixedLinkArm`]), N m.
+    pub g: SVector<f64, N>,
+}
+
 /// An arm with a fixed link count `N` whose constrained-plant block ([`ArmBlock`]) is computed
 /// entirely on the stack: [`TwoLinkArm`] (`N = 2`, SPEC §2.1 closed forms) and
 /// [`FixedLinkArm`] (`N = 3, 4`, the general algorithm in fixed-size types).
+///
+/// The block splits into a state part ([`state_block`](Self::state_block): everything but
+/// `a_0`) and the torque part ([`a0`](Self::a0)), so that the plant can evaluate two torques at
+/// one state ([`Plant::derivative_reusing`](crate::plant::Plant::derivative_reusing)) with
+/// one state part; [`block`](Self::block) is the two together, bit for bit the same values.
 pub trait FixedArm<const N: usize>: Copy {
+    /// The block at `(q, q̇)` with gravity `g` except `a_0` (left zero), and what
+    /// [`a0`](Self::a0) needs; `None` if `M` is not positive definite.
+    fn state_block(&self, q: [f64; N], qd: [f64; N], g: f64) -> Option<(ArmBlock<N>, ArmSolve<N>)>;
+    /// `a_0 = M⁻¹(τ − C q̇ − G)` of (1) with `F = 0` (SPEC §2.4) from the state's
+    /// [`ArmSolve`], in the same floating-point operations as [`block`](Self::block).
+    fn a0(&self, s: &ArmSolve<N>, tau: [f64; N]) -> SVector<f64, N>;
     /// The block at `(q, q̇, τ)` with gravity `g`; `None` if `M` is not positive definite.
-    fn block(&self, q: [f64; N], qd: [f64; N], tau: [f64; N], g: f64) -> Option<ArmBlock<N>>;
+    #[inline(always)]
+    fn block(&self, q: [f64; N], qd: [f64; N], tau: [f64; N], g: f64) -> Option<ArmBlock<N>> {
+        let (mut b, s) = self.state_block(q, qd, g)?;
+        b.a0 = self.a0(&s, tau);
+        Some(b)
+    }
 }
 
 impl FixedArm<2> for TwoLinkArm {
-    /// Closed forms: [`TwoLinkArm::terms`], `M⁻¹ = adj M / det M`.
+    /// Closed forms: [`TwoLinkArm::terms`], `M⁻¹ = adj M / det M`; keeps `M⁻¹`, `C q̇`, `G`.
     #[inline(always)]
-    fn block(&self, q: [f64; 2], qd: [f64; 2], tau: [f64; 2], g: f64) -> Option<ArmBlock<2>> {
+    fn state_block(&self, q: [f64; 2], qd: [f64; 2], g: f64) -> Option<(ArmBlock<2>, ArmSolve<2>)> {
         let t = self.terms(&self.pose(q), qd, g);
         if !(t.det_M > 0.0) {
             return None;
         }
         let m_inv = t.m_inv();
-        let b = Vector2::new(tau[0], tau[1]) - t.C * Vector2::from(qd) - t.G;
         let y = m_inv * t.J.transpose();
-        Some(ArmBlock {
-            a0: m_inv * b,
+        let blk = ArmBlock {
+            a0: Vector2::zeros(),
             y,
             k: t.J * y,
             j: t.J,
             p_ee: t.p_ee,
             v_ee: t.v_ee,
             jdot_qdot: t.jdot_qdot,
-        })
+        };
+        let s = ArmSolve {
+            m: m_inv,
+            inv_diag: Vector2::zeros(),
+            bias: t.C * Vector2::from(qd),
+            g: t.G,
+        };
+        Some((blk, s))
+    }
+    /// `M⁻¹ ((τ − C q̇) − G)`.
+    #[inline(always)]
+    fn a0(&self, s: &ArmSolve<2>, tau: [f64; 2]) -> Vector2<f64> {
+        s.m * (Vector2::new(tau[0], tau[1]) - s.bias - s.g)
     }
 }
 
@@ -285,8 +329,10 @@ pub struct FixedLinkArm<const N: usize> {
 }
 
 impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
+    /// The general algorithm in fixed-size types; keeps the bias `C q̇ + G` and `M⁻¹` (3 links)
+    /// or the Cholesky factor of `M` (4 links).
     #[inline(always)]
-    fn block(&self, q: [f64; N], qd: [f64; N], tau: [f64; N], g: f64) -> Option<ArmBlock<N>> {
+    fn state_block(&self, q: [f64; N], qd: [f64; N], g: f64) -> Option<(ArmBlock<N>, ArmSolve<N>)> {
         // Forward pass (as `Arm::kinematics`): joint points, COMs and their velocities.
         // `acc[k]` = J̇_{c_k} q̇ + (0, g): the COM's velocity-product acceleration plus gravity
         // as an upward base acceleration (as in `Arm::rnea`).
@@ -327,7 +373,9 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
             }
         }
         let mut mm = SMatrix::<f64, N, N>::zeros();
-        let mut rhs = SMatrix::<f64, N, 3>::zeros();
+        // The right-hand sides J_eᵀ (N × 2) and the bias C q̇ + G (a_0's is τ − bias: [`Self::a0`]).
+        let mut rhs = SMatrix::<f64, N, 2>::zeros();
+        let mut bias_v = SVector::<f64, N>::zeros();
         for i in 0..N {
             for jj in i..N {
                 let mut mij = 0.0;
@@ -341,10 +389,16 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
             for k in i..N {
                 bias += self.m[k] * perp(r[k][i]).dot(&acc[k]);
             }
-            rhs[(i, 0)] = tau[i] - bias;
-            rhs[(i, 1)] = j[(0, i)];
-            rhs[(i, 2)] = j[(1, i)];
+            bias_v[i] = bias;
+            rhs[(i, 0)] = j[(0, i)];
+            rhs[(i, 1)] = j[(1, i)];
         }
+        let mut solve = ArmSolve {
+            m: SMatrix::zeros(),
+            inv_diag: SVector::zeros(),
+            bias: bias_v,
+            g: SVector::zeros(),
+        };
         if N == 3 {
             // a0 = M⁻¹(τ − C q̇ − G) and Y = M⁻¹ J_eᵀ with the closed-form inverse
             // M⁻¹ = adj M / det M (one division, independent products: a short dependency
@@ -377,9 +431,10 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
                 m_inv[(c, r)] = v * inv;
             }
             rhs = m_inv * rhs;
+            solve.m = m_inv;
         } else {
-            // a0 = M⁻¹(τ − C q̇ − G) and Y = M⁻¹ J_eᵀ: one Cholesky M = L Lᵀ (the steps of
-            // `cholesky_in_place`), then both substitutions on the three right-hand sides at once.
+            // Y = M⁻¹ J_eᵀ (and a0 = M⁻¹(τ − C q̇ − G) in `a0`): one Cholesky M = L Lᵀ (the
+            // steps of `cholesky_in_place`), then both substitutions on each right-hand side.
             let mut lo = mm;
             let mut inv_diag = [0.0; N];
             for jj in 0..N {
@@ -401,26 +456,13 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
                     lo[(i, jj)] = sum / ljj;
                 }
             }
-            for c in 0..3 {
-                // L z = b, then Lᵀ x = z.
-                for i in 0..N {
-                    let mut sum = rhs[(i, c)];
-                    for k in 0..i {
-                        sum -= lo[(i, k)] * rhs[(k, c)];
-                    }
-                    rhs[(i, c)] = sum * inv_diag[i];
-                }
-                for i in (0..N).rev() {
-                    let mut sum = rhs[(i, c)];
-                    for k in (i + 1)..N {
-                        sum -= lo[(k, i)] * rhs[(k, c)];
-                    }
-                    rhs[(i, c)] = sum * inv_diag[i];
-                }
+            for c in 0..2 {
+                cholesky_substitute(&lo, &inv_diag, rhs.column_mut(c).as_mut_slice());
             }
+            solve.m = lo;
+            solve.inv_diag = SVector::from(inv_diag);
         }
-        let a0: SVector<f64, N> = rhs.column(0).into_owned();
-        let y: SMatrix<f64, N, 2> = rhs.fixed_columns::<2>(1).into_owned();
+        let y: SMatrix<f64, N, 2> = rhs;
         let mut kb = Matrix2::zeros();
         for a in 0..2 {
             for b in 0..2 {
@@ -431,15 +473,53 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
                 kb[(a, b)] = sum;
             }
         }
-        Some(ArmBlock {
-            a0,
+        let blk = ArmBlock {
+            a0: SVector::zeros(),
             y,
             k: kb,
             j,
             p_ee: p,
             v_ee: pd,
             jdot_qdot: jdq,
-        })
+        };
+        Some((blk, solve))
+    }
+
+    /// `τ − bias`, then `M⁻¹` (3 links) or the two substitutions (4 links).
+    #[inline(always)]
+    fn a0(&self, s: &ArmSolve<N>, tau: [f64; N]) -> SVector<f64, N> {
+        let mut b = SVector::<f64, N>::from_fn(|i, _| tau[i] - s.bias[i]);
+        if N == 3 {
+            s.m * b
+        } else {
+            let inv_diag: [f64; N] = std::array::from_fn(|i| s.inv_diag[i]);
+            cholesky_substitute(&s.m, &inv_diag, b.as_mut_slice());
+            b
+        }
+    }
+}
+
+/// `x = L⁻ᵀ L⁻¹ b` in place: `L z = b`, then `Lᵀ x = z`, by the reciprocal pivots `inv_diag`
+/// (`1 / L_ii`) of the lower-triangular `L` (the substitutions of [`FixedLinkArm`]'s Cholesky).
+#[inline(always)]
+fn cholesky_substitute<const N: usize>(
+    lo: &SMatrix<f64, N, N>,
+    inv_diag: &[f64; N],
+    b: &mut [f64],
+) {
+    for i in 0..N {
+        let mut sum = b[i];
+        for k in 0..i {
+            sum -= lo[(i, k)] * b[k];
+        }
+        b[i] = sum * inv_diag[i];
+    }
+    for i in (0..N).rev() {
+        let mut sum = b[i];
+        for k in (i + 1)..N {
+            sum -= lo[(k, i)] * b[k];
+        }
+        b[i] = sum * inv_diag[i];
     }
 }
 

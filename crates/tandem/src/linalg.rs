@@ -320,9 +320,92 @@ impl Cholesky6 {
     }
 }
 
+/// `A x = b` for a 2×2 `A` by nalgebra's LU with partial pivoting (`A.lu().solve(&b)`) in the
+/// same floating-point operations, bit for bit, without its generic loops: the pivot is the
+/// first of the largest `|A_i0|`; `l = A_10/A_00` as `A_10 · (1/A_00)` (after the swap);
+/// `u_11 = A_11 − u_01 l`; then `L y = P b` and `U x = y`. `None` when a pivot of `U` is zero,
+/// as nalgebra (its non-finite results pass through, as nalgebra's do).
+#[inline]
+pub fn lu_solve_2x2(
+    a: &nalgebra::Matrix2<f64>,
+    b: &nalgebra::Vector2<f64>,
+) -> Option<nalgebra::Vector2<f64>> {
+    let (a00, a01, a10, a11) = (a[(0, 0)], a[(0, 1)], a[(1, 0)], a[(1, 1)]);
+    // Step 0 (nalgebra's `icamax`: a strictly larger |A_10| swaps the rows).
+    let swap = a10.abs() > a00.abs();
+    let (u00, u01, lo, hi, b0, b1) = if swap {
+        (a10, a11, a00, a01, b.y, b.x)
+    } else {
+        (a00, a01, a10, a11, b.x, b.y)
+    };
+    if u00 == 0.0 {
+        // nalgebra skips the step; U's first pivot is zero and the solve fails.
+        return None;
+    }
+    // `gauss_step`: the column scaled by the reciprocal pivot, then the axpy `1·y + (−p)·x·1`.
+    let l = lo * (1.0 / u00);
+    let u11 = -u01 * l + hi;
+    // L y = P b (unit diagonal: `b_0 / 1`), then U x = y.
+    let y1 = -b0 * l + b1;
+    if u11 == 0.0 {
+        return None;
+    }
+    let x1 = y1 / u11;
+    let x0 = (-x1 * u01 + b0) / u00;
+    Some(nalgebra::Vector2::new(x0, x1))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lu_solve_2x2_gives_nalgebras_lu_bits() {
+        // Random matrices of every scale and sign, ties of |A_00| and |A_10|, zeros (±0),
+        // singular ones, infinities and NaN: the same Option and the same bits as nalgebra.
+        let mut rng = crate::fixtures::SplitMix64(99);
+        let special = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            2.5,
+            f64::INFINITY,
+            f64::NAN,
+            1e-300,
+            -3e300,
+        ];
+        for k in 0..200_000 {
+            let mut v = [0.0; 6];
+            for x in v.iter_mut() {
+                *x = match k % 4 {
+                    0 => rng.range(-1.0, 1.0),
+                    1 => rng.range(-1.0, 1.0) * 10f64.powi((rng.range(-30.0, 30.0)) as i32),
+                    2 => special[(rng.next_f64() * special.len() as f64) as usize % special.len()],
+                    _ => (rng.range(-3.0, 3.0)).round(),
+                };
+            }
+            if k % 7 == 0 {
+                v[2] = -v[0]; // |A_10| = |A_00|
+            }
+            let a = nalgebra::Matrix2::new(v[0], v[1], v[2], v[3]);
+            let b = nalgebra::Vector2::new(v[4], v[5]);
+            let want = a.lu().solve(&b);
+            let got = lu_solve_2x2(&a, &b);
+            match (want, got) {
+                (None, None) => {}
+                (Some(w), Some(g)) => {
+                    for j in 0..2 {
+                        assert!(
+                            w[j].to_bits() == g[j].to_bits() || (w[j].is_nan() && g[j].is_nan()),
+                            "{a} {b}: {w} vs {g}"
+                        );
+                    }
+                }
+                (w, g) => panic!("{a} {b}: {w:?} vs {g:?}"),
+            }
+        }
+    }
 
     #[test]
     fn finite_slice_finds_every_non_finite_value() {

@@ -194,6 +194,8 @@ struct Group {
     alpha: f64,
     /// Channels per sensor (1 for an encoder channel, 2 for a force sensor).
     width: usize,
+    /// No filter (`τ = 0`), bias, noise or dropout: a sample is the truth, bit for bit.
+    ideal: bool,
     /// Stream number of the noise; the dropout stream is `stream + 1`.
     stream: u64,
     /// Low-pass states x̄, one per channel.
@@ -224,6 +226,10 @@ impl Group {
             noise: *noise,
             alpha,
             width,
+            ideal: alpha == 1.0
+                && noise.bias == 0.0
+                && !(noise.std_dev > 0.0)
+                && !(noise.dropout > 0.0),
             stream,
             filter: vec![0.0; n_channels],
             reading: vec![0.0; n_channels],
@@ -266,9 +272,34 @@ impl Group {
         self.sample_with(truth, None)
     }
 
+    /// [`Group::sample`] of an ideal group whose truth is the slice `u` (channel `c` is
+    /// `u[c]`): filter states and readings ← `u`, as the general path leaves them.
+    #[inline]
+    fn sample_ideal_slice(&mut self, u: &[f64]) {
+        self.filter.copy_from_slice(u);
+        self.reading.copy_from_slice(u);
+        self.dropped.fill(false);
+    }
+
     /// [`Group::sample`], with the dropouts taken from `drops` (one per sensor, another group's
     /// last draws: one packet) instead of drawn.
     fn sample_with(&mut self, truth: impl Fn(usize) -> f64, drops: Option<&[bool]>) {
+        if self.ideal && drops.is_none() {
+            // The general path below with α = 1, no bias, no noise, no dropout: filter state
+            // and reading are the truth (no random draw is made there either).
+            for (c, (x, y)) in self
+                .filter
+                .iter_mut()
+                .zip(self.reading.iter_mut())
+                .enumerate()
+            {
+                let u = truth(c);
+                *x = u;
+                *y = u;
+            }
+            self.dropped.fill(false);
+            return;
+        }
         let ChannelNoise {
             std_dev,
             bias,
@@ -537,6 +568,13 @@ impl Sensors {
             "Sensors: wrenches has the wrong length"
         );
         self.check_dims(q, qd, wrenches.len() / w);
+        if w == 2 && self.q.ideal && self.qd.ideal && self.force.ideal {
+            // Ideal planar sensors: the readings are the truth (Group::sample's ideal path).
+            self.q.sample_ideal_slice(q);
+            self.qd.sample_ideal_slice(qd);
+            self.force.sample_ideal_slice(wrenches);
+            return;
+        }
         self.q.sample(|c| q[c]);
         self.qd.sample(|c| qd[c]);
         if w == 2 {
@@ -643,6 +681,67 @@ mod tests {
     use super::*;
 
     const H: f64 = 1e-3;
+
+    #[test]
+    fn the_ideal_group_fast_path_gives_the_general_path_bits() {
+        // An ideal group (no filter, bias, noise or dropout) takes the copy path; the general
+        // path on the same group must give the same filter states, readings and dropouts.
+        let ideal = ChannelNoise::default();
+        for width in [1, 2, 3] {
+            let mut fast = Group::new(&ideal, 6, width, H, 7, 0);
+            assert!(fast.ideal);
+            let mut general = fast.clone();
+            general.ideal = false;
+            for k in 0..100 {
+                let truth =
+                    |c: usize| (k as f64 * 0.37 + c as f64).sin() * 10f64.powi(c as i32 - 3);
+                fast.sample(truth);
+                general.sample(truth);
+                let bits = |g: &Group| {
+                    (g.filter.iter().chain(&g.reading))
+                        .map(|v| v.to_bits())
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(bits(&fast), bits(&general));
+                assert_eq!(fast.dropped, general.dropped);
+            }
+        }
+        // Sensors::sample_flat's whole-slice copy for ideal planar sensors: the general path's
+        // bits.
+        let mut fast = Sensors::new(&SensorParams::default(), 4, 2, H).unwrap();
+        let mut general = fast.clone();
+        for g in [&mut general.q, &mut general.qd, &mut general.force] {
+            g.ideal = false;
+        }
+        for k in 1..50 {
+            let (q, qd, f) = truth(k);
+            let w: Vec<f64> = f.iter().flat_map(|v| [v.x, v.y]).collect();
+            fast.sample_flat(&q, &qd, &w);
+            general.sample_flat(&q, &qd, &w);
+            for (a, b) in [
+                (&fast.q, &general.q),
+                (&fast.qd, &general.qd),
+                (&fast.force, &general.force),
+            ] {
+                let bits = |g: &Group| {
+                    (g.filter.iter().chain(&g.reading))
+                        .map(|v| v.to_bits())
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(bits(a), bits(b));
+                assert_eq!(a.dropped, b.dropped);
+            }
+        }
+        // Any imperfection leaves the general path.
+        for n in [
+            noisy(0.1, 0.0, 0.0, 0.0),
+            noisy(0.0, 0.1, 0.0, 0.0),
+            noisy(0.0, 0.0, 0.01, 0.0),
+            noisy(0.0, 0.0, 0.0, 0.1),
+        ] {
+            assert!(!Group::new(&n, 6, 2, H, 7, 0).ideal);
+        }
+    }
 
     fn noisy(std_dev: f64, bias: f64, tau: f64, dropout: f64) -> ChannelNoise {
         ChannelNoise {

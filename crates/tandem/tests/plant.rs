@@ -832,3 +832,99 @@ fn rk4_at_the_default_step_matches_the_adaptive_reference() {
         "RK4 differs from the reference by {worst:e} m"
     );
 }
+
+/// Every derivative output of `ws` as bits: `ẏ`, the grasp forces, `ẍ_o`, the KKT pivot and
+/// the regularisation count.
+fn derivative_bits(dy: &[f64], ws: &PlantWorkspace) -> Vec<u64> {
+    dy.iter()
+        .copied()
+        .chain(ws.forces.iter().flat_map(|f| [f.x, f.y]))
+        .chain(ws.xdd_o.iter().copied())
+        .chain([ws.kkt_pivot])
+        .map(f64::to_bits)
+        .chain([ws.regularised])
+        .collect()
+}
+
+#[test]
+fn issue_12_a_reused_state_part_gives_the_fresh_derivative_bit_for_bit() {
+    // The loop evaluates the grasp forces at (y, u_{k−1}) keeping the state part
+    // (`derivative_keep`), then the first RK4 stage at (y, u_k) on it (`derivative_reusing`):
+    // both must equal a fresh `derivative` bit for bit, for every constrained algorithm, and a
+    // `derivative_reusing` at another state must not take the kept part.
+    let mut cases: Vec<(PlantParams, Option<Vec<f64>>)> =
+        vec![(fixtures::paper(), None), (fixtures::three_arms(), None), {
+            let (p, g) = fixtures::redundant_pair();
+            (p, Some(g))
+        }];
+    for (arms, links) in [(3, 3), (2, 4), (3, 4), (2, 5)] {
+        let (p, g) = n_link::chain(arms, links);
+        cases.push((p, Some(g)));
+    }
+    let mut rng = Rng(12);
+    for (p, guess) in cases {
+        let plant = Plant::new(&p).unwrap();
+        let y0 = plant
+            .initial_state(
+                fixtures::paper_start(),
+                Vector3::new(0.05, -0.02, 0.1),
+                guess.as_deref(),
+            )
+            .unwrap();
+        let (mut ws, mut ws_fresh) = (plant.workspace(), plant.workspace());
+        let n = plant.state_dim();
+        let (mut dy, mut dy_fresh) = (vec![0.0; n], vec![0.0; n]);
+        let (mut u_prev, mut u) = (plant.zero_input(), plant.zero_input());
+        for _ in 0..50 {
+            let y: Vec<f64> = y0.iter().map(|v| v + rng.range(-1e-2, 1e-2)).collect();
+            for (a, b) in u_prev.tau.iter_mut().zip(u.tau.iter_mut()) {
+                (*a, *b) = (rng.range(-5.0, 5.0), rng.range(-5.0, 5.0));
+            }
+            u.f_d = Vector3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), 0.1);
+            // Keep at (y, u_prev): the fresh derivative's values.
+            assert!(plant.derivative_keep(&y, &u_prev, &mut ws, &mut dy));
+            assert!(plant.derivative(&y, &u_prev, &mut ws_fresh, &mut dy_fresh));
+            assert_eq!(
+                derivative_bits(&dy, &ws),
+                derivative_bits(&dy_fresh, &ws_fresh)
+            );
+            // Reuse at (y, u): the fresh derivative at (y, u).
+            assert!(plant.derivative_reusing(&y, &u, &mut ws, &mut dy));
+            assert!(plant.derivative(&y, &u, &mut ws_fresh, &mut dy_fresh));
+            assert_eq!(
+                derivative_bits(&dy, &ws),
+                derivative_bits(&dy_fresh, &ws_fresh),
+                "{:?}",
+                plant.algorithm()
+            );
+            // At a state one ulp away the kept part is not taken.
+            let mut y2 = y.clone();
+            y2[0] = f64::from_bits(y2[0].to_bits() + 1);
+            assert!(plant.derivative_reusing(&y2, &u, &mut ws, &mut dy));
+            assert!(plant.derivative(&y2, &u, &mut ws_fresh, &mut dy_fresh));
+            assert_eq!(
+                derivative_bits(&dy, &ws),
+                derivative_bits(&dy_fresh, &ws_fresh)
+            );
+        }
+    }
+}
+
+#[test]
+fn issue_12_one_kinematics_pass_gives_the_drift_and_the_singular_value_bits() {
+    // The loop's health check shares the arms' kinematics between the constraint residual and
+    // the smallest singular value: the same bits as the two separate calls.
+    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let mut ws = plant.workspace();
+    let mut rng = Rng(3);
+    for _ in 0..50 {
+        let y = random_state(&plant, &mut rng);
+        let ((ep, ev), s) = plant.residual_and_min_singular_value(&y, &mut ws);
+        let (ep1, ev1) = plant.constraint_residual(&y, &mut ws);
+        let s1 = plant.min_singular_value(&y, &mut ws);
+        assert_eq!(
+            [ep.to_bits(), ev.to_bits(), s.to_bits()],
+            [ep1.to_bits(), ev1.to_bits(), s1.to_bits()]
+        );
+    }
+}

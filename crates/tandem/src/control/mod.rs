@@ -679,11 +679,8 @@ impl Controller {
                     a.v_ee = pose.J * qd;
                     // Ĝ_x = J_e⁻ᵀ Ĝ(q) (3)–(4), for the internal-force feed-forward of step 5.
                     let gq = tl.terms(&pose, [0.0, 0.0], g).G;
-                    self.g_x[i] = pose
-                        .J
-                        .transpose()
-                        .lu()
-                        .solve(&gq)
+                    // (nalgebra's LU of J_eᵀ in the same operations, `linalg::lu_solve_2x2`.)
+                    self.g_x[i] = crate::linalg::lu_solve_2x2(&pose.J.transpose(), &gq)
                         .filter(|v| v.iter().all(|x| x.is_finite()))
                         .unwrap_or_else(Vector2::zeros);
                     *j = pose.J;

@@ -187,6 +187,16 @@ pub trait ClosedChain {
     /// Grasp-constraint drift of a state `(position, m; rotation, rad)`; the planar point
     /// grasps constrain no rotation (0).
     fn drift(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64);
+    /// [`drift`](Self::drift) and [`min_singular_value`](Self::min_singular_value) of one
+    /// state (the loop's health check), the same values as the two calls; a plant may share
+    /// their kinematics.
+    fn drift_and_min_singular_value(
+        &self,
+        y: &[f64],
+        ws: &mut Self::Workspace,
+    ) -> ((f64, f64), f64) {
+        (self.drift(y, ws), self.min_singular_value(y, ws))
+    }
     /// Evaluations so far that needed a regularised grasp-space solve.
     fn regularised(ws: &Self::Workspace) -> u64;
     /// The object's pose of a state for a fault report: planar `(x, y, θ)`; spatial
@@ -330,7 +340,10 @@ impl ClosedChain for super::Plant {
         out: &mut [f64],
     ) -> Result<(), ChainFault> {
         let ok = match st.formulation {
-            Formulation::Constrained => super::Plant::derivative(self, y, input, ws, &mut st.dy),
+            // Kept for the first RK4 stage of the step that follows at this state.
+            Formulation::Constrained => {
+                super::Plant::derivative_keep(self, y, input, ws, &mut st.dy)
+            }
             Formulation::Reduced => {
                 let mut d = [0.0; 6];
                 self.reduced_derivative(&reduced_state(self, y), input, ws, &mut d)
@@ -355,7 +368,16 @@ impl ClosedChain for super::Plant {
     ) -> Result<(), ChainFault> {
         match st.formulation {
             Formulation::Constrained => {
-                if self.advance(&mut st.rk, t, y, input, ws, h, n) {
+                // As `advance`, with the first stage on the state part that
+                // `grasp_wrenches` kept at this `y` (if it did): bit for bit the same.
+                let mut sys = super::ReusingOde {
+                    plant: self,
+                    ws,
+                    input,
+                    first: true,
+                };
+                st.rk.substeps(&mut sys, t, y, h * n as f64, n);
+                if y.iter().all(|v| v.is_finite()) {
                     Ok(())
                 } else {
                     Err(ChainFault::NonFinite)
@@ -393,6 +415,15 @@ impl ClosedChain for super::Plant {
     }
     fn drift(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64) {
         (super::Plant::constraint_residual(self, y, ws).0, 0.0)
+    }
+    /// One kinematics pass per arm for both ([`super::Plant::residual_and_min_singular_value`]).
+    fn drift_and_min_singular_value(
+        &self,
+        y: &[f64],
+        ws: &mut Self::Workspace,
+    ) -> ((f64, f64), f64) {
+        let ((ep, _), s) = super::Plant::residual_and_min_singular_value(self, y, ws);
+        ((ep, 0.0), s)
     }
     fn regularised(ws: &Self::Workspace) -> u64 {
         ws.regularised

@@ -29,7 +29,7 @@
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
 
 use super::{Kernel, Plant, PlantInput, PlantWorkspace};
-use crate::arm::FixedArm;
+use crate::arm::{ArmSolve, FixedArm};
 use crate::linalg::{cholesky_in_place, cholesky_solve_in_place};
 
 /// Relative regularisation of a singular grasp-space matrix: `K + ε tr(K) I`.
@@ -38,6 +38,94 @@ const K_REG: f64 = 1e-10;
 #[inline]
 fn perp(v: Vector2<f64>) -> Vector2<f64> {
     Vector2::new(-v.y, v.x)
+}
+
+/// The state part of the fixed-size constrained derivative of `M` arms of `N` links
+/// (`NK = 2M`): every quantity of [`Plant::derivative`] that the input `(τ, F_d)` does not
+/// enter — per arm `M_i⁻¹` (or its factor) and bias ([`ArmSolve`]), `Y_i = M_i⁻¹ J_e,iᵀ`,
+/// `J_e,i`, `d_i`, the grasp right-hand side's state terms, the factored `K`; the object's
+/// `C_o ẋ_o`. The torque part ([`Plant::derivative`]'s `a_0`, `K λ = rhs`, `s̈`) reads it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FixedState<const N: usize, const M: usize, const NK: usize> {
+    solve: [ArmSolve<N>; M],
+    y_blk: [SMatrix<f64, N, 2>; M],
+    j: [SMatrix<f64, 2, N>; M],
+    d: [Vector2<f64>; M],
+    /// `−J̇_i ẋ_o … = −(J̇_e,i q̇_i + R r_i θ̇²)`, `2ω_b φ̇_i`, `ω_b² φ_i`: the right-hand side's
+    /// state terms in the order they are subtracted.
+    neg_bias: [Vector2<f64>; M],
+    damp: [Vector2<f64>; M],
+    stiff: [Vector2<f64>; M],
+    /// `C_o ẋ_o` (diagonal `C_o`).
+    c_xd: Vector3<f64>,
+    /// The Cholesky factor of `K` (regularised if it had to be).
+    k: SMatrix<f64, NK, NK>,
+    /// Smallest pivot ratio of `K`'s Cholesky (0 when regularised).
+    pivot: f64,
+    /// Whether `K` needed regularisation.
+    regularised: bool,
+}
+
+impl<const N: usize, const M: usize, const NK: usize> Default for FixedState<N, M, NK> {
+    fn default() -> Self {
+        FixedState {
+            solve: [ArmSolve {
+                m: SMatrix::zeros(),
+                inv_diag: SVector::zeros(),
+                bias: SVector::zeros(),
+                g: SVector::zeros(),
+            }; M],
+            y_blk: [SMatrix::zeros(); M],
+            j: [SMatrix::zeros(); M],
+            d: [Vector2::zeros(); M],
+            neg_bias: [Vector2::zeros(); M],
+            damp: [Vector2::zeros(); M],
+            stiff: [Vector2::zeros(); M],
+            c_xd: Vector3::zeros(),
+            k: SMatrix::zeros(),
+            pivot: 0.0,
+            regularised: false,
+        }
+    }
+}
+
+/// The kept state part of [`Plant::derivative_keep`], one variant per fixed-size kernel
+/// (`L{links}A{arms}`, as [`Kernel`]); `None` for the general algorithm or before any keep.
+#[derive(Clone, Debug)]
+pub(crate) enum Kept {
+    None,
+    L2A2(Box<FixedState<2, 2, 4>>),
+    L2A3(Box<FixedState<2, 3, 6>>),
+    L3A2(Box<FixedState<3, 2, 4>>),
+    L3A3(Box<FixedState<3, 3, 6>>),
+    L4A2(Box<FixedState<4, 2, 4>>),
+    L4A3(Box<FixedState<4, 3, 6>>),
+}
+
+impl Kept {
+    /// The empty slot of a plant's kernel.
+    pub(crate) fn for_kernel(k: &Kernel) -> Kept {
+        match k {
+            Kernel::L2A2(_) => Kept::L2A2(Box::default()),
+            Kernel::L2A3(_) => Kept::L2A3(Box::default()),
+            Kernel::L3A2(_) => Kept::L3A2(Box::default()),
+            Kernel::L3A3(_) => Kept::L3A3(Box::default()),
+            Kernel::L4A2(_) => Kept::L4A2(Box::default()),
+            Kernel::L4A3(_) => Kept::L4A3(Box::default()),
+            Kernel::General => Kept::None,
+        }
+    }
+}
+
+/// How [`Plant::derivative`]'s fixed-size path treats the kept state part.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    /// Compute the state part, do not keep it.
+    Fresh,
+    /// Compute the state part and keep it (with `y`).
+    Keep,
+    /// Use the kept state part if it is of this `y` (bit for bit), else as `Fresh`.
+    Reuse,
 }
 
 impl Plant {
@@ -58,38 +146,154 @@ impl Plant {
         ws: &mut PlantWorkspace,
         dy: &mut [f64],
     ) -> bool {
-        match &self.kernel {
-            Kernel::L2A2(a) => self.derivative_fixed::<_, 2, 2, 4>(a, y, input, ws, dy),
-            Kernel::L2A3(a) => self.derivative_fixed::<_, 2, 3, 6>(a, y, input, ws, dy),
-            Kernel::L3A2(a) => self.derivative_fixed::<_, 3, 2, 4>(a, y, input, ws, dy),
-            Kernel::L3A3(a) => self.derivative_fixed::<_, 3, 3, 6>(a, y, input, ws, dy),
-            Kernel::L4A2(a) => self.derivative_fixed::<_, 4, 2, 4>(a, y, input, ws, dy),
-            Kernel::L4A3(a) => self.derivative_fixed::<_, 4, 3, 6>(a, y, input, ws, dy),
-            Kernel::General => self.derivative_general(y, input, ws, dy),
-        }
+        self.derivative_mode(y, input, ws, dy, Mode::Fresh)
     }
 
-    /// The fixed-size constrained derivative of `M` arms of `N` links each (`NK = 2M`): the
-    /// equations and outputs of [`Plant::derivative_general`] (the same `K` factorisation), with
-    /// every block in registers — each arm's [`ArmBlock`](crate::arm::ArmBlock) from its [`FixedArm`] kernel, `K` an
-    /// `NK × NK` `SMatrix`. Reads `(y, input)`; writes `dy`, `ws.forces`, `ws.xdd_o`,
-    /// `ws.kkt_pivot`, `ws.regularised`.
+    /// [`Plant::derivative`], and keep its state part (everything the input does not enter:
+    /// the arms' `M⁻¹`, biases and Jacobians, the factored grasp-space matrix `K`, …) in `ws`
+    /// for [`Plant::derivative_reusing`] at the same state `y` with another input. The
+    /// simulation loop evaluates the grasp forces at `(y(t_k), u_{k−1})` this way (SPEC §3
+    /// step 1), then the first RK4 stage at `(y(t_k), u_k)`. The general algorithm keeps
+    /// nothing.
     #[inline]
-    fn derivative_fixed<A: FixedArm<N>, const N: usize, const M: usize, const NK: usize>(
+    pub fn derivative_keep(
         &self,
-        arms: &[A; M],
         y: &[f64],
         input: &PlantInput,
         ws: &mut PlantWorkspace,
         dy: &mut [f64],
     ) -> bool {
+        self.derivative_mode(y, input, ws, dy, Mode::Keep)
+    }
+
+    /// [`Plant::derivative`] at a state whose state part the last [`Plant::derivative_keep`]
+    /// on `ws` kept: if `y` is that state bit for bit, only the input's part is computed
+    /// (`a_0 = M⁻¹(τ − C q̇ − G)`, the right-hand side, `K λ = rhs` by the kept factor, `s̈`),
+    /// else everything. The same values, bit for bit, as [`Plant::derivative`] (the same
+    /// floating-point operations on the same values), and the same `ws.regularised` count.
+    /// `ws` must belong to this plant ([`Plant::workspace`]).
+    #[inline]
+    pub fn derivative_reusing(
+        &self,
+        y: &[f64],
+        input: &PlantInput,
+        ws: &mut PlantWorkspace,
+        dy: &mut [f64],
+    ) -> bool {
+        self.derivative_mode(y, input, ws, dy, Mode::Reuse)
+    }
+
+    #[inline(always)]
+    fn derivative_mode(
+        &self,
+        y: &[f64],
+        input: &PlantInput,
+        ws: &mut PlantWorkspace,
+        dy: &mut [f64],
+        mode: Mode,
+    ) -> bool {
+        macro_rules! fixed {
+            ($a:expr, $v:ident, $n:literal, $m:literal, $nk:literal) => {{
+                let Kept::$v(slot) = &mut ws.kept else {
+                    unreachable!("the workspace belongs to another plant")
+                };
+                let slot: &mut FixedState<$n, $m, $nk> = slot;
+                // Each branch its own input part, so that the fresh one's state part stays a
+                // local value (in registers), not behind a reference shared with the slot.
+                let (forces, xdd_o) = (&mut ws.forces, &mut ws.xdd_o);
+                let (kkt_pivot, regularised) = (&mut ws.kkt_pivot, &mut ws.regularised);
+                match mode {
+                    Mode::Fresh => {
+                        let Some(st) = self.state_part($a, y) else {
+                            return false;
+                        };
+                        self.input_part::<_, $n, $m, $nk>(
+                            $a,
+                            &st,
+                            y,
+                            input,
+                            forces,
+                            xdd_o,
+                            kkt_pivot,
+                            regularised,
+                            dy,
+                        )
+                    }
+                    Mode::Reuse
+                        if ws.kept_valid
+                            && ws.kept_y.len() == y.len()
+                            && ws
+                                .kept_y
+                                .iter()
+                                .zip(y)
+                                .fold(true, |eq, (a, b)| eq & (a.to_bits() == b.to_bits())) =>
+                    {
+                        self.input_part::<_, $n, $m, $nk>(
+                            $a,
+                            slot,
+                            y,
+                            input,
+                            forces,
+                            xdd_o,
+                            kkt_pivot,
+                            regularised,
+                            dy,
+                        )
+                    }
+                    Mode::Keep | Mode::Reuse => {
+                        let Some(st) = self.state_part($a, y) else {
+                            ws.kept_valid = false;
+                            return false;
+                        };
+                        let ok = self.input_part::<_, $n, $m, $nk>(
+                            $a,
+                            &st,
+                            y,
+                            input,
+                            forces,
+                            xdd_o,
+                            kkt_pivot,
+                            regularised,
+                            dy,
+                        );
+                        *slot = st;
+                        ws.kept_valid = true;
+                        let len = ws.kept_y.len();
+                        ws.kept_y.copy_from_slice(&y[..len]);
+                        ok
+                    }
+                }
+            }};
+        }
+        match &self.kernel {
+            Kernel::L2A2(a) => fixed!(a, L2A2, 2, 2, 4),
+            Kernel::L2A3(a) => fixed!(a, L2A3, 2, 3, 6),
+            Kernel::L3A2(a) => fixed!(a, L3A2, 3, 2, 4),
+            Kernel::L3A3(a) => fixed!(a, L3A3, 3, 3, 6),
+            Kernel::L4A2(a) => fixed!(a, L4A2, 4, 2, 4),
+            Kernel::L4A3(a) => fixed!(a, L4A3, 4, 3, 6),
+            Kernel::General => self.derivative_general(y, input, ws, dy),
+        }
+    }
+
+    /// The state part of the fixed-size constrained derivative of `M` arms of `N` links each
+    /// (`NK = 2M`): the equations of [`Plant::derivative_general`] that the input does not
+    /// enter (the same `K` factorisation), with every block in registers — each arm's
+    /// [`ArmBlock`](crate::arm::ArmBlock) from its [`FixedArm::state_block`], `K` an `NK × NK`
+    /// `SMatrix`. Reads `y`; `None` if an arm's `M_i` (or the regularised `K`) is not
+    /// positive definite.
+    #[inline(always)]
+    fn state_part<A: FixedArm<N>, const N: usize, const M: usize, const NK: usize>(
+        &self,
+        arms: &[A; M],
+        y: &[f64],
+    ) -> Option<FixedState<N, M, NK>> {
         debug_assert_eq!(2 * M, NK);
         debug_assert_eq!(self.n_q, N * M);
         // y = [q (n), x_o (3), q̇ (n), ẋ_o (3)]; one length check for all the indexing below.
         let n = N * M;
-        let (y, dy) = (&y[..2 * n + 6], &mut dy[..2 * n + 6]);
-        let tau = &input.tau[..n];
-        let (forces, grasps) = (&mut ws.forces[..M], &self.grasps[..M]);
+        let y = &y[..2 * n + 6];
+        let grasps = &self.grasps[..M];
         let x_o = Vector3::new(y[n], y[n + 1], y[n + 2]);
         let xd_o = Vector3::new(y[2 * n + 3], y[2 * n + 4], y[2 * n + 5]);
         let p_o = Vector2::new(x_o.x, x_o.y);
@@ -98,32 +302,32 @@ impl Plant {
         let w = self.baumgarte;
         let mi = &self.m_o_inv;
 
-        // Object (ẋ_o, F_d) → unconstrained acceleration a0_o = M_o⁻¹(−F_d − C_o ẋ_o − G_o).
-        let a0_o =
-            mi.component_mul(&(-input.f_d - self.c_o.component_mul(&xd_o) - self.object.G_o));
-        let a0_o_xy = Vector2::new(a0_o.x, a0_o.y);
-
-        // Arm i (q_i, q̇_i, τ_i, x_o, ẋ_o) → a0_i = M_i⁻¹(τ_i − C_i q̇_i − G_i),
+        // Arm i (q_i, q̇_i, x_o, ẋ_o) → M_i⁻¹ and bias (for a0_i = M_i⁻¹(τ_i − C_i q̇_i − G_i)),
         // Y_i = M_i⁻¹ J_e,iᵀ, K_ii = J_e,i Y_i, d_i = (R(θ) r_i)^⊥ (so J_i = [I | d_i]) and
-        // grasp i's right-hand side −Ȧṡ − A a0 − 2ω_b φ̇ − ω_b² φ.
-        let mut a0 = [SVector::<f64, N>::zeros(); M];
+        // the state terms of grasp i's right-hand side −Ȧṡ − A a0 − 2ω_b φ̇ − ω_b² φ.
+        let mut solve = [ArmSolve {
+            m: SMatrix::<f64, N, N>::zeros(),
+            inv_diag: SVector::<f64, N>::zeros(),
+            bias: SVector::<f64, N>::zeros(),
+            g: SVector::<f64, N>::zeros(),
+        }; M];
         let mut y_blk = [SMatrix::<f64, N, 2>::zeros(); M];
+        let mut j = [SMatrix::<f64, 2, N>::zeros(); M];
         let mut k_blk = [Matrix2::zeros(); M];
         let mut d = [Vector2::zeros(); M];
-        let mut rhs = SVector::<f64, NK>::zeros();
+        let mut neg_bias = [Vector2::zeros(); M];
+        let mut damp = [Vector2::zeros(); M];
+        let mut stiff = [Vector2::zeros(); M];
         for i in 0..M {
             let o = N * i;
-            let blk = match arms[i].block(
+            let (blk, s) = arms[i].state_block(
                 std::array::from_fn(|r| y[o + r]),
                 std::array::from_fn(|r| y[n + 3 + o + r]),
-                std::array::from_fn(|r| tau[o + r]),
                 self.g,
-            ) {
-                Some(b) => b,
-                None => return false,
-            };
-            a0[i] = blk.a0;
+            )?;
+            solve[i] = s;
             y_blk[i] = blk.y;
+            j[i] = blk.j;
             k_blk[i] = blk.k;
             // R(θ) r_i once; the grasp point, J_i ẋ_o and J̇_i ẋ_o = −R r_i θ̇² from it.
             let r = grasps[i].r;
@@ -132,43 +336,103 @@ impl Plant {
             let phi = blk.p_ee - (p_o + rw);
             let phid = blk.v_ee - (v_o + d[i] * xd_o.z);
             let bias = blk.jdot_qdot + rw * (xd_o.z * xd_o.z);
-            let ja0 = blk.j * a0[i] - (a0_o_xy + d[i] * a0_o.z);
-            let rh = -bias - ja0 - 2.0 * w * phid - w * w * phi;
-            rhs[2 * i] = rh.x;
-            rhs[2 * i + 1] = rh.y;
+            neg_bias[i] = -bias;
+            damp[i] = 2.0 * w * phid;
+            stiff[i] = w * w * phi;
         }
         // K = diag(K_ii) + 𝐉 M_o⁻¹ 𝐉ᵀ; with diagonal M_o⁻¹ its (i, j) block is
         // diag(m_x, m_y) + (m_θ d_i) d_jᵀ.
         let mut k = SMatrix::<f64, NK, NK>::zeros();
         for i in 0..M {
-            for j in 0..M {
-                let mut blk = (mi.z * d[i]) * d[j].transpose();
+            for jj in 0..M {
+                let mut blk = (mi.z * d[i]) * d[jj].transpose();
                 blk[(0, 0)] += mi.x;
                 blk[(1, 1)] += mi.y;
-                if i == j {
+                if i == jj {
                     blk = k_blk[i] + blk;
                 }
-                k.fixed_view_mut::<2, 2>(2 * i, 2 * j).copy_from(&blk);
+                k.fixed_view_mut::<2, 2>(2 * i, 2 * jj).copy_from(&blk);
             }
         }
-        // K λ = rhs by the in-place Cholesky (regularised if K is singular); λ into rhs.
+        // K = L Lᵀ in place (regularised if K is singular).
         let k_copy = k;
-        match cholesky_in_place(&mut k, NK) {
-            Ok(p) => ws.kkt_pivot = p,
+        let (pivot, regularised) = match cholesky_in_place(&mut k, NK) {
+            Ok(p) => (p, false),
             Err(_) => {
                 let trace = k_copy.trace();
                 k = k_copy;
                 for dd in 0..NK {
                     k[(dd, dd)] += K_REG * trace.max(f64::MIN_POSITIVE);
                 }
-                ws.regularised += 1;
-                ws.kkt_pivot = 0.0;
                 if cholesky_in_place(&mut k, NK).is_err() {
-                    return false;
+                    return None;
                 }
+                (0.0, true)
             }
+        };
+        Some(FixedState {
+            solve,
+            y_blk,
+            j,
+            d,
+            neg_bias,
+            damp,
+            stiff,
+            c_xd: self.c_o.component_mul(&xd_o),
+            k,
+            pivot,
+            regularised,
+        })
+    }
+
+    /// The input part of the fixed-size constrained derivative on a state part `st` of `y`:
+    /// `a0_i = M_i⁻¹(τ_i − C_i q̇_i − G_i)` ([`FixedArm::a0`]), the object's
+    /// `a0_o = M_o⁻¹(−F_d − C_o ẋ_o − G_o)`, `K λ = −Ȧṡ − A a0 − 2ω_b φ̇ − ω_b² φ` by the
+    /// factor of `K`, then `q̈_i = a0_i + Y_i λ_i`, `ẍ_o = a0_o − M_o⁻¹ Σ J_iᵀ λ_i`. Writes
+    /// `dy`, `forces` (`λ_i`), `xdd_o`, `kkt_pivot`, and counts a regularised `K` in
+    /// `regularised`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn input_part<A: FixedArm<N>, const N: usize, const M: usize, const NK: usize>(
+        &self,
+        arms: &[A; M],
+        st: &FixedState<N, M, NK>,
+        y: &[f64],
+        input: &PlantInput,
+        forces: &mut [Vector2<f64>],
+        xdd_o: &mut Vector3<f64>,
+        kkt_pivot: &mut f64,
+        regularised: &mut u64,
+        dy: &mut [f64],
+    ) -> bool {
+        let n = N * M;
+        let (y, dy) = (&y[..2 * n + 6], &mut dy[..2 * n + 6]);
+        let tau = &input.tau[..n];
+        let forces = &mut forces[..M];
+        let mi = &self.m_o_inv;
+        let xd_o = Vector3::new(y[2 * n + 3], y[2 * n + 4], y[2 * n + 5]);
+
+        // Object (ẋ_o, F_d) → unconstrained acceleration a0_o = M_o⁻¹(−F_d − C_o ẋ_o − G_o).
+        let a0_o = mi.component_mul(&(-input.f_d - st.c_xd - self.object.G_o));
+        let a0_o_xy = Vector2::new(a0_o.x, a0_o.y);
+
+        // Arm i: a0_i, then grasp i's right-hand side.
+        let mut a0 = [SVector::<f64, N>::zeros(); M];
+        let mut rhs = SVector::<f64, NK>::zeros();
+        for i in 0..M {
+            let o = N * i;
+            a0[i] = arms[i].a0(&st.solve[i], std::array::from_fn(|r| tau[o + r]));
+            let ja0 = st.j[i] * a0[i] - (a0_o_xy + st.d[i] * a0_o.z);
+            let rh = st.neg_bias[i] - ja0 - st.damp[i] - st.stiff[i];
+            rhs[2 * i] = rh.x;
+            rhs[2 * i + 1] = rh.y;
         }
-        cholesky_solve_in_place(&k, NK, rhs.as_mut_slice());
+        // K λ = rhs by the factor of K; λ into rhs.
+        *kkt_pivot = st.pivot;
+        if st.regularised {
+            *regularised += 1;
+        }
+        cholesky_solve_in_place(&st.k, NK, rhs.as_mut_slice());
 
         // Accelerations: q̈_i = a0_i + Y_i λ_i; ẍ_o = a0_o − M_o⁻¹ Σ J_iᵀ λ_i.
         dy[..n].copy_from_slice(&y[n + 3..2 * n + 3]);
@@ -177,12 +441,12 @@ impl Plant {
         for i in 0..M {
             let lam = Vector2::new(rhs[2 * i], rhs[2 * i + 1]);
             forces[i] = lam;
-            f_sum += Vector3::new(lam.x, lam.y, d[i].dot(&lam));
-            let qdd = a0[i] + y_blk[i] * lam;
+            f_sum += Vector3::new(lam.x, lam.y, st.d[i].dot(&lam));
+            let qdd = a0[i] + st.y_blk[i] * lam;
             dy[n + 3 + N * i..n + 3 + N * (i + 1)].copy_from_slice(qdd.as_slice());
         }
         let xdd = a0_o - mi.component_mul(&f_sum);
-        ws.xdd_o = xdd;
+        *xdd_o = xdd;
         dy[2 * n + 3..].copy_from_slice(xdd.as_slice());
         true
     }

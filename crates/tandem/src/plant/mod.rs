@@ -200,6 +200,13 @@ pub struct PlantWorkspace {
     tau_x: Vec<Vector2<f64>>,
     /// Per-arm `R(θ) r_i` of the last reduced evaluation, m.
     rw: Vec<Vector2<f64>>,
+    /// The state part of the last [`Plant::derivative_keep`] (fixed-size kernels only), for
+    /// [`Plant::derivative_reusing`] at the same state.
+    kept: constrained::Kept,
+    /// The state `y` of [`PlantWorkspace::kept`] (state_dim), compared bit for bit.
+    kept_y: Vec<f64>,
+    /// Whether `kept` holds the state part of `kept_y`.
+    kept_valid: bool,
 }
 
 /// Plant energy split, J.
@@ -369,6 +376,9 @@ impl Plant {
             ],
             tau_x: vec![Vector2::zeros(); m],
             rw: vec![Vector2::zeros(); m],
+            kept: constrained::Kept::for_kernel(&self.kernel),
+            kept_y: vec![0.0; self.state_dim()],
+            kept_valid: false,
         }
     }
 
@@ -525,6 +535,29 @@ impl Plant {
         }
         s
     }
+
+    /// [`Plant::constraint_residual`] and [`Plant::min_singular_value`] of one state from one
+    /// [`Arm::kinematics`] per arm (the two would compute the same kinematics twice): the same
+    /// values, bit for bit. Writes `ws.terms`.
+    pub fn residual_and_min_singular_value(
+        &self,
+        y: &[f64],
+        ws: &mut PlantWorkspace,
+    ) -> ((f64, f64), f64) {
+        let (q, x_o, qd, xd_o) = self.split(y);
+        let (mut ep, mut ev) = (0.0f64, 0.0f64);
+        let mut s = f64::INFINITY;
+        for (i, arm) in self.arms.iter().enumerate() {
+            let off = self.offsets[i];
+            let dof = arm.dof();
+            arm.kinematics(&q[off..off + dof], &qd[off..off + dof], &mut ws.terms[i]);
+            let t = &ws.terms[i];
+            ep = ep.max((t.p_ee - self.grasps[i].point(&x_o)).norm());
+            ev = ev.max((t.v_ee - self.grasps[i].jacobian(x_o.z) * xd_o).norm());
+            s = s.min(arm.min_singular_value(t));
+        }
+        ((ep, ev), s)
+    }
 }
 
 fn ik_error(arm: &Arm, i: usize, target: Vector2<f64>, e: IkFailure) -> ModelError {
@@ -592,6 +625,35 @@ impl crate::integrate::OdeSystem for ConstrainedOde<'_> {
     }
     fn deriv(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
         if !self.plant.derivative(y, self.input, self.ws, dy) {
+            dy.fill(f64::NAN);
+        }
+    }
+}
+
+/// [`ConstrainedOde`] whose first evaluation is [`Plant::derivative_reusing`]: the first RK4
+/// stage of a control tick is at the state where the loop evaluated the grasp forces
+/// ([`Plant::derivative_keep`], the previous input held), so only its torque part is redone.
+/// The same values, bit for bit, as [`ConstrainedOde`].
+pub(crate) struct ReusingOde<'a> {
+    pub(crate) plant: &'a Plant,
+    pub(crate) ws: &'a mut PlantWorkspace,
+    pub(crate) input: &'a PlantInput,
+    /// Whether the next evaluation is the first.
+    pub(crate) first: bool,
+}
+
+impl crate::integrate::OdeSystem for ReusingOde<'_> {
+    fn dim(&self) -> usize {
+        self.plant.state_dim()
+    }
+    fn deriv(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        let ok = if self.first {
+            self.first = false;
+            self.plant.derivative_reusing(y, self.input, self.ws, dy)
+        } else {
+            self.plant.derivative(y, self.input, self.ws, dy)
+        };
+        if !ok {
             dy.fill(f64::NAN);
         }
     }

@@ -182,6 +182,15 @@ impl Record for TickRecord {
         out[1] = self.margin;
     }
     fn non_finite(&self) -> Option<String> {
+        // One pass without early exit over every value (the common case: all finite): a sum
+        // of `0 · x` is ±0 unless some `x` is NaN or infinite.
+        let mut z = 0.0 * self.q_switch + 0.0 * self.margin;
+        for v in self.groups() {
+            z += 0.0 * v.x + 0.0 * v.y + 0.0 * v.z;
+        }
+        if z == 0.0 && !self.non_finite {
+            return None;
+        }
         for ((name, _, _), v) in HEAD.iter().zip(self.groups()) {
             if let Some(j) = v.iter().position(|x| !x.is_finite()) {
                 return Some(format!("{name}.{}", AX[j]));

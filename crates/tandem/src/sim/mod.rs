@@ -635,10 +635,12 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
                 break;
             }
             k += 1;
-            // Drift and singularity checks every 10 ticks (kinematics only).
+            // Drift and singularity checks every 10 ticks (kinematics only, once for both).
             if k % 10 == 0 {
                 let t = k as f64 * self.params.control_period;
-                let (d, r) = self.plant.drift(&self.y, &mut self.ws);
+                let ((d, r), s) = self
+                    .plant
+                    .drift_and_min_singular_value(&self.y, &mut self.ws);
                 max_drift = max_drift.max(d);
                 max_drift_rot = max_drift_rot.max(r);
                 if d > self.params.max_drift || r > self.params.max_drift {
@@ -647,7 +649,6 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
                     fault = Some(self.fault(t, FaultKind::ConstraintDrift { drift: d, rotation }));
                     break;
                 }
-                let s = self.plant.min_singular_value(&self.y, &mut self.ws);
                 if s < self.params.min_sigma {
                     self.y_prev.copy_from_slice(&self.y);
                     fault = Some(self.fault(t, FaultKind::Singular { sigma: s }));
