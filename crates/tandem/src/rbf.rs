@@ -52,8 +52,9 @@
 //! rounding is the same). The FMA kernels (`avx2fma`, `avx512` and `batched`; the default
 //! where the CPU has AVX-512F is one of the last two, by vendor) agree with them within the
 //! tolerance of the determinism policy ([`Kernel`], `docs/performance.md`); `batched-f32`, which
-//! keeps the weights in single precision, within its own. This is the only `unsafe` in the module: the SIMD
-//! intrinsics and the call into a `#[target_feature]` function after detection.
+//! keeps the weights in single precision, within its own. This is the only `unsafe` in the
+//! module: the SIMD intrinsics and the call into a `#[target_feature]` function after
+//! detection.
 //!
 //! # The batched update
 //!
@@ -760,10 +761,12 @@ impl<const M: usize> RbfNetwork<M> {
         Ok(net)
     }
 
-    /// Updates held by [`Kernel::Batched`] and not yet applied to the stored weights (`0` with
-    /// the other kernels). The accessors that read the weights ([`RbfNetwork::weights`],
+    /// Updates held by [`Kernel::Batched`] or [`Kernel::BatchedF32`] and not yet applied to the
+    /// stored weights (`0` with the other kernels). The accessors that read the weights ([`RbfNetwork::weights`],
     /// [`RbfNetwork::weight`], [`RbfNetwork::weights_matrix`], [`RbfNetwork::output`],
-    /// [`RbfNetwork::norms`]) need `0`: call [`RbfNetwork::flush`] first.
+    /// [`RbfNetwork::norms`]) need the stored weights up to date ([`RbfNetwork::is_stale`]
+    /// false, which also covers [`Kernel::BatchedF32`]'s `f32` store): call
+    /// [`RbfNetwork::flush`] first.
     pub fn pending(&self) -> usize {
         self.batch.as_ref().map_or(0, batched::Held::pending)
     }
@@ -1158,8 +1161,9 @@ pub enum Kernel {
     Avx512,
     /// AVX-512F with the update of [`RbfNetwork::tick_at_outputs`] held and applied
     /// [`BATCH_DEPTH`] ticks at a time (module `batched`: exact algebra, a read-only pass on
-    /// most ticks): the fastest, not bit-identical (within the stated tolerance). The default
-    /// where available. Its other passes are those of [`Kernel::Avx512`].
+    /// most ticks): not bit-identical (within the stated tolerance). The default on Intel CPUs
+    /// with AVX-512F ([`Kernel::default_for_cpu`]). Its other passes are those of
+    /// [`Kernel::Avx512`].
     Batched,
     /// [`Kernel::Batched`] with the weights kept in **single precision** (`f32`) while the
     /// controller runs: half the bytes of every pass, `f32` arithmetic in the passes, `f64`
@@ -2794,6 +2798,19 @@ mod tests {
         let a = s.tick_at_outputs(&rbf, &z, &mut ws, 1.0, &z2, &upd);
         let b = fresh.tick_at_outputs(&rbf, &z, &mut ws, 1.0, &z2, &upd);
         assert!((a - b).abs().max() <= 1e-6 * b.abs().max(), "{a} {b}");
+        // Switching kernels keeps the weights: the held terms (and the `f32` store) are
+        // brought back first.
+        let mut sw = f.clone();
+        sw.tick_at_outputs(&rbf, &z, &mut ws, 1.0, &z2, &upd);
+        let before = sw.weights_now().into_owned();
+        sw.set_kernel(Kernel::Portable).unwrap();
+        assert!(!sw.is_stale() && sw.pending() == 0);
+        assert!(
+            sw.weights()
+                .iter()
+                .zip(&before)
+                .all(|(a, b)| (a - b).abs() <= eps * scale)
+        );
         net.reset();
         assert_eq!(net.pending(), 0);
         assert!(!net.is_stale());

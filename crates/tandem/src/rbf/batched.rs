@@ -62,8 +62,8 @@ const LANE: usize = 8;
 /// level) and where each input's factors start (`offsets`, as in [`super::Rbf`]).
 pub(super) type Basis<'a> = (&'a [f64], &'a [f64], &'a [f64], &'a [usize]);
 
-/// The held update, whatever the store: the factor `D`, and the terms `(g_m, A_m, B_m)` with
-/// the per-input factors of `A_m ⊗ B_m`.
+/// The held update, whatever the store: the factor `D`, and the terms `(g_m, A_m)` with the
+/// per-input factors of `A_m ⊗ B_m` (the stores keep `B_m` spread over the weight lanes).
 #[derive(Debug, Clone, PartialEq)]
 struct Terms<const M: usize> {
     n_a: usize,
@@ -77,8 +77,6 @@ struct Terms<const M: usize> {
     g: [[f64; M]; DEPTH],
     /// `A_m`, `n_a` each.
     a: Vec<f64>,
-    /// `B_m`, `n_b` each.
-    b: Vec<f64>,
     /// The factors of term `m`, level-major: `fs[l·DEPTH + m]` is factor `l` of term `m`
     /// (so that one register holds a factor of 8 terms).
     fs: Vec<f64>,
@@ -95,7 +93,6 @@ impl<const M: usize> Terms<M> {
             d: [1.0; M],
             g: [[0.0; M]; DEPTH],
             a: vec![0.0; DEPTH * n_a],
-            b: vec![0.0; DEPTH * n_b],
             fs: vec![0.0; DEPTH * n_f],
         }
     }
@@ -106,8 +103,13 @@ impl<const M: usize> Terms<M> {
     }
 
     /// `Ŵ[n] = D_j v(n) − Σ_m g_mj A_m[i] B_m[k]` (node `n / M = i·n_b + k`, output
-    /// `j = n % M`) into `out`, in plain scalar code (for inspection).
-    fn materialize(&self, v: impl Fn(usize) -> f64, out: &mut [f64]) {
+    /// `j = n % M`; `b(m, k)` is `B_m[k]`) into `out`, in plain scalar code (for inspection).
+    fn materialize(
+        &self,
+        v: impl Fn(usize) -> f64,
+        b: impl Fn(usize, usize) -> f64,
+        out: &mut [f64],
+    ) {
         let (na, nb) = (self.n_a, self.n_b);
         assert_eq!(out.len(), na * nb * M);
         for (n, o) in out.iter_mut().enumerate() {
@@ -115,7 +117,7 @@ impl<const M: usize> Terms<M> {
             let (i, k) = (node / nb, node % nb);
             let mut x = self.d[j] * v(n);
             for m in 0..self.p {
-                x -= self.g[m][j] * self.a[m * na + i] * self.b[m * nb + k];
+                x -= self.g[m][j] * self.a[m * na + i] * b(m, k);
             }
             *o = x;
         }
@@ -143,8 +145,8 @@ impl<const M: usize> Terms<M> {
 
     /// The update (44), deferred: `D ← e D`, `g_m ← e g_m`, and the new term `(c, A, B)`.
     /// Returns the new term's index. Panics if `DEPTH` terms are already held.
-    fn push(&mut self, (a, b, f, _): Basis<'_>, e: &[f64; M], c: &[f64; M]) -> usize {
-        let (na, nb, p) = (self.n_a, self.n_b, self.p);
+    fn push(&mut self, (a, _, f, _): Basis<'_>, e: &[f64; M], c: &[f64; M]) -> usize {
+        let (na, p) = (self.n_a, self.p);
         assert!(p < DEPTH && f.len() == self.n_f);
         for (l, &fl) in f.iter().enumerate() {
             self.fs[l * DEPTH + p] = fl;
@@ -159,7 +161,6 @@ impl<const M: usize> Terms<M> {
         }
         self.g[p] = *c;
         self.a[p * na..(p + 1) * na].copy_from_slice(a);
-        self.b[p * nb..(p + 1) * nb].copy_from_slice(b);
         self.p += 1;
         p
     }
@@ -229,9 +230,23 @@ impl<const M: usize> Held<M> {
     /// is changed.
     pub(super) fn materialize(&self, w: &[f64], out: &mut [f64]) {
         assert_eq!(w.len(), out.len());
+        // `B_m[k]` is entry `k·M` of the spread `B_m`.
         match self {
-            Held::F32(b) if b.live => b.t.materialize(|n| f64::from(b.v.as_ref()[n]), out),
-            _ => self.terms().materialize(|n| w[n], out),
+            Held::F64(h) => {
+                let row = h.t.n_b * M;
+                let bs = h.bs.as_ref();
+                h.t.materialize(|n| w[n], |m, k| bs[m * row + k * M], out);
+            }
+            Held::F32(h) => {
+                let row = h.t.n_b * M;
+                let bs = h.bs.as_ref();
+                let b = |m: usize, k: usize| f64::from(bs[m * row + k * M]);
+                if h.live {
+                    h.t.materialize(|n| f64::from(h.v.as_ref()[n]), b, out);
+                } else {
+                    h.t.materialize(|n| w[n], b, out);
+                }
+            }
         }
     }
 
