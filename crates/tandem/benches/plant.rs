@@ -14,8 +14,9 @@
 //!
 //! `tick/*` (issue 12): one control tick (sensors, the PD law, the plant's RK4 substeps at the
 //! paper's 1 kHz control / 0.2 ms plant step) of two 2-link arms (the paper), three 2-link
-//! arms ([`fixtures::three_arms`]) and two 3-link arms ([`fixtures::redundant_pair`]), side by
-//! side; divide by the arm count for the per-arm cost. The PD law, because the NN law is built
+//! arms ([`fixtures::three_arms`]), two 3-link arms ([`fixtures::redundant_pair`]) and two
+//! 4-link arms (`tests/support/n_link.rs`), side by side; divide by the arm count for the
+//! per-arm cost. The PD law, because the NN law is built
 //! for 2-link arms only. With `TANDEM_TICKS=<config>:<n>` in the environment the binary runs
 //! `n` ticks of that configuration and exits (for callgrind: the difference of two counts over
 //! the difference of `n` is the instructions per tick).
@@ -32,13 +33,18 @@ use tandem::sensors::SensorParams;
 use tandem::sim::{Driver, SimParams, Simulation};
 use tandem::trajectory::Path;
 
-/// The three tick configurations: name, plant, joint-angle guess, arm count.
+#[path = "../tests/support/n_link.rs"]
+mod n_link;
+
+/// The tick configurations: name, plant, joint-angle guess, arm count.
 fn tick_configs() -> Vec<(&'static str, PlantParams, Option<Vec<f64>>, usize)> {
     let (p3, guess) = fixtures::redundant_pair();
+    let (p4, guess4) = n_link::chain(2, 4);
     vec![
         ("two_2link", fixtures::paper(), None, 2),
         ("three_2link", fixtures::three_arms(), None, 3),
         ("two_3link", p3, Some(guess), 2),
+        ("two_4link", p4, Some(guess4), 2),
     ]
 }
 
