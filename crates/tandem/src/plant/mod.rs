@@ -480,17 +480,7 @@ impl Plant {
 
     /// Largest grasp-constraint violation `(position m, velocity m/s)` of a state.
     pub fn constraint_residual(&self, y: &[f64], ws: &mut PlantWorkspace) -> (f64, f64) {
-        let (q, x_o, qd, xd_o) = self.split(y);
-        let (mut ep, mut ev) = (0.0f64, 0.0f64);
-        for (i, arm) in self.arms.iter().enumerate() {
-            let off = self.offsets[i];
-            let dof = arm.dof();
-            arm.kinematics(&q[off..off + dof], &qd[off..off + dof], &mut ws.terms[i]);
-            let t = &ws.terms[i];
-            ep = ep.max((t.p_ee - self.grasps[i].point(&x_o)).norm());
-            ev = ev.max((t.v_ee - self.grasps[i].jacobian(x_o.z) * xd_o).norm());
-        }
-        (ep, ev)
+        self.residual_and_sigma::<false>(y, ws).0
     }
 
     /// Mechanical energy of a state (arms + object; the object's potential is `G_oᵀ x_o`).
@@ -544,6 +534,15 @@ impl Plant {
         y: &[f64],
         ws: &mut PlantWorkspace,
     ) -> ((f64, f64), f64) {
+        self.residual_and_sigma::<true>(y, ws)
+    }
+
+    /// The loop of [`Plant::constraint_residual`], and `σ_min` too if `SIGMA` (else `+∞`).
+    fn residual_and_sigma<const SIGMA: bool>(
+        &self,
+        y: &[f64],
+        ws: &mut PlantWorkspace,
+    ) -> ((f64, f64), f64) {
         let (q, x_o, qd, xd_o) = self.split(y);
         let (mut ep, mut ev) = (0.0f64, 0.0f64);
         let mut s = f64::INFINITY;
@@ -554,7 +553,9 @@ impl Plant {
             let t = &ws.terms[i];
             ep = ep.max((t.p_ee - self.grasps[i].point(&x_o)).norm());
             ev = ev.max((t.v_ee - self.grasps[i].jacobian(x_o.z) * xd_o).norm());
-            s = s.min(arm.min_singular_value(t));
+            if SIGMA {
+                s = s.min(arm.min_singular_value(t));
+            }
         }
         ((ep, ev), s)
     }

@@ -137,9 +137,11 @@ pub(super) unsafe fn kron(
         super::kron_into(f, offsets, from, to, out, tmp);
         return;
     }
+    // The prefix products (one a register), by `kron_into` itself in two eighths of `tmp`.
     let regs = out.len() / LANE;
-    let prefix = &mut tmp[..regs];
-    kron_prefix(f, offsets, from, split, prefix);
+    let (prefix, rest) = tmp.split_at_mut(regs);
+    super::kron_into(f, offsets, from, split, prefix, &mut rest[..regs]);
+    let prefix = &*prefix;
     // SAFETY: AVX-512F (caller's contract); every access in bounds (`regs·8 = out.len()`).
     unsafe {
         // The inputs' lane patterns: lane `t` holds the level of input `i` that index `t` has,
@@ -168,27 +170,6 @@ pub(super) unsafe fn kron(
             _mm512_storeu_pd(out.as_mut_ptr().add(r * LANE), x);
         }
     }
-}
-
-/// The prefix products `f_from ⊗ … ⊗ f_{to−1}` into `out`, in the order of `kron_into`
-/// (forward, from 1), without a second buffer: built in place from the back.
-fn kron_prefix(f: &[f64], offsets: &[usize], from: usize, to: usize, out: &mut [f64]) {
-    out[0] = 1.0;
-    let mut len = 1;
-    for i in from..to {
-        let fi = &f[offsets[i]..offsets[i + 1]];
-        let n = fi.len();
-        // dst[r·n + l] = src[r]·f_i[l], from the last r down, so src[r] is read before it is
-        // overwritten (r·n + l ≥ r).
-        for r in (0..len).rev() {
-            let v = out[r];
-            for (l, &fl) in fi.iter().enumerate().rev() {
-                out[r * n + l] = v * fl;
-            }
-        }
-        len *= n;
-    }
-    debug_assert_eq!(len, out.len());
 }
 
 #[cfg(test)]
