@@ -347,7 +347,7 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
         for k in 0..N {
             phi += q[k];
             phid += qd[k];
-            let (sk, ck) = phi.sin_cos();
+            let (sk, ck) = crate::trig::sin_cos(phi);
             let u = Vector2::new(ck, sk);
             let up = perp(u);
             let w2 = phid * phid;
@@ -555,7 +555,7 @@ impl<const N: usize> FixedLinkArm<N> {
         for k in 0..N {
             phi += q[k];
             phid += qd[k];
-            let (sk, ck) = phi.sin_cos();
+            let (sk, ck) = crate::trig::sin_cos(phi);
             let u = Vector2::new(ck, sk);
             points[k] = p;
             com[k] = p + self.lc[k] * u;
@@ -715,7 +715,7 @@ impl Arm {
             TwoLinkArm {
                 base,
                 base_angle: params.base_angle,
-                base_sc: params.base_angle.sin_cos(),
+                base_sc: crate::trig::sin_cos(params.base_angle),
                 l1: l[0],
                 l2: l[1],
                 p1,
@@ -796,7 +796,8 @@ impl Arm {
         let mut phi = self.base_angle;
         for (k, &lk) in self.l.iter().enumerate() {
             phi += q[k];
-            p += lk * Vector2::new(phi.cos(), phi.sin());
+            let (s, c) = crate::trig::sin_cos(phi);
+            p += lk * Vector2::new(c, s);
         }
         p
     }
@@ -833,7 +834,7 @@ impl Arm {
             phid += qd[k];
             phis[k] = phi;
             phi_dots[k] = phid;
-            let (sk, ck) = phi.sin_cos();
+            let (sk, ck) = crate::trig::sin_cos(phi);
             let u = Vector2::new(ck, sk);
             us[k] = u;
             let up = perp(u);
@@ -1187,8 +1188,8 @@ impl TwoLinkArm {
     pub fn pose(&self, q: [f64; 2]) -> TwoLinkPose {
         let phi1 = self.base_angle + q[0];
         let phi2 = phi1 + q[1];
-        let (s1, c1) = phi1.sin_cos();
-        let (s12, c12) = phi2.sin_cos();
+        let (s1, c1) = crate::trig::sin_cos(phi1);
+        let (s12, c12) = crate::trig::sin_cos(phi2);
         let u1 = Vector2::new(c1, s1);
         let u12 = Vector2::new(c12, s12);
         self.pose_from_dirs(u1, u12, u1.dot(&u12), cross(u1, u12))

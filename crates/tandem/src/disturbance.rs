@@ -171,7 +171,8 @@ impl<const N: usize> Disturbance<N> {
         let mut f = SVector::<f64, N>::zeros();
         for j in 0..N {
             if self.amplitude[j] != 0.0 {
-                f[j] = self.amplitude[j] * (self.frequency[j] * t + self.phase[j]).sin();
+                f[j] = self.amplitude[j]
+                    * crate::trig::sin_cos(self.frequency[j] * t + self.phase[j]).0;
             }
         }
         for p in &self.pushes {

@@ -51,6 +51,7 @@
 pub mod error;
 pub mod linalg;
 pub mod notation;
+pub mod trig;
 
 pub mod dynamics;
 pub mod model;

@@ -628,7 +628,7 @@ impl Controller {
     /// them).
     pub fn start(&mut self, t0: f64, meas: &Measurements) {
         let s = self.path.sample(t0);
-        self.expected_forces(&Rotation2::new(s.p.z), &s.v, &s.a);
+        self.expected_forces(&crate::trig::rotation2(s.p.z), &s.v, &s.a);
         for (st, f) in self.adm_state.iter_mut().zip(&self.f_ref) {
             *st = AdmittanceState::with_filter_at(*f);
         }
@@ -879,7 +879,7 @@ impl Controller {
     ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
         let adm = self.adm;
         if self.rot_d.0 != x_d.z {
-            self.rot_d = (x_d.z, Rotation2::new(x_d.z));
+            self.rot_d = (x_d.z, crate::trig::rotation2(x_d.z));
         }
         let rot = self.rot_d.1;
         self.expected_forces(&rot, xd_d, xdd_d);

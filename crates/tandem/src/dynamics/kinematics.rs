@@ -23,7 +23,7 @@ use super::{ChainData, check_len};
 use crate::model::{JointKind, SpatialArm};
 use crate::spatial::SpatialInertia;
 use crate::spatial::motion::{ang, cross_motion, lin, stack};
-use crate::spatial::trig::sin_cos;
+use crate::trig::sin_cos;
 
 /// `R` from a unit quaternion (homogeneous form, no normalisation).
 #[inline(always)]

@@ -298,7 +298,7 @@ impl Plant {
         let xd_o = Vector3::new(y[2 * n + 3], y[2 * n + 4], y[2 * n + 5]);
         let p_o = Vector2::new(x_o.x, x_o.y);
         let v_o = Vector2::new(xd_o.x, xd_o.y);
-        let (sin_th, cos_th) = x_o.z.sin_cos();
+        let (sin_th, cos_th) = crate::trig::sin_cos(x_o.z);
         let w = self.baumgarte;
         let mi = &self.m_o_inv;
 
@@ -465,7 +465,7 @@ impl Plant {
         let n = self.n_q;
         let m = self.arms.len();
         let (q, x_o, qd, xd_o) = self.split(y);
-        let rot = nalgebra::Rotation2::new(x_o.z);
+        let rot = crate::trig::rotation2(x_o.z);
         let p_o = nalgebra::Vector2::new(x_o.x, x_o.y);
         let w = self.baumgarte;
         let obj = &self.object;

@@ -128,7 +128,7 @@ impl Plant {
         ws: &mut PlantWorkspace,
         publish: bool,
     ) -> Result<ObjectSpace, ReducedFailure> {
-        let (sin_th, cos_th) = x_o.z.sin_cos();
+        let (sin_th, cos_th) = crate::trig::sin_cos(x_o.z);
         let p_o = Vector2::new(x_o.x, x_o.y);
         let th_d = xd_o.z;
         let mut m = self.object.M_o;

@@ -5,7 +5,6 @@
 //! * [`se3`]: `Exp`/`Log` of SE(3) on linear-first twists (pose errors by the log map).
 //! * [`motion`]: twists `[v; ω]` and wrenches `[f; τ]` (**linear first**), their cross products
 //!   and the motion and force adjoints of a rigid transform `X_AB` (nalgebra `Isometry3<f64>`).
-//! * [`trig`]: an inlined `sin_cos` for the joint angles (Cody–Waite + fdlibm kernels).
 //! * [`inertia`]: spatial inertia `(m, h = m c, I_O)` with its application to a twist and its
 //!   change of frame.
 //!
@@ -17,7 +16,6 @@ pub mod inertia;
 pub mod motion;
 pub mod se3;
 pub mod so3;
-pub mod trig;
 
 pub use inertia::SpatialInertia;
 pub use motion::{

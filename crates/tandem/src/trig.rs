@@ -1,5 +1,12 @@
-//! `sin` and `cos` of one angle together, inlined: the joint-angle trigonometry of every
-//! kinematic pass (one call per revolute joint).
+//! `sin` and `cos` of one angle together, inlined: the trigonometry of every step, planar and
+//! spatial — each revolute joint's angle in a kinematic pass, the object's angle, the planar
+//! rotations ([`rotation2`]), the reference paths and the sinusoidal disturbance.
+//!
+//! Why tandem's own: the library call is an out-of-line function of ~110 instructions that the
+//! compiler can neither inline nor overlap with its neighbours, and it was 14 % of the 90 s
+//! paper run (`docs/performance.md`, session 7). These ~40 instructions are inlined, so the
+//! five angles of a constrained derivative run side by side. The same operations (no fused
+//! multiply-add) give the same bits on every x86-64 and AArch64 machine, whatever its libm.
 //!
 //! Cody–Waite reduction `x = k π/2 + r`, `|r| ≤ π/4 (1 + 2⁻⁴⁰)`, with `π/2` split in three
 //! 33-bit parts (so `k · part` is exact for `|k| < 2²⁰`), then the fdlibm minimax kernels
@@ -59,6 +66,14 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
         2 => (-s, -c),
         _ => (-c, s),
     }
+}
+
+/// The planar rotation by `theta` from [`sin_cos`]: `[[c, −s], [s, c]]`, the matrix
+/// `nalgebra::Rotation2::new` builds from the library's `sin_cos`.
+#[inline(always)]
+pub fn rotation2(theta: f64) -> nalgebra::Rotation2<f64> {
+    let (s, c) = sin_cos(theta);
+    nalgebra::Rotation2::from_matrix_unchecked(nalgebra::Matrix2::new(c, -s, s, c))
 }
 
 #[cfg(test)]
