@@ -4,7 +4,7 @@
 //! inverse inertia); an in-place Cholesky on a `DMatrix` or a fixed `SMatrix` avoids the
 //! allocation that `nalgebra::Cholesky::new(m.clone())` would make inside a step.
 
-use nalgebra::{DMatrix, Dim, Matrix, RawStorageMut};
+use nalgebra::{DMatrix, Dim, Matrix, RawStorage, RawStorageMut};
 
 /// In-place Cholesky factorisation `A = L Lᵀ` of the leading `n × n` block of a symmetric
 /// matrix; the lower triangle of `a` is overwritten with `L` (the upper triangle is left as is).
@@ -69,6 +69,91 @@ pub fn cholesky_solve_in_place<R: Dim, C: Dim, S: RawStorageMut<f64, R, C>>(
             s -= l[(k, i)] * b[k];
         }
         b[i] = s / l[(i, i)];
+    }
+}
+
+/// In-place `A = L D Lᵀ` of an `n × n` symmetric positive definite matrix (square-root-free
+/// Cholesky): the strict lower triangle becomes the unit lower factor `L`, the diagonal `D`,
+/// and `inv_d[j] = 1/D_j`.
+/// Returns the smallest pivot `D_j` over the largest diagonal entry (the same ratio as
+/// [`cholesky_in_place`]'s, whose pivots before the square root are these `D_j`), or `Err(k)`
+/// at the first pivot that is not positive and finite. Per column one division and no square
+/// root: on the planar plant's dependency chain (a grasp-space `K` factored every RK4 stage)
+/// the column costs a division and a multiply where the Cholesky's costs a square root and a
+/// division. Equal to the Cholesky factorisation up to round-off.
+#[inline(always)]
+pub fn ldl_in_place<R: Dim, C: Dim, S: RawStorageMut<f64, R, C>>(
+    a: &mut Matrix<f64, R, C, S>,
+    n: usize,
+    inv_d: &mut [f64],
+) -> Result<f64, usize> {
+    let inv_d = &mut inv_d[..n];
+    let mut max_diag: f64 = 0.0;
+    for k in 0..n {
+        max_diag = max_diag.max(a[(k, k)].abs());
+    }
+    let mut min_pivot = f64::INFINITY;
+    // `u[k] = L_jk D_k` of the current row `j`.
+    let mut u = [0.0; LDL_MAX];
+    assert!(n <= LDL_MAX, "ldl_in_place: n = {n} > {LDL_MAX}");
+    for j in 0..n {
+        let mut d = a[(j, j)];
+        for k in 0..j {
+            // `a[(j, k)]` holds `L_jk` and `a[(k, k)]` holds `D_k`.
+            u[k] = a[(j, k)] * a[(k, k)];
+            d -= u[k] * a[(j, k)];
+        }
+        if !(d > 0.0) || !d.is_finite() {
+            return Err(j);
+        }
+        min_pivot = min_pivot.min(d);
+        let inv = 1.0 / d;
+        inv_d[j] = inv;
+        a[(j, j)] = d;
+        for i in (j + 1)..n {
+            let mut s = a[(i, j)];
+            for k in 0..j {
+                s -= a[(i, k)] * u[k];
+            }
+            a[(i, j)] = s * inv;
+        }
+    }
+    Ok(if max_diag > 0.0 {
+        min_pivot / max_diag
+    } else {
+        0.0
+    })
+}
+
+/// The largest `n` of [`ldl_in_place`] (its row buffer is on the stack).
+pub const LDL_MAX: usize = 16;
+
+/// Solve `L D Lᵀ x = b` in place with the factor of [`ldl_in_place`]: forward substitution by
+/// the unit `L`, the scaling by `1/D` (multiplications), back substitution by `Lᵀ`. No division.
+#[inline(always)]
+pub fn ldl_solve_in_place<R: Dim, C: Dim, S: RawStorage<f64, R, C>>(
+    l: &Matrix<f64, R, C, S>,
+    inv_d: &[f64],
+    n: usize,
+    b: &mut [f64],
+) {
+    let (inv_d, b) = (&inv_d[..n], &mut b[..n]);
+    for i in 0..n {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= l[(i, k)] * b[k];
+        }
+        b[i] = s;
+    }
+    for i in 0..n {
+        b[i] *= inv_d[i];
+    }
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for k in (i + 1)..n {
+            s -= l[(k, i)] * b[k];
+        }
+        b[i] = s;
     }
 }
 
@@ -519,6 +604,65 @@ mod tests {
         assert!(r.norm() < 1e-14, "residual {r}");
         let d = DVector::from_row_slice(&x);
         assert!(d.iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn ldl_agrees_with_the_cholesky_factor_and_solve() {
+        // Random SPD matrices of sizes 1..=8 and condition numbers up to ~1e8: L D Lᵀ against
+        // L_c L_cᵀ (L_c = L √D), the same pivot ratio, the same solution to the conditioning's
+        // round-off, and the same refusals.
+        let mut r = crate::fixtures::SplitMix64(77);
+        for trial in 0..400 {
+            let n = 1 + trial % 8;
+            let g = DMatrix::from_fn(n, n, |_, _| r.range(-1.0, 1.0));
+            let scale = 10f64.powf(r.range(-4.0, 4.0));
+            let a = (&g * g.transpose() + DMatrix::identity(n, n) * 10f64.powf(r.range(-8.0, 0.0)))
+                * scale;
+            let mut c = a.clone();
+            let pc = cholesky_in_place(&mut c, n).unwrap();
+            let mut l = a.clone();
+            let mut inv_d = [0.0; LDL_MAX];
+            let pl = ldl_in_place(&mut l, n, &mut inv_d).unwrap();
+            let cond = {
+                let e = a.clone().symmetric_eigenvalues();
+                e.max() / e.min()
+            };
+            // The smallest pivot comes out of a cancellation: round-off ~ cond · ε of it.
+            assert!(
+                (pc - pl).abs() <= 1e-14 * cond * pc.abs(),
+                "pivot ratio {pc} vs {pl} (cond {cond:e})"
+            );
+            for i in 0..n {
+                let d = l[(i, i)];
+                assert!((inv_d[i] * d - 1.0).abs() <= 2.0 * f64::EPSILON);
+                assert!((d.sqrt() - c[(i, i)]).abs() <= 1e-14 * cond * c[(i, i)]);
+                for j in 0..i {
+                    let lc = l[(i, j)] * d.sqrt();
+                    let lj = l[(j, j)].sqrt();
+                    assert!(
+                        (l[(i, j)] * lj - c[(i, j)]).abs()
+                            <= 1e-13 * cond * (c[(i, j)].abs() + c[(j, j)]),
+                        "n {n} ({i}, {j}): {lc} vs {}",
+                        c[(i, j)]
+                    );
+                }
+            }
+            let b: Vec<f64> = (0..n).map(|_| r.range(-1.0, 1.0)).collect();
+            let (mut xc, mut xl) = (b.clone(), b.clone());
+            cholesky_solve_in_place(&c, n, &mut xc);
+            ldl_solve_in_place(&l, &inv_d, n, &mut xl);
+            let norm = xc.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (u, v) in xc.iter().zip(&xl) {
+                assert!(
+                    (u - v).abs() <= 1e-14 * cond * norm,
+                    "{u} vs {v} (cond {cond:e})"
+                );
+            }
+        }
+        let mut bad = Matrix3::new(1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+        assert_eq!(ldl_in_place(&mut bad, 3, &mut [0.0; 3]), Err(1));
+        let mut nan = Matrix3::new(1.0, 0.0, 0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0, 1.0);
+        assert_eq!(ldl_in_place(&mut nan, 3, &mut [0.0; 3]), Err(1));
     }
 
     #[test]

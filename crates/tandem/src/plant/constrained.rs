@@ -21,7 +21,8 @@
 //!   SPEC §2.1 closed forms from one `sin_cos` per link, [`TwoLinkArm`](crate::arm::TwoLinkArm),
 //!   `M_i⁻¹ = adj(M_i)/det M_i`; 3- and 4-link arms: [`FixedLinkArm`](crate::arm::FixedLinkArm),
 //!   the general algorithm in `SMatrix` values with one Cholesky of `M_i`), `K` a 4×4 or 6×6
-//!   `SMatrix` factored by the same in-place Cholesky, `M_o⁻¹` and `C_o` as diagonals;
+//!   `SMatrix` factored once a state as `L D Lᵀ` ([`ldl_in_place`]: no square roots, and the
+//!   solves for each torque by multiplications), `M_o⁻¹` and `C_o` as diagonals;
 //! * the general algorithm on the workspace's dynamic-size buffers, for any arms.
 //!
 //! `tests/plant.rs` holds the two equal to round-off at random states.
@@ -30,7 +31,7 @@ use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
 
 use super::{Kernel, Plant, PlantInput, PlantWorkspace};
 use crate::arm::{ArmSolve, FixedArm};
-use crate::linalg::{cholesky_in_place, cholesky_solve_in_place};
+use crate::linalg::{cholesky_in_place, cholesky_solve_in_place, ldl_in_place, ldl_solve_in_place};
 
 /// Relative regularisation of a singular grasp-space matrix: `K + ε tr(K) I`.
 const K_REG: f64 = 1e-10;
@@ -58,9 +59,11 @@ pub(crate) struct FixedState<const N: usize, const M: usize, const NK: usize> {
     stiff: [Vector2<f64>; M],
     /// `C_o ẋ_o` (diagonal `C_o`).
     c_xd: Vector3<f64>,
-    /// The Cholesky factor of `K` (regularised if it had to be).
+    /// `K = L D Lᵀ` (regularised if it had to be): unit `L` below the diagonal, `D` on it.
     k: SMatrix<f64, NK, NK>,
-    /// Smallest pivot ratio of `K`'s Cholesky (0 when regularised).
+    /// `1 / D_j`, for the input part's solves.
+    k_inv_d: [f64; NK],
+    /// Smallest pivot ratio of `K`'s factorisation (0 when regularised).
     pivot: f64,
     /// Whether `K` needed regularisation.
     regularised: bool,
@@ -83,6 +86,7 @@ impl<const N: usize, const M: usize, const NK: usize> Default for FixedState<N, 
             stiff: [Vector2::zeros(); M],
             c_xd: Vector3::zeros(),
             k: SMatrix::zeros(),
+            k_inv_d: [0.0; NK],
             pivot: 0.0,
             regularised: false,
         }
@@ -354,9 +358,11 @@ impl Plant {
                 k.fixed_view_mut::<2, 2>(2 * i, 2 * jj).copy_from(&blk);
             }
         }
-        // K = L Lᵀ in place (regularised if K is singular).
+        // K = L D Lᵀ in place (regularised if K is singular), square-root free: the general
+        // path's Cholesky up to round-off, with a shorter dependency chain.
         let k_copy = k;
-        let (pivot, regularised) = match cholesky_in_place(&mut k, NK) {
+        let mut k_inv_d = [0.0; NK];
+        let (pivot, regularised) = match ldl_in_place(&mut k, NK, &mut k_inv_d) {
             Ok(p) => (p, false),
             Err(_) => {
                 let trace = k_copy.trace();
@@ -364,7 +370,7 @@ impl Plant {
                 for dd in 0..NK {
                     k[(dd, dd)] += K_REG * trace.max(f64::MIN_POSITIVE);
                 }
-                if cholesky_in_place(&mut k, NK).is_err() {
+                if ldl_in_place(&mut k, NK, &mut k_inv_d).is_err() {
                     return None;
                 }
                 (0.0, true)
@@ -380,6 +386,7 @@ impl Plant {
             stiff,
             c_xd: self.c_o.component_mul(&xd_o),
             k,
+            k_inv_d,
             pivot,
             regularised,
         })
@@ -432,7 +439,7 @@ impl Plant {
         if st.regularised {
             *regularised += 1;
         }
-        cholesky_solve_in_place(&st.k, NK, rhs.as_mut_slice());
+        ldl_solve_in_place(&st.k, &st.k_inv_d, NK, rhs.as_mut_slice());
 
         // Accelerations: q̈_i = a0_i + Y_i λ_i; ẍ_o = a0_o − M_o⁻¹ Σ J_iᵀ λ_i.
         dy[..n].copy_from_slice(&y[n + 3..2 * n + 3]);

@@ -15,7 +15,7 @@
 //! 3 or 4 links each (all arms the same) run [`Plant::derivative`] entirely in fixed-size types,
 //! per arm (2-link arms: 2×2 blocks from the SPEC §2.1 closed forms, closed-form `M⁻¹`; 3- and
 //! 4-link arms: the general algorithm in `SMatrix` values with a fixed-size Cholesky), with a
-//! 4×4 or 6×6 grasp-space Cholesky; any other plant runs the general dynamic-size algorithm
+//! 4×4 or 6×6 grasp-space `L D Lᵀ`; any other plant runs the general dynamic-size algorithm
 //! ([`Plant::derivative_general`]), which stays public so tests hold the two equal. The reduced
 //! plant (2-link arms only) always uses the fixed-size per-arm terms ([`TwoLinkArm`]), with the
 //! inverse kinematics as link directions (no transcendental calls).
@@ -181,7 +181,8 @@ pub struct PlantWorkspace {
     pub forces: Vec<Vector2<f64>>,
     /// Object acceleration of the last evaluation.
     pub xdd_o: Vector3<f64>,
-    /// Smallest pivot ratio of the last grasp-space Cholesky (conditioning indicator).
+    /// Smallest pivot over the largest diagonal entry of the last grasp-space factorisation
+    /// (conditioning indicator; the Cholesky's and the `L D Lᵀ`'s pivots are the same).
     pub kkt_pivot: f64,
     /// Number of evaluations whose grasp-space system needed regularisation (singular chain).
     pub regularised: u64,
