@@ -143,6 +143,9 @@ enum Centres {
         /// `len(A)`, `len(B)`; `n_a · n_b = N_s`.
         n_a: usize,
         n_b: usize,
+        /// The input of every level (`offsets[i] ≤ l < offsets[i + 1]` gives `i`), as the
+        /// vector exponentials' gather indices.
+        input_of: Vec<i64>,
     },
     /// Explicit centres, node-major (`centres[k * n_in + i] = μ_k,i`).
     General { centres: Vec<f64> },
@@ -246,6 +249,9 @@ impl Rbf {
                 (split, n_a, best) = (i + 1, prod, dist);
             }
         }
+        let input_of = (0..levels.len())
+            .flat_map(|i| std::iter::repeat_n(i as i64, offsets[i + 1] - offsets[i]))
+            .collect();
         Ok(Self {
             centres: Centres::Grid {
                 levels: flat,
@@ -253,6 +259,7 @@ impl Rbf {
                 split,
                 n_a,
                 n_b: n_nodes / n_a,
+                input_of,
             },
             width2,
             inv_width2: 1.0 / width2,
@@ -440,6 +447,7 @@ impl Rbf {
                 levels,
                 offsets,
                 split,
+                input_of,
                 ..
             } => {
                 let (na, nb) = (ws.a.len(), ws.b.len());
@@ -449,7 +457,7 @@ impl Rbf {
                     // SAFETY: `wide` only for an AVX-512 kernel, stored only after
                     // `Kernel::check_available` found AVX-512F.
                     unsafe {
-                        factors::gaussians(z, levels, offsets, self.inv_width2, &mut ws.f);
+                        factors::gaussians(z, levels, input_of, self.inv_width2, &mut ws.f);
                         factors::kron(&ws.f, offsets, 0, *split, &mut ws.a, &mut ws.t[..na]);
                         factors::kron(
                             &ws.f,

@@ -13,7 +13,8 @@
 #![cfg(target_arch = "x86_64")]
 
 use std::arch::x86_64::{
-    __m512d, _mm512_and_si512, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd,
+    __m512d, __mmask8, _mm512_and_si512, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd,
+    _mm512_mask_i64gather_pd, _mm512_mask_storeu_pd, _mm512_maskz_loadu_epi64,
     _mm512_maskz_loadu_pd, _mm512_max_pd, _mm512_min_pd, _mm512_mul_pd, _mm512_permutexvar_pd,
     _mm512_roundscale_pd, _mm512_scalef_pd, _mm512_set_epi64, _mm512_set1_epi64, _mm512_set1_pd,
     _mm512_setzero_pd, _mm512_srlv_epi64, _mm512_storeu_pd, _mm512_sub_pd,
@@ -69,45 +70,44 @@ pub(super) unsafe fn exp(x: __m512d) -> __m512d {
     _mm512_scalef_pd(p, k)
 }
 
-/// `f[l] = e^{−(z_{i(l)} − c_l)² / ϑ²}` for every level `l` (input `i(l)` owns `l`), with the
-/// argument formed as the portable path forms it.
+/// `f[l] = e^{−(z_{i(l)} − c_l)² / ϑ²}` for every level `l` (input `i(l) = input_of[l]`), with
+/// the argument formed as the portable path forms it. Each register's `z_{i(l)}` is gathered by
+/// the precomputed indices and its levels loaded as they lie, and the result stored in place
+/// (the last register masked): no lane is written by a scalar store and read back as a vector,
+/// which stalls store forwarding.
 ///
 /// # Safety
-/// The CPU must support AVX-512F. Panics unless `levels.len() = f.len() = offsets[N]`.
+/// The CPU must support AVX-512F. Panics unless `levels`, `input_of` and `f` have one length
+/// and every `input_of[l] < z.len()`.
 #[target_feature(enable = "avx512f")]
 pub(super) unsafe fn gaussians(
     z: &[f64],
     levels: &[f64],
-    offsets: &[usize],
+    input_of: &[i64],
     inv_width2: f64,
     f: &mut [f64],
 ) {
     let n = f.len();
-    assert!(levels.len() == n && offsets.last() == Some(&n) && offsets.len() == z.len() + 1);
-    let mut zl = [0.0; LANE];
-    let mut cl = [0.0; LANE];
-    let mut out = [0.0; LANE];
-    let mut input = 0;
+    assert!(levels.len() == n && input_of.len() == n);
+    assert!(input_of.iter().all(|&i| (i as u64) < z.len() as u64));
     let mut l0 = 0;
     while l0 < n {
         let len = LANE.min(n - l0);
-        for t in 0..len {
-            while offsets[input + 1] <= l0 + t {
-                input += 1;
-            }
-            zl[t] = z[input];
-            cl[t] = levels[l0 + t];
-        }
-        // SAFETY: AVX-512F (caller's contract); the arrays hold 8 lanes.
+        let mask: __mmask8 = if len == LANE { 0xff } else { (1u8 << len) - 1 };
+        // SAFETY: AVX-512F (caller's contract); lanes `l0 .. l0 + len` of the three slices are
+        // in bounds, the others masked off; the gathered indices are `< z.len()` (assert).
         unsafe {
-            let d = _mm512_sub_pd(_mm512_loadu_pd(zl.as_ptr()), _mm512_loadu_pd(cl.as_ptr()));
+            let idx = _mm512_maskz_loadu_epi64(mask, input_of.as_ptr().add(l0).cast());
+            let zl =
+                _mm512_mask_i64gather_pd::<8>(_mm512_setzero_pd(), mask, idx, z.as_ptr().cast());
+            let cl = _mm512_maskz_loadu_pd(mask, levels.as_ptr().add(l0));
+            let d = _mm512_sub_pd(zl, cl);
             let arg = _mm512_mul_pd(
                 _mm512_mul_pd(_mm512_mul_pd(d, d), _mm512_set1_pd(-1.0)),
                 _mm512_set1_pd(inv_width2),
             );
-            _mm512_storeu_pd(out.as_mut_ptr(), exp(arg));
+            _mm512_mask_storeu_pd(f.as_mut_ptr().add(l0), mask, exp(arg));
         }
-        f[l0..l0 + len].copy_from_slice(&out[..len]);
         l0 += len;
     }
 }
@@ -290,9 +290,12 @@ mod tests {
         let levels = [-1.0, 1.0, -1.0, 0.0, 0.5, 1.0, -2.0, 2.0, 0.0, 0.3, 0.7];
         let offsets = [0, 2, 6, 8, 11];
         let z = [0.3, -0.7, 1e200, f64::NAN];
-        let mut f = [0.0; 11];
+        let input_of = [0, 0, 1, 1, 1, 1, 2, 2, 3, 3, 3];
+        // Guard values beyond the slice: the masked tail must not write them.
+        let mut buf = [7.0; 13];
+        let f = &mut buf[..11];
         // SAFETY: AVX-512F checked above.
-        unsafe { gaussians(&z, &levels, &offsets, 1.0 / 3.0, &mut f) };
+        unsafe { gaussians(&z, &levels, &input_of, 1.0 / 3.0, f) };
         for i in 0..4 {
             for l in offsets[i]..offsets[i + 1] {
                 let d = z[i] - levels[l];
@@ -301,5 +304,6 @@ mod tests {
             }
         }
         assert_eq!(f[6..8], [0.0, 0.0]);
+        assert_eq!(buf[11..], [7.0, 7.0]);
     }
 }
