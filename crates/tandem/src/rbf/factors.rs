@@ -13,7 +13,7 @@
 #![cfg(target_arch = "x86_64")]
 
 use std::arch::x86_64::{
-    __m512d, __mmask8, _mm512_and_si512, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd,
+    __m512d, __mmask8, _mm512_and_si512, _mm512_fmadd_pd, _mm512_fnmadd_pd,
     _mm512_mask_i64gather_pd, _mm512_mask_storeu_pd, _mm512_maskz_loadu_epi64,
     _mm512_maskz_loadu_pd, _mm512_max_pd, _mm512_min_pd, _mm512_mul_pd, _mm512_permutexvar_pd,
     _mm512_roundscale_pd, _mm512_scalef_pd, _mm512_set_epi64, _mm512_set1_epi64, _mm512_set1_pd,
