@@ -175,6 +175,7 @@ pub(super) unsafe fn kron(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::arch::x86_64::_mm512_loadu_pd;
 
     fn avx512() -> bool {
         std::arch::is_x86_feature_detected!("avx512f")
