@@ -1188,8 +1188,7 @@ impl TwoLinkArm {
     pub fn pose(&self, q: [f64; 2]) -> TwoLinkPose {
         let phi1 = self.base_angle + q[0];
         let phi2 = phi1 + q[1];
-        let (s1, c1) = crate::trig::sin_cos(phi1);
-        let (s12, c12) = crate::trig::sin_cos(phi2);
+        let [(s1, c1), (s12, c12)] = crate::trig::sin_cos2(phi1, phi2);
         let u1 = Vector2::new(c1, s1);
         let u12 = Vector2::new(c12, s12);
         self.pose_from_dirs(u1, u12, u1.dot(&u12), cross(u1, u12))

@@ -68,6 +68,113 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     }
 }
 
+/// [`sin_cos`] of two angles at once, bit for bit: `[(sin a, cos a), (sin b, cos b)]`. On
+/// x86-64 the two run in the lanes of one SSE2 register (part of the baseline, so no run-time
+/// check): the same operations in the same order, each lane rounded as the scalar code rounds
+/// it, and the quadrant applied by selects and sign flips, which are exact. Half the
+/// instructions of two calls, for a 2-link arm's two link angles. Either angle outside the
+/// polynomial's range (`|x| ≥ 1e5`, `±0`, NaN, `±∞`) sends both to [`sin_cos`].
+#[inline(always)]
+pub fn sin_cos2(a: f64, b: f64) -> [(f64, f64); 2] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if a.abs() < 1e5 && a != 0.0 && b.abs() < 1e5 && b != 0.0 {
+            // SAFETY: SSE2 is part of the x86-64 baseline.
+            return unsafe { sse2::sin_cos2(a, b) };
+        }
+    }
+    [sin_cos(a), sin_cos(b)]
+}
+
+#[cfg(target_arch = "x86_64")]
+mod sse2 {
+    use super::*;
+    use std::arch::x86_64::{
+        __m128d, _mm_add_epi32, _mm_add_pd, _mm_and_pd, _mm_and_si128, _mm_andnot_pd,
+        _mm_castsi128_pd, _mm_cmpeq_epi32, _mm_cvtpd_epi32, _mm_mul_pd, _mm_or_pd, _mm_set_pd,
+        _mm_set1_epi32, _mm_set1_pd, _mm_shuffle_epi32, _mm_storeu_pd, _mm_sub_pd, _mm_xor_pd,
+    };
+
+    /// `x` in both lanes.
+    #[inline(always)]
+    fn splat(x: f64) -> __m128d {
+        // SAFETY: SSE2 (x86-64 baseline).
+        unsafe { _mm_set1_pd(x) }
+    }
+
+    /// Two lanes of [`super::sin_cos`]'s polynomial path (both angles finite, nonzero and
+    /// below `1e5` in magnitude: the caller's check).
+    ///
+    /// # Safety
+    /// SSE2 (always present on x86-64).
+    #[inline(always)]
+    pub(super) unsafe fn sin_cos2(a: f64, b: f64) -> [(f64, f64); 2] {
+        // SAFETY: SSE2 arithmetic on registers and a store into a local array.
+        unsafe {
+            let x = _mm_set_pd(b, a);
+            const SHIFT: f64 = 6_755_399_441_055_744.0;
+            let k = _mm_sub_pd(
+                _mm_add_pd(_mm_mul_pd(x, splat(INV_PIO2)), splat(SHIFT)),
+                splat(SHIFT),
+            );
+            let r = _mm_sub_pd(
+                _mm_sub_pd(
+                    _mm_sub_pd(x, _mm_mul_pd(k, splat(PIO2_1))),
+                    _mm_mul_pd(k, splat(PIO2_2)),
+                ),
+                _mm_mul_pd(k, splat(PIO2_3)),
+            );
+            let z = _mm_mul_pd(r, r);
+            // ps = S2 + z (S3 + z (S4 + z (S5 + z S6))); s = r + (r z)(S1 + z ps).
+            let mut ps = _mm_add_pd(splat(S5), _mm_mul_pd(z, splat(S6)));
+            ps = _mm_add_pd(splat(S4), _mm_mul_pd(z, ps));
+            ps = _mm_add_pd(splat(S3), _mm_mul_pd(z, ps));
+            ps = _mm_add_pd(splat(S2), _mm_mul_pd(z, ps));
+            let s = _mm_add_pd(
+                r,
+                _mm_mul_pd(_mm_mul_pd(r, z), _mm_add_pd(splat(S1), _mm_mul_pd(z, ps))),
+            );
+            // pc = z (C1 + z (C2 + … + z C6)); c = w + (((1 − w) − hz) + z pc).
+            let mut pc = _mm_add_pd(splat(C5), _mm_mul_pd(z, splat(C6)));
+            pc = _mm_add_pd(splat(C4), _mm_mul_pd(z, pc));
+            pc = _mm_add_pd(splat(C3), _mm_mul_pd(z, pc));
+            pc = _mm_add_pd(splat(C2), _mm_mul_pd(z, pc));
+            pc = _mm_add_pd(splat(C1), _mm_mul_pd(z, pc));
+            pc = _mm_mul_pd(z, pc);
+            let hz = _mm_mul_pd(splat(0.5), z);
+            let w = _mm_sub_pd(splat(1.0), hz);
+            let c = _mm_add_pd(
+                w,
+                _mm_add_pd(_mm_sub_pd(_mm_sub_pd(splat(1.0), w), hz), _mm_mul_pd(z, pc)),
+            );
+            // Quadrant q = k mod 4 (k is an integer below 2^17 in magnitude: exact in i32),
+            // each lane's i32 copied into both halves of its 64-bit lane for the masks.
+            let q = _mm_shuffle_epi32::<0b01_01_00_00>(_mm_cvtpd_epi32(k));
+            let lane_mask = |bit: i32, add: i32| {
+                let v = _mm_and_si128(_mm_add_epi32(q, _mm_set1_epi32(add)), _mm_set1_epi32(bit));
+                _mm_castsi128_pd(_mm_cmpeq_epi32(v, _mm_set1_epi32(bit)))
+            };
+            // q odd: sin and cos swap; sin negated for q = 2, 3; cos for q = 1, 2.
+            let swap = lane_mask(1, 0);
+            let sign = splat(-0.0);
+            let neg_s = _mm_and_pd(lane_mask(2, 0), sign);
+            let neg_c = _mm_and_pd(lane_mask(2, 1), sign);
+            let sin = _mm_xor_pd(
+                _mm_or_pd(_mm_and_pd(swap, c), _mm_andnot_pd(swap, s)),
+                neg_s,
+            );
+            let cos = _mm_xor_pd(
+                _mm_or_pd(_mm_and_pd(swap, s), _mm_andnot_pd(swap, c)),
+                neg_c,
+            );
+            let (mut so, mut co) = ([0.0; 2], [0.0; 2]);
+            _mm_storeu_pd(so.as_mut_ptr(), sin);
+            _mm_storeu_pd(co.as_mut_ptr(), cos);
+            [(so[0], co[0]), (so[1], co[1])]
+        }
+    }
+}
+
 /// The planar rotation by `theta` from [`sin_cos`]: `[[c, −s], [s, c]]`, the matrix
 /// `nalgebra::Rotation2::new` builds from the library's `sin_cos`.
 #[inline(always)]
@@ -88,6 +195,51 @@ mod tests {
         // Distance in units of the larger value's ulp (a denormal-safe floor).
         let m = a.abs().max(b.abs()).max(f64::MIN_POSITIVE);
         (a - b).abs() / (m * f64::EPSILON)
+    }
+
+    #[test]
+    fn the_pair_gives_the_single_angle_bits() {
+        let mut rng = SplitMix64(32);
+        let bits = |(s, c): (f64, f64)| (s.to_bits(), c.to_bits());
+        let check = |a: f64, b: f64| {
+            let [pa, pb] = sin_cos2(a, b);
+            assert_eq!(bits(pa), bits(sin_cos(a)), "{a}");
+            assert_eq!(bits(pb), bits(sin_cos(b)), "{b}");
+        };
+        for _ in 0..200_000 {
+            check(rng.range(-4.0, 4.0), rng.range(-4.0, 4.0));
+            check(rng.range(-1e4, 1e4), rng.range(-7.0, 7.0));
+        }
+        // Every quadrant boundary, from both sides, in both lanes; the fallbacks.
+        let mut edge = Vec::new();
+        for k in -40..40 {
+            let x = k as f64 * std::f64::consts::FRAC_PI_4;
+            for d in [0.0, 1e-300, 1e-16, -1e-16, 1e-9, -1e-9] {
+                edge.push(x + d);
+            }
+        }
+        edge.extend([
+            0.0,
+            -0.0,
+            1e-308,
+            5e-324,
+            99_999.0,
+            100_000.0,
+            -1e10,
+            f64::NAN,
+            f64::INFINITY,
+        ]);
+        for &a in &edge {
+            for &b in &edge[..edge.len().min(120)] {
+                let [pa, pb] = sin_cos2(a, b);
+                let same = |p: (f64, f64), x: f64| {
+                    let q = sin_cos(x);
+                    (p.0.to_bits() == q.0.to_bits() || (p.0.is_nan() && q.0.is_nan()))
+                        && (p.1.to_bits() == q.1.to_bits() || (p.1.is_nan() && q.1.is_nan()))
+                };
+                assert!(same(pa, a) && same(pb, b), "{a}, {b}");
+            }
+        }
     }
 
     #[test]
