@@ -553,6 +553,33 @@ mod grasp_set_tests {
     }
 
     #[test]
+    fn pose_fit_rates_give_the_pose_fit_bit_for_bit() {
+        // fit_pose_rates forms the pose fit's sums itself (one pass with the rates): the pose
+        // and R(θ) must be fit_pose's bits, for two grasps (mean by the exact reciprocal) and
+        // three (by the division); and the mean must equal the plain division's bits.
+        for grasps in test_grasp_sets() {
+            let set = GraspSet::new(grasps.clone()).unwrap();
+            let m = grasps.len();
+            for k in 0..50 {
+                let th = -3.0 + 0.13 * k as f64;
+                let f = |i: usize, a: f64| (a * (i as f64 + 1.3) + th).sin() * 0.37;
+                let pts: Vec<_> = (0..m).map(|i| Vector2::new(f(i, 1.1), f(i, 0.7))).collect();
+                let vels: Vec<_> = (0..m).map(|i| Vector2::new(f(i, 2.3), f(i, 0.3))).collect();
+                let accs: Vec<_> = (0..m).map(|i| Vector2::new(f(i, 0.9), f(i, 3.1))).collect();
+                let (x, _, _, rot) = set.fit_pose_rates(&pts, &vels, &accs, th);
+                let (xa, ra) = set.fit_pose(&pts, th);
+                assert_eq!(x.map(f64::to_bits), xa.map(f64::to_bits), "{grasps:?} {th}");
+                assert_eq!(
+                    rot.matrix().map(f64::to_bits),
+                    ra.matrix().map(f64::to_bits)
+                );
+                let plain = pts.iter().sum::<Vector2<f64>>() / m as f64;
+                assert_eq!(mean(&pts, m).map(f64::to_bits), plain.map(f64::to_bits));
+            }
+        }
+    }
+
+    #[test]
     fn precomputed_maps_equal_the_direct_solves_at_any_angle() {
         for grasps in test_grasp_sets() {
             let set = GraspSet::new(grasps.clone()).unwrap();
