@@ -345,6 +345,9 @@ pub struct AdaptiveNn<const N: usize = 3> {
     k_r: SVector<f64, N>,
     varpi: f64,
     fu: FuBound,
+    /// `(a_j, b_j, c_j, d_j)` of `fu` per output, in a fixed-size array (the tick reads them
+    /// without the vectors' bounds checks).
+    fu_k: [[f64; 4]; N],
     theta: [f64; N],
     z: Vec<f64>,
     /// `‖Ŵ_j‖²`, carried by the exact recurrence and refreshed every [`NORM_REFRESH`] ticks.
@@ -425,6 +428,7 @@ impl<const N: usize> AdaptiveNn<N> {
             k2: SVector::from(axes.k2),
             k_r: SVector::from(axes.k_r),
             varpi: g.varpi,
+            fu_k: std::array::from_fn(|j| [fu.a[j], fu.b[j], fu.c[j], fu.d[j]]),
             fu,
             theta: axes.theta,
             z: vec![0.0; 4 * N],
@@ -481,15 +485,22 @@ impl<const N: usize> AdaptiveNn<N> {
     ) -> SVector<f64, N> {
         // Step 1: α, α̇ with barrier saturation (never NaN).
         let ev = self.iblf.eval(x1, x2, x_r, xd_r, xdd_r);
-        out.barrier_hit = ev.saturation.iter().any(|s| s.x1 || s.x_r);
-        out.non_finite = ev.saturation.iter().any(|s| s.non_finite);
+        // The flags or-ed over the outputs without early exit (no iterator closures).
+        let (mut hit, mut bad) = (false, false);
+        for s in &ev.saturation {
+            hit |= s.x1 | s.x_r;
+            bad |= s.non_finite;
+        }
+        out.barrier_hit = hit;
+        out.non_finite = bad;
         let z2 = x2 - ev.alpha;
-        // Z = [x1, x2, α, α̇] (SPEC §3.4).
+        // Z = [x1, x2, α, α̇] (SPEC §3.4); one length check, then constant indices.
+        let z = &mut self.z[..4 * N];
         for j in 0..N {
-            self.z[j] = x1[j];
-            self.z[N + j] = x2[j];
-            self.z[2 * N + j] = ev.alpha[j];
-            self.z[3 * N + j] = ev.alpha_dot[j];
+            z[j] = x1[j];
+            z[N + j] = x2[j];
+            z[2 * N + j] = ev.alpha[j];
+            z[3 * N + j] = ev.alpha_dot[j];
         }
         let q = self.switching.eval(&self.z);
         self.ticks += 1;
@@ -528,7 +539,9 @@ impl<const N: usize> AdaptiveNn<N> {
         let (nx2, na, nad) = (x2.norm(), ev.alpha.norm(), ev.alpha_dot.norm());
         let mut tau = SVector::<f64, N>::zeros();
         for j in 0..N {
-            let fu = self.fu.eval(j, nx2, na, nad);
+            // f_jᵁ as `FuBound::eval`, the same operations in the same order.
+            let [a, b, c, d] = self.fu_k[j];
+            let fu = a + b * nx2 * na + c * nad + d * na;
             // With Q = 1 the robust term is weighted by (1 − Q) = +0: the product is ±0 with
             // the sign of φ_b. For a finite x, clamp(x, −1, 1) has the sign and zero-ness of
             // tanh(x) and keeps −f^U·(it) finite, so it stands in for tanh(x) there with the

@@ -81,13 +81,40 @@ fn procrustes(
     points: &[Vector2<f64>],
     theta_hint: f64,
 ) -> (Vector3<f64>, Rotation2<f64>) {
-    let xbar = points.iter().sum::<Vector2<f64>>() / points.len() as f64;
+    let xbar = mean(points, points.len());
     let (mut s, mut c) = (0.0, 0.0);
     for (a, x) in centred.zip(points) {
         let b = x - xbar;
         c += a.dot(&b);
         s += a.x * b.y - a.y * b.x;
     }
+    procrustes_finish(s, c, xbar, r_bar, theta_hint)
+}
+
+/// `Σ v_i / n`. With `n` a power of two (the usual pair of grasps) by the reciprocal, which is
+/// then exact: `x/n` and `x·(1/n)` are the same real number, rounded once, so the same bits
+/// without a division.
+#[inline(always)]
+fn mean(v: &[Vector2<f64>], n: usize) -> Vector2<f64> {
+    let sum = v.iter().sum::<Vector2<f64>>();
+    if n.is_power_of_two() {
+        sum * (1.0 / n as f64)
+    } else {
+        sum / n as f64
+    }
+}
+
+/// The end of [`procrustes`] from its sums `s = Σ a_i×b_i`, `c = Σ a_i·b_i` and the mean point
+/// `x̄`: `θ = atan2(s, c)` on the branch nearest `theta_hint`, `R(θ)` from `(c, s)`,
+/// `p = x̄ − R r̄` (shared with [`GraspSet::fit_pose_rates`], which forms the sums itself).
+#[inline(always)]
+fn procrustes_finish(
+    s: f64,
+    c: f64,
+    xbar: Vector2<f64>,
+    r_bar: Vector2<f64>,
+    theta_hint: f64,
+) -> (Vector3<f64>, Rotation2<f64>) {
     let mut theta = s.atan2(c);
     // Unwrap toward the hint (a run moves far less than π between calls).
     let (pi, tau) = (std::f64::consts::PI, std::f64::consts::TAU);
@@ -415,11 +442,10 @@ impl GraspSet {
         accs: &[Vector2<f64>],
         theta_hint: f64,
     ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>, Rotation2<f64>) {
-        let (x, rot) = self.fit_pose(points, theta_hint);
-        let n = points.len() as f64;
-        let xbar = points.iter().sum::<Vector2<f64>>() / n;
-        let vbar = vels.iter().sum::<Vector2<f64>>() / n;
-        let abar = accs.iter().sum::<Vector2<f64>>() / n;
+        // One pass forms the pose fit's sums `c`, `s` (the same operations as [`procrustes`],
+        // so the same bits as [`GraspSet::fit_pose`]) and their rates.
+        let n = points.len();
+        let (xbar, vbar, abar) = (mean(points, n), mean(vels, n), mean(accs, n));
         let (mut c, mut s, mut cd, mut sd, mut cdd, mut sdd) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         for (((a, p), v), ac) in self.centred.iter().zip(points).zip(vels).zip(accs) {
             let (b, bd, bdd) = (p - xbar, v - vbar, ac - abar);
@@ -430,6 +456,7 @@ impl GraspSet {
             cdd += a.dot(&bdd);
             sdd += a.x * bdd.y - a.y * bdd.x;
         }
+        let (x, rot) = procrustes_finish(s, c, xbar, self.r_bar, theta_hint);
         let nn = c * c + s * s;
         let (th_d, th_dd) = if nn > 0.0 {
             let th_d = (c * sd - s * cd) / nn;
@@ -522,6 +549,33 @@ mod grasp_set_tests {
             // The second difference of the fit and the input accelerations both carry ~ε/h²
             // ≈ 1e-6 round-off.
             assert!((xdd - fdd).norm() < 1e-4, "ẍ {xdd} vs {fdd}");
+        }
+    }
+
+    #[test]
+    fn pose_fit_rates_give_the_pose_fit_bit_for_bit() {
+        // fit_pose_rates forms the pose fit's sums itself (one pass with the rates): the pose
+        // and R(θ) must be fit_pose's bits, for two grasps (mean by the exact reciprocal) and
+        // three (by the division); and the mean must equal the plain division's bits.
+        for grasps in test_grasp_sets() {
+            let set = GraspSet::new(grasps.clone()).unwrap();
+            let m = grasps.len();
+            for k in 0..50 {
+                let th = -3.0 + 0.13 * k as f64;
+                let f = |i: usize, a: f64| (a * (i as f64 + 1.3) + th).sin() * 0.37;
+                let pts: Vec<_> = (0..m).map(|i| Vector2::new(f(i, 1.1), f(i, 0.7))).collect();
+                let vels: Vec<_> = (0..m).map(|i| Vector2::new(f(i, 2.3), f(i, 0.3))).collect();
+                let accs: Vec<_> = (0..m).map(|i| Vector2::new(f(i, 0.9), f(i, 3.1))).collect();
+                let (x, _, _, rot) = set.fit_pose_rates(&pts, &vels, &accs, th);
+                let (xa, ra) = set.fit_pose(&pts, th);
+                assert_eq!(x.map(f64::to_bits), xa.map(f64::to_bits), "{grasps:?} {th}");
+                assert_eq!(
+                    rot.matrix().map(f64::to_bits),
+                    ra.matrix().map(f64::to_bits)
+                );
+                let plain = pts.iter().sum::<Vector2<f64>>() / m as f64;
+                assert_eq!(mean(&pts, m).map(f64::to_bits), plain.map(f64::to_bits));
+            }
         }
     }
 

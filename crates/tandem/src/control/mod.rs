@@ -289,6 +289,12 @@ impl ArmSlot {
     }
 }
 
+/// Whether every entry of `v` is finite (no early exit: three tests and-ed, no iterator).
+#[inline(always)]
+fn finite3(v: &Vector3<f64>) -> bool {
+    v.x.is_finite() & v.y.is_finite() & v.z.is_finite()
+}
+
 /// `N` entries of `v` from `off`, as an array (one length check).
 #[inline(always)]
 fn joints<const N: usize>(v: &[f64], off: usize) -> [f64; N] {
@@ -663,6 +669,7 @@ impl Controller {
     }
 
     /// Object pose and velocity from the encoders (step 1). Returns false if degenerate.
+    #[inline]
     fn estimate(
         &mut self,
         meas: &Measurements,
@@ -681,7 +688,7 @@ impl Controller {
                     let gq = tl.terms(&pose, [0.0, 0.0], g).G;
                     // (nalgebra's LU of J_eᵀ in the same operations, `linalg::lu_solve_2x2`.)
                     self.g_x[i] = crate::linalg::lu_solve_2x2(&pose.J.transpose(), &gq)
-                        .filter(|v| v.iter().all(|x| x.is_finite()))
+                        .filter(|v| v.x.is_finite() & v.y.is_finite())
                         .unwrap_or_else(Vector2::zeros);
                     *j = pose.J;
                 }
@@ -723,7 +730,7 @@ impl Controller {
             tau.fill(0.0);
             return;
         };
-        if !(x1.iter().chain(x2.iter()).all(|v| v.is_finite())) {
+        if !(finite3(&x1) & finite3(&x2)) {
             self.events.non_finite += 1;
             rec.non_finite = true;
             tau.fill(0.0);
@@ -770,7 +777,7 @@ impl Controller {
                 w
             }
         };
-        if !w.iter().all(|v| v.is_finite()) {
+        if !finite3(&w) {
             rec.non_finite = true;
             w = Vector3::zeros();
         }
@@ -877,7 +884,6 @@ impl Controller {
         meas: &Measurements,
         rec: &mut TickRecord,
     ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
-        let adm = self.adm;
         if self.rot_d.0 != x_d.z {
             self.rot_d = (x_d.z, crate::trig::rotation2(x_d.z));
         }
@@ -891,7 +897,7 @@ impl Controller {
             let mut p = p_d + rw;
             let mut v = j * xd_d;
             let mut a = j * xdd_d - rw * (xd_d.z * xd_d.z);
-            if let Some(adm) = &adm {
+            if let Some(adm) = &self.adm {
                 let st = &mut self.adm_state[i];
                 a += adm.e_ddot(st, self.f_ref[i]);
                 p += st.e;
@@ -907,7 +913,7 @@ impl Controller {
             self.ref_v[i] = v;
             self.ref_a[i] = a;
         }
-        if adm.is_none() {
+        if self.adm.is_none() {
             return (*x_d, *xd_d, *xdd_d);
         }
         // The object-level reference and its exact rates (SPEC §3.3 needs α̇ exact: ẋ_r, ẍ_r

@@ -273,6 +273,13 @@ impl<D: Drive<Plant>> Simulation<Plant, D> {
     }
 }
 
+/// Whether every entry of `v` is finite: one pass without early exit (the tests and-ed, which
+/// vectorises), for the per-tick checks where all values are finite but for a fault.
+#[inline]
+fn all_finite(v: &[f64]) -> bool {
+    v.iter().fold(true, |ok, x| ok & x.is_finite())
+}
+
 fn chain_fault(f: ChainFault) -> FaultKind {
     match f {
         ChainFault::NonFinite => FaultKind::NonFinite,
@@ -543,7 +550,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             return Err(self.fault(t1, chain_fault(e)));
         }
         // 4. Health.
-        if !self.y.iter().all(|v| v.is_finite()) {
+        if !all_finite(&self.y) {
             return Err(self.fault(t1, FaultKind::NonFinite));
         }
         // The output bound on the true pose, every tick.
@@ -562,6 +569,17 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
     /// record and torques), named as its log column; `None` if all are finite. Allocates only
     /// when it finds one.
     fn non_finite_signal(&mut self) -> Option<String> {
+        // The common case, every value finite, in one pass over each buffer without early
+        // exit; then only the record's own check. The search below names the first offender.
+        if all_finite(&self.wrenches)
+            & all_finite(&self.sensor_truth)
+            & all_finite(&self.meas)
+            & all_finite(self.sensors.q())
+            & all_finite(self.sensors.qd())
+            & all_finite(P::torques_mut(&mut self.input))
+        {
+            return self.rec.non_finite();
+        }
         let w = P::WRENCH_DIM;
         let fin = |v: &[f64]| v.iter().all(|x| x.is_finite());
         for i in 0..self.plant.n_arms() {
