@@ -443,8 +443,7 @@ impl Lemniscate {
     #[inline]
     pub fn sample(&self, t: f64) -> PathSample {
         let phi = self.omega * t + self.phase;
-        let (s1, c1) = crate::trig::sin_cos(phi);
-        let (s2, c2) = crate::trig::sin_cos(2.0 * phi);
+        let [(s1, c1), (s2, c2)] = crate::trig::sin_cos2(phi, 2.0 * phi);
         let a = self.size;
         let w = self.omega;
         let aw = a * w;
