@@ -397,6 +397,8 @@ pub(super) struct Batch32<const M: usize> {
     bs: Aligned<f32>,
     /// This tick's `B`, spread the same way.
     cur: Aligned<f32>,
+    /// The flush's scaled terms `G_m = g_m ⊙ B_m`, spread as `bs` (formed at each flush).
+    gb: Aligned<f32>,
     /// This tick's `B` in `f32`, padded by a register.
     b32: Vec<f32>,
     /// The spread as permutes: register `r` of `cur` is lanes `spread[r]` of `b32[first[r]..]`.
@@ -416,6 +418,7 @@ impl<const M: usize> Batch32<M> {
             cur_a: vec![0.0; n_a],
             bs: Aligned::zeros(DEPTH * n_b * M),
             cur: Aligned::zeros(n_b * M),
+            gb: Aligned::zeros(DEPTH * n_b * M),
             b32: vec![0.0; n_b + LANE32],
             // Entry `e = 16r + t` of a spread row is `B[e / M]`; a register's entries span at
             // most 16 consecutive `k`, starting at `first[r] = 16r / M`.
@@ -787,9 +790,9 @@ mod avx512 {
 mod avx512f32 {
     use super::{Batch32, DEPTH, LANE32, MAX_OUTPUTS};
     use std::arch::x86_64::{
-        __m512, _mm256_storeu_ps, _mm512_cvtpd_ps, _mm512_fmadd_ps, _mm512_loadu_pd,
-        _mm512_loadu_ps, _mm512_loadu_si512, _mm512_mul_ps, _mm512_permutexvar_ps, _mm512_set1_ps,
-        _mm512_setzero_ps, _mm512_storeu_ps, _mm512_sub_ps,
+        __m512, _mm256_storeu_ps, _mm512_castps256_ps512, _mm512_cvtpd_ps, _mm512_fmadd_ps,
+        _mm512_loadu_pd, _mm512_loadu_ps, _mm512_loadu_si512, _mm512_maskz_loadu_pd, _mm512_mul_ps,
+        _mm512_permutexvar_ps, _mm512_set1_ps, _mm512_setzero_ps, _mm512_storeu_ps, _mm512_sub_ps,
     };
 
     /// `dst = src` rounded to `f32`, 8 values a register.
@@ -840,10 +843,34 @@ mod avx512f32 {
         }
     }
 
-    /// `v_j` spread over register `q`'s lanes: lane `t` holds `v[(16q + t) % M]`.
+    /// The lane patterns of a spread row: lane `t` of register `q` is output `(16q + t) % m`
+    /// (for `q < m`; register `q + m` repeats register `q`).
+    const fn lane_outputs(m: usize) -> [[u32; LANE32]; MAX_OUTPUTS] {
+        let mut pat = [[0; LANE32]; MAX_OUTPUTS];
+        let mut e = 0;
+        while e < LANE32 * MAX_OUTPUTS {
+            pat[e / LANE32][e % LANE32] = (e % m) as u32;
+            e += 1;
+        }
+        pat
+    }
+
+    /// `v_j` rounded to `f32` and spread over register `q`'s lanes: lane `t` holds
+    /// `v[(16q + t) % M]` (a masked load, a conversion and a permute; no scalar stores read
+    /// back as a register).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
     #[inline(always)]
-    fn spread<const M: usize>(v: &[f32; M], q: usize) -> [f32; LANE32] {
-        std::array::from_fn(|t| v[(LANE32 * q + t) % M])
+    unsafe fn spread<const M: usize>(v: &[f64; M], q: usize) -> __m512 {
+        const { assert!(M >= 1 && M <= MAX_OUTPUTS) };
+        let idx = &const { lane_outputs(M) }[q % M];
+        // SAFETY: `M ≤ 8` values at `v` (the mask); 16 indices; AVX-512F (caller's contract).
+        unsafe {
+            let x = _mm512_maskz_loadu_pd(((1u32 << M) - 1) as u8, v.as_ptr());
+            let x = _mm512_castps256_ps512(_mm512_cvtpd_ps(x));
+            _mm512_permutexvar_ps(_mm512_loadu_si512(idx.as_ptr().cast()), x)
+        }
     }
 
     /// Load 16 lanes at `p + o` (no bounds check).
@@ -955,54 +982,149 @@ mod avx512f32 {
     /// Registers of a row the flush takes at once.
     const FLUSH_COLS: usize = 12;
 
-    /// What the flush reads: the held terms' `A_m` and spread `B_m`, this tick's spread `B`.
+    /// Rows the flush takes at once: each load of a scaled term row `G_m` feeds `FLUSH_ROWS`
+    /// fused multiply-adds (with `FLUSH_COLS = 12`: 24 sums, 2 coefficients and the loaded
+    /// operand, inside the 32 AVX-512 registers).
+    const FLUSH_ROWS: usize = 2;
+
+    /// `G_m = g_m ⊙ B_m` for the `p` held terms, spread over the weight lanes as `B_m` is:
+    /// the flush's rows then need one fused multiply-add a register and term, with no
+    /// per-row products of `g_m` and `a_{m,i}` and no `g_m` registers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics unless `p ≤ DEPTH`, `row_len % 16 = 0` and
+    /// `bs` and `gb` hold `DEPTH` rows of `row_len`.
+    #[target_feature(enable = "avx512f")]
+    unsafe fn scale_terms<const M: usize>(
+        bs: &[f32],
+        g: &[[f64; M]; DEPTH],
+        p: usize,
+        row_len: usize,
+        gb: &mut [f32],
+    ) {
+        assert!(
+            p <= DEPTH
+                && row_len.is_multiple_of(LANE32)
+                && bs.len() == DEPTH * row_len
+                && gb.len() == DEPTH * row_len
+        );
+        for ((bm, gm), gbm) in bs
+            .chunks_exact(row_len)
+            .zip(g)
+            .zip(gb.chunks_exact_mut(row_len))
+            .take(p)
+        {
+            // SAFETY: AVX-512F (caller's contract); 16 lanes a register, inside the rows of
+            // `row_len` values by the `chunks_exact`.
+            unsafe {
+                // `g_m`, rounded to `f32` once, spread over the lanes.
+                let gv: [__m512; M] = std::array::from_fn(|q| spread(gm, q));
+                for (r, (b, o)) in bm
+                    .chunks_exact(LANE32)
+                    .zip(gbm.chunks_exact_mut(LANE32))
+                    .enumerate()
+                {
+                    let x = _mm512_mul_ps(gv[r % M], ld(b.as_ptr(), 0));
+                    _mm512_storeu_ps(o.as_mut_ptr(), x);
+                }
+            }
+        }
+    }
+
+    /// What the flush reads: the held terms' `A_m` and scaled spread `G_m`, this tick's
+    /// `A` and spread `B`.
     struct Terms32 {
         na: usize,
         row_len: usize,
         am: *const f32,
-        bs: *const f32,
+        gb: *const f32,
         cur: *const f32,
+        cur_a: *const f32,
     }
 
-    /// The flush of registers `r0 .. r0 + N` of row `i` (`r0 % M = 0`): the terms' sum
-    /// `t = Σ_m (g_m a_{m,i})·B_m` from zero, then `v ← v − ((1 − D)·v + t)`; stored; if `OUT`,
-    /// `racc[t % M] += v·B`.
+    /// The flush of registers `r0 .. r0 + N` of rows `i .. i + R` (`r0 % M = 0`, so register
+    /// `r0 + t` has the lane pattern `t % M`): the terms' sum `t = Σ_m a_{m,i}·G_m` from zero
+    /// (a load of `G_m` feeds the `R` rows), then `v ← v − ((1 − D)·v + t)`; stored; if `OUT`,
+    /// `racc[r][t % M] += v·B` for row `i + r`.
     ///
     /// # Safety
     /// The CPU must support AVX-512F; every offset in bounds (the caller's checks).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    unsafe fn flush_cols<const M: usize, const OUT: bool, const N: usize>(
-        row: *mut f32,
+    unsafe fn flush_cols<const M: usize, const OUT: bool, const R: usize, const N: usize>(
+        vp: *mut f32,
         tm: &Terms32,
         i: usize,
         r0: usize,
         p: usize,
         dm: &[__m512; M],
-        g: &[[__m512; M]; DEPTH],
-        racc: &mut [__m512; M],
+        racc: &mut [[__m512; M]; R],
     ) {
         let (na, row_len) = (tm.na, tm.row_len);
         let off = |t: usize| (r0 + t) * LANE32;
         // SAFETY: AVX-512F and bounds (the caller's contract).
         unsafe {
-            let mut acc = [_mm512_setzero_ps(); N];
-            let (bs, am) = (tm.bs, tm.am);
-            for (m, gm) in g.iter().enumerate().take(p) {
-                let am_i = _mm512_set1_ps(*am.add(m * na + i));
-                let c: [__m512; M] = std::array::from_fn(|q| _mm512_mul_ps(gm[q], am_i));
-                let bm = bs.add(m * row_len);
-                for (t, at) in acc.iter_mut().enumerate() {
-                    *at = _mm512_fmadd_ps(c[t % M], ld(bm, off(t)), *at);
+            let mut acc = [[_mm512_setzero_ps(); N]; R];
+            for m in 0..p {
+                let am: [__m512; R] =
+                    std::array::from_fn(|r| _mm512_set1_ps(*tm.am.add(m * na + i + r)));
+                let gm = tm.gb.add(m * row_len);
+                for t in 0..N {
+                    let x = ld(gm, off(t));
+                    for (ar, acc_r) in am.iter().zip(acc.iter_mut()) {
+                        acc_r[t] = _mm512_fmadd_ps(*ar, x, acc_r[t]);
+                    }
                 }
             }
-            let cp = tm.cur;
-            for (t, at) in acc.iter().enumerate() {
-                let v = ld(row, off(t));
-                let v = _mm512_sub_ps(v, _mm512_fmadd_ps(dm[t % M], v, *at));
-                _mm512_storeu_ps(row.add(off(t)), v);
-                if OUT {
-                    racc[t % M] = _mm512_fmadd_ps(v, ld(cp, off(t)), racc[t % M]);
+            for (r, (acc_r, racc_r)) in acc.iter().zip(racc.iter_mut()).enumerate() {
+                let row = vp.add((i + r) * row_len);
+                for (t, at) in acc_r.iter().enumerate() {
+                    let v = ld(row, off(t));
+                    let v = _mm512_sub_ps(v, _mm512_fmadd_ps(dm[t % M], v, *at));
+                    _mm512_storeu_ps(row.add(off(t)), v);
+                    if OUT {
+                        racc_r[t % M] = _mm512_fmadd_ps(v, ld(tm.cur, off(t)), racc_r[t % M]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Rows `i .. i + R` of the flush, a row's registers [`FLUSH_COLS`] at a time (or `M`,
+    /// if `M` does not divide it); if `OUT`, `out += a_i·(V'[i]·B)` for each row.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F; every offset in bounds (the caller's checks).
+    #[inline(always)]
+    unsafe fn flush_rows<const M: usize, const OUT: bool, const R: usize>(
+        vp: *mut f32,
+        tm: &Terms32,
+        i: usize,
+        p: usize,
+        dm: &[__m512; M],
+        out: &mut [__m512; M],
+    ) {
+        let regs = tm.row_len / LANE32;
+        // SAFETY: AVX-512F and bounds (the caller's contract); `r0 + N ≤ regs`.
+        unsafe {
+            let mut racc = [[_mm512_setzero_ps(); M]; R];
+            let mut r0 = 0;
+            if FLUSH_COLS.is_multiple_of(M) {
+                while r0 + FLUSH_COLS <= regs {
+                    flush_cols::<M, OUT, R, FLUSH_COLS>(vp, tm, i, r0, p, dm, &mut racc);
+                    r0 += FLUSH_COLS;
+                }
+            }
+            while r0 < regs {
+                flush_cols::<M, OUT, R, M>(vp, tm, i, r0, p, dm, &mut racc);
+                r0 += M;
+            }
+            if OUT {
+                for (r, racc_r) in racc.iter().enumerate() {
+                    let av = _mm512_set1_ps(*tm.cur_a.add(i + r));
+                    for q in 0..M {
+                        out[q] = _mm512_fmadd_ps(av, racc_r[q], out[q]);
+                    }
                 }
             }
         }
@@ -1011,6 +1133,11 @@ mod avx512f32 {
     /// The flush pass on the `f32` store: `V ← D V − Σ_{m<p} g_m A_m ⊗ B_m`, and, if `OUT`,
     /// `f̂ = V'ᵀ(A ⊗ B)` with the new weights (this tick's `A`, `B` from `batch.cur_a`,
     /// `batch.cur`).
+    ///
+    /// The scaled rows `G_m = g_m ⊙ B_m` are formed first ([`scale_terms`], 12 KB for the
+    /// paper, in L1 with the `A_m`); then rows stream in order, [`FLUSH_ROWS`] at a time, so
+    /// that the pass is `Vᵀ ← D Vᵀ − Aᵀ G`, a product of a `n_a × p` and a `p × n_b·M` matrix
+    /// with one load of `G` for every `FLUSH_ROWS` fused multiply-adds.
     ///
     /// # Safety
     /// The CPU must support AVX-512F. Panics unless `p ≤ DEPTH` and the buffers match.
@@ -1028,53 +1155,36 @@ mod avx512f32 {
                 && batch.a32.len() == DEPTH * na
                 && batch.cur_a.len() == na
                 && batch.bs.as_ref().len() == DEPTH * row_len
+                && batch.gb.as_ref().len() == DEPTH * row_len
                 && batch.cur.as_ref().len() == row_len
         );
-        let regs = row_len / LANE32;
-        let wide = FLUSH_COLS.is_multiple_of(M);
-        // `1 − D` and the `g_m`, rounded to `f32` once, spread over the lanes.
-        let dm: [f32; M] = std::array::from_fn(|j| (1.0 - batch.t.d[j]) as f32);
-        let gs: [[f32; M]; DEPTH] =
-            std::array::from_fn(|m| std::array::from_fn(|j| batch.t.g[m][j] as f32));
-        // SAFETY: AVX-512F (caller's contract); offsets: row `i < na`, registers
+        // SAFETY: AVX-512F (caller's contract); the lengths are checked there.
+        unsafe { scale_terms(batch.bs.as_ref(), &batch.t.g, p, row_len, batch.gb.as_mut()) };
+        // `1 − D`, rounded to `f32` once (below), spread over the lanes.
+        let dm: [f64; M] = std::array::from_fn(|j| 1.0 - batch.t.d[j]);
+        // SAFETY: AVX-512F (caller's contract); offsets: rows `i + r < na`, registers
         // `r0 + N ≤ regs`, term `m < p ≤ DEPTH`: in bounds by the assert. `vp` is the only
         // pointer written through (`v`); the others point into other fields, only read.
         unsafe {
-            let dm: [__m512; M] = std::array::from_fn(|q| _mm512_loadu_ps(spread(&dm, q).as_ptr()));
-            let g: [[__m512; M]; DEPTH] = std::array::from_fn(|m| {
-                std::array::from_fn(|q| _mm512_loadu_ps(spread(&gs[m], q).as_ptr()))
-            });
+            let dm: [__m512; M] = std::array::from_fn(|q| spread(&dm, q));
             let tm = Terms32 {
                 na,
                 row_len,
                 am: batch.a32.as_ptr(),
-                bs: batch.bs.as_ref().as_ptr(),
+                gb: batch.gb.as_ref().as_ptr(),
                 cur: batch.cur.as_ref().as_ptr(),
+                cur_a: batch.cur_a.as_ptr(),
             };
-            let cur_a = batch.cur_a.as_ptr();
             let vp = batch.v.as_mut().as_mut_ptr();
-            let zero = _mm512_setzero_ps();
-            let mut out = [zero; M];
-            for i in 0..na {
-                let row = vp.add(i * row_len);
-                let mut racc = [zero; M];
-                let mut r0 = 0;
-                if wide {
-                    while r0 + FLUSH_COLS <= regs {
-                        flush_cols::<M, OUT, FLUSH_COLS>(row, &tm, i, r0, p, &dm, &g, &mut racc);
-                        r0 += FLUSH_COLS;
-                    }
-                }
-                while r0 < regs {
-                    flush_cols::<M, OUT, M>(row, &tm, i, r0, p, &dm, &g, &mut racc);
-                    r0 += M;
-                }
-                if OUT {
-                    let av = _mm512_set1_ps(*cur_a.add(i));
-                    for q in 0..M {
-                        out[q] = _mm512_fmadd_ps(av, racc[q], out[q]);
-                    }
-                }
+            let mut out = [_mm512_setzero_ps(); M];
+            let mut i = 0;
+            while i + FLUSH_ROWS <= na {
+                flush_rows::<M, OUT, FLUSH_ROWS>(vp, &tm, i, p, &dm, &mut out);
+                i += FLUSH_ROWS;
+            }
+            while i < na {
+                flush_rows::<M, OUT, 1>(vp, &tm, i, p, &dm, &mut out);
+                i += 1;
             }
             if OUT { sums(&out) } else { [0.0; M] }
         }
