@@ -297,6 +297,8 @@ pub(super) struct Batch<const M: usize> {
     bs: Aligned,
     /// This tick's `B`, spread the same way.
     cur: Aligned,
+    /// The flush's scaled terms `G_m = g_m ⊙ B_m`, spread as `bs` (formed at each flush).
+    gb: Aligned,
     /// The spread as permutes: register `r` of `cur` is lanes `spread[r]` of `B[first[r]..]`
     /// (`B` copied into `b8`, padded by a register).
     spread: Vec<[u64; LANE]>,
@@ -312,6 +314,7 @@ impl<const M: usize> Batch<M> {
             t: Terms::new(n_a, n_b, n_f),
             bs: Aligned::zeros(DEPTH * n_b * M),
             cur: Aligned::zeros(n_b * M),
+            gb: Aligned::zeros(DEPTH * n_b * M),
             spread: (0..n_b * M / LANE)
                 .map(|r| std::array::from_fn(|t| ((LANE * r + t) / M - LANE * r / M) as u64))
                 .collect(),
@@ -501,23 +504,57 @@ impl<const M: usize> Batch32<M> {
 
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
-    use super::super::avx512::{load, store};
+    use super::super::avx512::store;
     use super::super::reduce512;
     use super::{Batch, DEPTH, LANE, MAX_OUTPUTS};
     use std::arch::x86_64::{
         __m512d, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd, _mm512_loadu_si512,
-        _mm512_mul_pd, _mm512_permutexvar_pd, _mm512_set1_pd, _mm512_setzero_pd, _mm512_storeu_pd,
+        _mm512_maskz_loadu_pd, _mm512_mul_pd, _mm512_permutexvar_pd, _mm512_set1_pd,
+        _mm512_setzero_pd, _mm512_storeu_pd,
     };
 
-    /// `v_j` spread over register `q`'s lanes: lane `t` holds `v[(8q + t) % M]`.
+    /// The lane patterns of a spread row: lane `t` of register `q` is output `(8q + t) % m`
+    /// (for `q < m`; register `q + m` repeats register `q`).
+    const fn lane_outputs(m: usize) -> [[u64; LANE]; MAX_OUTPUTS] {
+        let mut pat = [[0; LANE]; MAX_OUTPUTS];
+        let mut e = 0;
+        while e < LANE * MAX_OUTPUTS {
+            pat[e / LANE][e % LANE] = (e % m) as u64;
+            e += 1;
+        }
+        pat
+    }
+
+    /// `v_j` spread over register `q`'s lanes: lane `t` holds `v[(8q + t) % M]` (a masked
+    /// load and a permute; no scalar stores read back as a register).
     ///
     /// # Safety
     /// The CPU must support AVX-512F.
     #[inline(always)]
     unsafe fn spread<const M: usize>(v: &[f64; M], q: usize) -> __m512d {
-        let lanes: [f64; LANE] = std::array::from_fn(|t| v[(LANE * q + t) % M]);
+        const { assert!(M >= 1 && M <= MAX_OUTPUTS) };
+        let idx = &const { lane_outputs(M) }[q % M];
+        // SAFETY: `M ≤ 8` values at `v` (the mask); 8 indices; AVX-512F (caller's contract).
+        unsafe {
+            let x = _mm512_maskz_loadu_pd(((1u32 << M) - 1) as u8, v.as_ptr());
+            _mm512_permutexvar_pd(_mm512_loadu_si512(idx.as_ptr().cast()), x)
+        }
+    }
+
+    /// The `M` lane patterns of `v` ([`spread`] for `q < M`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    unsafe fn spreads<const M: usize>(v: &[f64; M]) -> [__m512d; M] {
         // SAFETY: AVX-512F (caller's contract).
-        unsafe { load(&lanes) }
+        unsafe {
+            let mut x = [_mm512_setzero_pd(); M];
+            for (q, xq) in x.iter_mut().enumerate() {
+                *xq = spread(v, q);
+            }
+            x
+        }
     }
 
     /// Per-output sums of `M` registers (lane `8q + t` is output `(8q + t) % M`), in the fixed
@@ -671,49 +708,149 @@ mod avx512 {
         }
     }
 
-    /// Registers of a row the flush keeps at once (with the `M` coefficient registers and the
-    /// loaded operand, inside the 32 AVX-512 registers).
-    const FLUSH_COLS: usize = 12;
+    /// Registers of a row the flush takes at once.
+    const FLUSH_COLS: usize = 6;
 
-    /// The flush of registers `r0 .. r0 + N` of row `i` (`r0 % M = 0`, so register `r0 + t`
-    /// has the lane pattern `t % M`): `v = D·w`; for each term `v −= (g_m a_{m,i})·B_m` (the
-    /// `N` registers as independent chains: one load and one fused multiply-add a register
-    /// and term); stored; if `OUT`, `racc[t % M] += v·B`.
+    /// Rows the flush takes at once: each load of a scaled term row `G_m` feeds `FLUSH_ROWS`
+    /// fused multiply-adds (with `FLUSH_COLS = 6`: 12 weights' registers, the `M` factors of
+    /// `D`, 2 coefficients, the loaded operand and the rows' output sums fit the 32 AVX-512
+    /// registers; 2 × 12 and 1 × 12 measured slower, `docs/performance.md`, session 7).
+    const FLUSH_ROWS: usize = 2;
+
+    /// `G_m = g_m ⊙ B_m` for the `p` held terms, spread over the weight lanes as `B_m` is
+    /// (the `f64` twin of `avx512f32::scale_terms`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics unless `p ≤ DEPTH`, `row_len % 8 = 0` and `bs`
+    /// and `gb` hold `DEPTH` rows of `row_len`.
+    #[target_feature(enable = "avx512f")]
+    unsafe fn scale_terms<const M: usize>(
+        bs: &[f64],
+        g: &[[f64; M]; DEPTH],
+        p: usize,
+        row_len: usize,
+        gb: &mut [f64],
+    ) {
+        assert!(
+            p <= DEPTH
+                && row_len.is_multiple_of(LANE)
+                && bs.len() == DEPTH * row_len
+                && gb.len() == DEPTH * row_len
+        );
+        for ((bm, gm), gbm) in bs
+            .chunks_exact(row_len)
+            .zip(g)
+            .zip(gb.chunks_exact_mut(row_len))
+            .take(p)
+        {
+            // SAFETY: AVX-512F (caller's contract); 8 lanes a register, inside the rows of
+            // `row_len` values by the `chunks_exact`.
+            unsafe {
+                let gv = spreads(gm);
+                for (r, (b, o)) in bm
+                    .chunks_exact(LANE)
+                    .zip(gbm.chunks_exact_mut(LANE))
+                    .enumerate()
+                {
+                    let x = _mm512_mul_pd(gv[r % M], ld(b.as_ptr(), 0));
+                    _mm512_storeu_pd(o.as_mut_ptr(), x);
+                }
+            }
+        }
+    }
+
+    /// The flush of registers `r0 .. r0 + N` of rows `i .. i + R` (`r0 % M = 0`, so register
+    /// `r0 + t` has the lane pattern `t % M`): `v = D·w`; for each term `v −= a_{m,i}·G_m`
+    /// (the `R·N` registers as independent chains; a load of `G_m` feeds the `R` rows);
+    /// stored; if `OUT`, `racc[r][t % M] += v·B` for row `i + r`.
     ///
     /// # Safety
     /// The CPU must support AVX-512F; every offset in bounds (the caller's checks).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    unsafe fn flush_cols<const M: usize, const OUT: bool, const N: usize>(
-        row: *mut f64,
+    unsafe fn flush_cols<const M: usize, const OUT: bool, const R: usize, const N: usize>(
+        wp: *mut f64,
         batch: &Batch<M>,
         i: usize,
         r0: usize,
         p: usize,
         d: &[__m512d; M],
-        g: &[[__m512d; M]; DEPTH],
-        racc: &mut [__m512d; M],
+        racc: &mut [[__m512d; M]; R],
     ) {
         let (na, row_len) = (batch.t.n_a, batch.t.n_b * M);
         let off = |t: usize| (r0 + t) * LANE;
         // SAFETY: AVX-512F and bounds (the caller's contract).
         unsafe {
-            let mut v: [__m512d; N] =
-                std::array::from_fn(|t| _mm512_mul_pd(d[t % M], ld(row, off(t))));
-            let (bs, am) = (batch.bs.as_ref().as_ptr(), batch.t.a.as_ptr());
-            for (m, gm) in g.iter().enumerate().take(p) {
-                let am_i = _mm512_set1_pd(*am.add(m * na + i));
-                let c: [__m512d; M] = std::array::from_fn(|q| _mm512_mul_pd(gm[q], am_i));
-                let bm = bs.add(m * row_len);
-                for (t, vt) in v.iter_mut().enumerate() {
-                    *vt = _mm512_fnmadd_pd(c[t % M], ld(bm, off(t)), *vt);
+            let mut v = [[_mm512_setzero_pd(); N]; R];
+            for (r, v_r) in v.iter_mut().enumerate() {
+                let row = wp.add((i + r) * row_len);
+                for (t, vt) in v_r.iter_mut().enumerate() {
+                    *vt = _mm512_mul_pd(d[t % M], ld(row, off(t)));
+                }
+            }
+            let (gb, am) = (batch.gb.as_ref().as_ptr(), batch.t.a.as_ptr());
+            for m in 0..p {
+                let mut am_i = [_mm512_setzero_pd(); R];
+                for (r, x) in am_i.iter_mut().enumerate() {
+                    *x = _mm512_set1_pd(*am.add(m * na + i + r));
+                }
+                let gm = gb.add(m * row_len);
+                for t in 0..N {
+                    let x = ld(gm, off(t));
+                    for (ar, v_r) in am_i.iter().zip(v.iter_mut()) {
+                        v_r[t] = _mm512_fnmadd_pd(*ar, x, v_r[t]);
+                    }
                 }
             }
             let cp = batch.cur.as_ref().as_ptr();
-            for (t, vt) in v.iter().enumerate() {
-                _mm512_storeu_pd(row.add(off(t)), *vt);
-                if OUT {
-                    racc[t % M] = _mm512_fmadd_pd(*vt, ld(cp, off(t)), racc[t % M]);
+            for (r, (v_r, racc_r)) in v.iter().zip(racc.iter_mut()).enumerate() {
+                let row = wp.add((i + r) * row_len);
+                for (t, vt) in v_r.iter().enumerate() {
+                    _mm512_storeu_pd(row.add(off(t)), *vt);
+                    if OUT {
+                        racc_r[t % M] = _mm512_fmadd_pd(*vt, ld(cp, off(t)), racc_r[t % M]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Rows `i .. i + R` of the flush, a row's registers [`FLUSH_COLS`] at a time (or `M`,
+    /// if `M` does not divide it); if `OUT`, `out += a_i·(V'[i]·B)` for each row.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F; every offset in bounds (the caller's checks).
+    #[inline(always)]
+    unsafe fn flush_rows<const M: usize, const OUT: bool, const R: usize>(
+        wp: *mut f64,
+        batch: &Batch<M>,
+        a: &[f64],
+        i: usize,
+        p: usize,
+        d: &[__m512d; M],
+        out: &mut [__m512d; M],
+    ) {
+        let regs = batch.t.n_b * M / LANE;
+        // SAFETY: AVX-512F and bounds (the caller's contract); `r0 + N ≤ regs`.
+        unsafe {
+            let mut racc = [[_mm512_setzero_pd(); M]; R];
+            let mut r0 = 0;
+            if FLUSH_COLS.is_multiple_of(M) {
+                while r0 + FLUSH_COLS <= regs {
+                    flush_cols::<M, OUT, R, FLUSH_COLS>(wp, batch, i, r0, p, d, &mut racc);
+                    r0 += FLUSH_COLS;
+                }
+            }
+            while r0 < regs {
+                flush_cols::<M, OUT, R, M>(wp, batch, i, r0, p, d, &mut racc);
+                r0 += M;
+            }
+            if OUT {
+                for (r, racc_r) in racc.iter().enumerate() {
+                    let av = _mm512_set1_pd(*a.as_ptr().add(i + r));
+                    for q in 0..M {
+                        out[q] = _mm512_fmadd_pd(av, racc_r[q], out[q]);
+                    }
                 }
             }
         }
@@ -722,8 +859,9 @@ mod avx512 {
     /// The flush pass: `V ← D V − Σ_{m<p} g_m A_m ⊗ B_m`, and, if `OUT`, `f̂ = V'ᵀ(A ⊗ B)`
     /// with the new weights (`a` is this tick's `A`, `batch.cur` its spread `B`).
     ///
-    /// Rows stream in order; a row is taken [`FLUSH_COLS`] registers at a time (or `M`, if `M`
-    /// does not divide it), and the `p` spread tails `B_m` (24 KB for the paper) stay in L1.
+    /// The scaled rows `G_m = g_m ⊙ B_m` are formed first ([`scale_terms`], 24 KB for the
+    /// paper, in L1 with the `A_m`); then rows stream in order, [`FLUSH_ROWS`] at a time, a
+    /// row [`FLUSH_COLS`] registers at a time (or `M`, if `M` does not divide it).
     ///
     /// # Safety
     /// The CPU must support AVX-512F. Panics unless `p ≤ DEPTH`, `w.len() = n_a·n_b·M` and,
@@ -731,7 +869,7 @@ mod avx512 {
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn apply<const M: usize, const OUT: bool>(
         w: &mut [f64],
-        batch: &Batch<M>,
+        batch: &mut Batch<M>,
         a: &[f64],
         p: usize,
     ) -> [f64; M] {
@@ -743,42 +881,27 @@ mod avx512 {
                 && w.len() == na * row_len
                 && batch.t.a.len() == DEPTH * na
                 && batch.bs.as_ref().len() == DEPTH * row_len
+                && batch.gb.as_ref().len() == DEPTH * row_len
                 && batch.cur.as_ref().len() == row_len
                 && (!OUT || a.len() == na)
         );
-        // Registers a row: `nb·M/8`, a multiple of `M` since `nb % 8 = 0`.
-        let regs = row_len / LANE;
-        let wide = FLUSH_COLS.is_multiple_of(M);
+        // SAFETY: AVX-512F (caller's contract); the lengths are checked there.
+        unsafe { scale_terms(batch.bs.as_ref(), &batch.t.g, p, row_len, batch.gb.as_mut()) };
+        let batch = &*batch;
         let wp = w.as_mut_ptr();
-        // SAFETY: AVX-512F (caller's contract); offsets: row `i < na`, registers
+        // SAFETY: AVX-512F (caller's contract); offsets: rows `i + r < na`, registers
         // `r0 + N ≤ regs`, term `m < p ≤ DEPTH`: in bounds by the assert.
         unsafe {
-            let d: [__m512d; M] = std::array::from_fn(|q| spread(&batch.t.d, q));
-            let g: [[__m512d; M]; DEPTH] =
-                std::array::from_fn(|m| std::array::from_fn(|q| spread(&batch.t.g[m], q)));
-            let zero = _mm512_setzero_pd();
-            let mut out = [zero; M];
-            for i in 0..na {
-                let row = wp.add(i * row_len);
-                // Row `i`'s `Σ_k V'[i, k]·B[k]` per lane, weighted by `a_i` at the row's end.
-                let mut racc = [zero; M];
-                let mut r0 = 0;
-                if wide {
-                    while r0 + FLUSH_COLS <= regs {
-                        flush_cols::<M, OUT, FLUSH_COLS>(row, batch, i, r0, p, &d, &g, &mut racc);
-                        r0 += FLUSH_COLS;
-                    }
-                }
-                while r0 < regs {
-                    flush_cols::<M, OUT, M>(row, batch, i, r0, p, &d, &g, &mut racc);
-                    r0 += M;
-                }
-                if OUT {
-                    let av = _mm512_set1_pd(*a.as_ptr().add(i));
-                    for q in 0..M {
-                        out[q] = _mm512_fmadd_pd(av, racc[q], out[q]);
-                    }
-                }
+            let d = spreads(&batch.t.d);
+            let mut out = [_mm512_setzero_pd(); M];
+            let mut i = 0;
+            while i + FLUSH_ROWS <= na {
+                flush_rows::<M, OUT, FLUSH_ROWS>(wp, batch, a, i, p, &d, &mut out);
+                i += FLUSH_ROWS;
+            }
+            while i < na {
+                flush_rows::<M, OUT, 1>(wp, batch, a, i, p, &d, &mut out);
+                i += 1;
             }
             if OUT { sums(&out) } else { [0.0; M] }
         }
@@ -870,6 +993,22 @@ mod avx512f32 {
             let x = _mm512_maskz_loadu_pd(((1u32 << M) - 1) as u8, v.as_ptr());
             let x = _mm512_castps256_ps512(_mm512_cvtpd_ps(x));
             _mm512_permutexvar_ps(_mm512_loadu_si512(idx.as_ptr().cast()), x)
+        }
+    }
+
+    /// The `M` lane patterns of `v` ([`spread`] for `q < M`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    unsafe fn spreads<const M: usize>(v: &[f64; M]) -> [__m512; M] {
+        // SAFETY: AVX-512F (caller's contract).
+        unsafe {
+            let mut x = [_mm512_setzero_ps(); M];
+            for (q, xq) in x.iter_mut().enumerate() {
+                *xq = spread(v, q);
+            }
+            x
         }
     }
 
@@ -1018,7 +1157,7 @@ mod avx512f32 {
             // `row_len` values by the `chunks_exact`.
             unsafe {
                 // `g_m`, rounded to `f32` once, spread over the lanes.
-                let gv: [__m512; M] = std::array::from_fn(|q| spread(gm, q));
+                let gv = spreads(gm);
                 for (r, (b, o)) in bm
                     .chunks_exact(LANE32)
                     .zip(gbm.chunks_exact_mut(LANE32))
@@ -1066,8 +1205,10 @@ mod avx512f32 {
         unsafe {
             let mut acc = [[_mm512_setzero_ps(); N]; R];
             for m in 0..p {
-                let am: [__m512; R] =
-                    std::array::from_fn(|r| _mm512_set1_ps(*tm.am.add(m * na + i + r)));
+                let mut am = [_mm512_setzero_ps(); R];
+                for (r, x) in am.iter_mut().enumerate() {
+                    *x = _mm512_set1_ps(*tm.am.add(m * na + i + r));
+                }
                 let gm = tm.gb.add(m * row_len);
                 for t in 0..N {
                     let x = ld(gm, off(t));
@@ -1166,7 +1307,7 @@ mod avx512f32 {
         // `r0 + N ≤ regs`, term `m < p ≤ DEPTH`: in bounds by the assert. `vp` is the only
         // pointer written through (`v`); the others point into other fields, only read.
         unsafe {
-            let dm: [__m512; M] = std::array::from_fn(|q| spread(&dm, q));
+            let dm = spreads(&dm);
             let tm = Terms32 {
                 na,
                 row_len,
