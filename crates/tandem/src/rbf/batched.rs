@@ -490,7 +490,14 @@ impl<const M: usize> Batch32<M> {
                 self.t.clear();
                 out
             } else {
-                let v = avx512f32::read::<M>(self.v.as_ref(), &self.cur_a, self.cur.as_ref(), nb);
+                // Odd ticks of a flush cycle read the rows backwards: the flush and the even
+                // ticks read them forwards, so that a pass starts where the last one ended.
+                let (v, cur) = (self.v.as_ref(), self.cur.as_ref());
+                let v = if self.t.p % 2 == 1 {
+                    avx512f32::read::<M, true>(v, &self.cur_a, cur, nb)
+                } else {
+                    avx512f32::read::<M, false>(v, &self.cur_a, cur, nb)
+                };
                 self.t.outputs(v, f, offsets)
             }
         };
@@ -1047,12 +1054,13 @@ mod avx512f32 {
         })
     }
 
-    /// Columns `r0·16 .. (r0 + N)·16` of the output pass (as `avx512::read_cols`).
+    /// Columns `r0·16 .. (r0 + N)·16` of the output pass (as `avx512::read_cols`), the rows
+    /// in reverse order if `REV`.
     ///
     /// # Safety
     /// The CPU must support AVX-512F; `(r0 + N)·16 ≤ row_len`, `w` holds `a.len()` rows.
     #[inline(always)]
-    unsafe fn read_cols<const M: usize, const N: usize>(
+    unsafe fn read_cols<const M: usize, const N: usize, const REV: bool>(
         w: *const f32,
         a: &[f32],
         cur: *const f32,
@@ -1060,11 +1068,13 @@ mod avx512f32 {
         r0: usize,
         out: &mut [__m512; M],
     ) {
+        let na = a.len();
         // SAFETY: AVX-512F and bounds (the caller's contract).
         unsafe {
             let mut c = [_mm512_setzero_ps(); N];
-            for (i, &ai) in a.iter().enumerate() {
-                let av = _mm512_set1_ps(ai);
+            for k in 0..na {
+                let i = if REV { na - 1 - k } else { k };
+                let av = _mm512_set1_ps(*a.as_ptr().add(i));
                 let row = w.add(i * row_len + r0 * LANE32);
                 for (t, ct) in c.iter_mut().enumerate() {
                     *ct = _mm512_fmadd_ps(av, ld(row, t * LANE32), *ct);
@@ -1078,13 +1088,18 @@ mod avx512f32 {
     }
 
     /// The output pass, read only: `Σ_k B[k] Σ_i a_i V[i, k, j]` per output, the sums in `f32`
-    /// and their final reduction in `f64`.
+    /// and their final reduction in `f64`; the rows in reverse order if `REV`.
+    ///
+    /// Passes alternate their direction (`Batch32::tick`): `V` (48 KB for the paper) is as
+    /// large as the L1 data cache, so a pass in the same order as the last one finds the
+    /// lines it needs first evicted by the ones it needs last; in the other order it starts
+    /// with the lines the last pass left in L1.
     ///
     /// # Safety
     /// The CPU must support AVX-512F. Panics unless `cur.len() = nb·M`, `nb % 16 = 0` and
     /// `w.len() = a.len()·nb·M`.
     #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn read<const M: usize>(
+    pub(super) unsafe fn read<const M: usize, const REV: bool>(
         w: &[f32],
         a: &[f32],
         cur: &[f32],
@@ -1099,19 +1114,19 @@ mod avx512f32 {
             let mut out = [_mm512_setzero_ps(); M];
             let mut r0 = 0;
             while r0 + 24 <= regs {
-                read_cols::<M, 24>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                read_cols::<M, 24, REV>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
                 r0 += 24;
             }
             while r0 + 12 <= regs {
-                read_cols::<M, 12>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                read_cols::<M, 12, REV>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
                 r0 += 12;
             }
             while r0 + 4 <= regs {
-                read_cols::<M, 4>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                read_cols::<M, 4, REV>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
                 r0 += 4;
             }
             while r0 < regs {
-                read_cols::<M, 1>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                read_cols::<M, 1, REV>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
                 r0 += 1;
             }
             sums(&out)
