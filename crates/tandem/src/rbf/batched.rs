@@ -48,8 +48,9 @@ use super::{Aligned, MAX_OUTPUTS};
 
 /// Ticks whose updates are held before they are applied to the stored weights. The flush's
 /// arithmetic per tick does not depend on it (one multiply-add a weight a tick); its memory
-/// traffic per tick falls as `1/DEPTH`, while the held `B_m` (`DEPTH · n_b · M` values: 24 KB
-/// at 16 for the paper, half that in `f32`) must stay in L1 during the flush. Measured
+/// traffic per tick falls as `1/DEPTH`, while the held `B_m`, scaled by the `g_m` at the flush
+/// (`G_m`, `DEPTH · n_b · M` values: 24 KB at 16 for the paper, half that in `f32`), must stay
+/// in L1 during the flush. Measured
 /// (`docs/performance.md`): at 16 the `f64` flush takes 6.8 µs on the Xeon VM, of which the
 /// read-modify-write of the weights alone would be 1.6 µs; at 32 the `f64` pass went from
 /// 1.16 to 1.51 µs on the EPYC VM (48 KB of `B_m` no longer fit L1) and `f32` did not gain.
@@ -1138,7 +1139,7 @@ mod avx512f32 {
 
     /// Rows the flush takes at once: each load of a scaled term row `G_m` feeds `FLUSH_ROWS`
     /// fused multiply-adds (with `FLUSH_COLS = 12`: 24 sums, 2 coefficients and the loaded
-    /// operand, inside the 32 AVX-512 registers).
+    /// operand, inside the 32 AVX-512 registers; 4 × 6 measured no faster).
     const FLUSH_ROWS: usize = 2;
 
     /// `G_m = g_m ⊙ B_m` for the `p` held terms, spread over the weight lanes as `B_m` is:
