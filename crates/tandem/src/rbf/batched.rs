@@ -395,11 +395,12 @@ pub(super) struct Batch32<const M: usize> {
     live: bool,
     /// `A_m` in `f32`, `n_a` each.
     a32: Vec<f32>,
-    /// This tick's `A` in `f32`.
+    /// This tick's `A` in `f32`, on a flushing tick (else it is in `a32`'s next slot).
     cur_a: Vec<f32>,
     /// `B_m` spread over the weight lanes, in `f32`: `n_b·M` each, entry `k·M + j` is `B_m[k]`.
     bs: Aligned<f32>,
-    /// This tick's `B`, spread the same way.
+    /// This tick's `B`, spread the same way, on a flushing tick (else it is in `bs`' next
+    /// slot).
     cur: Aligned<f32>,
     /// The flush's scaled terms `G_m = g_m ⊙ B_m`, spread as `bs` (formed at each flush).
     gb: Aligned<f32>,
@@ -478,34 +479,49 @@ impl<const M: usize> Batch32<M> {
         let (a, b, f, offsets) = basis;
         assert!(a.len() == na && b.len() == nb && w.len() == na * nb * M);
         self.load(w);
+        let (p, row_len) = (self.t.p, nb * M);
+        // This tick's `A` and spread `B` are written straight into the term slot `p` they
+        // will fill, except on a flushing tick (the flush reads every slot): there into
+        // `cur_a` and `cur`, copied into slot 0 after it.
+        let (a_dst, b_dst) = if p < DEPTH {
+            (
+                &mut self.a32[p * na..(p + 1) * na],
+                &mut self.bs.as_mut()[p * row_len..(p + 1) * row_len],
+            )
+        } else {
+            (&mut self.cur_a[..], self.cur.as_mut())
+        };
         // SAFETY: AVX-512F (caller's contract).
         unsafe {
             avx512f32::narrow(b, &mut self.b32[..nb]);
-            avx512f32::narrow(a, &mut self.cur_a);
-            avx512f32::spread_rows(&self.b32, &self.spread, &self.first, self.cur.as_mut());
+            avx512f32::narrow(a, a_dst);
+            avx512f32::spread_rows(&self.b32, &self.spread, &self.first, b_dst);
         }
         // SAFETY: AVX-512F (caller's contract).
         let out = unsafe {
-            if self.t.p == DEPTH {
+            if p == DEPTH {
                 let out = avx512f32::apply::<M, true>(self, DEPTH);
                 self.t.clear();
                 out
             } else {
                 // Odd ticks of a flush cycle read the rows backwards: the flush and the even
                 // ticks read them forwards, so that a pass starts where the last one ended.
-                let (v, cur) = (self.v.as_ref(), self.cur.as_ref());
-                let v = if self.t.p % 2 == 1 {
-                    avx512f32::read::<M, true>(v, &self.cur_a, cur, nb)
+                let v = self.v.as_ref();
+                let a32 = &self.a32[p * na..(p + 1) * na];
+                let cur = &self.bs.as_ref()[p * row_len..(p + 1) * row_len];
+                let v = if p % 2 == 1 {
+                    avx512f32::read::<M, true>(v, a32, cur, nb)
                 } else {
-                    avx512f32::read::<M, false>(v, &self.cur_a, cur, nb)
+                    avx512f32::read::<M, false>(v, a32, cur, nb)
                 };
                 self.t.outputs(v, f, offsets)
             }
         };
-        let p = self.t.push(basis, e, c);
-        let row_len = nb * M;
-        self.bs.as_mut()[p * row_len..(p + 1) * row_len].copy_from_slice(self.cur.as_ref());
-        self.a32[p * na..(p + 1) * na].copy_from_slice(&self.cur_a);
+        let q = self.t.push(basis, e, c);
+        if p == DEPTH {
+            self.bs.as_mut()[q * row_len..(q + 1) * row_len].copy_from_slice(self.cur.as_ref());
+            self.a32[q * na..(q + 1) * na].copy_from_slice(&self.cur_a);
+        }
         out
     }
 }
