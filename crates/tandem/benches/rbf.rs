@@ -9,6 +9,9 @@
 //! - `nn_tick_outputs_4096x3/<kernel>`: the controller's RBF pass (`tick_at_outputs`: `S(Z)`,
 //!   outputs and exact update, no norms, `S` not stored) with every kernel this CPU can run,
 //!   side by side in one process (the others use the default kernel or `TANDEM_KERNEL`);
+//! - `nn_flush_tick_4096x3/<kernel>`: the batched kernels' flushing tick alone (every 16th:
+//!   its output pass fused with the flush of the 16 held updates), timed after 15 untimed
+//!   ticks;
 //! - `s_naive_general_4096`: the direct sum of (8) over explicit centres (4096 `exp`).
 //!
 //! Performance log (release, AMD EPYC Zen 4 VM, 2 cores, AVX2 path, minimum over runs):
@@ -21,10 +24,11 @@
 //! non-AVX2 kernels take about 8 µs.)
 
 use std::hint::black_box;
+use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Vector3;
-use tandem::rbf::{Kernel, NnUpdate, Rbf, RbfNetwork};
+use tandem::rbf::{BATCH_DEPTH, Kernel, NnUpdate, Rbf, RbfNetwork};
 
 /// A plausible NN input `Z = [x1, x2, α, α̇]` near the start of the paper run.
 const Z: [f64; 12] = [
@@ -64,6 +68,36 @@ fn bench(c: &mut Criterion) {
                     &z2,
                     &upd,
                 ))
+            })
+        });
+    }
+    // The flushing tick of the batched kernels alone: 15 ticks untimed, then the 16th, whose
+    // output pass is fused with the flush of the 16 held updates.
+    for kernel in [Kernel::Batched, Kernel::BatchedF32] {
+        if !kernel.is_available() {
+            continue;
+        }
+        let mut net = RbfNetwork::<3>::for_basis(&rbf).unwrap();
+        net.set_kernel(kernel).unwrap();
+        c.bench_function(&format!("rbf/nn_flush_tick_4096x3/{kernel}"), |b| {
+            b.iter_custom(|iters| {
+                let mut total = Duration::ZERO;
+                for _ in 0..iters {
+                    while net.pending() < BATCH_DEPTH {
+                        black_box(net.tick_at_outputs(&rbf, &Z, &mut ws, 1.0, &z2, &upd));
+                    }
+                    let t0 = Instant::now();
+                    black_box(net.tick_at_outputs(
+                        &rbf,
+                        black_box(&Z),
+                        &mut ws,
+                        black_box(1.0),
+                        &z2,
+                        &upd,
+                    ));
+                    total += t0.elapsed();
+                }
+                total
             })
         });
     }

@@ -48,8 +48,9 @@ use super::{Aligned, MAX_OUTPUTS};
 
 /// Ticks whose updates are held before they are applied to the stored weights. The flush's
 /// arithmetic per tick does not depend on it (one multiply-add a weight a tick); its memory
-/// traffic per tick falls as `1/DEPTH`, while the held `B_m` (`DEPTH · n_b · M` values: 24 KB
-/// at 16 for the paper, half that in `f32`) must stay in L1 during the flush. Measured
+/// traffic per tick falls as `1/DEPTH`, while the held `B_m`, scaled by the `g_m` at the flush
+/// (`G_m`, `DEPTH · n_b · M` values: 24 KB at 16 for the paper, half that in `f32`), must stay
+/// in L1 during the flush. Measured
 /// (`docs/performance.md`): at 16 the `f64` flush takes 6.8 µs on the Xeon VM, of which the
 /// read-modify-write of the weights alone would be 1.6 µs; at 32 the `f64` pass went from
 /// 1.16 to 1.51 µs on the EPYC VM (48 KB of `B_m` no longer fit L1) and `f32` did not gain.
@@ -297,6 +298,8 @@ pub(super) struct Batch<const M: usize> {
     bs: Aligned,
     /// This tick's `B`, spread the same way.
     cur: Aligned,
+    /// The flush's scaled terms `G_m = g_m ⊙ B_m`, spread as `bs` (formed at each flush).
+    gb: Aligned,
     /// The spread as permutes: register `r` of `cur` is lanes `spread[r]` of `B[first[r]..]`
     /// (`B` copied into `b8`, padded by a register).
     spread: Vec<[u64; LANE]>,
@@ -312,6 +315,7 @@ impl<const M: usize> Batch<M> {
             t: Terms::new(n_a, n_b, n_f),
             bs: Aligned::zeros(DEPTH * n_b * M),
             cur: Aligned::zeros(n_b * M),
+            gb: Aligned::zeros(DEPTH * n_b * M),
             spread: (0..n_b * M / LANE)
                 .map(|r| std::array::from_fn(|t| ((LANE * r + t) / M - LANE * r / M) as u64))
                 .collect(),
@@ -391,12 +395,15 @@ pub(super) struct Batch32<const M: usize> {
     live: bool,
     /// `A_m` in `f32`, `n_a` each.
     a32: Vec<f32>,
-    /// This tick's `A` in `f32`.
+    /// This tick's `A` in `f32`, on a flushing tick (else it is in `a32`'s next slot).
     cur_a: Vec<f32>,
     /// `B_m` spread over the weight lanes, in `f32`: `n_b·M` each, entry `k·M + j` is `B_m[k]`.
     bs: Aligned<f32>,
-    /// This tick's `B`, spread the same way.
+    /// This tick's `B`, spread the same way, on a flushing tick (else it is in `bs`' next
+    /// slot).
     cur: Aligned<f32>,
+    /// The flush's scaled terms `G_m = g_m ⊙ B_m`, spread as `bs` (formed at each flush).
+    gb: Aligned<f32>,
     /// This tick's `B` in `f32`, padded by a register.
     b32: Vec<f32>,
     /// The spread as permutes: register `r` of `cur` is lanes `spread[r]` of `b32[first[r]..]`.
@@ -416,6 +423,7 @@ impl<const M: usize> Batch32<M> {
             cur_a: vec![0.0; n_a],
             bs: Aligned::zeros(DEPTH * n_b * M),
             cur: Aligned::zeros(n_b * M),
+            gb: Aligned::zeros(DEPTH * n_b * M),
             b32: vec![0.0; n_b + LANE32],
             // Entry `e = 16r + t` of a spread row is `B[e / M]`; a register's entries span at
             // most 16 consecutive `k`, starting at `first[r] = 16r / M`.
@@ -471,50 +479,106 @@ impl<const M: usize> Batch32<M> {
         let (a, b, f, offsets) = basis;
         assert!(a.len() == na && b.len() == nb && w.len() == na * nb * M);
         self.load(w);
+        let (p, row_len) = (self.t.p, nb * M);
+        // This tick's `A` and spread `B` are written straight into the term slot `p` they
+        // will fill, except on a flushing tick (the flush reads every slot): there into
+        // `cur_a` and `cur`, copied into slot 0 after it.
+        let (a_dst, b_dst) = if p < DEPTH {
+            (
+                &mut self.a32[p * na..(p + 1) * na],
+                &mut self.bs.as_mut()[p * row_len..(p + 1) * row_len],
+            )
+        } else {
+            (&mut self.cur_a[..], self.cur.as_mut())
+        };
         // SAFETY: AVX-512F (caller's contract).
         unsafe {
             avx512f32::narrow(b, &mut self.b32[..nb]);
-            avx512f32::narrow(a, &mut self.cur_a);
-            avx512f32::spread_rows(&self.b32, &self.spread, &self.first, self.cur.as_mut());
+            avx512f32::narrow(a, a_dst);
+            avx512f32::spread_rows(&self.b32, &self.spread, &self.first, b_dst);
         }
         // SAFETY: AVX-512F (caller's contract).
         let out = unsafe {
-            if self.t.p == DEPTH {
+            if p == DEPTH {
                 let out = avx512f32::apply::<M, true>(self, DEPTH);
                 self.t.clear();
                 out
             } else {
-                let v = avx512f32::read::<M>(self.v.as_ref(), &self.cur_a, self.cur.as_ref(), nb);
+                // Odd ticks of a flush cycle read the rows backwards: the flush and the even
+                // ticks read them forwards, so that a pass starts where the last one ended.
+                let v = self.v.as_ref();
+                let a32 = &self.a32[p * na..(p + 1) * na];
+                let cur = &self.bs.as_ref()[p * row_len..(p + 1) * row_len];
+                let v = if p % 2 == 1 {
+                    avx512f32::read::<M, true>(v, a32, cur, nb)
+                } else {
+                    avx512f32::read::<M, false>(v, a32, cur, nb)
+                };
                 self.t.outputs(v, f, offsets)
             }
         };
-        let p = self.t.push(basis, e, c);
-        let row_len = nb * M;
-        self.bs.as_mut()[p * row_len..(p + 1) * row_len].copy_from_slice(self.cur.as_ref());
-        self.a32[p * na..(p + 1) * na].copy_from_slice(&self.cur_a);
+        let q = self.t.push(basis, e, c);
+        if p == DEPTH {
+            self.bs.as_mut()[q * row_len..(q + 1) * row_len].copy_from_slice(self.cur.as_ref());
+            self.a32[q * na..(q + 1) * na].copy_from_slice(&self.cur_a);
+        }
         out
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
-    use super::super::avx512::{load, store};
+    use super::super::avx512::store;
     use super::super::reduce512;
     use super::{Batch, DEPTH, LANE, MAX_OUTPUTS};
     use std::arch::x86_64::{
         __m512d, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd, _mm512_loadu_si512,
-        _mm512_mul_pd, _mm512_permutexvar_pd, _mm512_set1_pd, _mm512_setzero_pd, _mm512_storeu_pd,
+        _mm512_maskz_loadu_pd, _mm512_mul_pd, _mm512_permutexvar_pd, _mm512_set1_pd,
+        _mm512_setzero_pd, _mm512_storeu_pd,
     };
 
-    /// `v_j` spread over register `q`'s lanes: lane `t` holds `v[(8q + t) % M]`.
+    /// The lane patterns of a spread row: lane `t` of register `q` is output `(8q + t) % m`
+    /// (for `q < m`; register `q + m` repeats register `q`).
+    const fn lane_outputs(m: usize) -> [[u64; LANE]; MAX_OUTPUTS] {
+        let mut pat = [[0; LANE]; MAX_OUTPUTS];
+        let mut e = 0;
+        while e < LANE * MAX_OUTPUTS {
+            pat[e / LANE][e % LANE] = (e % m) as u64;
+            e += 1;
+        }
+        pat
+    }
+
+    /// `v_j` spread over register `q`'s lanes: lane `t` holds `v[(8q + t) % M]` (a masked
+    /// load and a permute; no scalar stores read back as a register).
     ///
     /// # Safety
     /// The CPU must support AVX-512F.
     #[inline(always)]
     unsafe fn spread<const M: usize>(v: &[f64; M], q: usize) -> __m512d {
-        let lanes: [f64; LANE] = std::array::from_fn(|t| v[(LANE * q + t) % M]);
+        const { assert!(M >= 1 && M <= MAX_OUTPUTS) };
+        let idx = &const { lane_outputs(M) }[q % M];
+        // SAFETY: `M ≤ 8` values at `v` (the mask); 8 indices; AVX-512F (caller's contract).
+        unsafe {
+            let x = _mm512_maskz_loadu_pd(((1u32 << M) - 1) as u8, v.as_ptr());
+            _mm512_permutexvar_pd(_mm512_loadu_si512(idx.as_ptr().cast()), x)
+        }
+    }
+
+    /// The `M` lane patterns of `v` ([`spread`] for `q < M`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    unsafe fn spreads<const M: usize>(v: &[f64; M]) -> [__m512d; M] {
         // SAFETY: AVX-512F (caller's contract).
-        unsafe { load(&lanes) }
+        unsafe {
+            let mut x = [_mm512_setzero_pd(); M];
+            for (q, xq) in x.iter_mut().enumerate() {
+                *xq = spread(v, q);
+            }
+            x
+        }
     }
 
     /// Per-output sums of `M` registers (lane `8q + t` is output `(8q + t) % M`), in the fixed
@@ -668,49 +732,149 @@ mod avx512 {
         }
     }
 
-    /// Registers of a row the flush keeps at once (with the `M` coefficient registers and the
-    /// loaded operand, inside the 32 AVX-512 registers).
-    const FLUSH_COLS: usize = 12;
+    /// Registers of a row the flush takes at once.
+    const FLUSH_COLS: usize = 6;
 
-    /// The flush of registers `r0 .. r0 + N` of row `i` (`r0 % M = 0`, so register `r0 + t`
-    /// has the lane pattern `t % M`): `v = D·w`; for each term `v −= (g_m a_{m,i})·B_m` (the
-    /// `N` registers as independent chains: one load and one fused multiply-add a register
-    /// and term); stored; if `OUT`, `racc[t % M] += v·B`.
+    /// Rows the flush takes at once: each load of a scaled term row `G_m` feeds `FLUSH_ROWS`
+    /// fused multiply-adds (with `FLUSH_COLS = 6`: 12 weights' registers, the `M` factors of
+    /// `D`, 2 coefficients, the loaded operand and the rows' output sums fit the 32 AVX-512
+    /// registers; 2 × 12 and 1 × 12 measured slower, `docs/performance.md`, session 7).
+    const FLUSH_ROWS: usize = 2;
+
+    /// `G_m = g_m ⊙ B_m` for the `p` held terms, spread over the weight lanes as `B_m` is
+    /// (the `f64` twin of `avx512f32::scale_terms`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics unless `p ≤ DEPTH`, `row_len % 8 = 0` and `bs`
+    /// and `gb` hold `DEPTH` rows of `row_len`.
+    #[target_feature(enable = "avx512f")]
+    unsafe fn scale_terms<const M: usize>(
+        bs: &[f64],
+        g: &[[f64; M]; DEPTH],
+        p: usize,
+        row_len: usize,
+        gb: &mut [f64],
+    ) {
+        assert!(
+            p <= DEPTH
+                && row_len.is_multiple_of(LANE)
+                && bs.len() == DEPTH * row_len
+                && gb.len() == DEPTH * row_len
+        );
+        for ((bm, gm), gbm) in bs
+            .chunks_exact(row_len)
+            .zip(g)
+            .zip(gb.chunks_exact_mut(row_len))
+            .take(p)
+        {
+            // SAFETY: AVX-512F (caller's contract); 8 lanes a register, inside the rows of
+            // `row_len` values by the `chunks_exact`.
+            unsafe {
+                let gv = spreads(gm);
+                for (r, (b, o)) in bm
+                    .chunks_exact(LANE)
+                    .zip(gbm.chunks_exact_mut(LANE))
+                    .enumerate()
+                {
+                    let x = _mm512_mul_pd(gv[r % M], ld(b.as_ptr(), 0));
+                    _mm512_storeu_pd(o.as_mut_ptr(), x);
+                }
+            }
+        }
+    }
+
+    /// The flush of registers `r0 .. r0 + N` of rows `i .. i + R` (`r0 % M = 0`, so register
+    /// `r0 + t` has the lane pattern `t % M`): `v = D·w`; for each term `v −= a_{m,i}·G_m`
+    /// (the `R·N` registers as independent chains; a load of `G_m` feeds the `R` rows);
+    /// stored; if `OUT`, `racc[r][t % M] += v·B` for row `i + r`.
     ///
     /// # Safety
     /// The CPU must support AVX-512F; every offset in bounds (the caller's checks).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    unsafe fn flush_cols<const M: usize, const OUT: bool, const N: usize>(
-        row: *mut f64,
+    unsafe fn flush_cols<const M: usize, const OUT: bool, const R: usize, const N: usize>(
+        wp: *mut f64,
         batch: &Batch<M>,
         i: usize,
         r0: usize,
         p: usize,
         d: &[__m512d; M],
-        g: &[[__m512d; M]; DEPTH],
-        racc: &mut [__m512d; M],
+        racc: &mut [[__m512d; M]; R],
     ) {
         let (na, row_len) = (batch.t.n_a, batch.t.n_b * M);
         let off = |t: usize| (r0 + t) * LANE;
         // SAFETY: AVX-512F and bounds (the caller's contract).
         unsafe {
-            let mut v: [__m512d; N] =
-                std::array::from_fn(|t| _mm512_mul_pd(d[t % M], ld(row, off(t))));
-            let (bs, am) = (batch.bs.as_ref().as_ptr(), batch.t.a.as_ptr());
-            for (m, gm) in g.iter().enumerate().take(p) {
-                let am_i = _mm512_set1_pd(*am.add(m * na + i));
-                let c: [__m512d; M] = std::array::from_fn(|q| _mm512_mul_pd(gm[q], am_i));
-                let bm = bs.add(m * row_len);
-                for (t, vt) in v.iter_mut().enumerate() {
-                    *vt = _mm512_fnmadd_pd(c[t % M], ld(bm, off(t)), *vt);
+            let mut v = [[_mm512_setzero_pd(); N]; R];
+            for (r, v_r) in v.iter_mut().enumerate() {
+                let row = wp.add((i + r) * row_len);
+                for (t, vt) in v_r.iter_mut().enumerate() {
+                    *vt = _mm512_mul_pd(d[t % M], ld(row, off(t)));
+                }
+            }
+            let (gb, am) = (batch.gb.as_ref().as_ptr(), batch.t.a.as_ptr());
+            for m in 0..p {
+                let mut am_i = [_mm512_setzero_pd(); R];
+                for (r, x) in am_i.iter_mut().enumerate() {
+                    *x = _mm512_set1_pd(*am.add(m * na + i + r));
+                }
+                let gm = gb.add(m * row_len);
+                for t in 0..N {
+                    let x = ld(gm, off(t));
+                    for (ar, v_r) in am_i.iter().zip(v.iter_mut()) {
+                        v_r[t] = _mm512_fnmadd_pd(*ar, x, v_r[t]);
+                    }
                 }
             }
             let cp = batch.cur.as_ref().as_ptr();
-            for (t, vt) in v.iter().enumerate() {
-                _mm512_storeu_pd(row.add(off(t)), *vt);
-                if OUT {
-                    racc[t % M] = _mm512_fmadd_pd(*vt, ld(cp, off(t)), racc[t % M]);
+            for (r, (v_r, racc_r)) in v.iter().zip(racc.iter_mut()).enumerate() {
+                let row = wp.add((i + r) * row_len);
+                for (t, vt) in v_r.iter().enumerate() {
+                    _mm512_storeu_pd(row.add(off(t)), *vt);
+                    if OUT {
+                        racc_r[t % M] = _mm512_fmadd_pd(*vt, ld(cp, off(t)), racc_r[t % M]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Rows `i .. i + R` of the flush, a row's registers [`FLUSH_COLS`] at a time (or `M`,
+    /// if `M` does not divide it); if `OUT`, `out += a_i·(V'[i]·B)` for each row.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F; every offset in bounds (the caller's checks).
+    #[inline(always)]
+    unsafe fn flush_rows<const M: usize, const OUT: bool, const R: usize>(
+        wp: *mut f64,
+        batch: &Batch<M>,
+        a: &[f64],
+        i: usize,
+        p: usize,
+        d: &[__m512d; M],
+        out: &mut [__m512d; M],
+    ) {
+        let regs = batch.t.n_b * M / LANE;
+        // SAFETY: AVX-512F and bounds (the caller's contract); `r0 + N ≤ regs`.
+        unsafe {
+            let mut racc = [[_mm512_setzero_pd(); M]; R];
+            let mut r0 = 0;
+            if FLUSH_COLS.is_multiple_of(M) {
+                while r0 + FLUSH_COLS <= regs {
+                    flush_cols::<M, OUT, R, FLUSH_COLS>(wp, batch, i, r0, p, d, &mut racc);
+                    r0 += FLUSH_COLS;
+                }
+            }
+            while r0 < regs {
+                flush_cols::<M, OUT, R, M>(wp, batch, i, r0, p, d, &mut racc);
+                r0 += M;
+            }
+            if OUT {
+                for (r, racc_r) in racc.iter().enumerate() {
+                    let av = _mm512_set1_pd(*a.as_ptr().add(i + r));
+                    for q in 0..M {
+                        out[q] = _mm512_fmadd_pd(av, racc_r[q], out[q]);
+                    }
                 }
             }
         }
@@ -719,8 +883,9 @@ mod avx512 {
     /// The flush pass: `V ← D V − Σ_{m<p} g_m A_m ⊗ B_m`, and, if `OUT`, `f̂ = V'ᵀ(A ⊗ B)`
     /// with the new weights (`a` is this tick's `A`, `batch.cur` its spread `B`).
     ///
-    /// Rows stream in order; a row is taken [`FLUSH_COLS`] registers at a time (or `M`, if `M`
-    /// does not divide it), and the `p` spread tails `B_m` (24 KB for the paper) stay in L1.
+    /// The scaled rows `G_m = g_m ⊙ B_m` are formed first ([`scale_terms`], 24 KB for the
+    /// paper, in L1 with the `A_m`); then rows stream in order, [`FLUSH_ROWS`] at a time, a
+    /// row [`FLUSH_COLS`] registers at a time (or `M`, if `M` does not divide it).
     ///
     /// # Safety
     /// The CPU must support AVX-512F. Panics unless `p ≤ DEPTH`, `w.len() = n_a·n_b·M` and,
@@ -728,7 +893,7 @@ mod avx512 {
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn apply<const M: usize, const OUT: bool>(
         w: &mut [f64],
-        batch: &Batch<M>,
+        batch: &mut Batch<M>,
         a: &[f64],
         p: usize,
     ) -> [f64; M] {
@@ -740,42 +905,27 @@ mod avx512 {
                 && w.len() == na * row_len
                 && batch.t.a.len() == DEPTH * na
                 && batch.bs.as_ref().len() == DEPTH * row_len
+                && batch.gb.as_ref().len() == DEPTH * row_len
                 && batch.cur.as_ref().len() == row_len
                 && (!OUT || a.len() == na)
         );
-        // Registers a row: `nb·M/8`, a multiple of `M` since `nb % 8 = 0`.
-        let regs = row_len / LANE;
-        let wide = FLUSH_COLS.is_multiple_of(M);
+        // SAFETY: AVX-512F (caller's contract); the lengths are checked there.
+        unsafe { scale_terms(batch.bs.as_ref(), &batch.t.g, p, row_len, batch.gb.as_mut()) };
+        let batch = &*batch;
         let wp = w.as_mut_ptr();
-        // SAFETY: AVX-512F (caller's contract); offsets: row `i < na`, registers
+        // SAFETY: AVX-512F (caller's contract); offsets: rows `i + r < na`, registers
         // `r0 + N ≤ regs`, term `m < p ≤ DEPTH`: in bounds by the assert.
         unsafe {
-            let d: [__m512d; M] = std::array::from_fn(|q| spread(&batch.t.d, q));
-            let g: [[__m512d; M]; DEPTH] =
-                std::array::from_fn(|m| std::array::from_fn(|q| spread(&batch.t.g[m], q)));
-            let zero = _mm512_setzero_pd();
-            let mut out = [zero; M];
-            for i in 0..na {
-                let row = wp.add(i * row_len);
-                // Row `i`'s `Σ_k V'[i, k]·B[k]` per lane, weighted by `a_i` at the row's end.
-                let mut racc = [zero; M];
-                let mut r0 = 0;
-                if wide {
-                    while r0 + FLUSH_COLS <= regs {
-                        flush_cols::<M, OUT, FLUSH_COLS>(row, batch, i, r0, p, &d, &g, &mut racc);
-                        r0 += FLUSH_COLS;
-                    }
-                }
-                while r0 < regs {
-                    flush_cols::<M, OUT, M>(row, batch, i, r0, p, &d, &g, &mut racc);
-                    r0 += M;
-                }
-                if OUT {
-                    let av = _mm512_set1_pd(*a.as_ptr().add(i));
-                    for q in 0..M {
-                        out[q] = _mm512_fmadd_pd(av, racc[q], out[q]);
-                    }
-                }
+            let d = spreads(&batch.t.d);
+            let mut out = [_mm512_setzero_pd(); M];
+            let mut i = 0;
+            while i + FLUSH_ROWS <= na {
+                flush_rows::<M, OUT, FLUSH_ROWS>(wp, batch, a, i, p, &d, &mut out);
+                i += FLUSH_ROWS;
+            }
+            while i < na {
+                flush_rows::<M, OUT, 1>(wp, batch, a, i, p, &d, &mut out);
+                i += 1;
             }
             if OUT { sums(&out) } else { [0.0; M] }
         }
@@ -787,9 +937,9 @@ mod avx512 {
 mod avx512f32 {
     use super::{Batch32, DEPTH, LANE32, MAX_OUTPUTS};
     use std::arch::x86_64::{
-        __m512, _mm256_storeu_ps, _mm512_cvtpd_ps, _mm512_fmadd_ps, _mm512_loadu_pd,
-        _mm512_loadu_ps, _mm512_loadu_si512, _mm512_mul_ps, _mm512_permutexvar_ps, _mm512_set1_ps,
-        _mm512_setzero_ps, _mm512_storeu_ps, _mm512_sub_ps,
+        __m512, _mm256_storeu_ps, _mm512_castps256_ps512, _mm512_cvtpd_ps, _mm512_fmadd_ps,
+        _mm512_loadu_pd, _mm512_loadu_ps, _mm512_loadu_si512, _mm512_maskz_loadu_pd, _mm512_mul_ps,
+        _mm512_permutexvar_ps, _mm512_set1_ps, _mm512_setzero_ps, _mm512_storeu_ps, _mm512_sub_ps,
     };
 
     /// `dst = src` rounded to `f32`, 8 values a register.
@@ -840,10 +990,50 @@ mod avx512f32 {
         }
     }
 
-    /// `v_j` spread over register `q`'s lanes: lane `t` holds `v[(16q + t) % M]`.
+    /// The lane patterns of a spread row: lane `t` of register `q` is output `(16q + t) % m`
+    /// (for `q < m`; register `q + m` repeats register `q`).
+    const fn lane_outputs(m: usize) -> [[u32; LANE32]; MAX_OUTPUTS] {
+        let mut pat = [[0; LANE32]; MAX_OUTPUTS];
+        let mut e = 0;
+        while e < LANE32 * MAX_OUTPUTS {
+            pat[e / LANE32][e % LANE32] = (e % m) as u32;
+            e += 1;
+        }
+        pat
+    }
+
+    /// `v_j` rounded to `f32` and spread over register `q`'s lanes: lane `t` holds
+    /// `v[(16q + t) % M]` (a masked load, a conversion and a permute; no scalar stores read
+    /// back as a register).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
     #[inline(always)]
-    fn spread<const M: usize>(v: &[f32; M], q: usize) -> [f32; LANE32] {
-        std::array::from_fn(|t| v[(LANE32 * q + t) % M])
+    unsafe fn spread<const M: usize>(v: &[f64; M], q: usize) -> __m512 {
+        const { assert!(M >= 1 && M <= MAX_OUTPUTS) };
+        let idx = &const { lane_outputs(M) }[q % M];
+        // SAFETY: `M ≤ 8` values at `v` (the mask); 16 indices; AVX-512F (caller's contract).
+        unsafe {
+            let x = _mm512_maskz_loadu_pd(((1u32 << M) - 1) as u8, v.as_ptr());
+            let x = _mm512_castps256_ps512(_mm512_cvtpd_ps(x));
+            _mm512_permutexvar_ps(_mm512_loadu_si512(idx.as_ptr().cast()), x)
+        }
+    }
+
+    /// The `M` lane patterns of `v` ([`spread`] for `q < M`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    unsafe fn spreads<const M: usize>(v: &[f64; M]) -> [__m512; M] {
+        // SAFETY: AVX-512F (caller's contract).
+        unsafe {
+            let mut x = [_mm512_setzero_ps(); M];
+            for (q, xq) in x.iter_mut().enumerate() {
+                *xq = spread(v, q);
+            }
+            x
+        }
     }
 
     /// Load 16 lanes at `p + o` (no bounds check).
@@ -881,12 +1071,13 @@ mod avx512f32 {
         })
     }
 
-    /// Columns `r0·16 .. (r0 + N)·16` of the output pass (as `avx512::read_cols`).
+    /// Columns `r0·16 .. (r0 + N)·16` of the output pass (as `avx512::read_cols`), the rows
+    /// in reverse order if `REV`.
     ///
     /// # Safety
     /// The CPU must support AVX-512F; `(r0 + N)·16 ≤ row_len`, `w` holds `a.len()` rows.
     #[inline(always)]
-    unsafe fn read_cols<const M: usize, const N: usize>(
+    unsafe fn read_cols<const M: usize, const N: usize, const REV: bool>(
         w: *const f32,
         a: &[f32],
         cur: *const f32,
@@ -894,11 +1085,13 @@ mod avx512f32 {
         r0: usize,
         out: &mut [__m512; M],
     ) {
+        let na = a.len();
         // SAFETY: AVX-512F and bounds (the caller's contract).
         unsafe {
             let mut c = [_mm512_setzero_ps(); N];
-            for (i, &ai) in a.iter().enumerate() {
-                let av = _mm512_set1_ps(ai);
+            for k in 0..na {
+                let i = if REV { na - 1 - k } else { k };
+                let av = _mm512_set1_ps(*a.as_ptr().add(i));
                 let row = w.add(i * row_len + r0 * LANE32);
                 for (t, ct) in c.iter_mut().enumerate() {
                     *ct = _mm512_fmadd_ps(av, ld(row, t * LANE32), *ct);
@@ -912,13 +1105,18 @@ mod avx512f32 {
     }
 
     /// The output pass, read only: `Σ_k B[k] Σ_i a_i V[i, k, j]` per output, the sums in `f32`
-    /// and their final reduction in `f64`.
+    /// and their final reduction in `f64`; the rows in reverse order if `REV`.
+    ///
+    /// Passes alternate their direction (`Batch32::tick`): `V` (48 KB for the paper) is as
+    /// large as the L1 data cache, so a pass in the same order as the last one finds the
+    /// lines it needs first evicted by the ones it needs last; in the other order it starts
+    /// with the lines the last pass left in L1.
     ///
     /// # Safety
     /// The CPU must support AVX-512F. Panics unless `cur.len() = nb·M`, `nb % 16 = 0` and
     /// `w.len() = a.len()·nb·M`.
     #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn read<const M: usize>(
+    pub(super) unsafe fn read<const M: usize, const REV: bool>(
         w: &[f32],
         a: &[f32],
         cur: &[f32],
@@ -933,19 +1131,19 @@ mod avx512f32 {
             let mut out = [_mm512_setzero_ps(); M];
             let mut r0 = 0;
             while r0 + 24 <= regs {
-                read_cols::<M, 24>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                read_cols::<M, 24, REV>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
                 r0 += 24;
             }
             while r0 + 12 <= regs {
-                read_cols::<M, 12>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                read_cols::<M, 12, REV>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
                 r0 += 12;
             }
             while r0 + 4 <= regs {
-                read_cols::<M, 4>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                read_cols::<M, 4, REV>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
                 r0 += 4;
             }
             while r0 < regs {
-                read_cols::<M, 1>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
+                read_cols::<M, 1, REV>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
                 r0 += 1;
             }
             sums(&out)
@@ -955,54 +1153,151 @@ mod avx512f32 {
     /// Registers of a row the flush takes at once.
     const FLUSH_COLS: usize = 12;
 
-    /// What the flush reads: the held terms' `A_m` and spread `B_m`, this tick's spread `B`.
+    /// Rows the flush takes at once: each load of a scaled term row `G_m` feeds `FLUSH_ROWS`
+    /// fused multiply-adds (with `FLUSH_COLS = 12`: 24 sums, 2 coefficients and the loaded
+    /// operand, inside the 32 AVX-512 registers; 4 × 6 measured no faster).
+    const FLUSH_ROWS: usize = 2;
+
+    /// `G_m = g_m ⊙ B_m` for the `p` held terms, spread over the weight lanes as `B_m` is:
+    /// the flush's rows then need one fused multiply-add a register and term, with no
+    /// per-row products of `g_m` and `a_{m,i}` and no `g_m` registers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F. Panics unless `p ≤ DEPTH`, `row_len % 16 = 0` and
+    /// `bs` and `gb` hold `DEPTH` rows of `row_len`.
+    #[target_feature(enable = "avx512f")]
+    unsafe fn scale_terms<const M: usize>(
+        bs: &[f32],
+        g: &[[f64; M]; DEPTH],
+        p: usize,
+        row_len: usize,
+        gb: &mut [f32],
+    ) {
+        assert!(
+            p <= DEPTH
+                && row_len.is_multiple_of(LANE32)
+                && bs.len() == DEPTH * row_len
+                && gb.len() == DEPTH * row_len
+        );
+        for ((bm, gm), gbm) in bs
+            .chunks_exact(row_len)
+            .zip(g)
+            .zip(gb.chunks_exact_mut(row_len))
+            .take(p)
+        {
+            // SAFETY: AVX-512F (caller's contract); 16 lanes a register, inside the rows of
+            // `row_len` values by the `chunks_exact`.
+            unsafe {
+                // `g_m`, rounded to `f32` once, spread over the lanes.
+                let gv = spreads(gm);
+                for (r, (b, o)) in bm
+                    .chunks_exact(LANE32)
+                    .zip(gbm.chunks_exact_mut(LANE32))
+                    .enumerate()
+                {
+                    let x = _mm512_mul_ps(gv[r % M], ld(b.as_ptr(), 0));
+                    _mm512_storeu_ps(o.as_mut_ptr(), x);
+                }
+            }
+        }
+    }
+
+    /// What the flush reads: the held terms' `A_m` and scaled spread `G_m`, this tick's
+    /// `A` and spread `B`.
     struct Terms32 {
         na: usize,
         row_len: usize,
         am: *const f32,
-        bs: *const f32,
+        gb: *const f32,
         cur: *const f32,
+        cur_a: *const f32,
     }
 
-    /// The flush of registers `r0 .. r0 + N` of row `i` (`r0 % M = 0`): the terms' sum
-    /// `t = Σ_m (g_m a_{m,i})·B_m` from zero, then `v ← v − ((1 − D)·v + t)`; stored; if `OUT`,
-    /// `racc[t % M] += v·B`.
+    /// The flush of registers `r0 .. r0 + N` of rows `i .. i + R` (`r0 % M = 0`, so register
+    /// `r0 + t` has the lane pattern `t % M`): the terms' sum `t = Σ_m a_{m,i}·G_m` from zero
+    /// (a load of `G_m` feeds the `R` rows), then `v ← v − ((1 − D)·v + t)`; stored; if `OUT`,
+    /// `racc[r][t % M] += v·B` for row `i + r`.
     ///
     /// # Safety
     /// The CPU must support AVX-512F; every offset in bounds (the caller's checks).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    unsafe fn flush_cols<const M: usize, const OUT: bool, const N: usize>(
-        row: *mut f32,
+    unsafe fn flush_cols<const M: usize, const OUT: bool, const R: usize, const N: usize>(
+        vp: *mut f32,
         tm: &Terms32,
         i: usize,
         r0: usize,
         p: usize,
         dm: &[__m512; M],
-        g: &[[__m512; M]; DEPTH],
-        racc: &mut [__m512; M],
+        racc: &mut [[__m512; M]; R],
     ) {
         let (na, row_len) = (tm.na, tm.row_len);
         let off = |t: usize| (r0 + t) * LANE32;
         // SAFETY: AVX-512F and bounds (the caller's contract).
         unsafe {
-            let mut acc = [_mm512_setzero_ps(); N];
-            let (bs, am) = (tm.bs, tm.am);
-            for (m, gm) in g.iter().enumerate().take(p) {
-                let am_i = _mm512_set1_ps(*am.add(m * na + i));
-                let c: [__m512; M] = std::array::from_fn(|q| _mm512_mul_ps(gm[q], am_i));
-                let bm = bs.add(m * row_len);
-                for (t, at) in acc.iter_mut().enumerate() {
-                    *at = _mm512_fmadd_ps(c[t % M], ld(bm, off(t)), *at);
+            let mut acc = [[_mm512_setzero_ps(); N]; R];
+            for m in 0..p {
+                let mut am = [_mm512_setzero_ps(); R];
+                for (r, x) in am.iter_mut().enumerate() {
+                    *x = _mm512_set1_ps(*tm.am.add(m * na + i + r));
+                }
+                let gm = tm.gb.add(m * row_len);
+                for t in 0..N {
+                    let x = ld(gm, off(t));
+                    for (ar, acc_r) in am.iter().zip(acc.iter_mut()) {
+                        acc_r[t] = _mm512_fmadd_ps(*ar, x, acc_r[t]);
+                    }
                 }
             }
-            let cp = tm.cur;
-            for (t, at) in acc.iter().enumerate() {
-                let v = ld(row, off(t));
-                let v = _mm512_sub_ps(v, _mm512_fmadd_ps(dm[t % M], v, *at));
-                _mm512_storeu_ps(row.add(off(t)), v);
-                if OUT {
-                    racc[t % M] = _mm512_fmadd_ps(v, ld(cp, off(t)), racc[t % M]);
+            for (r, (acc_r, racc_r)) in acc.iter().zip(racc.iter_mut()).enumerate() {
+                let row = vp.add((i + r) * row_len);
+                for (t, at) in acc_r.iter().enumerate() {
+                    let v = ld(row, off(t));
+                    let v = _mm512_sub_ps(v, _mm512_fmadd_ps(dm[t % M], v, *at));
+                    _mm512_storeu_ps(row.add(off(t)), v);
+                    if OUT {
+                        racc_r[t % M] = _mm512_fmadd_ps(v, ld(tm.cur, off(t)), racc_r[t % M]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Rows `i .. i + R` of the flush, a row's registers [`FLUSH_COLS`] at a time (or `M`,
+    /// if `M` does not divide it); if `OUT`, `out += a_i·(V'[i]·B)` for each row.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F; every offset in bounds (the caller's checks).
+    #[inline(always)]
+    unsafe fn flush_rows<const M: usize, const OUT: bool, const R: usize>(
+        vp: *mut f32,
+        tm: &Terms32,
+        i: usize,
+        p: usize,
+        dm: &[__m512; M],
+        out: &mut [__m512; M],
+    ) {
+        let regs = tm.row_len / LANE32;
+        // SAFETY: AVX-512F and bounds (the caller's contract); `r0 + N ≤ regs`.
+        unsafe {
+            let mut racc = [[_mm512_setzero_ps(); M]; R];
+            let mut r0 = 0;
+            if FLUSH_COLS.is_multiple_of(M) {
+                while r0 + FLUSH_COLS <= regs {
+                    flush_cols::<M, OUT, R, FLUSH_COLS>(vp, tm, i, r0, p, dm, &mut racc);
+                    r0 += FLUSH_COLS;
+                }
+            }
+            while r0 < regs {
+                flush_cols::<M, OUT, R, M>(vp, tm, i, r0, p, dm, &mut racc);
+                r0 += M;
+            }
+            if OUT {
+                for (r, racc_r) in racc.iter().enumerate() {
+                    let av = _mm512_set1_ps(*tm.cur_a.add(i + r));
+                    for q in 0..M {
+                        out[q] = _mm512_fmadd_ps(av, racc_r[q], out[q]);
+                    }
                 }
             }
         }
@@ -1011,6 +1306,11 @@ mod avx512f32 {
     /// The flush pass on the `f32` store: `V ← D V − Σ_{m<p} g_m A_m ⊗ B_m`, and, if `OUT`,
     /// `f̂ = V'ᵀ(A ⊗ B)` with the new weights (this tick's `A`, `B` from `batch.cur_a`,
     /// `batch.cur`).
+    ///
+    /// The scaled rows `G_m = g_m ⊙ B_m` are formed first ([`scale_terms`], 12 KB for the
+    /// paper, in L1 with the `A_m`); then rows stream in order, [`FLUSH_ROWS`] at a time, so
+    /// that the pass is `Vᵀ ← D Vᵀ − Aᵀ G`, a product of a `n_a × p` and a `p × n_b·M` matrix
+    /// with one load of `G` for every `FLUSH_ROWS` fused multiply-adds.
     ///
     /// # Safety
     /// The CPU must support AVX-512F. Panics unless `p ≤ DEPTH` and the buffers match.
@@ -1028,53 +1328,36 @@ mod avx512f32 {
                 && batch.a32.len() == DEPTH * na
                 && batch.cur_a.len() == na
                 && batch.bs.as_ref().len() == DEPTH * row_len
+                && batch.gb.as_ref().len() == DEPTH * row_len
                 && batch.cur.as_ref().len() == row_len
         );
-        let regs = row_len / LANE32;
-        let wide = FLUSH_COLS.is_multiple_of(M);
-        // `1 − D` and the `g_m`, rounded to `f32` once, spread over the lanes.
-        let dm: [f32; M] = std::array::from_fn(|j| (1.0 - batch.t.d[j]) as f32);
-        let gs: [[f32; M]; DEPTH] =
-            std::array::from_fn(|m| std::array::from_fn(|j| batch.t.g[m][j] as f32));
-        // SAFETY: AVX-512F (caller's contract); offsets: row `i < na`, registers
+        // SAFETY: AVX-512F (caller's contract); the lengths are checked there.
+        unsafe { scale_terms(batch.bs.as_ref(), &batch.t.g, p, row_len, batch.gb.as_mut()) };
+        // `1 − D`, rounded to `f32` once (below), spread over the lanes.
+        let dm: [f64; M] = std::array::from_fn(|j| 1.0 - batch.t.d[j]);
+        // SAFETY: AVX-512F (caller's contract); offsets: rows `i + r < na`, registers
         // `r0 + N ≤ regs`, term `m < p ≤ DEPTH`: in bounds by the assert. `vp` is the only
         // pointer written through (`v`); the others point into other fields, only read.
         unsafe {
-            let dm: [__m512; M] = std::array::from_fn(|q| _mm512_loadu_ps(spread(&dm, q).as_ptr()));
-            let g: [[__m512; M]; DEPTH] = std::array::from_fn(|m| {
-                std::array::from_fn(|q| _mm512_loadu_ps(spread(&gs[m], q).as_ptr()))
-            });
+            let dm = spreads(&dm);
             let tm = Terms32 {
                 na,
                 row_len,
                 am: batch.a32.as_ptr(),
-                bs: batch.bs.as_ref().as_ptr(),
+                gb: batch.gb.as_ref().as_ptr(),
                 cur: batch.cur.as_ref().as_ptr(),
+                cur_a: batch.cur_a.as_ptr(),
             };
-            let cur_a = batch.cur_a.as_ptr();
             let vp = batch.v.as_mut().as_mut_ptr();
-            let zero = _mm512_setzero_ps();
-            let mut out = [zero; M];
-            for i in 0..na {
-                let row = vp.add(i * row_len);
-                let mut racc = [zero; M];
-                let mut r0 = 0;
-                if wide {
-                    while r0 + FLUSH_COLS <= regs {
-                        flush_cols::<M, OUT, FLUSH_COLS>(row, &tm, i, r0, p, &dm, &g, &mut racc);
-                        r0 += FLUSH_COLS;
-                    }
-                }
-                while r0 < regs {
-                    flush_cols::<M, OUT, M>(row, &tm, i, r0, p, &dm, &g, &mut racc);
-                    r0 += M;
-                }
-                if OUT {
-                    let av = _mm512_set1_ps(*cur_a.add(i));
-                    for q in 0..M {
-                        out[q] = _mm512_fmadd_ps(av, racc[q], out[q]);
-                    }
-                }
+            let mut out = [_mm512_setzero_ps(); M];
+            let mut i = 0;
+            while i + FLUSH_ROWS <= na {
+                flush_rows::<M, OUT, FLUSH_ROWS>(vp, &tm, i, p, &dm, &mut out);
+                i += FLUSH_ROWS;
+            }
+            while i < na {
+                flush_rows::<M, OUT, 1>(vp, &tm, i, p, &dm, &mut out);
+                i += 1;
             }
             if OUT { sums(&out) } else { [0.0; M] }
         }
