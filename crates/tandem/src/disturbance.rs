@@ -169,10 +169,20 @@ impl<const N: usize> Disturbance<N> {
     /// `F_d(t)`.
     pub fn at(&self, t: f64) -> SVector<f64, N> {
         let mut f = SVector::<f64, N>::zeros();
-        for j in 0..N {
-            if self.amplitude[j] != 0.0 {
-                f[j] = self.amplitude[j]
-                    * crate::trig::sin_cos(self.frequency[j] * t + self.phase[j]).0;
+        let arg = |j: usize| self.frequency[j] * t + self.phase[j];
+        // Channels two at a time (`trig::sin_cos2`, the same bits as one at a time).
+        let mut j = 0;
+        while j < N {
+            if j + 1 < N && self.amplitude[j] != 0.0 && self.amplitude[j + 1] != 0.0 {
+                let [(s0, _), (s1, _)] = crate::trig::sin_cos2(arg(j), arg(j + 1));
+                f[j] = self.amplitude[j] * s0;
+                f[j + 1] = self.amplitude[j + 1] * s1;
+                j += 2;
+            } else {
+                if self.amplitude[j] != 0.0 {
+                    f[j] = self.amplitude[j] * crate::trig::sin_cos(arg(j)).0;
+                }
+                j += 1;
             }
         }
         for p in &self.pushes {
