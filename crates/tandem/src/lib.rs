@@ -10,7 +10,7 @@
 //!
 //! | block | planar | spatial | shared |
 //! |---|---|---|---|
-//! | algebra | — | [`spatial`] (SE(3), SO(3) exp/log and Jacobians, spatial inertia) | [`linalg`] |
+//! | algebra | — | [`spatial`] (SE(3), SO(3) exp/log and Jacobians, spatial inertia) | [`linalg`], [`trig`] |
 //! | model | [`arm`], [`object`], [`grasp`] | [`model`] (chains, URDF), [`plant::spatial::object`] | [`error`] |
 //! | arm dynamics (1)–(4) | [`arm`] (closed forms + general n-link) | [`dynamics`] (FK, J, J̇q̇, CRBA, RNEA, ABA) | |
 //! | closed chain (10)–(14) | [`plant`] (constrained, reduced) | [`plant::spatial`] (welds, compliant grasps) | [`plant::ClosedChain`] |
