@@ -637,11 +637,10 @@ mod tests {
                 assert!((inv_d[i] * d - 1.0).abs() <= 2.0 * f64::EPSILON);
                 assert!((d.sqrt() - c[(i, i)]).abs() <= 1e-14 * cond * c[(i, i)]);
                 for j in 0..i {
-                    let lc = l[(i, j)] * d.sqrt();
-                    let lj = l[(j, j)].sqrt();
+                    // L_c = L √D: column j scales by √D_j.
+                    let lc = l[(i, j)] * l[(j, j)].sqrt();
                     assert!(
-                        (l[(i, j)] * lj - c[(i, j)]).abs()
-                            <= 1e-13 * cond * (c[(i, j)].abs() + c[(j, j)]),
+                        (lc - c[(i, j)]).abs() <= 1e-13 * cond * (c[(i, j)].abs() + c[(j, j)]),
                         "n {n} ({i}, {j}): {lc} vs {}",
                         c[(i, j)]
                     );

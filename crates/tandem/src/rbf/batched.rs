@@ -55,6 +55,9 @@ use super::{Aligned, MAX_OUTPUTS};
 /// read-modify-write of the weights alone would be 1.6 µs; at 32 the `f64` pass went from
 /// 1.16 to 1.51 µs on the EPYC VM (48 KB of `B_m` no longer fit L1) and `f32` did not gain.
 pub const DEPTH: usize = 16;
+// The `f32` read alternates its direction with the pending count; an even depth keeps the
+// alternation across flush cycles.
+const _: () = assert!(DEPTH.is_multiple_of(2));
 
 /// Lanes of one AVX-512 register of `f64`.
 const LANE: usize = 8;

@@ -16,6 +16,9 @@ pub mod inertia;
 pub mod motion;
 pub mod se3;
 pub mod so3;
+/// Moved to [`crate::trig`] (session 7), where the planar step uses it too; kept here for the
+/// old path.
+pub use crate::trig;
 
 pub use inertia::SpatialInertia;
 pub use motion::{
