@@ -6,7 +6,8 @@
 //! compiler can neither inline nor overlap with its neighbours, and it was 14 % of the 90 s
 //! paper run (`docs/performance.md`, session 7). These ~40 instructions are inlined, so the
 //! five angles of a constrained derivative run side by side. The same operations (no fused
-//! multiply-add) give the same bits on every x86-64 and AArch64 machine, whatever its libm.
+//! multiply-add) give the same bits on every x86-64 and AArch64 machine, whatever its libm, for
+//! every angle on the polynomial path (finite, nonzero, `|x| < 1e5`).
 //!
 //! Cody–Waite reduction `x = k π/2 + r`, `|r| ≤ π/4 (1 + 2⁻⁴⁰)`, with `π/2` split in three
 //! 33-bit parts (so `k · part` is exact for `|k| < 2²⁰`), then the fdlibm minimax kernels
@@ -152,7 +153,7 @@ mod sse2 {
                 w,
                 _mm_add_pd(_mm_sub_pd(_mm_sub_pd(splat(1.0), w), hz), _mm_mul_pd(z, pc)),
             );
-            // Quadrant q = k mod 4 (k is an integer below 2^17 in magnitude: exact in i32),
+            // Quadrant q = k mod 4 (k is an integer below 2^16 in magnitude: exact in i32),
             // each lane's i32 copied into both halves of its 64-bit lane for the masks.
             let q = _mm_shuffle_epi32::<0b01_01_00_00>(_mm_cvtpd_epi32(k));
             let lane_mask = |bit: i32, add: i32| {

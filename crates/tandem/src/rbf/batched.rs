@@ -51,8 +51,10 @@ use super::{Aligned, MAX_OUTPUTS};
 /// traffic per tick falls as `1/DEPTH`, while the held `B_m`, scaled by the `g_m` at the flush
 /// (`G_m`, `DEPTH · n_b · M` values: 24 KB at 16 for the paper, half that in `f32`), must stay
 /// in L1 during the flush. Measured
-/// (`docs/performance.md`): at 16 the `f64` flush takes 6.8 µs on the Xeon VM, of which the
-/// read-modify-write of the weights alone would be 1.6 µs; at 32 the `f64` pass went from
+/// (`docs/performance.md`): at 16 the `f64` flush took 6.8 µs on the Xeon VM (session 5,
+/// before `G_m`), of which the read-modify-write of the weights alone would be 1.6 µs; the
+/// flushing tick now takes 4.8 µs (`f64`) and 2.6 µs (`f32`) on the EPYC VM (session 7,
+/// "Session 7: the flush"); at 32 the `f64` pass went from
 /// 1.16 to 1.51 µs on the EPYC VM (48 KB of `B_m` no longer fit L1) and `f32` did not gain.
 pub const DEPTH: usize = 16;
 // The `f32` read alternates its direction with the pending count; an even depth keeps the
@@ -1312,8 +1314,9 @@ mod avx512f32 {
     ///
     /// The scaled rows `G_m = g_m ⊙ B_m` are formed first ([`scale_terms`], 12 KB for the
     /// paper, in L1 with the `A_m`); then rows stream in order, [`FLUSH_ROWS`] at a time, so
-    /// that the pass is `Vᵀ ← D Vᵀ − Aᵀ G`, a product of a `n_a × p` and a `p × n_b·M` matrix
-    /// with one load of `G` for every `FLUSH_ROWS` fused multiply-adds.
+    /// that the pass is `V ← V·diag(D) − Aᵀ G` (`V` the `n_a × n_b·M` store, `A` the `p × n_a`
+    /// matrix of the `A_m`, `G` the `p × n_b·M` matrix of the `G_m`; the `f32` store computes it
+    /// as `v − ((1 − D)v + t)`), with one load of `G` for every `FLUSH_ROWS` fused multiply-adds.
     ///
     /// # Safety
     /// The CPU must support AVX-512F. Panics unless `p ≤ DEPTH` and the buffers match.
