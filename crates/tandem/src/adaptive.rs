@@ -319,8 +319,21 @@ impl FuBound {
     /// `f_jᵁ(Z)`.
     #[inline]
     pub fn eval(&self, j: usize, x2: f64, alpha: f64, alpha_dot: f64) -> f64 {
-        self.a[j] + self.b[j] * x2 * alpha + self.c[j] * alpha_dot + self.d[j] * alpha
+        fu_value(
+            [self.a[j], self.b[j], self.c[j], self.d[j]],
+            x2,
+            alpha,
+            alpha_dot,
+        )
     }
+}
+
+/// `f^U = a + b‖x₂‖‖α‖ + c‖α̇‖ + d‖α‖` from one output's coefficients `[a, b, c, d]` (the one
+/// formula of [`FuBound::eval`] and of the controller's tick, which keeps the coefficients in
+/// a fixed-size array).
+#[inline(always)]
+fn fu_value([a, b, c, d]: [f64; 4], x2: f64, alpha: f64, alpha_dot: f64) -> f64 {
+    a + b * x2 * alpha + c * alpha_dot + d * alpha
 }
 
 /// The network of an [`AdaptiveNn`]: the paper's grid (the default, with its fused
@@ -539,9 +552,7 @@ impl<const N: usize> AdaptiveNn<N> {
         let (nx2, na, nad) = (x2.norm(), ev.alpha.norm(), ev.alpha_dot.norm());
         let mut tau = SVector::<f64, N>::zeros();
         for j in 0..N {
-            // f_jᵁ as `FuBound::eval`, the same operations in the same order.
-            let [a, b, c, d] = self.fu_k[j];
-            let fu = a + b * nx2 * na + c * nad + d * na;
+            let fu = fu_value(self.fu_k[j], nx2, na, nad);
             // With Q = 1 the robust term is weighted by (1 − Q) = +0: the product is ±0 with
             // the sign of φ_b. For a finite x, clamp(x, −1, 1) has the sign and zero-ness of
             // tanh(x) and keeps −f^U·(it) finite, so it stands in for tanh(x) there with the

@@ -28,6 +28,7 @@ use crate::arm::{Arm, FixedKinematics, FixedLinkArm, TwoLinkArm};
 use crate::ctc::{Ctc, CtcGains, nominal_params};
 use crate::error::{ModelError, non_negative, positive};
 use crate::grasp::{Grasp, GraspSet};
+use crate::linalg::finite_slice;
 use crate::pd::{Pd, PdGains};
 use crate::plant::{Plant, PlantParams, PlantWorkspace};
 use crate::trajectory::Path;
@@ -287,12 +288,6 @@ impl ArmSlot {
             v_ee: Vector2::zeros(),
         }
     }
-}
-
-/// Whether every entry of `v` is finite (no early exit: three tests and-ed, no iterator).
-#[inline(always)]
-fn finite3(v: &Vector3<f64>) -> bool {
-    v.x.is_finite() & v.y.is_finite() & v.z.is_finite()
 }
 
 /// `N` entries of `v` from `off`, as an array (one length check).
@@ -730,7 +725,7 @@ impl Controller {
             tau.fill(0.0);
             return;
         };
-        if !(finite3(&x1) & finite3(&x2)) {
+        if !(finite_slice(x1.as_slice()) & finite_slice(x2.as_slice())) {
             self.events.non_finite += 1;
             rec.non_finite = true;
             tau.fill(0.0);
@@ -777,7 +772,7 @@ impl Controller {
                 w
             }
         };
-        if !finite3(&w) {
+        if !finite_slice(w.as_slice()) {
             rec.non_finite = true;
             w = Vector3::zeros();
         }

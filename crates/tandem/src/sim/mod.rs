@@ -273,13 +273,6 @@ impl<D: Drive<Plant>> Simulation<Plant, D> {
     }
 }
 
-/// Whether every entry of `v` is finite: one pass without early exit (the tests and-ed, which
-/// vectorises), for the per-tick checks where all values are finite but for a fault.
-#[inline]
-fn all_finite(v: &[f64]) -> bool {
-    v.iter().fold(true, |ok, x| ok & x.is_finite())
-}
-
 fn chain_fault(f: ChainFault) -> FaultKind {
     match f {
         ChainFault::NonFinite => FaultKind::NonFinite,
@@ -550,7 +543,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             return Err(self.fault(t1, chain_fault(e)));
         }
         // 4. Health.
-        if !all_finite(&self.y) {
+        if !crate::linalg::finite_slice(&self.y) {
             return Err(self.fault(t1, FaultKind::NonFinite));
         }
         // The output bound on the true pose, every tick.
@@ -571,12 +564,12 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
     fn non_finite_signal(&mut self) -> Option<String> {
         // The common case, every value finite, in one pass over each buffer without early
         // exit; then only the record's own check. The search below names the first offender.
-        if all_finite(&self.wrenches)
-            & all_finite(&self.sensor_truth)
-            & all_finite(&self.meas)
-            & all_finite(self.sensors.q())
-            & all_finite(self.sensors.qd())
-            & all_finite(P::torques_mut(&mut self.input))
+        if crate::linalg::finite_slice(&self.wrenches)
+            & crate::linalg::finite_slice(&self.sensor_truth)
+            & crate::linalg::finite_slice(&self.meas)
+            & crate::linalg::finite_slice(self.sensors.q())
+            & crate::linalg::finite_slice(self.sensors.qd())
+            & crate::linalg::finite_slice(P::torques_mut(&mut self.input))
         {
             return self.rec.non_finite();
         }
