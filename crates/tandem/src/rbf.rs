@@ -1360,7 +1360,13 @@ const MAX_LANES: usize = BLOCK * MAX_OUTPUTS;
 /// Per-output sums of the lanes: `(v[j] + v[2M + j]) + (v[M + j] + v[3M + j])`.
 #[inline(always)]
 fn reduce<const M: usize>(v: &[f64; MAX_LANES]) -> [f64; M] {
-    std::array::from_fn(|j| (v[j] + v[2 * M + j]) + (v[M + j] + v[3 * M + j]))
+    // Plain loops here and below: the kernels that inline these are `target_feature`
+    // functions, where `array::from_fn`'s closure is called, not inlined.
+    let mut out = [0.0; M];
+    for (j, o) in out.iter_mut().enumerate() {
+        *o = (v[j] + v[2 * M + j]) + (v[M + j] + v[3 * M + j]);
+    }
+    out
 }
 
 /// Nodes per block of the AVX-512 kernel (one register of `S`).
@@ -1372,10 +1378,12 @@ const BLOCK512: usize = 8;
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn reduce512<const M: usize>(v: &[f64; BLOCK512 * MAX_OUTPUTS]) -> [f64; M] {
-    std::array::from_fn(|j| {
+    let mut out = [0.0; M];
+    for (j, o) in out.iter_mut().enumerate() {
         let l = |t: usize| v[t * M + j];
-        ((l(0) + l(4)) + (l(2) + l(6))) + ((l(1) + l(5)) + (l(3) + l(7)))
-    })
+        *o = ((l(0) + l(4)) + (l(2) + l(6))) + ((l(1) + l(5)) + (l(3) + l(7)));
+    }
+    out
 }
 
 /// `S` of the last, partial block, zero-padded (the padding lanes then add exact zeros).
@@ -1390,7 +1398,11 @@ fn s_tail(s: &[f64]) -> [f64; BLOCK] {
 /// `e_j`, `c_j` spread over the lanes of a block.
 #[inline(always)]
 fn lane_pattern<const M: usize>(v: &[f64; M]) -> [f64; MAX_LANES] {
-    std::array::from_fn(|i| if i < BLOCK * M { v[i % M] } else { 0.0 })
+    let mut out = [0.0; MAX_LANES];
+    for (i, o) in out[..BLOCK * M].iter_mut().enumerate() {
+        *o = v[i % M];
+    }
+    out
 }
 
 /// One block of the fused pass: per lane `acc += old·S`, `w = e·old − c·S`, `n2 += w·w`
@@ -2124,7 +2136,10 @@ mod avx512 {
                 let n_blk = k1 - k0;
                 for (i, &ai) in a.iter().enumerate() {
                     let av = _mm512_set1_pd(ai);
-                    let ca: [__m512d; M] = std::array::from_fn(|q| _mm512_mul_pd(r.c[q], av));
+                    let mut ca = [zero; M];
+                    for (x, &cq) in ca.iter_mut().zip(&r.c) {
+                        *x = _mm512_mul_pd(cq, av);
+                    }
                     let mut racc = [[zero; M]; 2];
                     let row = &mut w[(i * nb + k0 * B) * M..(i * nb + k1 * B) * M];
                     let (pairs, rest) = row.split_at_mut(n_blk / 2 * 2 * B * M);
