@@ -432,12 +432,25 @@ impl<const M: usize> Batch32<M> {
             cur: Aligned::zeros(n_b * M),
             gb: Aligned::zeros(DEPTH * n_b * M),
             b32: vec![0.0; n_b + LANE32],
-            // Entry `e = 16r + t` of a spread row is `B[e / M]`; a register's entries span at
-            // most 16 consecutive `k`, starting at `first[r] = 16r / M`.
+            // Entry `e = 16r + t` of a spread row is `B[e / M]`. A register's entries start at
+            // `k = 16r / M` and span fewer than 16 / M + 1 consecutive `k`; from the 8-block
+            // holding the first, `first[r] = 8⌊16r / 8M⌋`, they lie in that block and the next
+            // (offset < 8 + 16/M + 1 ≤ 16 for M ≥ 3; M = 1, 2 start on a block). Lane `t` takes
+            // offset `o` from the first block (`o < 8`) or `o − 8` from the second (`16 + o − 8`
+            // in the two-source permute).
             spread: (0..n_b * M / LANE32)
-                .map(|r| std::array::from_fn(|t| ((LANE32 * r + t) / M - LANE32 * r / M) as u32))
+                .map(|r| {
+                    let f0 = LANE32 * r / M / 8 * 8;
+                    std::array::from_fn(|t| {
+                        let o = (LANE32 * r + t) / M - f0;
+                        assert!(o < 16, "spread offset");
+                        (if o < 8 { o } else { o + 8 }) as u32
+                    })
+                })
                 .collect(),
-            first: (0..n_b * M / LANE32).map(|r| LANE32 * r / M).collect(),
+            first: (0..n_b * M / LANE32)
+                .map(|r| LANE32 * r / M / 8 * 8)
+                .collect(),
         }
     }
 
@@ -944,9 +957,10 @@ mod avx512 {
 mod avx512f32 {
     use super::{Batch32, DEPTH, LANE32, MAX_OUTPUTS};
     use std::arch::x86_64::{
-        __m512, _mm256_storeu_ps, _mm512_castps256_ps512, _mm512_cvtpd_ps, _mm512_fmadd_ps,
-        _mm512_loadu_pd, _mm512_loadu_ps, _mm512_loadu_si512, _mm512_maskz_loadu_pd, _mm512_mul_ps,
-        _mm512_permutexvar_ps, _mm512_set1_ps, _mm512_setzero_ps, _mm512_storeu_ps, _mm512_sub_ps,
+        __m512, _mm256_loadu_ps, _mm256_storeu_ps, _mm512_castps256_ps512, _mm512_cvtpd_ps,
+        _mm512_fmadd_ps, _mm512_loadu_pd, _mm512_loadu_ps, _mm512_loadu_si512,
+        _mm512_maskz_loadu_pd, _mm512_mul_ps, _mm512_permutex2var_ps, _mm512_permutexvar_ps,
+        _mm512_set1_ps, _mm512_setzero_ps, _mm512_storeu_ps, _mm512_sub_ps,
     };
 
     /// `dst = src` rounded to `f32`, 8 values a register.
@@ -973,7 +987,10 @@ mod avx512f32 {
     }
 
     /// `cur` = `B` spread over the weight lanes, a register at a time: register `r` is lanes
-    /// `idx[r]` of the 16 values of `b32` from `first[r]` (one load and one permute).
+    /// `idx[r]` of the two 8-value blocks of `b32` at `first[r]` and `first[r] + 8` (two loads
+    /// and one two-source permute). The blocks are those [`narrow`] just stored, whole, so each
+    /// load is forwarded from one store (a 16-value load across two or three of them, as an
+    /// unaligned one would be, waits for the stores to reach the cache).
     ///
     /// # Safety
     /// The CPU must support AVX-512F. Panics unless `cur.len() = 16·idx.len()`, `first` is as
@@ -988,11 +1005,13 @@ mod avx512f32 {
         assert!(cur.len() == LANE32 * idx.len() && first.len() == idx.len());
         for ((c, ix), &f0) in cur.chunks_exact_mut(LANE32).zip(idx).zip(first) {
             let src = &b32[f0..f0 + LANE32];
-            // SAFETY: 16 lanes each, in bounds by the slicing; AVX-512F (caller's contract).
+            // SAFETY: 16 lanes in two halves of 8, in bounds by the slicing; AVX-512F (caller's
+            // contract).
             unsafe {
                 let i = _mm512_loadu_si512(ix.as_ptr().cast());
-                let x = _mm512_permutexvar_ps(i, _mm512_loadu_ps(src.as_ptr()));
-                _mm512_storeu_ps(c.as_mut_ptr(), x);
+                let lo = _mm512_castps256_ps512(_mm256_loadu_ps(src.as_ptr()));
+                let hi = _mm512_castps256_ps512(_mm256_loadu_ps(src.as_ptr().add(8)));
+                _mm512_storeu_ps(c.as_mut_ptr(), _mm512_permutex2var_ps(lo, i, hi));
             }
         }
     }

@@ -166,11 +166,43 @@ pub(super) unsafe fn kron(
             let levels = _mm512_maskz_loadu_pd(((1u32 << n) - 1) as u8, f.as_ptr().add(offsets[i]));
             *pat = _mm512_permutexvar_pd(idx, levels);
         }
-        let pattern = &pattern[..to - split];
+        // A constant pattern count for the usual tails (three inputs of two levels, and so
+        // on), so that the patterns stay in registers and the loop is unrolled.
+        match to - split {
+            1 => tail_products::<1>(prefix, &pattern, out),
+            2 => tail_products::<2>(prefix, &pattern, out),
+            3 => tail_products::<3>(prefix, &pattern, out),
+            n => {
+                for (r, &pr) in prefix.iter().enumerate() {
+                    let mut x = _mm512_set1_pd(pr);
+                    for &pat in &pattern[..n] {
+                        x = _mm512_mul_pd(x, pat);
+                    }
+                    _mm512_storeu_pd(out.as_mut_ptr().add(r * LANE), x);
+                }
+            }
+        }
+    }
+}
+
+/// `out`'s register `r` = `prefix[r]` times the first `P` lane patterns, in order (the
+/// products of [`kron`]).
+///
+/// # Safety
+/// The CPU must support AVX-512F; `out.len() ≥ 8·prefix.len()`.
+#[inline(always)]
+unsafe fn tail_products<const P: usize>(
+    prefix: &[f64],
+    pattern: &[__m512d; LANE],
+    out: &mut [f64],
+) {
+    assert!(P <= LANE && out.len() >= LANE * prefix.len());
+    // SAFETY: AVX-512F (caller's contract); register `r` is in bounds by the assert.
+    unsafe {
         for (r, &pr) in prefix.iter().enumerate() {
             let mut x = _mm512_set1_pd(pr);
-            for &pat in pattern {
-                x = _mm512_mul_pd(x, pat);
+            for pat in &pattern[..P] {
+                x = _mm512_mul_pd(x, *pat);
             }
             _mm512_storeu_pd(out.as_mut_ptr().add(r * LANE), x);
         }
