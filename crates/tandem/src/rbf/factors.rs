@@ -15,9 +15,10 @@
 use std::arch::x86_64::{
     __m512d, __mmask8, _mm512_and_si512, _mm512_fmadd_pd, _mm512_fnmadd_pd,
     _mm512_mask_i64gather_pd, _mm512_mask_storeu_pd, _mm512_maskz_loadu_epi64,
-    _mm512_maskz_loadu_pd, _mm512_max_pd, _mm512_min_pd, _mm512_mul_pd, _mm512_permutexvar_pd,
-    _mm512_roundscale_pd, _mm512_scalef_pd, _mm512_set_epi64, _mm512_set1_epi64, _mm512_set1_pd,
-    _mm512_setzero_pd, _mm512_srlv_epi64, _mm512_storeu_pd, _mm512_sub_pd,
+    _mm512_maskz_loadu_pd, _mm512_max_pd, _mm512_min_pd, _mm512_mul_pd, _mm512_permutex2var_pd,
+    _mm512_permutexvar_pd, _mm512_roundscale_pd, _mm512_scalef_pd, _mm512_set_epi64,
+    _mm512_set1_epi64, _mm512_set1_pd, _mm512_setzero_pd, _mm512_srlv_epi64, _mm512_storeu_pd,
+    _mm512_sub_pd,
 };
 
 /// Lanes of an AVX-512 register of `f64`.
@@ -95,6 +96,30 @@ pub(super) unsafe fn gaussians(
         in_bounds &= (i as u64) < z.len() as u64;
     }
     assert!(in_bounds, "gaussians: an input index is out of range");
+    // Up to 16 inputs sit in two registers, and a two-source permute selects each lane's
+    // input (a gather, the fallback, waits on eight loads a register).
+    let nz = z.len();
+    let (z_lo, z_hi) = if nz <= 2 * LANE {
+        let m_lo = if nz >= LANE {
+            0xff
+        } else {
+            ((1u32 << nz) - 1) as u8
+        };
+        let m_hi = if nz >= 2 * LANE {
+            0xff
+        } else {
+            ((1u32 << nz.saturating_sub(LANE)) - 1) as u8
+        };
+        // SAFETY: AVX-512F (caller's contract); the masks cover `z[..nz]` only.
+        unsafe {
+            (
+                _mm512_maskz_loadu_pd(m_lo, z.as_ptr()),
+                _mm512_maskz_loadu_pd(m_hi, z.as_ptr().add(nz.min(LANE))),
+            )
+        }
+    } else {
+        (_mm512_setzero_pd(), _mm512_setzero_pd())
+    };
     let mut l0 = 0;
     while l0 < n {
         let len = LANE.min(n - l0);
@@ -103,8 +128,11 @@ pub(super) unsafe fn gaussians(
         // in bounds, the others masked off; the gathered indices are `< z.len()` (assert).
         unsafe {
             let idx = _mm512_maskz_loadu_epi64(mask, input_of.as_ptr().add(l0).cast());
-            let zl =
-                _mm512_mask_i64gather_pd::<8>(_mm512_setzero_pd(), mask, idx, z.as_ptr().cast());
+            let zl = if nz <= 2 * LANE {
+                _mm512_permutex2var_pd(z_lo, idx, z_hi)
+            } else {
+                _mm512_mask_i64gather_pd::<8>(_mm512_setzero_pd(), mask, idx, z.as_ptr().cast())
+            };
             let cl = _mm512_maskz_loadu_pd(mask, levels.as_ptr().add(l0));
             let d = _mm512_sub_pd(zl, cl);
             let arg = _mm512_mul_pd(
