@@ -315,13 +315,14 @@ mod tests {
         if !avx512() {
             return;
         }
-        let grids: [&[usize]; 6] = [
+        let grids: [&[usize]; 7] = [
             &[2, 2, 2, 2, 2, 2],
             &[2, 2, 2],
             &[4, 2],
             &[3, 8],
             &[2, 3, 4, 2],
             &[3, 3],
+            &[2, 2, 1, 2, 2],
         ];
         let mut s = 7u64;
         for levels in grids {
@@ -371,5 +372,36 @@ mod tests {
         }
         assert_eq!(f[6..8], [0.0, 0.0]);
         assert_eq!(buf[11..], [7.0, 7.0]);
+    }
+
+    /// Every input count picks its inputs right: up to 8 (one register), 9 to 16 (the
+    /// two-source permute) and beyond (the gather), with 1 to 3 levels an input.
+    #[test]
+    fn vector_gaussians_pick_each_levels_input_for_any_input_count() {
+        if !avx512() {
+            return;
+        }
+        for n_in in [1, 3, 8, 9, 12, 16, 17, 24] {
+            let counts: Vec<usize> = (0..n_in).map(|i| 1 + (i * 7) % 3).collect();
+            let input_of: Vec<i64> = counts
+                .iter()
+                .enumerate()
+                .flat_map(|(i, &c)| std::iter::repeat_n(i as i64, c))
+                .collect();
+            let levels: Vec<f64> = (0..input_of.len()).map(|l| -1.0 + 0.1 * l as f64).collect();
+            let z: Vec<f64> = (0..n_in).map(|i| 0.37 * i as f64 - 2.0).collect();
+            let mut f = vec![0.0; levels.len()];
+            // SAFETY: AVX-512F checked above; every index `< n_in`.
+            unsafe { gaussians(&z, &levels, &input_of, 0.5, &mut f) };
+            for (l, (&i, &c)) in input_of.iter().zip(&levels).enumerate() {
+                let d = z[i as usize] - c;
+                let e = (-(d * d) * 0.5).exp();
+                assert!(
+                    ulps(f[l], e) <= 2,
+                    "{n_in} inputs, level {l}: {} vs {e}",
+                    f[l]
+                );
+            }
+        }
     }
 }
