@@ -957,8 +957,8 @@ mod avx512 {
 mod avx512f32 {
     use super::{Batch32, DEPTH, LANE32, MAX_OUTPUTS};
     use std::arch::x86_64::{
-        __m512, _mm256_loadu_ps, _mm256_storeu_ps, _mm512_castps256_ps512, _mm512_cvtpd_ps,
-        _mm512_fmadd_ps, _mm512_loadu_pd, _mm512_loadu_ps, _mm512_loadu_si512,
+        __m512, _mm256_loadu_ps, _mm256_storeu_ps, _mm512_add_ps, _mm512_castps256_ps512,
+        _mm512_cvtpd_ps, _mm512_fmadd_ps, _mm512_loadu_pd, _mm512_loadu_ps, _mm512_loadu_si512,
         _mm512_maskz_loadu_pd, _mm512_mul_ps, _mm512_permutex2var_ps, _mm512_permutexvar_ps,
         _mm512_set1_ps, _mm512_setzero_ps, _mm512_storeu_ps, _mm512_sub_ps,
     };
@@ -1122,13 +1122,34 @@ mod avx512f32 {
         // SAFETY: AVX-512F and bounds (the caller's contract).
         unsafe {
             let mut c = [_mm512_setzero_ps(); N];
-            for k in 0..na {
+            let mut c2 = [_mm512_setzero_ps(); N];
+            let mut k = 0;
+            while k + 2 <= na {
+                let (i, i2) = if REV {
+                    (na - 1 - k, na - 2 - k)
+                } else {
+                    (k, k + 1)
+                };
+                let av = _mm512_set1_ps(*a.as_ptr().add(i));
+                let av2 = _mm512_set1_ps(*a.as_ptr().add(i2));
+                let row = w.add(i * row_len + r0 * LANE32);
+                let row2 = w.add(i2 * row_len + r0 * LANE32);
+                for t in 0..N {
+                    c[t] = _mm512_fmadd_ps(av, ld(row, t * LANE32), c[t]);
+                    c2[t] = _mm512_fmadd_ps(av2, ld(row2, t * LANE32), c2[t]);
+                }
+                k += 2;
+            }
+            if k < na {
                 let i = if REV { na - 1 - k } else { k };
                 let av = _mm512_set1_ps(*a.as_ptr().add(i));
                 let row = w.add(i * row_len + r0 * LANE32);
                 for (t, ct) in c.iter_mut().enumerate() {
                     *ct = _mm512_fmadd_ps(av, ld(row, t * LANE32), *ct);
                 }
+            }
+            for t in 0..N {
+                c[t] = _mm512_add_ps(c[t], c2[t]);
             }
             for (t, ct) in c.iter().enumerate() {
                 let q = (r0 + t) % M;
@@ -1163,10 +1184,6 @@ mod avx512f32 {
         unsafe {
             let mut out = [_mm512_setzero_ps(); M];
             let mut r0 = 0;
-            while r0 + 24 <= regs {
-                read_cols::<M, 24, REV>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
-                r0 += 24;
-            }
             while r0 + 12 <= regs {
                 read_cols::<M, 12, REV>(w.as_ptr(), a, cur.as_ptr(), row_len, r0, &mut out);
                 r0 += 12;
