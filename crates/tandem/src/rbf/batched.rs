@@ -156,8 +156,8 @@ impl<const M: usize> Terms<M> {
     fn push(&mut self, (a, _, f, _): Basis<'_>, e: &[f64; M], c: &[f64; M]) -> usize {
         let (na, p) = (self.n_a, self.p);
         assert!(p < DEPTH && f.len() == self.n_f);
-        for (l, &fl) in f.iter().enumerate() {
-            self.fs[l * DEPTH + p] = fl;
+        for (fs_l, &fl) in self.fs.chunks_exact_mut(DEPTH).zip(f) {
+            fs_l[p] = fl;
         }
         for j in 0..M {
             self.d[j] *= e[j];
