@@ -1183,8 +1183,10 @@ impl TwoLinkArm {
 
     /// Pose at joint angles `q`: one `sin_cos` per link, accumulated as [`Arm::kinematics`]
     /// does (`φ_1 = base angle + q_1`, `φ_2 = φ_1 + q_2`), so the directions are bitwise those
-    /// of the general path; `cos q2 = u_1·u_12`, `sin q2 = u_1 × u_12`.
-    #[inline]
+    /// of the general path; `cos q2 = u_1·u_12`, `sin q2 = u_1 × u_12`. Inlined into every
+    /// caller (the plant's and the controller's hot paths), so that the two `sin_cos2` lanes
+    /// overlap with the caller's other work.
+    #[inline(always)]
     pub fn pose(&self, q: [f64; 2]) -> TwoLinkPose {
         let phi1 = self.base_angle + q[0];
         let phi2 = phi1 + q[1];

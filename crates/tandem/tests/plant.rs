@@ -928,3 +928,58 @@ fn issue_12_one_kinematics_pass_gives_the_drift_and_the_singular_value_bits() {
         );
     }
 }
+
+#[test]
+fn issue_12_grasp_forces_keep_gives_the_forces_and_keeps_the_state_part_bit_for_bit() {
+    // The loop's grasp forces at (y, u_{k−1}) (`grasp_forces_keep`, no accelerations) are the
+    // fresh derivative's, bit for bit, and the state part it keeps serves the first RK4 stage
+    // at (y, u_k) (`derivative_reusing`) as `derivative_keep`'s does.
+    let mut cases: Vec<(PlantParams, Option<Vec<f64>>)> =
+        vec![(fixtures::paper(), None), (fixtures::three_arms(), None)];
+    for (arms, links) in [(3, 3), (2, 4), (2, 5)] {
+        let (p, g) = n_link::chain(arms, links);
+        cases.push((p, Some(g)));
+    }
+    let mut rng = Rng(1212);
+    for (p, guess) in cases {
+        let plant = Plant::new(&p).unwrap();
+        let y0 = plant
+            .initial_state(
+                fixtures::paper_start(),
+                Vector3::new(-0.03, 0.04, -0.2),
+                guess.as_deref(),
+            )
+            .unwrap();
+        let (mut ws, mut ws_fresh) = (plant.workspace(), plant.workspace());
+        let n = plant.state_dim();
+        let (mut dy, mut dy_fresh) = (vec![0.0; n], vec![0.0; n]);
+        let (mut u_prev, mut u) = (plant.zero_input(), plant.zero_input());
+        for _ in 0..30 {
+            let y: Vec<f64> = y0.iter().map(|v| v + rng.range(-1e-2, 1e-2)).collect();
+            for (a, b) in u_prev.tau.iter_mut().zip(u.tau.iter_mut()) {
+                (*a, *b) = (rng.range(-5.0, 5.0), rng.range(-5.0, 5.0));
+            }
+            u_prev.f_d = Vector3::new(rng.range(-1.0, 1.0), 0.2, rng.range(-0.1, 0.1));
+            let reg = ws.regularised;
+            assert!(plant.grasp_forces_keep(&y, &u_prev, &mut ws, &mut dy));
+            assert!(plant.derivative(&y, &u_prev, &mut ws_fresh, &mut dy_fresh));
+            let bits = |ws: &PlantWorkspace| -> Vec<u64> {
+                ws.forces
+                    .iter()
+                    .flat_map(|f| [f.x.to_bits(), f.y.to_bits()])
+                    .chain([ws.kkt_pivot.to_bits()])
+                    .collect()
+            };
+            assert_eq!(bits(&ws), bits(&ws_fresh), "{:?}", plant.algorithm());
+            assert_eq!(ws.regularised, reg);
+            assert!(plant.derivative_reusing(&y, &u, &mut ws, &mut dy));
+            assert!(plant.derivative(&y, &u, &mut ws_fresh, &mut dy_fresh));
+            assert_eq!(
+                derivative_bits(&dy, &ws),
+                derivative_bits(&dy_fresh, &ws_fresh),
+                "{:?}",
+                plant.algorithm()
+            );
+        }
+    }
+}

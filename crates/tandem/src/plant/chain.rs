@@ -340,9 +340,10 @@ impl ClosedChain for super::Plant {
         out: &mut [f64],
     ) -> Result<(), ChainFault> {
         let ok = match st.formulation {
-            // Kept for the first RK4 stage of the step that follows at this state.
+            // Kept for the first RK4 stage of the step that follows at this state; the
+            // accelerations are not needed here.
             Formulation::Constrained => {
-                super::Plant::derivative_keep(self, y, input, ws, &mut st.dy)
+                super::Plant::grasp_forces_keep(self, y, input, ws, &mut st.dy)
             }
             Formulation::Reduced => {
                 let mut d = [0.0; 6];

@@ -130,6 +130,8 @@ enum Mode {
     Keep,
     /// Use the kept state part if it is of this `y` (bit for bit), else as `Fresh`.
     Reuse,
+    /// As `Keep`, but only the grasp forces (and the diagnostics): no accelerations.
+    KeepForces,
 }
 
 impl Plant {
@@ -168,6 +170,23 @@ impl Plant {
         dy: &mut [f64],
     ) -> bool {
         self.derivative_mode(y, input, ws, dy, Mode::Keep)
+    }
+
+    /// The grasp forces `λ_i` of [`Plant::derivative_keep`] into `ws.forces` (with
+    /// `ws.kkt_pivot` and the `ws.regularised` count), keeping the state part as it does, but
+    /// not the accelerations: on the fixed-size paths `dy` and `ws.xdd_o` are left as they
+    /// were (the general algorithm writes them, `dy` its scratch). The simulation loop's grasp
+    /// forces at `(y(t_k), u_{k−1})` (SPEC §3 step 1) need no more; the same `λ_i`, bit for
+    /// bit, as [`Plant::derivative`]. Returns `false` as [`Plant::derivative`] does.
+    #[inline]
+    pub fn grasp_forces_keep(
+        &self,
+        y: &[f64],
+        input: &PlantInput,
+        ws: &mut PlantWorkspace,
+        dy: &mut [f64],
+    ) -> bool {
+        self.derivative_mode(y, input, ws, dy, Mode::KeepForces)
     }
 
     /// [`Plant::derivative`] at a state whose state part the last [`Plant::derivative_keep`]
@@ -211,7 +230,7 @@ impl Plant {
                         let Some(st) = self.state_part($a, y) else {
                             return false;
                         };
-                        self.input_part::<_, $n, $m, $nk>(
+                        self.input_part::<_, $n, $m, $nk, true>(
                             $a,
                             &st,
                             y,
@@ -232,7 +251,7 @@ impl Plant {
                                 .zip(y)
                                 .fold(true, |eq, (a, b)| eq & (a.to_bits() == b.to_bits())) =>
                     {
-                        self.input_part::<_, $n, $m, $nk>(
+                        self.input_part::<_, $n, $m, $nk, true>(
                             $a,
                             slot,
                             y,
@@ -244,22 +263,36 @@ impl Plant {
                             dy,
                         )
                     }
-                    Mode::Keep | Mode::Reuse => {
+                    Mode::Keep | Mode::Reuse | Mode::KeepForces => {
                         let Some(st) = self.state_part($a, y) else {
                             ws.kept_valid = false;
                             return false;
                         };
-                        let ok = self.input_part::<_, $n, $m, $nk>(
-                            $a,
-                            &st,
-                            y,
-                            input,
-                            forces,
-                            xdd_o,
-                            kkt_pivot,
-                            regularised,
-                            dy,
-                        );
+                        let ok = if mode == Mode::KeepForces {
+                            self.input_part::<_, $n, $m, $nk, false>(
+                                $a,
+                                &st,
+                                y,
+                                input,
+                                forces,
+                                xdd_o,
+                                kkt_pivot,
+                                regularised,
+                                dy,
+                            )
+                        } else {
+                            self.input_part::<_, $n, $m, $nk, true>(
+                                $a,
+                                &st,
+                                y,
+                                input,
+                                forces,
+                                xdd_o,
+                                kkt_pivot,
+                                regularised,
+                                dy,
+                            )
+                        };
                         *slot = st;
                         ws.kept_valid = true;
                         let len = ws.kept_y.len();
@@ -397,10 +430,17 @@ impl Plant {
     /// `a0_o = M_o⁻¹(−F_d − C_o ẋ_o − G_o)`, `K λ = −Ȧṡ − A a0 − 2ω_b φ̇ − ω_b² φ` by the
     /// factor of `K`, then `q̈_i = a0_i + Y_i λ_i`, `ẍ_o = a0_o − M_o⁻¹ Σ J_iᵀ λ_i`. Writes
     /// `dy`, `forces` (`λ_i`), `xdd_o`, `kkt_pivot`, and counts a regularised `K` in
-    /// `regularised`.
+    /// `regularised`; without `ACC`, only `forces`, `kkt_pivot` and `regularised` (the
+    /// accelerations are not formed).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn input_part<A: FixedArm<N>, const N: usize, const M: usize, const NK: usize>(
+    fn input_part<
+        A: FixedArm<N>,
+        const N: usize,
+        const M: usize,
+        const NK: usize,
+        const ACC: bool,
+    >(
         &self,
         arms: &[A; M],
         st: &FixedState<N, M, NK>,
@@ -440,6 +480,12 @@ impl Plant {
             *regularised += 1;
         }
         ldl_solve_in_place(&st.k, &st.k_inv_d, NK, rhs.as_mut_slice());
+        if !ACC {
+            for (i, f) in forces.iter_mut().enumerate() {
+                *f = Vector2::new(rhs[2 * i], rhs[2 * i + 1]);
+            }
+            return true;
+        }
 
         // Accelerations: q̈_i = a0_i + Y_i λ_i; ẍ_o = a0_o − M_o⁻¹ Σ J_iᵀ λ_i.
         dy[..n].copy_from_slice(&y[n + 3..2 * n + 3]);
