@@ -253,8 +253,7 @@ fn rho_core(z: f64, x_r: f64, k: f64) -> RhoCore {
     let (c, d) = (a + z, b - z);
     // ∂ρ/∂x_r = k²(x_r + x1)/((k² − x_r²)(k² − x1²)) — sum of inputs, no cancellation.
     let d_xr = k * k * (2.0 * x_r + z) / ((a * b) * (c * d));
-    // (`a`, `b` are not NaN here: no `f64::min` NaN handling.)
-    if z.abs() <= SERIES_RATIO * (if a < b { a } else { b }) {
+    if z.abs() <= SERIES_RATIO * a.min(b) {
         let (rho, d_z, v1) = series(z, x_r, k, a, b);
         RhoCore {
             rho,
@@ -276,12 +275,7 @@ fn rho_core(z: f64, x_r: f64, k: f64) -> RhoCore {
 }
 
 /// Closed forms of ρ and ∂ρ/∂z (`a = k + x_r`, `b = k − x_r`, `c = k + x1`, `d = k − x1`).
-///
-/// Out of line and cold: a tracking error beyond `τ·min(a, b)` is rare on a tracked path (the
-/// paper's run never takes it), and its two `log1p` calls would otherwise make the common
-/// series path save its registers around them.
-#[cold]
-#[inline(never)]
+#[inline]
 fn closed(z: f64, k: f64, a: f64, b: f64, c: f64, d: f64) -> (f64, f64) {
     // (29) as ρ = (k/(2z))[ln(1 + z/a) − ln(1 − z/b)]: opposite signs, no cancellation.
     let rho = 0.5 * k / z * ((z / a).ln_1p() - (-z / b).ln_1p());
@@ -468,71 +462,62 @@ impl IblfAxis {
     /// [`alpha`], [`alpha_dot`], [`barrier_gain`]. A clamped variable is held at the clamp
     /// (its rate counts as 0 inside ρ and `h`), so `α` stays continuous and `α̇` is its exact
     /// derivative; the `−κ1 z` term keeps the raw `z`.
-    ///
-    /// The sanitising is branch-free (selects, the flag or-ed), so the common case runs
-    /// straight through to the series.
     #[inline]
     pub fn eval(&self, x1: f64, x2: f64, x_r: f64, xr_dot: f64, xr_ddot: f64) -> AxisEval {
-        let mut bad = false;
+        let mut sat = Saturation::default();
         // NaN → 0; ±∞ is kept for x1, x_r (the clamp below maps it to the bound).
-        let x1 = nan_to_zero(x1, &mut bad);
-        let x_r = nan_to_zero(x_r, &mut bad);
-        let x2 = finite_or_zero(x2, &mut bad);
-        let xr_dot = finite_or_zero(xr_dot, &mut bad);
-        let xr_ddot = finite_or_zero(xr_ddot, &mut bad);
+        let x1 = nan_to_zero(x1, &mut sat);
+        let x_r = nan_to_zero(x_r, &mut sat);
+        let x2 = finite_or_zero(x2, &mut sat);
+        let xr_dot = finite_or_zero(xr_dot, &mut sat);
+        let xr_ddot = finite_or_zero(xr_ddot, &mut sat);
         // Clamp to ±(1 − δ)k; a clamped variable is held (rate 0 inside ρ and h).
         let lim = self.limit;
-        let sat_x1 = x1.abs() > lim;
-        let sat_xr = x_r.abs() > lim;
-        let x1c = clamp_sym(x1, lim);
-        let xrc = clamp_sym(x_r, lim);
-        let x1c_dot = if sat_x1 { 0.0 } else { x2 };
-        let xrc_dot = if sat_xr { 0.0 } else { xr_dot };
+        sat.x1 = x1.abs() > lim;
+        sat.x_r = x_r.abs() > lim;
+        let x1c = x1.clamp(-lim, lim);
+        let xrc = x_r.clamp(-lim, lim);
+        let x1c_dot = if sat.x1 { 0.0 } else { x2 };
+        let xrc_dot = if sat.x_r { 0.0 } else { xr_dot };
         let (b, b_dot) = barrier_term(x1c, xrc, xr_dot, xr_ddot, self.k_c, x1c_dot, xrc_dot);
         // (31) with the raw z1 and ż1 = x2 − ẋ_r.
         let z1 = x1 - x_r;
         let alpha = -self.kappa1 * z1 + b;
         let alpha_dot = -self.kappa1 * (x2 - xr_dot) + b_dot;
         let gain = barrier_gain(x1c, self.k_c);
-        let z1 = finite_or_zero(z1, &mut bad);
-        let alpha = finite_or_zero(alpha, &mut bad);
-        let alpha_dot = finite_or_zero(alpha_dot, &mut bad);
         AxisEval {
-            z1,
-            alpha,
-            alpha_dot,
+            z1: finite_or_zero(z1, &mut sat),
+            alpha: finite_or_zero(alpha, &mut sat),
+            alpha_dot: finite_or_zero(alpha_dot, &mut sat),
             gain,
-            saturation: Saturation {
-                x1: sat_x1,
-                x_r: sat_xr,
-                non_finite: bad,
-            },
+            saturation: sat,
         }
     }
 }
 
-/// `v.clamp(−lim, lim)` for a non-NaN `v` and `lim > 0`, as two compare-selects (`clamp`
-/// also handles NaN and checks its bounds, which cannot happen here): the same value, the same
-/// signed zero.
-#[inline(always)]
-fn clamp_sym(v: f64, lim: f64) -> f64 {
-    let v = if v < -lim { -lim } else { v };
-    if v > lim { lim } else { v }
+/// `v`, or 0 with the `non_finite` flag set if `v` is NaN.
+#[inline]
+fn nan_to_zero(v: f64, sat: &mut Saturation) -> f64 {
+    if v.is_nan() {
+        sat.non_finite = true;
+        0.0
+    } else {
+        if v.is_infinite() {
+            sat.non_finite = true;
+        }
+        v
+    }
 }
 
-/// `v`, or 0 if `v` is NaN; `bad` or-ed with whether `v` is NaN or ±∞ (no branch).
-#[inline(always)]
-fn nan_to_zero(v: f64, bad: &mut bool) -> f64 {
-    *bad |= !v.is_finite();
-    if v.is_nan() { 0.0 } else { v }
-}
-
-/// `v`, or 0 if `v` is NaN or ±∞; `bad` or-ed with whether it was (no branch).
-#[inline(always)]
-fn finite_or_zero(v: f64, bad: &mut bool) -> f64 {
-    let ok = v.is_finite();
-    *bad |= !ok;
-    if ok { v } else { 0.0 }
+/// `v`, or 0 with the `non_finite` flag set if `v` is NaN or ±∞.
+#[inline]
+fn finite_or_zero(v: f64, sat: &mut Saturation) -> f64 {
+    if v.is_finite() {
+        v
+    } else {
+        sat.non_finite = true;
+        0.0
+    }
 }
 
 /// Step-1 quantities for `N` components, from [`Iblf::eval`]. `Copy`, no allocation.
@@ -1179,30 +1164,6 @@ mod tests {
     }
 
     // ---- vector form --------------------------------------------------------------------
-
-    #[test]
-    fn clamp_sym_is_clamp() {
-        let lim = 0.35 * (1.0 - DEFAULT_BARRIER_MARGIN);
-        for v in [
-            0.0,
-            -0.0,
-            0.1,
-            -0.2,
-            lim,
-            -lim,
-            0.35,
-            -0.35,
-            1e300,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-        ] {
-            assert_eq!(
-                clamp_sym(v, lim).to_bits(),
-                v.clamp(-lim, lim).to_bits(),
-                "{v}"
-            );
-        }
-    }
 
     #[test]
     fn vector_form_equals_the_scalar_axes() {
