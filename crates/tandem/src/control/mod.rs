@@ -342,7 +342,10 @@ fn joint_torques<C: Dim, SJ: Storage<f64, U2, C>, SG: Storage<f64, C>>(
             let u = -NULL_SPACE_DAMPING * qd[k] + gq[k];
             v += u - (j[(0, k)] * w_null.x + j[(1, k)] * w_null.y);
         }
-        let c = v.clamp(-limit, limit);
+        // `clamp` as two compare-selects (`limit > 0` is validated; a NaN `v` stays NaN and
+        // counts as clipped, as with `clamp`).
+        let c = if v < -limit { -limit } else { v };
+        let c = if c > limit { limit } else { c };
         clipped |= c != v;
         tau[k] = if c.is_finite() { c } else { 0.0 };
     }
@@ -783,9 +786,10 @@ impl Controller {
         rec.xd_r = xd_r;
         rec.z1 = z1;
         rec.wrench = w;
+        // (x1 is finite here and k_c > 0: the smallest of three numbers, no NaN handling.)
         rec.margin = (0..3)
             .map(|j| 1.0 - x1[j].abs() / self.k_c[j])
-            .fold(f64::INFINITY, f64::min);
+            .fold(f64::INFINITY, |m, v| if v < m { v } else { m });
         // 5. Distribute (object scheme) and map to joints.
         if !per_arm {
             self.set
