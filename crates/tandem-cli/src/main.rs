@@ -40,6 +40,13 @@ use tandem_cli::{
         or an I/O error, 2 bad input (arguments, scenario, replay file, existing output folder)."
 )]
 struct Cli {
+    /// The NN law's weight-pass kernel: portable, avx2, avx2fma, avx512, batched or
+    /// batched-f32 (default: the fastest double-precision kernel this CPU has). The same as
+    /// setting TANDEM_KERNEL, which this option overrides; sweep workers inherit it.
+    /// `batched-f32` is the fastest and agrees with `portable` to a relative 2e-6 (README,
+    /// "Speed and determinism").
+    #[arg(long, global = true, value_name = "NAME")]
+    kernel: Option<String>,
     #[command(subcommand)]
     command: Command,
 }
@@ -233,6 +240,20 @@ fn default_sigpipe() {}
 fn main() -> ExitCode {
     default_sigpipe();
     let cli = Cli::parse();
+    if let Some(k) = &cli.kernel {
+        // Checked at once (an unknown name, or one this CPU lacks, lists the valid ones), then
+        // handed to the library, and to sweep workers, through the environment.
+        if let Err(e) = tandem::rbf::Kernel::parse(k) {
+            eprintln!(
+                "error: --kernel: {}",
+                e.to_string().replace("TANDEM_KERNEL: ", "")
+            );
+            return ExitCode::from(2);
+        }
+        // SAFETY: no other thread exists yet (nothing has been spawned), so nothing reads the
+        // environment concurrently.
+        unsafe { std::env::set_var(tandem::rbf::KERNEL_ENV, k.trim()) };
+    }
     // `TANDEM_KERNEL` is read from the environment, not from a scenario: refuse a bad value
     // here, before any file is read or written, also for runs that never build a network (a
     // PD run would otherwise ignore it). The library path reports it the same way

@@ -1057,3 +1057,60 @@ fn a_bad_tandem_kernel_names_the_environment_variable_and_writes_nothing() {
     support::exit(&o, 0);
     assert!(dir.join("o/summary.json").is_file());
 }
+
+/// `--kernel` (a global option) forces the kernel over `TANDEM_KERNEL`, and `summary.json`
+/// records it; a bad name is refused before anything is written, naming the option and
+/// listing the valid kernels.
+#[test]
+fn the_kernel_option_overrides_the_environment_and_a_bad_one_writes_nothing() {
+    let dir = support::scratch("kernel_opt");
+    let run = |args: &[&str], env: &str| {
+        Command::new(support::BIN)
+            .args(args)
+            .current_dir(&dir)
+            .env("TANDEM_KERNEL", env)
+            .output()
+            .expect("run tandem")
+    };
+    let o = run(
+        &[
+            "--kernel",
+            "portable",
+            "run",
+            "--duration",
+            "0.2",
+            "--out",
+            "a",
+        ],
+        "sse9",
+    );
+    support::exit(&o, 0);
+    assert_eq!(
+        read_json(&dir.join("a/summary.json"))["rbf_kernel"],
+        "portable"
+    );
+    // After the subcommand too (global), over a valid environment value.
+    if tandem::rbf::Kernel::parse("avx2").is_ok() {
+        let o = run(
+            &["run", "--duration", "0.2", "--out", "b", "--kernel", "avx2"],
+            "portable",
+        );
+        support::exit(&o, 0);
+        assert_eq!(read_json(&dir.join("b/summary.json"))["rbf_kernel"], "avx2");
+    }
+    let o = run(
+        &["--kernel", "sse9", "run", "--duration", "0.2", "--out", "c"],
+        "portable",
+    );
+    support::exit(&o, 2);
+    let e = support::stderr(&o);
+    assert!(
+        e.contains("--kernel")
+            && e.contains("unknown kernel `sse9`")
+            && e.contains("batched-f32")
+            && !e.contains("TANDEM_KERNEL"),
+        "{e}"
+    );
+    assert!(!dir.join("c").exists());
+    let _ = fs::remove_dir_all(&dir);
+}
