@@ -81,7 +81,8 @@ struct Terms<const M: usize> {
     d: [f64; M],
     /// `g_mj`.
     g: [[f64; M]; DEPTH],
-    /// `A_m`, `n_a` each.
+    /// `A_m`, `n_a` each, if the store keeps them in `f64` (`Batch`; `Batch32` keeps its own
+    /// `f32` copy, which its flush uses, and this is empty).
     a: Vec<f64>,
     /// The factors of term `m`, level-major: `fs[l·DEPTH + m]` is factor `l` of term `m`
     /// (so that one register holds a factor of 8 terms).
@@ -89,7 +90,7 @@ struct Terms<const M: usize> {
 }
 
 impl<const M: usize> Terms<M> {
-    fn new(n_a: usize, n_b: usize, n_f: usize) -> Self {
+    fn new(n_a: usize, n_b: usize, n_f: usize, keep_a: bool) -> Self {
         assert!((1..=MAX_OUTPUTS).contains(&M));
         Self {
             n_a,
@@ -98,7 +99,7 @@ impl<const M: usize> Terms<M> {
             p: 0,
             d: [1.0; M],
             g: [[0.0; M]; DEPTH],
-            a: vec![0.0; DEPTH * n_a],
+            a: vec![0.0; if keep_a { DEPTH * n_a } else { 0 }],
             fs: vec![0.0; DEPTH * n_f],
         }
     }
@@ -109,10 +110,12 @@ impl<const M: usize> Terms<M> {
     }
 
     /// `Ŵ[n] = D_j v(n) − Σ_m g_mj A_m[i] B_m[k]` (node `n / M = i·n_b + k`, output
-    /// `j = n % M`; `b(m, k)` is `B_m[k]`) into `out`, in plain scalar code (for inspection).
+    /// `j = n % M`; `a(m, i)` is `A_m[i]`, `b(m, k)` is `B_m[k]`) into `out`, in plain scalar
+    /// code (for inspection).
     fn materialize(
         &self,
         v: impl Fn(usize) -> f64,
+        a: impl Fn(usize, usize) -> f64,
         b: impl Fn(usize, usize) -> f64,
         out: &mut [f64],
     ) {
@@ -123,7 +126,7 @@ impl<const M: usize> Terms<M> {
             let (i, k) = (node / nb, node % nb);
             let mut x = self.d[j] * v(n);
             for m in 0..self.p {
-                x -= self.g[m][j] * self.a[m * na + i] * b(m, k);
+                x -= self.g[m][j] * a(m, i) * b(m, k);
             }
             *o = x;
         }
@@ -168,7 +171,9 @@ impl<const M: usize> Terms<M> {
             }
         }
         self.g[p] = *c;
-        self.a[p * na..(p + 1) * na].copy_from_slice(a);
+        if !self.a.is_empty() {
+            self.a[p * na..(p + 1) * na].copy_from_slice(a);
+        }
         self.p += 1;
         p
     }
@@ -243,16 +248,21 @@ impl<const M: usize> Held<M> {
             Held::F64(h) => {
                 let row = h.t.n_b * M;
                 let bs = h.bs.as_ref();
-                h.t.materialize(|n| w[n], |m, k| bs[m * row + k * M], out);
+                let na = h.t.n_a;
+                let a = |m: usize, i: usize| h.t.a[m * na + i];
+                h.t.materialize(|n| w[n], a, |m, k| bs[m * row + k * M], out);
             }
             Held::F32(h) => {
                 let row = h.t.n_b * M;
                 let bs = h.bs.as_ref();
                 let b = |m: usize, k: usize| f64::from(bs[m * row + k * M]);
+                // `A_m` as the flush will apply it: the `f32` copy.
+                let na = h.t.n_a;
+                let a = |m: usize, i: usize| f64::from(h.a32[m * na + i]);
                 if h.live {
-                    h.t.materialize(|n| f64::from(h.v.as_ref()[n]), b, out);
+                    h.t.materialize(|n| f64::from(h.v.as_ref()[n]), a, b, out);
                 } else {
-                    h.t.materialize(|n| w[n], b, out);
+                    h.t.materialize(|n| w[n], a, b, out);
                 }
             }
         }
@@ -319,7 +329,7 @@ impl<const M: usize> Batch<M> {
     fn new(n_a: usize, n_b: usize, n_f: usize) -> Self {
         assert!(n_b.is_multiple_of(LANE));
         Self {
-            t: Terms::new(n_a, n_b, n_f),
+            t: Terms::new(n_a, n_b, n_f, true),
             bs: Aligned::zeros(DEPTH * n_b * M),
             cur: Aligned::zeros(n_b * M),
             gb: Aligned::zeros(DEPTH * n_b * M),
@@ -423,7 +433,7 @@ impl<const M: usize> Batch32<M> {
     fn new(n_a: usize, n_b: usize, n_f: usize) -> Self {
         assert!(n_b.is_multiple_of(LANE32));
         Self {
-            t: Terms::new(n_a, n_b, n_f),
+            t: Terms::new(n_a, n_b, n_f, false),
             v: Aligned::zeros(n_a * n_b * M),
             live: false,
             a32: vec![0.0; DEPTH * n_a],
@@ -649,21 +659,37 @@ mod avx512 {
     /// ends at `f.len()`.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn held_products(fs: &[f64], f: &[f64], offsets: &[usize]) -> [f64; DEPTH] {
-        assert!(fs.len() == DEPTH * f.len() && offsets.last() == Some(&f.len()));
-        let mut s = [1.0; DEPTH];
-        for w in offsets.windows(2) {
-            let mut d = [0.0; DEPTH];
-            for l in w[0]..w[1] {
-                let fl = f[l];
-                for (dm, &x) in d.iter_mut().zip(&fs[l * DEPTH..(l + 1) * DEPTH]) {
-                    *dm = x.mul_add(fl, *dm);
+        const { assert!(DEPTH == 2 * LANE) };
+        let nf = f.len();
+        assert!(
+            fs.len() == DEPTH * nf && offsets.first() == Some(&0) && offsets.last() == Some(&nf)
+        );
+        // Two registers of 8 terms; per input `d = Σ_l fs_l·f_l` in level order from zero
+        // (fused multiply-adds, as `f64::mul_add`), then `s *= d`: the operations of the plain
+        // loop, without its bounds checks and loop bookkeeping.
+        // SAFETY: AVX-512F (caller's contract); `l < hi ≤ nf`, so `fs[l·DEPTH .. l·DEPTH + 16]`
+        // and `f[l]` are in bounds.
+        unsafe {
+            let (mut s0, mut s1) = (_mm512_set1_pd(1.0), _mm512_set1_pd(1.0));
+            let (fp, fsp) = (f.as_ptr(), fs.as_ptr());
+            let mut l = 0;
+            for &end in &offsets[1..] {
+                let hi = end.min(nf);
+                let (mut d0, mut d1) = (_mm512_setzero_pd(), _mm512_setzero_pd());
+                while l < hi {
+                    let fl = _mm512_set1_pd(*fp.add(l));
+                    d0 = _mm512_fmadd_pd(ld(fsp, l * DEPTH), fl, d0);
+                    d1 = _mm512_fmadd_pd(ld(fsp, l * DEPTH + LANE), fl, d1);
+                    l += 1;
                 }
+                s0 = _mm512_mul_pd(s0, d0);
+                s1 = _mm512_mul_pd(s1, d1);
             }
-            for (sm, dm) in s.iter_mut().zip(&d) {
-                *sm *= dm;
-            }
+            let mut s = [0.0; DEPTH];
+            store(&mut s[..LANE], s0);
+            store(&mut s[LANE..], s1);
+            s
         }
-        s
     }
 
     /// Load 8 lanes at `p + o` (no bounds check).
