@@ -328,6 +328,38 @@ pub struct FixedLinkArm<const N: usize> {
     inertia: [f64; N],
 }
 
+/// The absolute link angles `φ_k = base + Σ_{i≤k} q_i` and rates `φ̇_k = Σ_{i≤k} q̇_i` (the
+/// running sums of [`Arm::kinematics`], in its order) and the link directions
+/// `u_k = (cos φ_k, sin φ_k)`, two links at a time by [`crate::trig::sin_cos2`] (the same
+/// bits as one [`crate::trig::sin_cos`] a link, for about half the instructions; an odd last
+/// link takes both lanes).
+#[inline(always)]
+fn link_dirs<const N: usize>(
+    base_angle: f64,
+    q: &[f64; N],
+    qd: &[f64; N],
+) -> ([f64; N], [Vector2<f64>; N]) {
+    let mut phi = [0.0; N];
+    let mut phid = [0.0; N];
+    let (mut a, mut ad) = (base_angle, 0.0);
+    for k in 0..N {
+        a += q[k];
+        ad += qd[k];
+        phi[k] = a;
+        phid[k] = ad;
+    }
+    let mut u = [Vector2::zeros(); N];
+    let mut k = 0;
+    while k < N {
+        let k2 = if k + 1 < N { k + 1 } else { k };
+        let [(s0, c0), (s1, c1)] = crate::trig::sin_cos2(phi[k], phi[k2]);
+        u[k] = Vector2::new(c0, s0);
+        u[k2] = Vector2::new(c1, s1);
+        k += 2;
+    }
+    (phid, u)
+}
+
 impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
     /// The general algorithm in fixed-size types; keeps the bias `C q̇ + G` and `M⁻¹` (3 links)
     /// or the Cholesky factor of `M` (4 links).
@@ -339,16 +371,12 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
         let mut points = [Vector2::zeros(); N];
         let mut com = [Vector2::zeros(); N];
         let mut acc = [Vector2::zeros(); N];
-        let mut phi = self.base_angle;
-        let mut phid = 0.0;
+        let (phids, us) = link_dirs(self.base_angle, &q, &qd);
         let (mut p, mut pd) = (self.base, Vector2::zeros());
         let mut jdq = Vector2::zeros();
         let up_g = Vector2::new(0.0, g);
         for k in 0..N {
-            phi += q[k];
-            phid += qd[k];
-            let (sk, ck) = crate::trig::sin_cos(phi);
-            let u = Vector2::new(ck, sk);
+            let (phid, u) = (phids[k], us[k]);
             let up = perp(u);
             let w2 = phid * phid;
             points[k] = p;
@@ -549,14 +577,10 @@ impl<const N: usize> FixedLinkArm<N> {
     pub fn kinematics_gravity(&self, q: [f64; N], qd: [f64; N], g: f64) -> FixedKinematics<N> {
         let mut points = [Vector2::zeros(); N];
         let mut com = [Vector2::zeros(); N];
-        let mut phi = self.base_angle;
-        let mut phid = 0.0;
+        let (phids, us) = link_dirs(self.base_angle, &q, &qd);
         let (mut p, mut pd) = (self.base, Vector2::zeros());
         for k in 0..N {
-            phi += q[k];
-            phid += qd[k];
-            let (sk, ck) = crate::trig::sin_cos(phi);
-            let u = Vector2::new(ck, sk);
+            let (phid, u) = (phids[k], us[k]);
             points[k] = p;
             com[k] = p + self.lc[k] * u;
             p += self.l[k] * u;
