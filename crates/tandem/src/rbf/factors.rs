@@ -170,10 +170,18 @@ pub(super) unsafe fn kron(
         super::kron_into(f, offsets, from, to, out, tmp);
         return;
     }
-    // The prefix products (one a register), by `kron_into` itself in two eighths of `tmp`.
     let regs = out.len() / LANE;
+    // A prefix of exactly one register (the paper's grid: three inputs of two levels before
+    // the tail's three) is formed in a register too, below; else by `kron_into`.
+    let mut prefix_in_register = regs == LANE;
+    for i in from..split {
+        prefix_in_register &= (offsets[i + 1] - offsets[i]).is_power_of_two();
+    }
+    // The prefix products (one a register), by `kron_into` itself in two eighths of `tmp`.
     let (prefix, rest) = tmp.split_at_mut(regs);
-    super::kron_into(f, offsets, from, split, prefix, &mut rest[..regs]);
+    if !prefix_in_register {
+        super::kron_into(f, offsets, from, split, prefix, &mut rest[..regs]);
+    }
     let prefix = &*prefix;
     // SAFETY: AVX-512F (caller's contract); every access in bounds (`regs·8 = out.len()`).
     unsafe {
@@ -194,6 +202,38 @@ pub(super) unsafe fn kron(
             let levels = _mm512_maskz_loadu_pd(((1u32 << n) - 1) as u8, f.as_ptr().add(offsets[i]));
             *pat = _mm512_permutexvar_pd(idx, levels);
         }
+        if prefix_in_register {
+            // Lane `r` of `pv` is prefix product `r`: `1·f_from[l]` (exact, as `kron_into`
+            // starts from 1), then times each further prefix input's lane pattern, in order.
+            let mut pv = _mm512_set1_pd(1.0);
+            let mut stride = LANE;
+            for i in from..split {
+                let n = offsets[i + 1] - offsets[i];
+                stride /= n;
+                let idx = _mm512_and_si512(
+                    _mm512_srlv_epi64(iota, _mm512_set1_epi64(stride.trailing_zeros().into())),
+                    _mm512_set1_epi64(n as i64 - 1),
+                );
+                let levels =
+                    _mm512_maskz_loadu_pd(((1u32 << n) - 1) as u8, f.as_ptr().add(offsets[i]));
+                pv = _mm512_mul_pd(pv, _mm512_permutexvar_pd(idx, levels));
+            }
+            match to - split {
+                1 => tail_products_of::<1>(pv, &pattern, out),
+                2 => tail_products_of::<2>(pv, &pattern, out),
+                3 => tail_products_of::<3>(pv, &pattern, out),
+                n => {
+                    for r in 0..LANE {
+                        let mut x = _mm512_permutexvar_pd(_mm512_set1_epi64(r as i64), pv);
+                        for &pat in &pattern[..n] {
+                            x = _mm512_mul_pd(x, pat);
+                        }
+                        _mm512_storeu_pd(out.as_mut_ptr().add(r * LANE), x);
+                    }
+                }
+            }
+            return;
+        }
         // A constant pattern count for the usual tails (three inputs of two levels, and so
         // on), so that the patterns stay in registers and the loop is unrolled.
         match to - split {
@@ -209,6 +249,30 @@ pub(super) unsafe fn kron(
                     _mm512_storeu_pd(out.as_mut_ptr().add(r * LANE), x);
                 }
             }
+        }
+    }
+}
+
+/// `out`'s register `r` = lane `r` of `pv` times the first `P` lane patterns, in order (the
+/// products of [`kron`] with its prefix in a register).
+///
+/// # Safety
+/// The CPU must support AVX-512F; `out.len() ≥ 64`.
+#[inline(always)]
+unsafe fn tail_products_of<const P: usize>(
+    pv: __m512d,
+    pattern: &[__m512d; LANE],
+    out: &mut [f64],
+) {
+    assert!(P <= LANE && out.len() >= LANE * LANE);
+    // SAFETY: AVX-512F (caller's contract); register `r < 8` is in bounds by the assert.
+    unsafe {
+        for r in 0..LANE {
+            let mut x = _mm512_permutexvar_pd(_mm512_set1_epi64(r as i64), pv);
+            for pat in &pattern[..P] {
+                x = _mm512_mul_pd(x, *pat);
+            }
+            _mm512_storeu_pd(out.as_mut_ptr().add(r * LANE), x);
         }
     }
 }
@@ -315,8 +379,17 @@ mod tests {
         if !avx512() {
             return;
         }
-        let grids: [&[usize]; 7] = [
+        // One-register prefixes (formed in a register): the paper's halves, other shapes of
+        // eight before a tail of one to four inputs; and longer prefixes (`kron_into`).
+        let grids: [&[usize]; 14] = [
             &[2, 2, 2, 2, 2, 2],
+            &[2, 4, 2, 2, 2],
+            &[8, 2, 2, 2],
+            &[2, 1, 4, 2, 2, 2],
+            &[2, 2, 2, 4, 2],
+            &[2, 2, 2, 8],
+            &[4, 2, 1, 2, 2, 2, 1],
+            &[4, 2, 2, 2, 2, 2],
             &[2, 2, 2],
             &[4, 2],
             &[3, 8],
