@@ -837,6 +837,10 @@ fn cmd_sweep(a: SweepArgs) -> Result<ExitCode> {
     let count = |s: &str| results.iter().filter(|r| r.row.cells[status] == s).count();
     let (ok, faulted, invalid) = (count("completed"), count("fault"), count("invalid"));
     let rows: Vec<sweep::run::Row> = results.into_iter().map(|r| r.row).collect();
+    // The kernel the runs used (checked at start-up, so present), recorded in sweep.json.
+    let kernels: Vec<String> = tandem::rbf::Kernel::from_env()
+        .map(|k| vec![k.name().to_string()])
+        .unwrap_or_default();
     let problems = sweep::merge::write_folder(
         out.tmp_dir(),
         &sw.resolved_json(),
@@ -844,6 +848,7 @@ fn cmd_sweep(a: SweepArgs) -> Result<ExitCode> {
         shard,
         &header,
         &rows,
+        &kernels,
         !a.no_figures,
     )?;
     let dir = out.commit_with_warnings(&problems)?;
@@ -865,15 +870,23 @@ fn cmd_merge(a: MergeArgs) -> Result<ExitCode> {
     check_out(&a.out, a.force, &[])?;
     let m = sweep::merge::merge(&a.dirs)?;
     let out = OutputDir::create(&a.out, a.force, &[])?;
-    let problems = sweep::merge::write_folder(
+    let mut problems = sweep::merge::write_folder(
         out.tmp_dir(),
         &m.resolved,
         &m.hash,
         None,
         &m.header,
         &m.rows,
+        &m.kernels,
         !a.no_figures,
     )?;
+    if m.kernels.len() > 1 {
+        problems.push(format!(
+            "the shards ran different RBF kernels ({}): their results agree within the \
+             kernels' stated tolerance, not bit for bit (README, \"Speed and determinism\")",
+            m.kernels.join(", ")
+        ));
+    }
     let dir = out.commit_with_warnings(&problems)?;
     println!(
         "merged {} folders, {} runs: table {}",

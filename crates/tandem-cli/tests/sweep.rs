@@ -537,3 +537,63 @@ fn spatial_fault_and_invalid_draws_are_rows() {
     );
     let _ = fs::remove_dir_all(&d);
 }
+
+/// `sweep.json` records the RBF kernel the runs used (`--kernel` or the default), outside the
+/// hashed sweep: shards run with different kernels still merge, with a warning that names the
+/// kernels, and the merged `sweep.json` lists them.
+#[test]
+fn shards_record_their_kernel_and_a_mixed_merge_is_warned() {
+    let d = scratch("kernels");
+    fs::write(
+        d.join("s.toml"),
+        "base = \"paper\"\nseed = 3\nduration = 0.3\n[vary]\n\"object.mass\" = { grid = [0.9, 1.1] }\n",
+    )
+    .unwrap();
+    let shard = |i: usize, kernel: &str| {
+        let args = [
+            "--kernel",
+            kernel,
+            "sweep",
+            "s.toml",
+            "--shard",
+            &format!("{i}/2"),
+            "--out",
+            &format!("s{i}-{kernel}"),
+            "--threads",
+            "1",
+            "--no-figures",
+        ];
+        ok(&tandem(&d, &args));
+        let j: serde_json::Value =
+            serde_json::from_slice(&read(&d.join(format!("s{i}-{kernel}/sweep.json")))).unwrap();
+        assert_eq!(j["rbf_kernel"], kernel);
+    };
+    shard(0, "portable");
+    shard(1, "portable");
+    let o = tandem(
+        &d,
+        &["merge", "s0-portable", "s1-portable", "--out", "same"],
+    );
+    ok(&o);
+    assert!(
+        !stderr(&o).contains("different RBF kernels"),
+        "{}",
+        stderr(&o)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&read(&d.join("same/sweep.json"))).unwrap();
+    assert_eq!(j["rbf_kernel"], "portable");
+    if tandem::rbf::Kernel::parse("avx2").is_ok() {
+        shard(1, "avx2");
+        let o = tandem(&d, &["merge", "s0-portable", "s1-avx2", "--out", "mixed"]);
+        ok(&o);
+        assert!(
+            stderr(&o).contains("the shards ran different RBF kernels (avx2, portable)"),
+            "{}",
+            stderr(&o)
+        );
+        let j: serde_json::Value =
+            serde_json::from_slice(&read(&d.join("mixed/sweep.json"))).unwrap();
+        assert_eq!(j["rbf_kernel"], serde_json::json!(["avx2", "portable"]));
+    }
+    let _ = fs::remove_dir_all(&d);
+}

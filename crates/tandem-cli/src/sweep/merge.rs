@@ -17,19 +17,27 @@ use super::run::{Row, csv_text};
 use crate::BadInput;
 use crate::output;
 
-/// The content of `sweep.json`.
+/// The content of `sweep.json`. `kernels` are the RBF weight-pass kernels the runs used (one
+/// for a sweep; the shards' for a merge): recorded as a name, or a list if they differ, outside
+/// the hashed sweep (shards on machines with different default kernels still merge).
 pub fn sweep_json(
     resolved: &Json,
     hash: &str,
     shard: Option<Shard>,
     header: &[String],
     rows: usize,
+    kernels: &[String],
 ) -> Json {
     json!({
         "hash": hash,
         "shard": shard.map(|s| json!({ "index": s.index, "count": s.count })),
         "runs_in_folder": rows,
         "columns": header,
+        "rbf_kernel": match kernels {
+            [] => Json::Null,
+            [k] => json!(k),
+            ks => json!(ks),
+        },
         "sweep": resolved,
     })
 }
@@ -43,12 +51,13 @@ pub fn write_folder(
     shard: Option<Shard>,
     header: &[String],
     rows: &[Row],
+    kernels: &[String],
     figures: bool,
 ) -> Result<Vec<String>> {
     output::write_text_atomic(&dir.join("runs.csv"), &csv_text(header, rows)?)?;
     output::write_json_atomic(
         &dir.join("sweep.json"),
-        &sweep_json(resolved, hash, shard, header, rows.len()),
+        &sweep_json(resolved, hash, shard, header, rows.len(), kernels),
     )?;
     let mut problems = Vec::new();
     if figures
@@ -173,6 +182,9 @@ pub struct Merged {
     pub header: Vec<String>,
     /// Every run, in index order.
     pub rows: Vec<Row>,
+    /// The RBF kernels the shards recorded, sorted, each once (none for folders written
+    /// before `sweep.json` recorded it).
+    pub kernels: Vec<String>,
 }
 
 /// Read and check shard folders: one sweep (same hash), one shard count, every shard exactly
@@ -254,6 +266,18 @@ pub fn merge(dirs: &[PathBuf]) -> Result<Merged> {
     let header = first.header.clone();
     let resolved = first.meta["sweep"].clone();
     let hash = first.hash.clone();
+    let mut kernels: Vec<String> = Vec::new();
+    for p in &parts {
+        match &p.meta["rbf_kernel"] {
+            Json::String(k) => kernels.push(k.clone()),
+            Json::Array(ks) => {
+                kernels.extend(ks.iter().filter_map(Json::as_str).map(str::to_string))
+            }
+            _ => {}
+        }
+    }
+    kernels.sort();
+    kernels.dedup();
     let mut rows: Vec<Row> = parts.into_iter().flat_map(|p| p.rows).collect();
     rows.sort_by_key(|r| r.index);
     if rows.len() as u64 != total || rows.iter().enumerate().any(|(i, r)| r.index != i as u64) {
@@ -268,5 +292,6 @@ pub fn merge(dirs: &[PathBuf]) -> Result<Merged> {
         hash,
         header,
         rows,
+        kernels,
     })
 }
