@@ -115,3 +115,15 @@ def test_write_matches_cli(cli, tmp_path):
     with pytest.raises(tandem.ScenarioError, match="did not write it"):
         run.write(tmp_path / "mine", force=True)
     assert (tmp_path / "mine" / "notes.txt").read_text() == "keep me"
+
+
+def test_the_kernel_follows_tandem_kernel(monkeypatch):
+    # The NN law's weight-pass kernel comes from TANDEM_KERNEL, read when a run builds its
+    # controller (README, "Speed and determinism"); the summary records it, and an unknown
+    # name is bad input that names the variable.
+    monkeypatch.setenv("TANDEM_KERNEL", "portable")
+    run = tandem.Scenario.preset("paper").run(duration=0.2)
+    assert run.summary["rbf_kernel"] == "portable"
+    monkeypatch.setenv("TANDEM_KERNEL", "sse9")
+    with pytest.raises(ValueError, match="TANDEM_KERNEL"):
+        tandem.Scenario.preset("paper").run(duration=0.2)
