@@ -846,40 +846,84 @@ fn derivative_bits(dy: &[f64], ws: &PlantWorkspace) -> Vec<u64> {
         .collect()
 }
 
+/// The plants of the keep-and-reuse tests: the paper pair, three 2-link arms, the redundant
+/// pair if `redundant`, and `n_link` chains of `(arms, links)`; each with its start state, the
+/// object displaced by `dx`, and two workspaces (kept and fresh) and derivative buffers.
+struct KeepCase {
+    plant: Plant,
+    y0: Vec<f64>,
+    ws: PlantWorkspace,
+    ws_fresh: PlantWorkspace,
+    dy: Vec<f64>,
+    dy_fresh: Vec<f64>,
+}
+
+fn keep_cases(redundant: bool, chains: &[(usize, usize)], dx: Vector3<f64>) -> Vec<KeepCase> {
+    let mut params: Vec<(PlantParams, Option<Vec<f64>>)> =
+        vec![(fixtures::paper(), None), (fixtures::three_arms(), None)];
+    if redundant {
+        let (p, g) = fixtures::redundant_pair();
+        params.push((p, Some(g)));
+    }
+    for &(arms, links) in chains {
+        let (p, g) = n_link::chain(arms, links);
+        params.push((p, Some(g)));
+    }
+    params
+        .into_iter()
+        .map(|(p, guess)| {
+            let plant = Plant::new(&p).unwrap();
+            let y0 = plant
+                .initial_state(fixtures::paper_start(), dx, guess.as_deref())
+                .unwrap();
+            let n = plant.state_dim();
+            KeepCase {
+                ws: plant.workspace(),
+                ws_fresh: plant.workspace(),
+                dy: vec![0.0; n],
+                dy_fresh: vec![0.0; n],
+                plant,
+                y0,
+            }
+        })
+        .collect()
+}
+
+/// A state near `y0` (each entry within ±1e-2) and random torques for `u_prev` and `u`
+/// (within ±5 N m).
+fn near_state_and_torques(
+    y0: &[f64],
+    rng: &mut Rng,
+    u_prev: &mut PlantInput,
+    u: &mut PlantInput,
+) -> Vec<f64> {
+    let y = y0.iter().map(|v| v + rng.range(-1e-2, 1e-2)).collect();
+    for (a, b) in u_prev.tau.iter_mut().zip(u.tau.iter_mut()) {
+        (*a, *b) = (rng.range(-5.0, 5.0), rng.range(-5.0, 5.0));
+    }
+    y
+}
+
 #[test]
 fn issue_12_a_reused_state_part_gives_the_fresh_derivative_bit_for_bit() {
     // The loop evaluates the grasp forces at (y, u_{k−1}) keeping the state part
     // (`derivative_keep`), then the first RK4 stage at (y, u_k) on it (`derivative_reusing`):
     // both must equal a fresh `derivative` bit for bit, for every constrained algorithm, and a
     // `derivative_reusing` at another state must not take the kept part.
-    let mut cases: Vec<(PlantParams, Option<Vec<f64>>)> =
-        vec![(fixtures::paper(), None), (fixtures::three_arms(), None), {
-            let (p, g) = fixtures::redundant_pair();
-            (p, Some(g))
-        }];
-    for (arms, links) in [(3, 3), (2, 4), (3, 4), (2, 5)] {
-        let (p, g) = n_link::chain(arms, links);
-        cases.push((p, Some(g)));
-    }
+    let chains = [(3, 3), (2, 4), (3, 4), (2, 5)];
     let mut rng = Rng(12);
-    for (p, guess) in cases {
-        let plant = Plant::new(&p).unwrap();
-        let y0 = plant
-            .initial_state(
-                fixtures::paper_start(),
-                Vector3::new(0.05, -0.02, 0.1),
-                guess.as_deref(),
-            )
-            .unwrap();
-        let (mut ws, mut ws_fresh) = (plant.workspace(), plant.workspace());
-        let n = plant.state_dim();
-        let (mut dy, mut dy_fresh) = (vec![0.0; n], vec![0.0; n]);
+    for c in keep_cases(true, &chains, Vector3::new(0.05, -0.02, 0.1)) {
+        let KeepCase {
+            plant,
+            y0,
+            mut ws,
+            mut ws_fresh,
+            mut dy,
+            mut dy_fresh,
+        } = c;
         let (mut u_prev, mut u) = (plant.zero_input(), plant.zero_input());
         for _ in 0..50 {
-            let y: Vec<f64> = y0.iter().map(|v| v + rng.range(-1e-2, 1e-2)).collect();
-            for (a, b) in u_prev.tau.iter_mut().zip(u.tau.iter_mut()) {
-                (*a, *b) = (rng.range(-5.0, 5.0), rng.range(-5.0, 5.0));
-            }
+            let y = near_state_and_torques(&y0, &mut rng, &mut u_prev, &mut u);
             u.f_d = Vector3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), 0.1);
             // Keep at (y, u_prev): the fresh derivative's values.
             assert!(plant.derivative_keep(&y, &u_prev, &mut ws, &mut dy));
@@ -934,31 +978,20 @@ fn issue_12_grasp_forces_keep_gives_the_forces_and_keeps_the_state_part_bit_for_
     // The loop's grasp forces at (y, u_{k−1}) (`grasp_forces_keep`, no accelerations) are the
     // fresh derivative's, bit for bit, and the state part it keeps serves the first RK4 stage
     // at (y, u_k) (`derivative_reusing`) as `derivative_keep`'s does.
-    let mut cases: Vec<(PlantParams, Option<Vec<f64>>)> =
-        vec![(fixtures::paper(), None), (fixtures::three_arms(), None)];
-    for (arms, links) in [(3, 3), (2, 4), (2, 5)] {
-        let (p, g) = n_link::chain(arms, links);
-        cases.push((p, Some(g)));
-    }
+    let chains = [(3, 3), (2, 4), (2, 5)];
     let mut rng = Rng(1212);
-    for (p, guess) in cases {
-        let plant = Plant::new(&p).unwrap();
-        let y0 = plant
-            .initial_state(
-                fixtures::paper_start(),
-                Vector3::new(-0.03, 0.04, -0.2),
-                guess.as_deref(),
-            )
-            .unwrap();
-        let (mut ws, mut ws_fresh) = (plant.workspace(), plant.workspace());
-        let n = plant.state_dim();
-        let (mut dy, mut dy_fresh) = (vec![0.0; n], vec![0.0; n]);
+    for c in keep_cases(false, &chains, Vector3::new(-0.03, 0.04, -0.2)) {
+        let KeepCase {
+            plant,
+            y0,
+            mut ws,
+            mut ws_fresh,
+            mut dy,
+            mut dy_fresh,
+        } = c;
         let (mut u_prev, mut u) = (plant.zero_input(), plant.zero_input());
         for _ in 0..30 {
-            let y: Vec<f64> = y0.iter().map(|v| v + rng.range(-1e-2, 1e-2)).collect();
-            for (a, b) in u_prev.tau.iter_mut().zip(u.tau.iter_mut()) {
-                (*a, *b) = (rng.range(-5.0, 5.0), rng.range(-5.0, 5.0));
-            }
+            let y = near_state_and_torques(&y0, &mut rng, &mut u_prev, &mut u);
             u_prev.f_d = Vector3::new(rng.range(-1.0, 1.0), 0.2, rng.range(-0.1, 0.1));
             let reg = ws.regularised;
             assert!(plant.grasp_forces_keep(&y, &u_prev, &mut ws, &mut dy));
