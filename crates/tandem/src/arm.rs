@@ -352,7 +352,8 @@ impl FixedArm<2> for TwoLinkArm {
 mod pair {
     use std::arch::x86_64::{
         __m128d, _mm_add_pd, _mm_cmpgt_pd, _mm_div_pd, _mm_movemask_pd, _mm_mul_pd, _mm_set_pd,
-        _mm_set1_pd, _mm_setzero_pd, _mm_storeu_pd, _mm_sub_pd, _mm_xor_pd,
+        _mm_set1_pd, _mm_setzero_pd, _mm_storeu_pd, _mm_sub_pd, _mm_unpackhi_pd, _mm_unpacklo_pd,
+        _mm_xor_pd,
     };
     use std::ops::{Add, Mul, Neg, Sub};
 
@@ -378,13 +379,6 @@ mod pair {
         #[inline(always)]
         fn of(arms: [&TwoLinkArm; 2], f: impl Fn(&TwoLinkArm) -> f64) -> L {
             L::new(f(arms[0]), f(arms[1]))
-        }
-        #[inline(always)]
-        fn get(self) -> [f64; 2] {
-            let mut o = [0.0; 2];
-            // SAFETY: SSE2 store into a local array of two.
-            unsafe { _mm_storeu_pd(o.as_mut_ptr(), self.0) };
-            o
         }
         /// Whether `x > 0` in both lanes (false for NaN, as the scalar comparison).
         #[inline(always)]
@@ -419,10 +413,16 @@ mod pair {
         }
     }
 
-    /// Lane `k` of four lanes as the 2 × 2 matrix `[[m00, m01], [m10, m11]]`.
+    /// The lanes `x = (x₀, x₁)`, `y = (y₀, y₁)` as the vectors `(x₀, y₀)`, `(x₁, y₁)`.
     #[inline(always)]
-    fn mat(m: [[f64; 2]; 4], k: usize) -> Matrix2<f64> {
-        Matrix2::new(m[0][k], m[1][k], m[2][k], m[3][k])
+    fn split(x: L, y: L) -> [Vector2<f64>; 2] {
+        let (mut a, mut b) = (Vector2::zeros(), Vector2::zeros());
+        // SAFETY: SSE2 (x86-64 baseline); unaligned stores into two-element vectors.
+        unsafe {
+            _mm_storeu_pd(a.as_mut_ptr(), _mm_unpacklo_pd(x.0, y.0));
+            _mm_storeu_pd(b.as_mut_ptr(), _mm_unpackhi_pd(x.0, y.0));
+        }
+        [a, b]
     }
 
     #[inline(always)]
@@ -500,30 +500,44 @@ mod pair {
         // C q̇.
         let bias = [c[0] * qd0 + c[1] * qd1, c[2] * qd0 + c[3] * qd1];
 
-        let (j, y, k, mi) = (j.map(L::get), y.map(L::get), k.map(L::get), mi.map(L::get));
-        let v2 = |v: [L; 2]| v.map(L::get);
-        let (p_ee, v_ee, jdq, bias, gv) = (v2(p_ee), v2([vx, vy]), v2(jdq), v2(bias), v2(gv));
-        let out = |l: usize| {
-            let vec = |v: [[f64; 2]; 2]| Vector2::new(v[0][l], v[1][l]);
+        // Out of the lanes: (x, y) lanes → the first arm's vector (x₀, y₀), the second's
+        // (x₁, y₁), one unpack each; a matrix from its columns (nalgebra is column-major).
+        let m = |m: [L; 4]| {
+            let ([a0, b0], [a1, b1]) = (split(m[0], m[2]), split(m[1], m[3]));
+            [
+                Matrix2::from_columns(&[a0, a1]),
+                Matrix2::from_columns(&[b0, b1]),
+            ]
+        };
+        let ([ya, yb], [ka, kb], [ja, jb], [ma, mb]) = (m(y), m(k), m(j), m(mi));
+        let [pa, pb] = split(p_ee[0], p_ee[1]);
+        let [va, vb] = split(vx, vy);
+        let [da, db] = split(jdq[0], jdq[1]);
+        let [ba, bb] = split(bias[0], bias[1]);
+        let [ga, gb] = split(gv[0], gv[1]);
+        let out = |y, k, j, p_ee, v_ee, jdot_qdot, m, bias, g| {
             (
                 ArmBlock {
                     a0: Vector2::zeros(),
-                    y: mat(y, l),
-                    k: mat(k, l),
-                    j: mat(j, l),
-                    p_ee: vec(p_ee),
-                    v_ee: vec(v_ee),
-                    jdot_qdot: vec(jdq),
+                    y,
+                    k,
+                    j,
+                    p_ee,
+                    v_ee,
+                    jdot_qdot,
                 },
                 ArmSolve {
-                    m: mat(mi, l),
+                    m,
                     inv_diag: Vector2::zeros(),
-                    bias: vec(bias),
-                    g: vec(gv),
+                    bias,
+                    g,
                 },
             )
         };
-        Some([out(0), out(1)])
+        Some([
+            out(ya, ka, ja, pa, va, da, ma, ba, ga),
+            out(yb, kb, jb, pb, vb, db, mb, bb, gb),
+        ])
     }
 }
 
