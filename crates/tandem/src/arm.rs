@@ -314,7 +314,7 @@ impl FixedArm<2> for TwoLinkArm {
         };
         Some((blk, s))
     }
-    /// On x86-64 the two arms in the two lanes of SSE2 registers ([`pair`]): every operation
+    /// On x86-64 the two arms in the two lanes of SSE2 registers (module `pair`): every operation
     /// of [`state_block`](FixedArm::state_block) (through [`TwoLinkArm::pose`],
     /// [`TwoLinkArm::terms`] and [`TwoLinkTerms::m_inv`]) once for both, in the same order.
     #[inline(always)]
