@@ -437,10 +437,9 @@ mod pair {
         // per link of the two arms.
         let phi1 = [a.base_angle + q[0][0], b.base_angle + q[1][0]];
         let phi2 = [phi1[0] + q[0][1], phi1[1] + q[1][1]];
-        let [(sa1, ca1), (sb1, cb1)] = crate::trig::sin_cos2(phi1[0], phi1[1]);
-        let [(sa2, ca2), (sb2, cb2)] = crate::trig::sin_cos2(phi2[0], phi2[1]);
-        let (c1, s1) = (L::new(ca1, cb1), L::new(sa1, sb1));
-        let (c12, s12) = (L::new(ca2, cb2), L::new(sa2, sb2));
+        let (s1, c1) = crate::trig::sin_cos2_pd(phi1[0], phi1[1]);
+        let (s12, c12) = crate::trig::sin_cos2_pd(phi2[0], phi2[1]);
+        let (s1, c1, s12, c12) = (L(s1), L(c1), L(s12), L(c12));
         // cos q2 = u_1 · u_12, sin q2 = u_1 × u_12.
         let c2 = c1 * c12 + s1 * s12;
         let s2 = c1 * s12 - s1 * c12;
