@@ -264,6 +264,20 @@ pub trait FixedArm<const N: usize>: Copy {
     /// `a_0 = M⁻¹(τ − C q̇ − G)` of (1) with `F = 0` (SPEC §2.4) from the state's
     /// [`ArmSolve`], in the same floating-point operations as [`block`](Self::block).
     fn a0(&self, s: &ArmSolve<N>, tau: [f64; N]) -> SVector<f64, N>;
+    /// [`state_block`](Self::state_block) of two arms at once, the same values bit for bit
+    /// (`None` if either `M` is not positive definite); by default one after the other.
+    #[inline(always)]
+    fn state_block_pair(
+        arms: [&Self; 2],
+        q: [[f64; N]; 2],
+        qd: [[f64; N]; 2],
+        g: f64,
+    ) -> Option<[(ArmBlock<N>, ArmSolve<N>); 2]> {
+        Some([
+            arms[0].state_block(q[0], qd[0], g)?,
+            arms[1].state_block(q[1], qd[1], g)?,
+        ])
+    }
     /// The block at `(q, q̇, τ)` with gravity `g`; `None` if `M` is not positive definite.
     #[inline(always)]
     fn block(&self, q: [f64; N], qd: [f64; N], tau: [f64; N], g: f64) -> Option<ArmBlock<N>> {
@@ -300,10 +314,229 @@ impl FixedArm<2> for TwoLinkArm {
         };
         Some((blk, s))
     }
+    /// On x86-64 the two arms in the two lanes of SSE2 registers (module `pair`): every operation
+    /// of [`state_block`](FixedArm::state_block) (through [`TwoLinkArm::pose`],
+    /// [`TwoLinkArm::terms`] and [`TwoLinkTerms::m_inv`]) once for both, in the same order.
+    #[inline(always)]
+    fn state_block_pair(
+        arms: [&Self; 2],
+        q: [[f64; 2]; 2],
+        qd: [[f64; 2]; 2],
+        g: f64,
+    ) -> Option<[(ArmBlock<2>, ArmSolve<2>); 2]> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            pair::state_block_pair(arms, q, qd, g)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            Some([
+                arms[0].state_block(q[0], qd[0], g)?,
+                arms[1].state_block(q[1], qd[1], g)?,
+            ])
+        }
+    }
     /// `M⁻¹ ((τ − C q̇) − G)`.
     #[inline(always)]
     fn a0(&self, s: &ArmSolve<2>, tau: [f64; 2]) -> Vector2<f64> {
         s.m * (Vector2::new(tau[0], tau[1]) - s.bias - s.g)
+    }
+}
+
+/// [`TwoLinkArm`]'s [`FixedArm::state_block`] of two arms in the two lanes of SSE2 registers
+/// (part of the x86-64 baseline): lane 0 the first arm, lane 1 the second. Each lane performs
+/// the scalar code's floating-point operations in its order (nalgebra's 2 × 2 products and
+/// `dot` are two products and one sum; the sum commutes exactly), so the bits are the same;
+/// negations are sign flips, as in the scalar code.
+#[cfg(target_arch = "x86_64")]
+mod pair {
+    use std::arch::x86_64::{
+        __m128d, _mm_add_pd, _mm_cmpgt_pd, _mm_div_pd, _mm_movemask_pd, _mm_mul_pd, _mm_set_pd,
+        _mm_set1_pd, _mm_setzero_pd, _mm_storeu_pd, _mm_sub_pd, _mm_unpackhi_pd, _mm_unpacklo_pd,
+        _mm_xor_pd,
+    };
+    use std::ops::{Add, Mul, Neg, Sub};
+
+    use nalgebra::{Matrix2, Vector2};
+
+    use super::{ArmBlock, ArmSolve, TwoLinkArm};
+
+    /// Two `f64` lanes.
+    #[derive(Clone, Copy)]
+    struct L(__m128d);
+
+    impl L {
+        #[inline(always)]
+        fn new(a: f64, b: f64) -> L {
+            // SAFETY: SSE2 (x86-64 baseline).
+            L(unsafe { _mm_set_pd(b, a) })
+        }
+        #[inline(always)]
+        fn splat(x: f64) -> L {
+            // SAFETY: SSE2 (x86-64 baseline).
+            L(unsafe { _mm_set1_pd(x) })
+        }
+        #[inline(always)]
+        fn of(arms: [&TwoLinkArm; 2], f: impl Fn(&TwoLinkArm) -> f64) -> L {
+            L::new(f(arms[0]), f(arms[1]))
+        }
+        /// Whether `x > 0` in both lanes (false for NaN, as the scalar comparison).
+        #[inline(always)]
+        fn both_positive(self) -> bool {
+            // SAFETY: SSE2 (x86-64 baseline).
+            unsafe { _mm_movemask_pd(_mm_cmpgt_pd(self.0, _mm_setzero_pd())) == 3 }
+        }
+    }
+
+    macro_rules! op {
+        ($tr:ident, $f:ident, $intr:ident) => {
+            impl $tr for L {
+                type Output = L;
+                #[inline(always)]
+                fn $f(self, o: L) -> L {
+                    // SAFETY: SSE2 (x86-64 baseline).
+                    L(unsafe { $intr(self.0, o.0) })
+                }
+            }
+        };
+    }
+    op!(Add, add, _mm_add_pd);
+    op!(Sub, sub, _mm_sub_pd);
+    op!(Mul, mul, _mm_mul_pd);
+
+    impl Neg for L {
+        type Output = L;
+        #[inline(always)]
+        fn neg(self) -> L {
+            // SAFETY: SSE2 (x86-64 baseline); flips the sign bit, as scalar negation.
+            L(unsafe { _mm_xor_pd(self.0, _mm_set1_pd(-0.0)) })
+        }
+    }
+
+    /// The lanes `x = (x₀, x₁)`, `y = (y₀, y₁)` as the vectors `(x₀, y₀)`, `(x₁, y₁)`.
+    #[inline(always)]
+    fn split(x: L, y: L) -> [Vector2<f64>; 2] {
+        let (mut a, mut b) = (Vector2::zeros(), Vector2::zeros());
+        // SAFETY: SSE2 (x86-64 baseline); unaligned stores into two-element vectors.
+        unsafe {
+            _mm_storeu_pd(a.as_mut_ptr(), _mm_unpacklo_pd(x.0, y.0));
+            _mm_storeu_pd(b.as_mut_ptr(), _mm_unpackhi_pd(x.0, y.0));
+        }
+        [a, b]
+    }
+
+    #[inline(always)]
+    pub(super) fn state_block_pair(
+        arms: [&TwoLinkArm; 2],
+        q: [[f64; 2]; 2],
+        qd: [[f64; 2]; 2],
+        g: f64,
+    ) -> Option<[(ArmBlock<2>, ArmSolve<2>); 2]> {
+        let [a, b] = arms;
+        // TwoLinkArm::pose: φ_1 = base angle + q_1, φ_2 = φ_1 + q_2 (scalars), one sin_cos2
+        // per link of the two arms.
+        let phi1 = [a.base_angle + q[0][0], b.base_angle + q[1][0]];
+        let phi2 = [phi1[0] + q[0][1], phi1[1] + q[1][1]];
+        let (s1, c1) = crate::trig::sin_cos2_pd(phi1[0], phi1[1]);
+        let (s12, c12) = crate::trig::sin_cos2_pd(phi2[0], phi2[1]);
+        let (s1, c1, s12, c12) = (L(s1), L(c1), L(s12), L(c12));
+        // cos q2 = u_1 · u_12, sin q2 = u_1 × u_12.
+        let c2 = c1 * c12 + s1 * s12;
+        let s2 = c1 * s12 - s1 * c12;
+        // pose_from_dirs: e_2 = l_2 u_12, e = l_1 u_1 + e_2, J = [[−e_y, −e_2y], [e_x, e_2x]].
+        let (l1, l2) = (L::of(arms, |r| r.l1), L::of(arms, |r| r.l2));
+        let (e2x, e2y) = (l2 * c12, l2 * s12);
+        let (ex, ey) = (l1 * c1 + e2x, l1 * s1 + e2y);
+        let j = [-ey, -e2y, ex, e2x];
+        // terms: w_1 = q̇_1, w_2 = q̇_1 + q̇_2; v_1 = (l_1 w_1) u_1^⊥, v_2 = (l_2 w_2) u_12^⊥.
+        let (qd0, qd1) = (L::new(qd[0][0], qd[1][0]), L::new(qd[0][1], qd[1][1]));
+        let (w1, w2) = (qd0, qd0 + qd1);
+        let (lw1, lw2) = (l1 * w1, l2 * w2);
+        let vx = lw1 * -s1 + lw2 * -s12;
+        let vy = lw1 * c1 + lw2 * c12;
+        // mcg.
+        let (p1, p2, p3) = (
+            L::of(arms, |r| r.p1),
+            L::of(arms, |r| r.p2),
+            L::of(arms, |r| r.p3),
+        );
+        let m12 = p3 + p2 * c2;
+        let m00 = p1 + L::splat(2.0) * p2 * c2;
+        let h = p2 * s2;
+        let c = [-h * qd1, -h * w2, h * qd0, L::splat(0.0)];
+        let gl = L::splat(g);
+        let g2c = L::of(arms, |r| r.g2) * gl * c12;
+        let gv = [L::of(arms, |r| r.g1) * gl * c1 + g2c, g2c];
+        let p2c2 = p2 * c2;
+        // J̇_e q̇ = −(l_1 w_1 w_1) u_1 − (l_2 w_2 w_2) u_12; p_E = base + l_1 u_1 + l_2 u_12.
+        let (aa, bb) = (-(lw1 * w1), lw2 * w2);
+        let jdq = [aa * c1 - bb * c12, aa * s1 - bb * s12];
+        let p_ee = [
+            L::of(arms, |r| r.base.x) + l1 * c1 + l2 * c12,
+            L::of(arms, |r| r.base.y) + l1 * s1 + l2 * s12,
+        ];
+        let det = L::of(arms, |r| r.det0) - p2c2 * p2c2;
+        if !det.both_positive() {
+            return None;
+        }
+        // M⁻¹ = [[M_11, −M_01], [−M_10, M_00]] · (1 / det M).
+        // SAFETY: SSE2 (x86-64 baseline).
+        let inv = L(unsafe { _mm_div_pd(_mm_set1_pd(1.0), det.0) });
+        let mi = [p3 * inv, -m12 * inv, -m12 * inv, m00 * inv];
+        // Y = M⁻¹ J_eᵀ: Y_rc = M⁻¹_r0 J_c0 + M⁻¹_r1 J_c1; K = J_e Y.
+        let y = [
+            mi[0] * j[0] + mi[1] * j[1],
+            mi[0] * j[2] + mi[1] * j[3],
+            mi[2] * j[0] + mi[3] * j[1],
+            mi[2] * j[2] + mi[3] * j[3],
+        ];
+        let k = [
+            j[0] * y[0] + j[1] * y[2],
+            j[0] * y[1] + j[1] * y[3],
+            j[2] * y[0] + j[3] * y[2],
+            j[2] * y[1] + j[3] * y[3],
+        ];
+        // C q̇.
+        let bias = [c[0] * qd0 + c[1] * qd1, c[2] * qd0 + c[3] * qd1];
+
+        // Out of the lanes: (x, y) lanes → the first arm's vector (x₀, y₀), the second's
+        // (x₁, y₁), one unpack each; a matrix from its columns (nalgebra is column-major).
+        let m = |m: [L; 4]| {
+            let ([a0, b0], [a1, b1]) = (split(m[0], m[2]), split(m[1], m[3]));
+            [
+                Matrix2::from_columns(&[a0, a1]),
+                Matrix2::from_columns(&[b0, b1]),
+            ]
+        };
+        let ([ya, yb], [ka, kb], [ja, jb], [ma, mb]) = (m(y), m(k), m(j), m(mi));
+        let [pa, pb] = split(p_ee[0], p_ee[1]);
+        let [va, vb] = split(vx, vy);
+        let [da, db] = split(jdq[0], jdq[1]);
+        let [ba, bb] = split(bias[0], bias[1]);
+        let [ga, gb] = split(gv[0], gv[1]);
+        let out = |y, k, j, p_ee, v_ee, jdot_qdot, m, bias, g| {
+            (
+                ArmBlock {
+                    a0: Vector2::zeros(),
+                    y,
+                    k,
+                    j,
+                    p_ee,
+                    v_ee,
+                    jdot_qdot,
+                },
+                ArmSolve {
+                    m,
+                    inv_diag: Vector2::zeros(),
+                    bias,
+                    g,
+                },
+            )
+        };
+        Some([
+            out(ya, ka, ja, pa, va, da, ma, ba, ga),
+            out(yb, kb, jb, pb, vb, db, mb, bb, gb),
+        ])
     }
 }
 

@@ -108,14 +108,14 @@ mod sse2 {
         unsafe { _mm_set1_pd(x) }
     }
 
-    /// Two lanes of [`super::sin_cos`]'s polynomial path (both angles finite, nonzero and
-    /// below `1e5` in magnitude: the caller's check).
+    /// Two lanes of [`super::sin_cos`]'s polynomial path, `(sin, cos)` with `a` in lane 0 (both
+    /// angles finite, nonzero and below `1e5` in magnitude: the caller's check).
     ///
     /// # Safety
     /// SSE2 (always present on x86-64).
     #[inline(always)]
-    pub(super) unsafe fn sin_cos2(a: f64, b: f64) -> [(f64, f64); 2] {
-        // SAFETY: SSE2 arithmetic on registers and a store into a local array.
+    pub(super) unsafe fn sin_cos2_pd(a: f64, b: f64) -> (__m128d, __m128d) {
+        // SAFETY: SSE2 arithmetic on registers.
         unsafe {
             let x = _mm_set_pd(b, a);
             const SHIFT: f64 = 6_755_399_441_055_744.0;
@@ -173,12 +173,43 @@ mod sse2 {
                 _mm_or_pd(_mm_and_pd(swap, s), _mm_andnot_pd(swap, c)),
                 neg_c,
             );
+            (sin, cos)
+        }
+    }
+
+    /// [`sin_cos2_pd`] as pairs.
+    ///
+    /// # Safety
+    /// As [`sin_cos2_pd`].
+    #[inline(always)]
+    pub(super) unsafe fn sin_cos2(a: f64, b: f64) -> [(f64, f64); 2] {
+        // SAFETY: the caller's range check; SSE2 stores into local arrays.
+        unsafe {
+            let (sin, cos) = sin_cos2_pd(a, b);
             let (mut so, mut co) = ([0.0; 2], [0.0; 2]);
             _mm_storeu_pd(so.as_mut_ptr(), sin);
             _mm_storeu_pd(co.as_mut_ptr(), cos);
             [(so[0], co[0]), (so[1], co[1])]
         }
     }
+}
+
+/// [`sin_cos2`] as lanes, bit for bit: `(sin, cos)` with `a` in lane 0, `b` in lane 1 (for
+/// callers that go on computing in SSE2 lanes).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn sin_cos2_pd(
+    a: f64,
+    b: f64,
+) -> (std::arch::x86_64::__m128d, std::arch::x86_64::__m128d) {
+    use std::arch::x86_64::_mm_set_pd;
+    if a.abs() < 1e5 && a != 0.0 && b.abs() < 1e5 && b != 0.0 {
+        // SAFETY: SSE2 is part of the x86-64 baseline; the range is checked.
+        return unsafe { sse2::sin_cos2_pd(a, b) };
+    }
+    let [(sa, ca), (sb, cb)] = [sin_cos(a), sin_cos(b)];
+    // SAFETY: SSE2 (x86-64 baseline).
+    unsafe { (_mm_set_pd(sb, sa), _mm_set_pd(cb, ca)) }
 }
 
 /// The planar rotation by `theta` from [`sin_cos`]: `[[c, −s], [s, c]]`, the matrix
@@ -245,6 +276,21 @@ mod tests {
                         && (p.1.to_bits() == q.1.to_bits() || (p.1.is_nan() && q.1.is_nan()))
                 };
                 assert!(same(pa, a) && same(pb, b), "{a}, {b}");
+                // The lanes of sin_cos2_pd, its fallbacks included.
+                #[cfg(target_arch = "x86_64")]
+                {
+                    let (sl, cl) = sin_cos2_pd(a, b);
+                    let (mut so, mut co) = ([0.0; 2], [0.0; 2]);
+                    // SAFETY: SSE2 stores into local arrays.
+                    unsafe {
+                        std::arch::x86_64::_mm_storeu_pd(so.as_mut_ptr(), sl);
+                        std::arch::x86_64::_mm_storeu_pd(co.as_mut_ptr(), cl);
+                    }
+                    assert!(
+                        same((so[0], co[0]), a) && same((so[1], co[1]), b),
+                        "{a}, {b}"
+                    );
+                }
             }
         }
     }

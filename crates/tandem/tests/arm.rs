@@ -495,6 +495,60 @@ proptest! {
 }
 
 #[test]
+fn two_link_state_block_pair_is_two_state_blocks_bit_for_bit() {
+    // TwoLinkArm's FixedArm::state_block_pair (the two arms in the two lanes of SSE2 registers
+    // on x86-64) against state_block of each arm: the same operations per lane, so the same
+    // bits in every field, on random arm pairs and states (angles beyond sin_cos's polynomial
+    // range and zero rates included).
+    use tandem::arm::{ArmBlock, ArmSolve};
+    fn bits(r: &(ArmBlock<2>, ArmSolve<2>)) -> Vec<u64> {
+        let (b, s) = r;
+        [
+            b.a0.as_slice(),
+            b.y.as_slice(),
+            b.k.as_slice(),
+            b.j.as_slice(),
+            b.p_ee.as_slice(),
+            b.v_ee.as_slice(),
+            b.jdot_qdot.as_slice(),
+            s.m.as_slice(),
+            s.inv_diag.as_slice(),
+            s.bias.as_slice(),
+            s.g.as_slice(),
+        ]
+        .concat()
+        .iter()
+        .map(|x| x.to_bits())
+        .collect()
+    }
+    let mut rng = Rng(909);
+    for trial in 0..500 {
+        let (a, b) = if trial % 3 == 0 {
+            (paper_arm(), random_arm(&mut rng, 2))
+        } else {
+            (random_arm(&mut rng, 2), random_arm(&mut rng, 2))
+        };
+        let (ka, kb) = (a.two_link().unwrap(), b.two_link().unwrap());
+        let mut q: [[f64; 2]; 2] =
+            std::array::from_fn(|_| [rng.range(-4.0, 4.0), rng.range(-4.0, 4.0)]);
+        let mut qd: [[f64; 2]; 2] =
+            std::array::from_fn(|_| [rng.range(-6.0, 6.0), rng.range(-6.0, 6.0)]);
+        match trial % 7 {
+            1 => q[1][0] += 2e5,
+            2 => qd[0] = [0.0, 0.0],
+            3 => qd[1][1] = -qd[1][0],
+            _ => {}
+        }
+        let g = if trial % 5 == 0 { 0.0 } else { 9.81 };
+        let pair = FixedArm::state_block_pair([ka, kb], q, qd, g).expect("positive definite");
+        let one = ka.state_block(q[0], qd[0], g).unwrap();
+        let two = kb.state_block(q[1], qd[1], g).unwrap();
+        assert_eq!(bits(&pair[0]), bits(&one), "trial {trial}, first arm");
+        assert_eq!(bits(&pair[1]), bits(&two), "trial {trial}, second arm");
+    }
+}
+
+#[test]
 fn fixed_link_kernels_equal_the_general_algorithm() {
     // FixedLinkArm<N> (N = 3, 4) against Arm::dynamics + forward_dynamics on random arms and
     // states: a0 = M⁻¹(τ − Cq̇ − G) (forward dynamics with no external force), Y = M⁻¹ J_eᵀ

@@ -378,7 +378,7 @@ impl ClosedChain for super::Plant {
                     first: true,
                 };
                 st.rk.substeps(&mut sys, t, y, h * n as f64, n);
-                if y.iter().all(|v| v.is_finite()) {
+                if crate::linalg::finite_slice(y) {
                     Ok(())
                 } else {
                     Err(ChainFault::NonFinite)

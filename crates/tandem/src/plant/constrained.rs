@@ -355,13 +355,28 @@ impl Plant {
         let mut neg_bias = [Vector2::zeros(); M];
         let mut damp = [Vector2::zeros(); M];
         let mut stiff = [Vector2::zeros(); M];
+        let q_of = |i: usize| -> [f64; N] { std::array::from_fn(|r| y[N * i + r]) };
+        let qd_of = |i: usize| -> [f64; N] { std::array::from_fn(|r| y[n + 3 + N * i + r]) };
+        // The arms' blocks two at a time (FixedArm::state_block_pair), the last one alone.
+        let mut blocks = [None; M];
+        let mut i = 0;
+        while i < M {
+            if i + 1 < M {
+                let [p, q] = A::state_block_pair(
+                    [&arms[i], &arms[i + 1]],
+                    [q_of(i), q_of(i + 1)],
+                    [qd_of(i), qd_of(i + 1)],
+                    self.g,
+                )?;
+                (blocks[i], blocks[i + 1]) = (Some(p), Some(q));
+                i += 2;
+            } else {
+                blocks[i] = Some(arms[i].state_block(q_of(i), qd_of(i), self.g)?);
+                i += 1;
+            }
+        }
         for i in 0..M {
-            let o = N * i;
-            let (blk, s) = arms[i].state_block(
-                std::array::from_fn(|r| y[o + r]),
-                std::array::from_fn(|r| y[n + 3 + o + r]),
-                self.g,
-            )?;
+            let (blk, s) = blocks[i].expect("every arm's block is set above");
             solve[i] = s;
             y_blk[i] = blk.y;
             j[i] = blk.j;
