@@ -210,36 +210,57 @@ impl Rk4 {
         assert!(n > 0, "Rk4::substeps: n must be at least 1");
         self.check_dims(sys, y);
         let h = dt / n as f64;
-        // The paper pair's state (two 2-link arms: 14) on fixed-size arrays: the same
-        // operations, unrolled, without the loops' bookkeeping and alias checks.
-        if y.len() == FIXED_DIM {
-            let Self {
-                k1,
-                k2,
-                k3,
-                k4,
-                y_stage,
-            } = self;
-            fn fixed(v: &mut [f64]) -> &mut [f64; FIXED_DIM] {
-                v.try_into().expect("checked length")
+        // The common planar states on fixed-size arrays (`FIXED_DIMS`): the same operations,
+        // unrolled, without the loops' bookkeeping and alias checks.
+        match y.len() {
+            14 => {
+                self.substeps_fixed::<S, 14>(sys, t, y, h, n);
+                return t + dt;
             }
-            let (y, k1, k2, k3, k4, y_stage) = (
-                <&mut [f64; FIXED_DIM]>::try_from(y).expect("checked length"),
-                fixed(k1),
-                fixed(k2),
-                fixed(k3),
-                fixed(k4),
-                fixed(y_stage),
-            );
-            for i in 0..n {
-                step_fixed(sys, t + i as f64 * h, y, h, [k1, k2, k3, k4, y_stage]);
+            18 => {
+                self.substeps_fixed::<S, 18>(sys, t, y, h, n);
+                return t + dt;
             }
-            return t + dt;
+            _ => {}
         }
         for i in 0..n {
             self.step_unchecked(sys, t + i as f64 * h, y, h);
         }
         t + dt
+    }
+
+    /// `n` steps of `h` by [`step_fixed`] on a state of dimension `D` (`y.len() == D`, and the
+    /// stage buffers' by `check_dims`).
+    #[inline(always)]
+    fn substeps_fixed<S: OdeSystem + ?Sized, const D: usize>(
+        &mut self,
+        sys: &mut S,
+        t: f64,
+        y: &mut [f64],
+        h: f64,
+        n: usize,
+    ) {
+        let Self {
+            k1,
+            k2,
+            k3,
+            k4,
+            y_stage,
+        } = self;
+        fn fixed<const D: usize>(v: &mut [f64]) -> &mut [f64; D] {
+            v.try_into().expect("checked length")
+        }
+        let (y, k1, k2, k3, k4, y_stage) = (
+            fixed::<D>(y),
+            fixed::<D>(k1),
+            fixed::<D>(k2),
+            fixed::<D>(k3),
+            fixed::<D>(k4),
+            fixed::<D>(y_stage),
+        );
+        for i in 0..n {
+            step_fixed(sys, t + i as f64 * h, y, h, [k1, k2, k3, k4, y_stage]);
+        }
     }
 
     fn check_dims<S: OdeSystem + ?Sized>(&self, sys: &S, y: &[f64]) {
@@ -301,9 +322,11 @@ impl Rk4 {
     }
 }
 
-/// The state dimension [`Rk4::substeps`] runs on fixed-size arrays ([`step_fixed`]): two 2-link
-/// arms and the object, `(q, x_o, q̇, ẋ_o)` of 4 + 3 + 4 + 3.
-const FIXED_DIM: usize = 14;
+/// The state dimensions [`Rk4::substeps`] runs on fixed-size arrays ([`step_fixed`]): two
+/// 2-link arms and the object, `(q, x_o, q̇, ẋ_o)` of 4 + 3 + 4 + 3 (the paper), and 18 (two
+/// 3-link arms, or three 2-link arms).
+#[cfg(test)]
+const FIXED_DIMS: [usize; 2] = [14, 18];
 
 /// [`Rk4::step_unchecked`] on arrays of a dimension known at compile time: the same
 /// floating-point operations in the same order (so the same bits), the element loops unrolled.
@@ -951,39 +974,41 @@ mod tests {
         assert_eq!(times, vec![2.0, 2.25, 2.25, 2.5]);
     }
 
-    /// The fixed-size path of `substeps` (dimension `FIXED_DIM`) equals the slice path of
+    /// The fixed-size paths of `substeps` (dimensions `FIXED_DIMS`) equal the slice path of
     /// `step`, bit for bit, on a coupled nonlinear system with time-dependent terms.
     #[test]
     fn rk4_fixed_dim_substeps_match_steps_bitwise() {
-        let f = |t: f64, y: &[f64], dy: &mut [f64]| {
-            let n = y.len();
-            for j in 0..n {
-                dy[j] =
-                    y[(j + 1) % n].sin() - 0.3 * y[j] * y[(j + 5) % n] + (t * (j + 1) as f64).cos();
+        for dim in FIXED_DIMS {
+            let f = |t: f64, y: &[f64], dy: &mut [f64]| {
+                let n = y.len();
+                for j in 0..n {
+                    dy[j] = y[(j + 1) % n].sin() - 0.3 * y[j] * y[(j + 5) % n]
+                        + (t * (j + 1) as f64).cos();
+                }
+            };
+            let mut sys = FnSystem::new(dim, f);
+            let y0: Vec<f64> = (0..dim).map(|j| 0.1 * j as f64 - 0.45).collect();
+            let (mut a, mut b) = (y0.clone(), y0);
+            let mut rk4 = Rk4::new(dim);
+            let t_end = rk4.substeps(&mut sys, 0.7, &mut a, 0.3, 7);
+            assert_eq!(t_end, 1.0);
+            let h = 0.3 / 7.0;
+            for i in 0..7 {
+                rk4.step(&mut sys, 0.7 + i as f64 * h, &mut b, h);
             }
-        };
-        let mut sys = FnSystem::new(FIXED_DIM, f);
-        let y0: Vec<f64> = (0..FIXED_DIM).map(|j| 0.1 * j as f64 - 0.45).collect();
-        let (mut a, mut b) = (y0.clone(), y0);
-        let mut rk4 = Rk4::new(FIXED_DIM);
-        let t_end = rk4.substeps(&mut sys, 0.7, &mut a, 0.3, 7);
-        assert_eq!(t_end, 1.0);
-        let h = 0.3 / 7.0;
-        for i in 0..7 {
-            rk4.step(&mut sys, 0.7 + i as f64 * h, &mut b, h);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a), bits(&b));
+            // And the stage times of the fixed path.
+            let mut times = Vec::new();
+            let mut rec = FnSystem::new(dim, |t: f64, _y: &[f64], dy: &mut [f64]| {
+                times.push(t);
+                dy.fill(1.0);
+            });
+            let mut y = vec![0.0; dim];
+            rk4.substeps(&mut rec, 2.0, &mut y, 0.5, 1);
+            assert_eq!(times, vec![2.0, 2.25, 2.25, 2.5]);
+            assert!(y.iter().all(|&v| v == 0.5));
         }
-        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&a), bits(&b));
-        // And the stage times of the fixed path.
-        let mut times = Vec::new();
-        let mut rec = FnSystem::new(FIXED_DIM, |t: f64, _y: &[f64], dy: &mut [f64]| {
-            times.push(t);
-            dy.fill(1.0);
-        });
-        let mut y = vec![0.0; FIXED_DIM];
-        rk4.substeps(&mut rec, 2.0, &mut y, 0.5, 1);
-        assert_eq!(times, vec![2.0, 2.25, 2.25, 2.5]);
-        assert!(y.iter().all(|&v| v == 0.5));
     }
 
     /// Global errors at the end time for n, 2n, 4n, … steps.
