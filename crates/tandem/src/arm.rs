@@ -351,15 +351,15 @@ impl FixedArm<2> for TwoLinkArm {
 #[cfg(target_arch = "x86_64")]
 mod pair {
     use std::arch::x86_64::{
-        __m128d, _mm_add_pd, _mm_cmpgt_pd, _mm_div_pd, _mm_movemask_pd, _mm_mul_pd, _mm_set_pd,
-        _mm_set1_pd, _mm_setzero_pd, _mm_storeu_pd, _mm_sub_pd, _mm_unpackhi_pd, _mm_unpacklo_pd,
-        _mm_xor_pd,
+        __m128d, _mm_add_pd, _mm_and_pd, _mm_cmpgt_pd, _mm_cmplt_pd, _mm_div_pd, _mm_movemask_pd,
+        _mm_mul_pd, _mm_set_pd, _mm_set1_pd, _mm_setzero_pd, _mm_sqrt_pd, _mm_storeu_pd,
+        _mm_sub_pd, _mm_unpackhi_pd, _mm_unpacklo_pd, _mm_xor_pd,
     };
-    use std::ops::{Add, Mul, Neg, Sub};
+    use std::ops::{Add, Div, Mul, Neg, Sub};
 
-    use nalgebra::{Matrix2, Vector2};
+    use nalgebra::{Matrix2, SMatrix, SVector, Vector2};
 
-    use super::{ArmBlock, ArmSolve, TwoLinkArm};
+    use super::{ArmBlock, ArmSolve, FixedLinkArm, TwoLinkArm};
 
     /// Two `f64` lanes.
     #[derive(Clone, Copy)]
@@ -377,7 +377,7 @@ mod pair {
             L(unsafe { _mm_set1_pd(x) })
         }
         #[inline(always)]
-        fn of(arms: [&TwoLinkArm; 2], f: impl Fn(&TwoLinkArm) -> f64) -> L {
+        fn of<A>(arms: [&A; 2], f: impl Fn(&A) -> f64) -> L {
             L::new(f(arms[0]), f(arms[1]))
         }
         /// Whether `x > 0` in both lanes (false for NaN, as the scalar comparison).
@@ -385,6 +385,30 @@ mod pair {
         fn both_positive(self) -> bool {
             // SAFETY: SSE2 (x86-64 baseline).
             unsafe { _mm_movemask_pd(_mm_cmpgt_pd(self.0, _mm_setzero_pd())) == 3 }
+        }
+        /// Whether `0 < x < ∞` in both lanes (`x > 0.0 && x.is_finite()` of each; false for NaN).
+        #[inline(always)]
+        fn both_positive_finite(self) -> bool {
+            // SAFETY: SSE2 (x86-64 baseline).
+            unsafe {
+                let pos = _mm_cmpgt_pd(self.0, _mm_setzero_pd());
+                let fin = _mm_cmplt_pd(self.0, _mm_set1_pd(f64::INFINITY));
+                _mm_movemask_pd(_mm_and_pd(pos, fin)) == 3
+            }
+        }
+        /// The two lanes, lane 0 first.
+        #[inline(always)]
+        fn lanes(self) -> [f64; 2] {
+            let mut o = [0.0; 2];
+            // SAFETY: SSE2 (x86-64 baseline); an unaligned store into a local array.
+            unsafe { _mm_storeu_pd(o.as_mut_ptr(), self.0) };
+            o
+        }
+        /// `√x` per lane (correctly rounded, as `f64::sqrt`).
+        #[inline(always)]
+        fn sqrt(self) -> L {
+            // SAFETY: SSE2 (x86-64 baseline).
+            L(unsafe { _mm_sqrt_pd(self.0) })
         }
     }
 
@@ -403,6 +427,7 @@ mod pair {
     op!(Add, add, _mm_add_pd);
     op!(Sub, sub, _mm_sub_pd);
     op!(Mul, mul, _mm_mul_pd);
+    op!(Div, div, _mm_div_pd);
 
     impl Neg for L {
         type Output = L;
@@ -537,6 +562,225 @@ mod pair {
             out(ya, ka, ja, pa, va, da, ma, ba, ga),
             out(yb, kb, jb, pb, vb, db, mb, bb, gb),
         ])
+    }
+
+    /// [`FixedLinkArm`]'s [`FixedArm::state_block`](super::FixedArm::state_block) of two arms in
+    /// the lanes: the scalar code's loops, each operation once for both arms in its order
+    /// (nalgebra's `dot` and the `N × N` by `N × 2` product `M⁻¹ J_eᵀ` as left-to-right sums of
+    /// products, as nalgebra's small-matrix `gemv` does them; additions of `0.0` kept, as they
+    /// are not no-ops for `−0.0`); `None` when either arm's `M` is not positive definite.
+    #[inline(always)]
+    pub(super) fn fixed_state_block_pair<const N: usize>(
+        arms: [&FixedLinkArm<N>; 2],
+        q: [[f64; N]; 2],
+        qd: [[f64; N]; 2],
+        g: f64,
+    ) -> Option<[(ArmBlock<N>, ArmSolve<N>); 2]> {
+        let zero = L::splat(0.0);
+        // link_dirs: the running sums (the angles as scalars, per arm; the rates in lanes),
+        // then each link's direction of the two arms by one sin_cos2 (the same bits as
+        // sin_cos of each angle, as the scalar code's).
+        let mut phi = [[0.0; N]; 2];
+        for (s, (arm, qs)) in [(arms[0], &q[0]), (arms[1], &q[1])].into_iter().enumerate() {
+            let mut a = arm.base_angle;
+            for k in 0..N {
+                a += qs[k];
+                phi[s][k] = a;
+            }
+        }
+        let mut phids = [zero; N];
+        let mut ad = zero;
+        for k in 0..N {
+            ad = ad + L::new(qd[0][k], qd[1][k]);
+            phids[k] = ad;
+        }
+        // Forward pass: joint points, COMs, acc_k = J̇_{c_k} q̇ + (0, g).
+        let mut pts = [[zero; 2]; N];
+        let mut com = [[zero; 2]; N];
+        let mut acc = [[zero; 2]; N];
+        let (mut px, mut py) = (L::of(arms, |r| r.base.x), L::of(arms, |r| r.base.y));
+        let (mut pdx, mut pdy) = (zero, zero);
+        let (mut jx, mut jy) = (zero, zero);
+        let gl = L::splat(g);
+        for k in 0..N {
+            let (s, c) = crate::trig::sin_cos2_pd(phi[0][k], phi[1][k]);
+            let (s, c) = (L(s), L(c));
+            let phid = phids[k];
+            let (lc, l) = (L::of(arms, |r| r.lc[k]), L::of(arms, |r| r.l[k]));
+            let w2 = phid * phid;
+            pts[k] = [px, py];
+            com[k] = [px + lc * c, py + lc * s];
+            let t = lc * w2;
+            acc[k] = [(jx - t * c) + zero, (jy - t * s) + gl];
+            px = px + l * c;
+            py = py + l * s;
+            let lp = l * phid;
+            pdx = pdx + lp * -s;
+            pdy = pdy + lp * c;
+            let lpp = lp * phid;
+            jx = jx - lpp * c;
+            jy = jy - lpp * s;
+        }
+        // J_e columns perp(p − P_i); r_ki = c_k − P_i.
+        let mut j = [[zero; N]; 2];
+        for i in 0..N {
+            j[0][i] = -(py - pts[i][1]);
+            j[1][i] = px - pts[i][0];
+        }
+        let mut r = [[[zero; 2]; N]; N];
+        for k in 0..N {
+            for i in 0..=k {
+                r[k][i] = [com[k][0] - pts[i][0], com[k][1] - pts[i][1]];
+            }
+        }
+        let mut mm = [[zero; N]; N];
+        let mut rhs = [[zero; 2]; N];
+        let mut bias_v = [zero; N];
+        for i in 0..N {
+            for jj in i..N {
+                let mut mij = zero;
+                for k in jj..N {
+                    let (m, ine) = (L::of(arms, |a| a.m[k]), L::of(arms, |a| a.inertia[k]));
+                    let dot = r[k][i][0] * r[k][jj][0] + r[k][i][1] * r[k][jj][1];
+                    mij = mij + (m * dot + ine);
+                }
+                mm[i][jj] = mij;
+                mm[jj][i] = mij;
+            }
+            let mut bias = zero;
+            for k in i..N {
+                let m = L::of(arms, |a| a.m[k]);
+                let dot = -r[k][i][1] * acc[k][0] + r[k][i][0] * acc[k][1];
+                bias = bias + m * dot;
+            }
+            bias_v[i] = bias;
+            rhs[i] = [j[0][i], j[1][i]];
+        }
+        let mut sm = [[zero; N]; N];
+        let mut inv_diag = [zero; N];
+        if N == 3 {
+            // Closed-form inverse adj M / det M, Sylvester's minors.
+            let (m00, m01, m02) = (mm[0][0], mm[0][1], mm[0][2]);
+            let (m11, m12, m22) = (mm[1][1], mm[1][2], mm[2][2]);
+            let c00 = m11 * m22 - m12 * m12;
+            let c01 = m02 * m12 - m01 * m22;
+            let c02 = m01 * m12 - m02 * m11;
+            let c11 = m00 * m22 - m02 * m02;
+            let c12 = m01 * m02 - m00 * m12;
+            let c22 = m00 * m11 - m01 * m01;
+            let det = m00 * c00 + m01 * c01 + m02 * c02;
+            if !(m00.both_positive() && c22.both_positive() && det.both_positive_finite()) {
+                return None;
+            }
+            let inv = L::splat(1.0) / det;
+            for (rr, cc, v) in [
+                (0, 0, c00),
+                (0, 1, c01),
+                (0, 2, c02),
+                (1, 1, c11),
+                (1, 2, c12),
+                (2, 2, c22),
+            ] {
+                sm[rr][cc] = v * inv;
+                sm[cc][rr] = v * inv;
+            }
+            // M⁻¹ J_eᵀ: nalgebra's gemv, y = col_0 x_0, then y += col_k x_k.
+            let mut y = [[zero; 2]; N];
+            for cc in 0..2 {
+                for rr in 0..N {
+                    let mut sum = sm[rr][0] * rhs[0][cc];
+                    for k in 1..N {
+                        sum = sum + sm[rr][k] * rhs[k][cc];
+                    }
+                    y[rr][cc] = sum;
+                }
+            }
+            rhs = y;
+        } else {
+            // Cholesky M = L Lᵀ (upper triangle left as M's), then both substitutions.
+            let mut lo = mm;
+            for jj in 0..N {
+                let mut dd = lo[jj][jj];
+                for k in 0..jj {
+                    dd = dd - lo[jj][k] * lo[jj][k];
+                }
+                if !dd.both_positive_finite() {
+                    return None;
+                }
+                let ljj = dd.sqrt();
+                lo[jj][jj] = ljj;
+                inv_diag[jj] = L::splat(1.0) / ljj;
+                for i in (jj + 1)..N {
+                    let mut sum = lo[i][jj];
+                    for k in 0..jj {
+                        sum = sum - lo[i][k] * lo[jj][k];
+                    }
+                    lo[i][jj] = sum / ljj;
+                }
+            }
+            for cc in 0..2 {
+                let mut b = [zero; N];
+                for i in 0..N {
+                    b[i] = rhs[i][cc];
+                }
+                for i in 0..N {
+                    let mut sum = b[i];
+                    for k in 0..i {
+                        sum = sum - lo[i][k] * b[k];
+                    }
+                    b[i] = sum * inv_diag[i];
+                }
+                for i in (0..N).rev() {
+                    let mut sum = b[i];
+                    for k in (i + 1)..N {
+                        sum = sum - lo[k][i] * b[k];
+                    }
+                    b[i] = sum * inv_diag[i];
+                }
+                for i in 0..N {
+                    rhs[i][cc] = b[i];
+                }
+            }
+            sm = lo;
+        }
+        let y = rhs;
+        let mut kb = [[zero; 2]; 2];
+        for a in 0..2 {
+            for b in 0..2 {
+                let mut sum = zero;
+                for rr in 0..N {
+                    sum = sum + j[a][rr] * y[rr][b];
+                }
+                kb[a][b] = sum;
+            }
+        }
+
+        // Out of the lanes.
+        let out = |s: usize| {
+            let v2 = |x: L, y: L| Vector2::new(x.lanes()[s], y.lanes()[s]);
+            (
+                ArmBlock {
+                    a0: SVector::zeros(),
+                    y: SMatrix::<f64, N, 2>::from_fn(|rr, cc| y[rr][cc].lanes()[s]),
+                    k: Matrix2::from_fn(|rr, cc| kb[rr][cc].lanes()[s]),
+                    j: SMatrix::<f64, 2, N>::from_fn(|rr, cc| j[rr][cc].lanes()[s]),
+                    p_ee: v2(px, py),
+                    v_ee: v2(pdx, pdy),
+                    jdot_qdot: v2(jx, jy),
+                },
+                ArmSolve {
+                    m: SMatrix::<f64, N, N>::from_fn(|rr, cc| sm[rr][cc].lanes()[s]),
+                    inv_diag: if N == 3 {
+                        SVector::zeros()
+                    } else {
+                        SVector::<f64, N>::from_fn(|rr, _| inv_diag[rr].lanes()[s])
+                    },
+                    bias: SVector::<f64, N>::from_fn(|rr, _| bias_v[rr].lanes()[s]),
+                    g: SVector::zeros(),
+                },
+            )
+        };
+        Some([out(0), out(1)])
     }
 }
 
@@ -744,6 +988,28 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
             jdot_qdot: jdq,
         };
         Some((blk, solve))
+    }
+
+    /// On x86-64 the two arms in the two lanes of SSE2 registers (module `pair`): every operation
+    /// of [`state_block`](FixedArm::state_block) once for both, in the same order.
+    #[inline(always)]
+    fn state_block_pair(
+        arms: [&Self; 2],
+        q: [[f64; N]; 2],
+        qd: [[f64; N]; 2],
+        g: f64,
+    ) -> Option<[(ArmBlock<N>, ArmSolve<N>); 2]> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            pair::fixed_state_block_pair(arms, q, qd, g)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            Some([
+                arms[0].state_block(q[0], qd[0], g)?,
+                arms[1].state_block(q[1], qd[1], g)?,
+            ])
+        }
     }
 
     /// `τ − bias`, then `M⁻¹` (3 links) or the two substitutions (4 links).

@@ -14,6 +14,10 @@ fn paper_arm() -> Arm {
 }
 
 fn random_arm(rng: &mut Rng, n: usize) -> Arm {
+    Arm::new("arm", &random_params(rng, n)).unwrap()
+}
+
+fn random_params(rng: &mut Rng, n: usize) -> ArmParams {
     let links = (0..n)
         .map(|_| {
             let l = rng.range(0.1, 0.5);
@@ -25,16 +29,12 @@ fn random_arm(rng: &mut Rng, n: usize) -> Arm {
             }
         })
         .collect();
-    Arm::new(
-        "arm",
-        &ArmParams {
-            base: [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)],
-            base_angle: rng.range(-1.0, 1.0),
-            links,
-            elbow: Elbow::Positive,
-        },
-    )
-    .unwrap()
+    ArmParams {
+        base: [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)],
+        base_angle: rng.range(-1.0, 1.0),
+        links,
+        elbow: Elbow::Positive,
+    }
 }
 
 fn rel_err(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
@@ -494,33 +494,36 @@ proptest! {
     }
 }
 
+/// Every field of a [`FixedArm::state_block`] result as bits.
+fn block_bits<const N: usize>(
+    r: &(tandem::arm::ArmBlock<N>, tandem::arm::ArmSolve<N>),
+) -> Vec<u64> {
+    let (b, s) = r;
+    [
+        b.a0.as_slice(),
+        b.y.as_slice(),
+        b.k.as_slice(),
+        b.j.as_slice(),
+        b.p_ee.as_slice(),
+        b.v_ee.as_slice(),
+        b.jdot_qdot.as_slice(),
+        s.m.as_slice(),
+        s.inv_diag.as_slice(),
+        s.bias.as_slice(),
+        s.g.as_slice(),
+    ]
+    .concat()
+    .iter()
+    .map(|x| x.to_bits())
+    .collect()
+}
+
 #[test]
 fn two_link_state_block_pair_is_two_state_blocks_bit_for_bit() {
     // TwoLinkArm's FixedArm::state_block_pair (the two arms in the two lanes of SSE2 registers
     // on x86-64) against state_block of each arm: the same operations per lane, so the same
     // bits in every field, on random arm pairs and states (angles beyond sin_cos's polynomial
     // range and zero rates included).
-    use tandem::arm::{ArmBlock, ArmSolve};
-    fn bits(r: &(ArmBlock<2>, ArmSolve<2>)) -> Vec<u64> {
-        let (b, s) = r;
-        [
-            b.a0.as_slice(),
-            b.y.as_slice(),
-            b.k.as_slice(),
-            b.j.as_slice(),
-            b.p_ee.as_slice(),
-            b.v_ee.as_slice(),
-            b.jdot_qdot.as_slice(),
-            s.m.as_slice(),
-            s.inv_diag.as_slice(),
-            s.bias.as_slice(),
-            s.g.as_slice(),
-        ]
-        .concat()
-        .iter()
-        .map(|x| x.to_bits())
-        .collect()
-    }
     let mut rng = Rng(909);
     for trial in 0..500 {
         let (a, b) = if trial % 3 == 0 {
@@ -543,9 +546,88 @@ fn two_link_state_block_pair_is_two_state_blocks_bit_for_bit() {
         let pair = FixedArm::state_block_pair([ka, kb], q, qd, g).expect("positive definite");
         let one = ka.state_block(q[0], qd[0], g).unwrap();
         let two = kb.state_block(q[1], qd[1], g).unwrap();
-        assert_eq!(bits(&pair[0]), bits(&one), "trial {trial}, first arm");
-        assert_eq!(bits(&pair[1]), bits(&two), "trial {trial}, second arm");
+        assert_eq!(
+            block_bits(&pair[0]),
+            block_bits(&one),
+            "trial {trial}, first arm"
+        );
+        assert_eq!(
+            block_bits(&pair[1]),
+            block_bits(&two),
+            "trial {trial}, second arm"
+        );
     }
+}
+
+#[test]
+fn fixed_link_state_block_pair_is_two_state_blocks_bit_for_bit() {
+    // FixedLinkArm<N>'s FixedArm::state_block_pair (N = 3: closed-form inverse; N = 4:
+    // Cholesky; the two arms in SSE2 lanes on x86-64) against state_block of each arm: the
+    // same bits in every field, on random arm pairs and states, with edge cases: angles
+    // beyond sin_cos's polynomial range and exact zeros (its library fallback), zero and
+    // negative-zero rates, zero gravity, and a NaN angle in one arm (M not positive definite:
+    // the pair is None exactly when either arm's block is).
+    fn check<const N: usize>(rng: &mut Rng, trial: usize) -> bool {
+        let (mut pa, mut pb) = (random_params(rng, N), random_params(rng, N));
+        if trial % 11 == 7 {
+            (pa.base_angle, pb.base_angle) = (0.0, 0.0);
+        }
+        let (a, b) = (Arm::new("a", &pa).unwrap(), Arm::new("b", &pb).unwrap());
+        let (ka, kb) = (a.fixed::<N>().unwrap(), b.fixed::<N>().unwrap());
+        let mut q: [[f64; N]; 2] =
+            std::array::from_fn(|_| std::array::from_fn(|_| rng.range(-4.0, 4.0)));
+        let mut qd: [[f64; N]; 2] =
+            std::array::from_fn(|_| std::array::from_fn(|_| rng.range(-6.0, 6.0)));
+        match trial % 11 {
+            1 => q[1][N - 1] += 2e5,
+            2 => qd[0] = [0.0; N],
+            3 => qd[1] = [-0.0; N],
+            4 => qd[1][1] = -qd[1][0],
+            5 => q[0][N - 2] = f64::NAN,
+            6 => q[1][0] = f64::NAN,
+            7 => {
+                // φ_1 = 0 exactly (sin_cos's ±0 fallback) in both arms.
+                q[0][0] = 0.0;
+                q[1][0] = -0.0;
+            }
+            8 => q[0] = [1e6; N],
+            _ => {}
+        }
+        let g = if trial.is_multiple_of(5) { 0.0 } else { 9.81 };
+        let pair = FixedArm::state_block_pair([&ka, &kb], q, qd, g);
+        let one = ka.state_block(q[0], qd[0], g);
+        let two = kb.state_block(q[1], qd[1], g);
+        match (pair, one, two) {
+            (Some(p), Some(one), Some(two)) => {
+                assert_eq!(
+                    block_bits(&p[0]),
+                    block_bits(&one),
+                    "trial {trial}, {N} links, first"
+                );
+                assert_eq!(
+                    block_bits(&p[1]),
+                    block_bits(&two),
+                    "trial {trial}, {N} links, second"
+                );
+                false
+            }
+            (None, one, two) => {
+                assert!(
+                    one.is_none() || two.is_none(),
+                    "trial {trial}, {N} links: None"
+                );
+                true
+            }
+            (Some(_), _, _) => panic!("trial {trial}, {N} links: Some, but an arm is None"),
+        }
+    }
+    let mut rng = Rng(911);
+    let mut nones = 0;
+    for trial in 0..600 {
+        nones += usize::from(check::<3>(&mut rng, trial));
+        nones += usize::from(check::<4>(&mut rng, trial));
+    }
+    assert!(nones >= 2 * 2 * 50, "the None cases ran: {nones}");
 }
 
 #[test]
