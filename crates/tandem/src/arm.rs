@@ -352,8 +352,8 @@ impl FixedArm<2> for TwoLinkArm {
 mod pair {
     use std::arch::x86_64::{
         __m128d, _mm_add_pd, _mm_and_pd, _mm_cmpgt_pd, _mm_cmplt_pd, _mm_div_pd, _mm_movemask_pd,
-        _mm_mul_pd, _mm_set_pd, _mm_set1_pd, _mm_setzero_pd, _mm_sqrt_pd, _mm_storeu_pd,
-        _mm_sub_pd, _mm_unpackhi_pd, _mm_unpacklo_pd, _mm_xor_pd,
+        _mm_mul_pd, _mm_set_pd, _mm_set1_pd, _mm_setzero_pd, _mm_sqrt_pd, _mm_storeh_pd,
+        _mm_storel_pd, _mm_storeu_pd, _mm_sub_pd, _mm_unpackhi_pd, _mm_unpacklo_pd, _mm_xor_pd,
     };
     use std::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -395,14 +395,6 @@ mod pair {
                 let fin = _mm_cmplt_pd(self.0, _mm_set1_pd(f64::INFINITY));
                 _mm_movemask_pd(_mm_and_pd(pos, fin)) == 3
             }
-        }
-        /// The two lanes, lane 0 first.
-        #[inline(always)]
-        fn lanes(self) -> [f64; 2] {
-            let mut o = [0.0; 2];
-            // SAFETY: SSE2 (x86-64 baseline); an unaligned store into a local array.
-            unsafe { _mm_storeu_pd(o.as_mut_ptr(), self.0) };
-            o
         }
         /// `√x` per lane (correctly rounded, as `f64::sqrt`).
         #[inline(always)]
@@ -755,32 +747,60 @@ mod pair {
             }
         }
 
-        // Out of the lanes.
-        let out = |s: usize| {
-            let v2 = |x: L, y: L| Vector2::new(x.lanes()[s], y.lanes()[s]);
+        // Out of the lanes: each lane stored straight into its arm's field.
+        let zb = || {
             (
                 ArmBlock {
                     a0: SVector::zeros(),
-                    y: SMatrix::<f64, N, 2>::from_fn(|rr, cc| y[rr][cc].lanes()[s]),
-                    k: Matrix2::from_fn(|rr, cc| kb[rr][cc].lanes()[s]),
-                    j: SMatrix::<f64, 2, N>::from_fn(|rr, cc| j[rr][cc].lanes()[s]),
-                    p_ee: v2(px, py),
-                    v_ee: v2(pdx, pdy),
-                    jdot_qdot: v2(jx, jy),
+                    y: SMatrix::zeros(),
+                    k: Matrix2::zeros(),
+                    j: SMatrix::zeros(),
+                    p_ee: Vector2::zeros(),
+                    v_ee: Vector2::zeros(),
+                    jdot_qdot: Vector2::zeros(),
                 },
                 ArmSolve {
-                    m: SMatrix::<f64, N, N>::from_fn(|rr, cc| sm[rr][cc].lanes()[s]),
-                    inv_diag: if N == 3 {
-                        SVector::zeros()
-                    } else {
-                        SVector::<f64, N>::from_fn(|rr, _| inv_diag[rr].lanes()[s])
-                    },
-                    bias: SVector::<f64, N>::from_fn(|rr, _| bias_v[rr].lanes()[s]),
+                    m: SMatrix::zeros(),
+                    inv_diag: SVector::zeros(),
+                    bias: SVector::zeros(),
                     g: SVector::zeros(),
                 },
             )
         };
-        Some([out(0), out(1)])
+        let (mut oa, mut ob) = (zb(), zb());
+        #[inline(always)]
+        fn put(x: L, a: &mut f64, b: &mut f64) {
+            // SAFETY: SSE2 (x86-64 baseline); stores of one lane each into an `f64`.
+            unsafe {
+                _mm_storel_pd(a, x.0);
+                _mm_storeh_pd(b, x.0);
+            }
+        }
+        for rr in 0..N {
+            for cc in 0..2 {
+                put(y[rr][cc], &mut oa.0.y[(rr, cc)], &mut ob.0.y[(rr, cc)]);
+                put(j[cc][rr], &mut oa.0.j[(cc, rr)], &mut ob.0.j[(cc, rr)]);
+            }
+            for cc in 0..N {
+                put(sm[rr][cc], &mut oa.1.m[(rr, cc)], &mut ob.1.m[(rr, cc)]);
+            }
+            if N != 3 {
+                put(inv_diag[rr], &mut oa.1.inv_diag[rr], &mut ob.1.inv_diag[rr]);
+            }
+            put(bias_v[rr], &mut oa.1.bias[rr], &mut ob.1.bias[rr]);
+        }
+        for rr in 0..2 {
+            for cc in 0..2 {
+                put(kb[rr][cc], &mut oa.0.k[(rr, cc)], &mut ob.0.k[(rr, cc)]);
+            }
+        }
+        put(px, &mut oa.0.p_ee.x, &mut ob.0.p_ee.x);
+        put(py, &mut oa.0.p_ee.y, &mut ob.0.p_ee.y);
+        put(pdx, &mut oa.0.v_ee.x, &mut ob.0.v_ee.x);
+        put(pdy, &mut oa.0.v_ee.y, &mut ob.0.v_ee.y);
+        put(jx, &mut oa.0.jdot_qdot.x, &mut ob.0.jdot_qdot.x);
+        put(jy, &mut oa.0.jdot_qdot.y, &mut ob.0.jdot_qdot.y);
+        Some([oa, ob])
     }
 }
 
