@@ -316,7 +316,9 @@ impl FixedArm<2> for TwoLinkArm {
     }
     /// On x86-64 the two arms in the two lanes of SSE2 registers (module `pair`): every operation
     /// of [`state_block`](FixedArm::state_block) (through [`TwoLinkArm::pose`],
-    /// [`TwoLinkArm::terms`] and [`TwoLinkTerms::m_inv`]) once for both, in the same order.
+    /// [`TwoLinkArm::terms`] and [`TwoLinkTerms::m_inv`]) once for both, in the same order
+    /// (elsewhere the trait's default, one arm after the other).
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn state_block_pair(
         arms: [&Self; 2],
@@ -324,17 +326,7 @@ impl FixedArm<2> for TwoLinkArm {
         qd: [[f64; 2]; 2],
         g: f64,
     ) -> Option<[(ArmBlock<2>, ArmSolve<2>); 2]> {
-        #[cfg(target_arch = "x86_64")]
-        {
-            pair::state_block_pair(arms, q, qd, g)
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            Some([
-                arms[0].state_block(q[0], qd[0], g)?,
-                arms[1].state_block(q[1], qd[1], g)?,
-            ])
-        }
+        pair::state_block_pair(arms, q, qd, g)
     }
     /// `M⁻¹ ((τ − C q̇) − G)`.
     #[inline(always)]
@@ -1011,7 +1003,9 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
     }
 
     /// On x86-64 the two arms in the two lanes of SSE2 registers (module `pair`): every operation
-    /// of [`state_block`](FixedArm::state_block) once for both, in the same order.
+    /// of [`state_block`](FixedArm::state_block) once for both, in the same order (elsewhere
+    /// the trait's default, one arm after the other).
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn state_block_pair(
         arms: [&Self; 2],
@@ -1019,17 +1013,7 @@ impl<const N: usize> FixedArm<N> for FixedLinkArm<N> {
         qd: [[f64; N]; 2],
         g: f64,
     ) -> Option<[(ArmBlock<N>, ArmSolve<N>); 2]> {
-        #[cfg(target_arch = "x86_64")]
-        {
-            pair::fixed_state_block_pair(arms, q, qd, g)
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            Some([
-                arms[0].state_block(q[0], qd[0], g)?,
-                arms[1].state_block(q[1], qd[1], g)?,
-            ])
-        }
+        pair::fixed_state_block_pair(arms, q, qd, g)
     }
 
     /// `τ − bias`, then `M⁻¹` (3 links) or the two substitutions (4 links).

@@ -173,10 +173,16 @@ pub(super) unsafe fn kron(
     let regs = out.len() / LANE;
     // A prefix of exactly one register (the paper's grid: three inputs of two levels before
     // the tail's three) is formed in a register too, below; else by `kron_into`.
+    // (Every prefix input a power of two, their product exactly one register: the lane
+    // patterns and the masked loads below rely on both.)
     let mut prefix_in_register = regs == LANE;
+    let mut plen = 1usize;
     for i in from..split {
-        prefix_in_register &= (offsets[i + 1] - offsets[i]).is_power_of_two();
+        let n = offsets[i + 1] - offsets[i];
+        prefix_in_register &= n.is_power_of_two();
+        plen = plen.saturating_mul(n);
     }
+    prefix_in_register &= plen == LANE;
     // The prefix products (one a register), by `kron_into` itself in two eighths of `tmp`.
     let (prefix, rest) = tmp.split_at_mut(regs);
     if !prefix_in_register {
