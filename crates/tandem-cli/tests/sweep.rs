@@ -305,9 +305,11 @@ fn object_mass_changes_the_physics_and_a_fault_is_a_row() {
 }
 
 /// The shards through a real engine: dask.distributed's LocalCluster (`tests/dask/shards.py`)
-/// in the venv `.ci/run` creates (`.venv-dask`, or `TANDEM_DASK_PYTHON`). Without it the test
-/// prints a skip notice, or fails when `TANDEM_REQUIRE_DASK=1` (as in CI).
+/// in the venv `.ci/run` creates (`.venv-dask`, or `TANDEM_DASK_PYTHON`). Ignored by a plain
+/// `cargo test` (it needs that venv); `.ci/run` runs it with `--ignored`, and there a missing
+/// venv fails it.
 #[test]
+#[ignore = "needs dask.distributed in .venv-dask or TANDEM_DASK_PYTHON (.ci/run makes it); run with --ignored"]
 fn shards_through_a_dask_local_cluster() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let python = std::env::var_os("TANDEM_DASK_PYTHON")
@@ -317,17 +319,11 @@ fn shards_through_a_dask_local_cluster() {
         .args(["-c", "import dask.distributed"])
         .output()
         .is_ok_and(|o| o.status.success());
-    if !usable {
-        let msg = format!(
-            "dask.distributed is not importable with {} (run .ci/run, or set TANDEM_DASK_PYTHON)",
-            python.display()
-        );
-        if std::env::var("TANDEM_REQUIRE_DASK").as_deref() == Ok("1") {
-            panic!("TANDEM_REQUIRE_DASK=1: {msg}");
-        }
-        eprintln!("skipped: {msg}");
-        return;
-    }
+    assert!(
+        usable,
+        "dask.distributed is not importable with {} (run .ci/run, or set TANDEM_DASK_PYTHON)",
+        python.display()
+    );
     let d = scratch("dask");
     fs::write(d.join("s.toml"), SWEEP).unwrap();
     ok(&tandem(
