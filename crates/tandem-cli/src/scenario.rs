@@ -312,7 +312,7 @@ impl FaultsConfig {
 
 /// A seed for the fault stream distinct from the sensors' (same run seed).
 fn splitmix(seed: u64) -> u64 {
-    tandem::fixtures::splitmix64(seed ^ 0x6661_756c_7473)
+    tandem::math::random::splitmix64(seed ^ 0x6661_756c_7473)
 }
 
 /// One arm.

@@ -26,7 +26,7 @@ use std::hint::black_box;
 use tandem::control::{Controller, ControllerParams, LawParams};
 use tandem::disturbance::Disturbance;
 use tandem::fixtures;
-use tandem::integrate::Rk4;
+use tandem::math::integrate::Rk4;
 use tandem::pd::PdGains;
 use tandem::plant::{ClosedChain, ConstrainedOde, Formulation, Plant, PlantParams};
 use tandem::sensors::SensorParams;

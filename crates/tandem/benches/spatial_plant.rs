@@ -4,7 +4,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Vector6;
 use std::hint::black_box;
 use tandem::fixtures;
-use tandem::integrate::Rk4;
+use tandem::math::integrate::Rk4;
 use tandem::plant::spatial::SpatialPlant;
 
 fn bench(c: &mut Criterion) {

@@ -7,7 +7,8 @@
 use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams};
 use tandem::disturbance::Disturbance;
-use tandem::fixtures::{self, splitmix64};
+use tandem::fixtures;
+use tandem::math::random::splitmix64;
 use tandem::report::{Summary, summarize};
 use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, SimParams, Simulation};

@@ -46,7 +46,7 @@ use nalgebra::{DMatrix, DVector, Matrix2, Matrix2xX, SMatrix, SVector, Vector2};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, non_negative, positive};
-use crate::linalg::{cholesky_in_place, cholesky_solve_in_place};
+use crate::math::linalg::{cholesky_in_place, cholesky_solve_in_place};
 
 /// Standard gravity used by the paper, m/s² (acts along −y).
 pub const GRAVITY: f64 = 9.8;
@@ -446,8 +446,8 @@ mod pair {
         // per link of the two arms.
         let phi1 = [a.base_angle + q[0][0], b.base_angle + q[1][0]];
         let phi2 = [phi1[0] + q[0][1], phi1[1] + q[1][1]];
-        let (s1, c1) = crate::trig::sin_cos2_pd(phi1[0], phi1[1]);
-        let (s12, c12) = crate::trig::sin_cos2_pd(phi2[0], phi2[1]);
+        let (s1, c1) = crate::math::trig::sin_cos2_pd(phi1[0], phi1[1]);
+        let (s12, c12) = crate::math::trig::sin_cos2_pd(phi2[0], phi2[1]);
         let (s1, c1, s12, c12) = (L(s1), L(c1), L(s12), L(c12));
         // cos q2 = u_1 · u_12, sin q2 = u_1 × u_12.
         let c2 = c1 * c12 + s1 * s12;
@@ -587,7 +587,7 @@ mod pair {
         let (mut jx, mut jy) = (zero, zero);
         let gl = L::splat(g);
         for k in 0..N {
-            let (s, c) = crate::trig::sin_cos2_pd(phi[0][k], phi[1][k]);
+            let (s, c) = crate::math::trig::sin_cos2_pd(phi[0][k], phi[1][k]);
             let (s, c) = (L(s), L(c));
             let phid = phids[k];
             let (lc, l) = (L::of(arms, |r| r.lc[k]), L::of(arms, |r| r.l[k]));
@@ -819,8 +819,8 @@ pub struct FixedLinkArm<const N: usize> {
 
 /// The absolute link angles `φ_k = base + Σ_{i≤k} q_i` and rates `φ̇_k = Σ_{i≤k} q̇_i` (the
 /// running sums of [`Arm::kinematics`], in its order) and the link directions
-/// `u_k = (cos φ_k, sin φ_k)`, two links at a time by [`crate::trig::sin_cos2`] (the same
-/// bits as one [`crate::trig::sin_cos`] a link, for about half the instructions; an odd last
+/// `u_k = (cos φ_k, sin φ_k)`, two links at a time by [`crate::math::trig::sin_cos2`] (the same
+/// bits as one [`crate::math::trig::sin_cos`] a link, for about half the instructions; an odd last
 /// link takes both lanes).
 #[inline(always)]
 fn link_dirs<const N: usize>(
@@ -841,7 +841,7 @@ fn link_dirs<const N: usize>(
     let mut k = 0;
     while k < N {
         let k2 = if k + 1 < N { k + 1 } else { k };
-        let [(s0, c0), (s1, c1)] = crate::trig::sin_cos2(phi[k], phi[k2]);
+        let [(s0, c0), (s1, c1)] = crate::math::trig::sin_cos2(phi[k], phi[k2]);
         u[k] = Vector2::new(c0, s0);
         u[k2] = Vector2::new(c1, s1);
         k += 2;
@@ -1242,7 +1242,7 @@ impl Arm {
             TwoLinkArm {
                 base,
                 base_angle: params.base_angle,
-                base_sc: crate::trig::sin_cos(params.base_angle),
+                base_sc: crate::math::trig::sin_cos(params.base_angle),
                 l1: l[0],
                 l2: l[1],
                 p1,
@@ -1323,7 +1323,7 @@ impl Arm {
         let mut phi = self.base_angle;
         for (k, &lk) in self.l.iter().enumerate() {
             phi += q[k];
-            let (s, c) = crate::trig::sin_cos(phi);
+            let (s, c) = crate::math::trig::sin_cos(phi);
             p += lk * Vector2::new(c, s);
         }
         p
@@ -1361,7 +1361,7 @@ impl Arm {
             phid += qd[k];
             phis[k] = phi;
             phi_dots[k] = phid;
-            let (sk, ck) = crate::trig::sin_cos(phi);
+            let (sk, ck) = crate::math::trig::sin_cos(phi);
             let u = Vector2::new(ck, sk);
             us[k] = u;
             let up = perp(u);
@@ -1717,7 +1717,7 @@ impl TwoLinkArm {
     pub fn pose(&self, q: [f64; 2]) -> TwoLinkPose {
         let phi1 = self.base_angle + q[0];
         let phi2 = phi1 + q[1];
-        let [(s1, c1), (s12, c12)] = crate::trig::sin_cos2(phi1, phi2);
+        let [(s1, c1), (s12, c12)] = crate::math::trig::sin_cos2(phi1, phi2);
         let u1 = Vector2::new(c1, s1);
         let u12 = Vector2::new(c12, s12);
         self.pose_from_dirs(u1, u12, u1.dot(&u12), cross(u1, u12))

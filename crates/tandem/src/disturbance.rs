@@ -174,13 +174,13 @@ impl<const N: usize> Disturbance<N> {
         let mut j = 0;
         while j < N {
             if j + 1 < N && self.amplitude[j] != 0.0 && self.amplitude[j + 1] != 0.0 {
-                let [(s0, _), (s1, _)] = crate::trig::sin_cos2(arg(j), arg(j + 1));
+                let [(s0, _), (s1, _)] = crate::math::trig::sin_cos2(arg(j), arg(j + 1));
                 f[j] = self.amplitude[j] * s0;
                 f[j + 1] = self.amplitude[j + 1] * s1;
                 j += 2;
             } else {
                 if self.amplitude[j] != 0.0 {
-                    f[j] = self.amplitude[j] * crate::trig::sin_cos(arg(j)).0;
+                    f[j] = self.amplitude[j] * crate::math::trig::sin_cos(arg(j)).0;
                 }
                 j += 1;
             }

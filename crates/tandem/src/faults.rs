@@ -16,7 +16,7 @@
 //! parameter, not an injection: give the simulation and the controller different objects.
 
 use crate::error::{ModelError, non_negative, positive};
-use crate::fixtures::splitmix64;
+use crate::math::random::splitmix64;
 
 /// Longest force delay, s (the delay line is preallocated).
 pub const MAX_FORCE_DELAY: f64 = 1.0;

@@ -62,37 +62,6 @@ pub fn undamped(mut p: PlantParams) -> PlantParams {
     p
 }
 
-/// SplitMix64 step: a well-mixed 64-bit hash of `z` (Steele, Lea, Flood 2014). Used to derive
-/// independent per-run seeds from a run index, and by [`SplitMix64`].
-pub fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// A tiny seeded generator for reproducible test states (SplitMix64; not for statistics —
-/// the sensors use ChaCha).
-#[derive(Clone, Copy, Debug)]
-pub struct SplitMix64(pub u64);
-
-impl SplitMix64 {
-    /// Uniform in `[0, 1)`, 53 bits.
-    pub fn next_f64(&mut self) -> f64 {
-        let z = splitmix64(self.0);
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-    /// Uniform in `[a, b)`.
-    pub fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.next_f64()
-    }
-    /// `n` values uniform in `[−a, a)`.
-    pub fn vec(&mut self, n: usize, a: f64) -> Vec<f64> {
-        (0..n).map(|_| self.range(-a, a)).collect()
-    }
-}
-
 /// The paper scenario (plant, path, ideal sensors) driven by a controller built from `cp`, with
 /// the run settings `sp` (its duration also bounds the path checks) and the disturbance `dist`.
 /// Returns the simulation and the controller's set-up warnings.

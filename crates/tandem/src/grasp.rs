@@ -25,11 +25,11 @@ fn perp(v: Vector2<f64>) -> Vector2<f64> {
 impl Grasp {
     /// Grasp point in the world, `p_o + R(θ) r_i`, m.
     pub fn point(&self, x_o: &Vector3<f64>) -> Vector2<f64> {
-        Vector2::new(x_o.x, x_o.y) + crate::trig::rotation2(x_o.z) * self.r
+        Vector2::new(x_o.x, x_o.y) + crate::math::trig::rotation2(x_o.z) * self.r
     }
     /// `R(θ) r_i`, m.
     pub fn arm_w(&self, theta: f64) -> Vector2<f64> {
-        crate::trig::rotation2(theta) * self.r
+        crate::math::trig::rotation2(theta) * self.r
     }
     /// Grasp Jacobian `J_i(θ)` (2 × 3): `ẋ_i = J_i ẋ_o`.
     pub fn jacobian(&self, theta: f64) -> Matrix2x3<f64> {
@@ -171,7 +171,7 @@ impl Gram {
 /// Returns `None` if the grasps do not determine the object's motion (fewer than two distinct
 /// points).
 pub fn fit_velocity(grasps: &[Grasp], theta: f64, vels: &[Vector2<f64>]) -> Option<Vector3<f64>> {
-    fit_velocity_rot(grasps, &crate::trig::rotation2(theta), vels)
+    fit_velocity_rot(grasps, &crate::math::trig::rotation2(theta), vels)
 }
 
 /// [`fit_velocity`] with `R(θ)` given.
@@ -266,7 +266,13 @@ pub fn distribute_wrench(
     squeeze: f64,
     out: &mut [Vector2<f64>],
 ) -> bool {
-    distribute_wrench_rot(grasps, &crate::trig::rotation2(theta), tau, squeeze, out)
+    distribute_wrench_rot(
+        grasps,
+        &crate::math::trig::rotation2(theta),
+        tau,
+        squeeze,
+        out,
+    )
 }
 
 /// [`distribute_wrench`] with `R(θ)` given.

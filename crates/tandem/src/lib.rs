@@ -10,13 +10,13 @@
 //!
 //! | block | planar | spatial | shared |
 //! |---|---|---|---|
-//! | algebra | — | [`spatial`] (SE(3), SO(3) exp/log and Jacobians, spatial inertia) | [`linalg`], [`trig`] |
+//! | algebra | — | [`geometry`] (SE(3), SO(3) exp/log and Jacobians, spatial inertia) | [`math::linalg`], [`math::trig`] |
 //! | model | [`arm`], [`object`], [`grasp`] | [`model`] (chains, URDF), [`plant::spatial::object`] | [`error`] |
 //! | arm dynamics (1)–(4) | [`arm`] (closed forms + general n-link) | [`dynamics`] (FK, J, J̇q̇, CRBA, RNEA, ABA) | |
 //! | closed chain (10)–(14) | [`plant`] (constrained, reduced) | [`plant::spatial`] (welds, compliant grasps) | [`plant::ClosedChain`] |
 //! | reference generation (15)–(21) | [`trajectory`], [`admittance`] | [`reference`](mod@reference) (SE(3) paths), [`se3`] (output chart, reference pose fit) | |
 //! | control laws (22)–(44) | [`iblf`], [`rbf`], [`switching`], [`adaptive`], [`pd`], [`ctc`], [`control`] | [`control::spatial`] (iBLF + NN, PD, computed torque on six outputs; object-level model, distribution, `f^U`) | [`rbf_structured`] (network structures that scale to 24 inputs) |
-//! | simulation | [`report`], [`sim::Driver`] | [`plant::spatial::SpatialPlant::step`] | [`sim`] (one loop, [`sim::Drive`]), [`integrate`], [`sensors`], [`disturbance`], [`faults`] |
+//! | simulation | [`report`], [`sim::Driver`] | [`plant::spatial::SpatialPlant::step`] | [`sim`] (one loop, [`sim::Drive`]), [`math::integrate`], [`sensors`], [`disturbance`], [`faults`] |
 //!
 //! **How planar and spatial share one loop: one trait, two implementations.** The two plants
 //! differ in more than a dimension: the spatial state lives on a manifold (a unit quaternion,
@@ -33,7 +33,7 @@
 //! * [`sensors::Sensors`] is one sensor model for both: encoders plus one wrist sensor per arm
 //!   of 2 (planar force) or 6 (spatial force/torque) channels, same channel model, same
 //!   seeding.
-//! * [`integrate`] works on flat slices ([`integrate::OdeSystem`]) and serves both.
+//! * [`math::integrate`] works on flat slices ([`math::integrate::OdeSystem`]) and serves both.
 //! * The loop ([`sim::Simulation`]) is **one loop, generic over the plant and the driver**:
 //!   `Simulation<P: ClosedChain, D: Drive<P>>` steps the plant ([`plant::ClosedChain::step_with`],
 //!   in the formulation of the plant's [`plant::Stepper`]), evaluates the grasp wrenches of the
@@ -49,14 +49,14 @@
 #![warn(missing_docs)]
 
 pub mod error;
-pub mod linalg;
 pub mod notation;
-pub mod trig;
+
+pub mod geometry;
+pub mod math;
 
 pub mod dynamics;
 pub mod model;
 pub mod se3;
-pub mod spatial;
 
 pub mod arm;
 pub mod grasp;
@@ -66,7 +66,6 @@ pub mod plant;
 pub mod fixtures;
 
 pub mod faults;
-pub mod integrate;
 pub mod sensors;
 
 pub mod admittance;

@@ -2260,7 +2260,7 @@ mod tests {
     use nalgebra::{Vector2, Vector3};
     use proptest::prelude::*;
 
-    use crate::fixtures::SplitMix64 as Rng;
+    use crate::math::random::SplitMix64 as Rng;
 
     fn uneven() -> Rbf {
         Rbf::grid(

@@ -48,7 +48,7 @@ use nalgebra::{DMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::ModelError;
-use crate::fixtures::splitmix64;
+use crate::math::random::splitmix64;
 use crate::rbf::{MAX_NODES, NnTick, NnUpdate, Rbf, RbfNetwork, RbfWorkspace};
 
 /// Largest number of quasi-random centres (a guard against typos; 2^20 × 8 outputs is 64 MB).

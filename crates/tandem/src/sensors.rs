@@ -61,10 +61,10 @@
 
 use nalgebra::{Vector2, Vector6};
 use rand_chacha::ChaCha8Rng;
-use rand_core::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, non_negative, positive};
+use crate::math::random::{Gaussian, stream_rng, uniform};
 
 /// Imperfections of one group of scalar channels (all joint angles, all joint rates, or all force
 /// components). The default is an ideal channel.
@@ -146,44 +146,6 @@ const STREAM_Q: u64 = 0;
 const STREAM_QD: u64 = 2;
 const STREAM_FORCE: u64 = 4;
 const STREAM_TORQUE: u64 = 6;
-
-/// 2⁻⁵³.
-const TWO_POW_M53: f64 = 1.0 / (1u64 << 53) as f64;
-
-/// Uniform on `[0, 1)`, 53 random bits.
-#[inline]
-fn uniform(rng: &mut ChaCha8Rng) -> f64 {
-    (rng.next_u64() >> 11) as f64 * TWO_POW_M53
-}
-
-/// A seeded ChaCha8 stream `stream` of key `seed_from_u64(seed)`.
-fn stream_rng(seed: u64, stream: u64) -> ChaCha8Rng {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    rng.set_stream(stream);
-    rng
-}
-
-/// Standard normal samples by Box–Muller, keeping the second value of each pair.
-#[derive(Clone, Debug)]
-struct Gaussian {
-    rng: ChaCha8Rng,
-    spare: Option<f64>,
-}
-
-impl Gaussian {
-    fn next(&mut self) -> f64 {
-        if let Some(z) = self.spare.take() {
-            return z;
-        }
-        // u1 ∈ (0, 1] so ln u1 is finite; u2 ∈ [0, 1).
-        let u1 = ((self.rng.next_u64() >> 11) + 1) as f64 * TWO_POW_M53;
-        let u2 = uniform(&mut self.rng);
-        let r = (-2.0 * u1.ln()).sqrt();
-        let (s, c) = (std::f64::consts::TAU * u2).sin_cos();
-        self.spare = Some(r * s);
-        r * c
-    }
-}
 
 /// One group of scalar channels sharing a [`ChannelNoise`], split into sensors of `width`
 /// channels that drop out together.

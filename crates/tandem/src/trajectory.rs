@@ -248,7 +248,7 @@ impl Circle {
     /// Pose and derivatives at `t` \[s\].
     #[inline]
     pub fn sample(&self, t: f64) -> PathSample {
-        let (s, c) = crate::trig::sin_cos(self.omega * t + self.phase);
+        let (s, c) = crate::math::trig::sin_cos(self.omega * t + self.phase);
         let r = self.radius;
         let rw = r * self.omega;
         let rw2 = rw * self.omega;
@@ -443,7 +443,7 @@ impl Lemniscate {
     #[inline]
     pub fn sample(&self, t: f64) -> PathSample {
         let phi = self.omega * t + self.phase;
-        let [(s1, c1), (s2, c2)] = crate::trig::sin_cos2(phi, 2.0 * phi);
+        let [(s1, c1), (s2, c2)] = crate::math::trig::sin_cos2(phi, 2.0 * phi);
         let a = self.size;
         let w = self.omega;
         let aw = a * w;

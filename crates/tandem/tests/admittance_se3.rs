@@ -5,6 +5,7 @@
 
 use proptest::prelude::*;
 use tandem::ModelError;
+use tandem::geometry::so3;
 use tandem::nalgebra::{
     Complex, Isometry3, Matrix3, Matrix6, SMatrix, Translation3, UnitQuaternion, Vector3, Vector6,
 };
@@ -15,7 +16,6 @@ use tandem::reference::admittance_se3::{
 };
 use tandem::reference::se3_path::{AxisFrame, CircleParams, Se3Path};
 use tandem::se3::{PoseSample, fit};
-use tandem::spatial::so3;
 
 // ---------------------------------------------------------------------------------------------
 // Counting allocator (pattern of tests/alloc.rs)

@@ -6,7 +6,7 @@ use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
 use tandem::disturbance::Disturbance;
 use tandem::fixtures;
-use tandem::integrate::Rk4;
+use tandem::math::integrate::Rk4;
 use tandem::pd::PdGains;
 use tandem::plant::{ConstrainedOde, Plant, ReducedOde};
 use tandem::sensors::{ChannelNoise, SensorParams};

@@ -7,7 +7,7 @@ use proptest::prelude::*;
 use tandem::arm::{Arm, ArmParams, Elbow, FixedArm, LinkParams};
 use tandem::error::ModelError;
 
-use tandem::fixtures::SplitMix64 as Rng;
+use tandem::math::random::SplitMix64 as Rng;
 
 fn paper_arm() -> Arm {
     Arm::new("arm", &ArmParams::paper([-0.38, 0.0], Elbow::Negative)).unwrap()

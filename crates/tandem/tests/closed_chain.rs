@@ -4,7 +4,7 @@
 
 use nalgebra::{Vector3, Vector6};
 use tandem::fixtures;
-use tandem::integrate::Rk4;
+use tandem::math::integrate::Rk4;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::plant::{ClosedChain, Plant};
 

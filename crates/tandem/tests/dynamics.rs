@@ -20,9 +20,9 @@ use nalgebra::{
 use proptest::prelude::*;
 use tandem::arm::{Arm, ArmParams, Elbow, LinkParams};
 use tandem::dynamics::{self, ChainData};
-use tandem::fixtures::SplitMix64;
+use tandem::geometry::so3;
+use tandem::math::random::SplitMix64;
 use tandem::model::{Chain, JointKind, RigidBody, SpatialArm};
-use tandem::spatial::so3;
 
 #[path = "support/chains.rs"]
 mod chains;

@@ -4,12 +4,12 @@
 
 use nalgebra::{Matrix3, Vector2, Vector3};
 use tandem::fixtures;
-use tandem::integrate::Rk4;
+use tandem::math::integrate::Rk4;
 use tandem::plant::{
     Algorithm, ConstrainedOde, Plant, PlantInput, PlantParams, PlantWorkspace, ReducedOde,
 };
 
-use tandem::fixtures::SplitMix64 as Rng;
+use tandem::math::random::SplitMix64 as Rng;
 
 #[path = "support/n_link.rs"]
 mod n_link;
@@ -790,7 +790,7 @@ fn rk4_at_the_default_step_matches_the_adaptive_reference() {
     // Dormand–Prince 5(4) at rtol = atol = 1e-12 between the same ticks, over 1 s. (The inputs
     // are replayed open loop for DP5, and the open-loop chain amplifies differences about ×12
     // per 0.5 s — see the step-halving test — so the window is short; at 2 s the gap is 1.8e-9 m.)
-    use tandem::integrate::DormandPrince;
+    use tandem::math::integrate::DormandPrince;
     let plant = Plant::new(&fixtures::paper()).unwrap();
     let y0 = plant
         .initial_state(fixtures::paper_start(), Vector3::zeros(), None)

@@ -8,7 +8,8 @@ use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
 use tandem::disturbance::Disturbance;
 use tandem::error::ModelError;
-use tandem::fixtures::{self, SplitMix64};
+use tandem::fixtures;
+use tandem::math::random::SplitMix64;
 use tandem::plant::Plant;
 use tandem::rbf::{KERNEL_ENV, Kernel, NnUpdate, Rbf, RbfNetwork};
 use tandem::rbf_structured::{
@@ -303,7 +304,7 @@ fn golden_hashes_with_a_bit_identical_kernel() {
     // every logged value's bits were first taken with tandem before the structure existed
     // (commit 28f6815: 0x1c9f_816c_a052_1c92, 0x1db9_14f2_96e3_3ec8, which the structure
     // reproduced), and taken again when the planar plant and controller moved from the
-    // library's `sin_cos` to `tandem::trig` and the fixed-size plant's grasp-space solve from
+    // library's `sin_cos` to `tandem::math::trig` and the fixed-size plant's grasp-space solve from
     // Cholesky to `L D Lᵀ` (issue 12, session 7; the NN law is unchanged).
     let tuned = short_run(NnGains::tuned());
     let paper = short_run(NnGains::paper());

@@ -273,9 +273,9 @@ fn a_push_and_a_twist_make_the_reference_comply_and_it_returns() {
     // push along world x for 2 s (from 3 s) and a 0.5 N m twist about world z for 2 s (from
     // 9 s); the reference must move as predicted (within 10 %) and return.
     use tandem::control::spatial::distribute::Distribution;
+    use tandem::geometry::so3::exp_quat;
     use tandem::reference::admittance_se3::{AdmittanceSe3Params, tool_from_object_se3};
     use tandem::se3::{Chart, PoseSample, fit};
-    use tandem::spatial::so3::exp_quat;
     let a = Arms::Ur5;
     let p = SpatialControllerParams::spec_s6(nn(a));
     let pushes = vec![

@@ -10,7 +10,9 @@ use tandem::control::spatial::bound::{self, chart_dynamics, closed_chain_ik, fu_
 use tandem::control::spatial::distribute::{Distribution, PostureTask, joint_torques};
 use tandem::control::spatial::model::{ObjectModel, nominal_params};
 use tandem::error::ModelError;
-use tandem::fixtures::{self, SpatialSetup, SplitMix64};
+use tandem::fixtures;
+use tandem::fixtures::SpatialSetup;
+use tandem::math::random::SplitMix64;
 use tandem::plant::spatial::{SpatialInput, SpatialPlant};
 use tandem::se3::chart::Chart;
 

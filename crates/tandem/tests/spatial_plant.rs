@@ -4,7 +4,7 @@
 use nalgebra::{Isometry3, Vector3, Vector6};
 use tandem::dynamics::{self, ChainData};
 use tandem::fixtures::{self, SpatialSetup};
-use tandem::integrate::{DormandPrince, Rk4};
+use tandem::math::integrate::{DormandPrince, Rk4};
 use tandem::plant::spatial::{GraspModel, SpatialInput, SpatialOde, SpatialPlant};
 
 /// `max` that propagates NaN (so a diverged run cannot pass as 0).

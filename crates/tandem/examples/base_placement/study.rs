@@ -22,7 +22,7 @@
 #![allow(dead_code)] // each of the example and the test uses a part
 
 use tandem::dynamics::{self, ChainData};
-use tandem::fixtures::SplitMix64;
+use tandem::math::random::SplitMix64;
 use tandem::model::SpatialArm;
 use tandem::nalgebra::{Isometry3, Vector3, Vector6};
 use tandem::plant::spatial::{SpatialPlant, SpatialPlantParams};

@@ -28,7 +28,7 @@ use crate::arm::{Arm, FixedKinematics, FixedLinkArm, TwoLinkArm};
 use crate::ctc::{Ctc, CtcGains, nominal_params};
 use crate::error::{ModelError, non_negative, positive};
 use crate::grasp::{Grasp, GraspSet};
-use crate::linalg::finite_slice;
+use crate::math::linalg::finite_slice;
 use crate::pd::{Pd, PdGains};
 use crate::plant::{Plant, PlantParams, PlantWorkspace};
 use crate::trajectory::Path;
@@ -632,7 +632,7 @@ impl Controller {
     /// them).
     pub fn start(&mut self, t0: f64, meas: &Measurements) {
         let s = self.path.sample(t0);
-        self.expected_forces(&crate::trig::rotation2(s.p.z), &s.v, &s.a);
+        self.expected_forces(&crate::math::trig::rotation2(s.p.z), &s.v, &s.a);
         for (st, f) in self.adm_state.iter_mut().zip(&self.f_ref) {
             *st = AdmittanceState::with_filter_at(*f);
         }
@@ -685,7 +685,7 @@ impl Controller {
                     // Ĝ_x = J_e⁻ᵀ Ĝ(q) (3)–(4), for the internal-force feed-forward of step 5.
                     let gq = tl.terms(&pose, [0.0, 0.0], g).G;
                     // (nalgebra's LU of J_eᵀ in the same operations, `linalg::lu_solve_2x2`.)
-                    self.g_x[i] = crate::linalg::lu_solve_2x2(&pose.J.transpose(), &gq)
+                    self.g_x[i] = crate::math::linalg::lu_solve_2x2(&pose.J.transpose(), &gq)
                         .filter(|v| v.x.is_finite() & v.y.is_finite())
                         .unwrap_or_else(Vector2::zeros);
                     *j = pose.J;
@@ -884,7 +884,7 @@ impl Controller {
         rec: &mut TickRecord,
     ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
         if self.rot_d.0 != x_d.z {
-            self.rot_d = (x_d.z, crate::trig::rotation2(x_d.z));
+            self.rot_d = (x_d.z, crate::math::trig::rotation2(x_d.z));
         }
         let rot = self.rot_d.1;
         self.expected_forces(&rot, xd_d, xdd_d);
@@ -938,7 +938,8 @@ impl Controller {
 mod tests {
     use super::*;
     use crate::arm::{ArmParams, Elbow, LinkParams};
-    use crate::fixtures::{self, SplitMix64};
+    use crate::fixtures;
+    use crate::math::random::SplitMix64;
 
     /// Two 4-link arms (0.15 m links) on the paper's box, and an IK guess at the start pose.
     fn four_link_pair() -> (PlantParams, Vec<f64>) {

@@ -28,9 +28,9 @@ use nalgebra::{DMatrix, Matrix6, Vector6};
 
 use super::kinematics::{placements_and_inertias, velocities};
 use super::{ChainData, check_len};
+use crate::geometry::motion::{ang, cross_force_matrix, cross_motion, cross_motion_matrix, lin};
+use crate::geometry::so3::hat;
 use crate::model::SpatialArm;
-use crate::spatial::motion::{ang, cross_force_matrix, cross_motion, cross_motion_matrix, lin};
-use crate::spatial::so3::hat;
 
 /// `X(f)` with `X(f) V = V ×* f`: `−[[0, [f]], [[f], [τ]]]`.
 fn bar_force_matrix(f: &Vector6<f64>) -> Matrix6<f64> {
@@ -64,7 +64,7 @@ pub fn coriolis_matrix(
     placements_and_inertias(arm, q, d);
     velocities(qd, d);
     // Composite inertias (d.Ic), composite B (d.IA) and Ṡ_k (d.a), tip to base.
-    let mut ic = crate::spatial::SpatialInertia::zero();
+    let mut ic = crate::geometry::SpatialInertia::zero();
     let mut bc = Matrix6::zeros();
     for k in (0..n).rev() {
         let i = &d.I_W[k];

@@ -12,8 +12,8 @@
 
 use super::ChainData;
 use super::kinematics::placements_and_inertias;
+use crate::geometry::SpatialInertia;
 use crate::model::SpatialArm;
-use crate::spatial::SpatialInertia;
 
 /// The CRBA pass on placed bodies (after `placements` and `inertias`): writes `d.M`.
 #[inline]

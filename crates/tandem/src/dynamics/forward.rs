@@ -10,7 +10,7 @@ use super::crba::crba_pass;
 use super::kinematics::placements_and_inertias;
 use super::rnea::rnea_passes;
 use super::{ChainData, check_len};
-use crate::linalg::{cholesky_in_place, cholesky_solve_in_place};
+use crate::math::linalg::{cholesky_in_place, cholesky_solve_in_place};
 use crate::model::SpatialArm;
 
 /// Forward dynamics by CRBA + RNEA bias + Cholesky of `M`; agrees with [`super::aba`].

@@ -20,10 +20,10 @@
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3, Vector6};
 
 use super::{ChainData, check_len};
+use crate::geometry::SpatialInertia;
+use crate::geometry::motion::{ang, cross_motion, lin, stack};
+use crate::math::trig::sin_cos;
 use crate::model::{JointKind, SpatialArm};
-use crate::spatial::SpatialInertia;
-use crate::spatial::motion::{ang, cross_motion, lin, stack};
-use crate::trig::sin_cos;
 
 /// `R` from a unit quaternion (homogeneous form, no normalisation).
 #[inline(always)]

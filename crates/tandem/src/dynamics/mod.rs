@@ -106,8 +106,8 @@ pub use terms::terms;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Matrix6, Matrix6xX, Vector3, Vector6};
 
+use crate::geometry::SpatialInertia;
 use crate::model::SpatialArm;
-use crate::spatial::SpatialInertia;
 
 /// Per-arm workspace and outputs, sized from the chain by [`ChainData::new`].
 ///

@@ -11,7 +11,7 @@ use nalgebra::{Isometry3, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 use crate::error::ModelError;
-use crate::integrate::Rk4;
+use crate::math::integrate::Rk4;
 
 use super::spatial::{SpatialPlant, SpatialWorkspace};
 use super::{Energy, ReducedOde};
@@ -378,7 +378,7 @@ impl ClosedChain for super::Plant {
                     first: true,
                 };
                 st.rk.substeps(&mut sys, t, y, h * n as f64, n);
-                if crate::linalg::finite_slice(y) {
+                if crate::math::linalg::finite_slice(y) {
                     Ok(())
                 } else {
                     Err(ChainFault::NonFinite)

@@ -31,7 +31,9 @@ use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
 
 use super::{Kernel, Plant, PlantInput, PlantWorkspace};
 use crate::arm::{ArmSolve, FixedArm};
-use crate::linalg::{cholesky_in_place, cholesky_solve_in_place, ldl_in_place, ldl_solve_in_place};
+use crate::math::linalg::{
+    cholesky_in_place, cholesky_solve_in_place, ldl_in_place, ldl_solve_in_place,
+};
 
 /// Relative regularisation of a singular grasp-space matrix: `K + ε tr(K) I`.
 const K_REG: f64 = 1e-10;
@@ -335,7 +337,7 @@ impl Plant {
         let xd_o = Vector3::new(y[2 * n + 3], y[2 * n + 4], y[2 * n + 5]);
         let p_o = Vector2::new(x_o.x, x_o.y);
         let v_o = Vector2::new(xd_o.x, xd_o.y);
-        let (sin_th, cos_th) = crate::trig::sin_cos(x_o.z);
+        let (sin_th, cos_th) = crate::math::trig::sin_cos(x_o.z);
         let w = self.baumgarte;
         let mi = &self.m_o_inv;
 
@@ -533,7 +535,7 @@ impl Plant {
         let n = self.n_q;
         let m = self.arms.len();
         let (q, x_o, qd, xd_o) = self.split(y);
-        let rot = crate::trig::rotation2(x_o.z);
+        let rot = crate::math::trig::rotation2(x_o.z);
         let p_o = nalgebra::Vector2::new(x_o.x, x_o.y);
         let w = self.baumgarte;
         let obj = &self.object;

@@ -609,7 +609,7 @@ fn solve_ik_numeric(
     if res < 1e-11 { Ok(()) } else { Err(res) }
 }
 
-/// The constrained plant as an [`OdeSystem`](crate::integrate::OdeSystem) with a held input
+/// The constrained plant as an [`OdeSystem`](crate::math::integrate::OdeSystem) with a held input
 /// (zero-order hold). If the derivative cannot be evaluated (never for a validated model) it
 /// writes NaN, which the caller's non-finite check catches.
 pub struct ConstrainedOde<'a> {
@@ -621,7 +621,7 @@ pub struct ConstrainedOde<'a> {
     pub input: &'a PlantInput,
 }
 
-impl crate::integrate::OdeSystem for ConstrainedOde<'_> {
+impl crate::math::integrate::OdeSystem for ConstrainedOde<'_> {
     fn dim(&self) -> usize {
         self.plant.state_dim()
     }
@@ -644,7 +644,7 @@ pub(crate) struct ReusingOde<'a> {
     pub(crate) first: bool,
 }
 
-impl crate::integrate::OdeSystem for ReusingOde<'_> {
+impl crate::math::integrate::OdeSystem for ReusingOde<'_> {
     fn dim(&self) -> usize {
         self.plant.state_dim()
     }
@@ -661,7 +661,7 @@ impl crate::integrate::OdeSystem for ReusingOde<'_> {
     }
 }
 
-/// The reduced plant (14) on `(x_o, ẋ_o)` as an [`OdeSystem`](crate::integrate::OdeSystem)
+/// The reduced plant (14) on `(x_o, ẋ_o)` as an [`OdeSystem`](crate::math::integrate::OdeSystem)
 /// with a held input; writes NaN where the reduced form does not exist (IK out of reach,
 /// singular arm).
 pub struct ReducedOde<'a> {
@@ -673,7 +673,7 @@ pub struct ReducedOde<'a> {
     pub input: &'a PlantInput,
 }
 
-impl crate::integrate::OdeSystem for ReducedOde<'_> {
+impl crate::math::integrate::OdeSystem for ReducedOde<'_> {
     fn dim(&self) -> usize {
         6
     }

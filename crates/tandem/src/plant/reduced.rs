@@ -19,7 +19,7 @@
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 
 use super::{Plant, PlantInput, PlantWorkspace};
-use crate::linalg::{cholesky_in_place, cholesky_solve_in_place};
+use crate::math::linalg::{cholesky_in_place, cholesky_solve_in_place};
 
 /// Object-space dynamics terms of (14) at one state.
 #[allow(non_snake_case)]
@@ -128,7 +128,7 @@ impl Plant {
         ws: &mut PlantWorkspace,
         publish: bool,
     ) -> Result<ObjectSpace, ReducedFailure> {
-        let (sin_th, cos_th) = crate::trig::sin_cos(x_o.z);
+        let (sin_th, cos_th) = crate::math::trig::sin_cos(x_o.z);
         let p_o = Vector2::new(x_o.x, x_o.y);
         let th_d = xd_o.z;
         let mut m = self.object.M_o;

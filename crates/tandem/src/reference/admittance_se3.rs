@@ -32,7 +32,7 @@
 //! y). For isotropic rotational gains (the defaults) the two choices agree.
 //!
 //! **Rates.** With the left Jacobian of SO(3), `d/dt Exp(φ) = [J_l(φ) φ̇]_× Exp(φ)` (Solà et
-//! al. \[3\], the left Jacobian; [`crate::spatial::so3`]), differentiating
+//! al. \[3\], the left Jacobian; [`crate::geometry::so3`]), differentiating
 //! `R_r = Exp(e_φ) R_T` with `Ṙ_T = [ω_T] R_T`:
 //!
 //! $$ \omega_r = J_l(e_\varphi)\,\dot e_\varphi + \mathrm{Exp}(e_\varphi)\,\omega_T,
@@ -68,7 +68,7 @@
 //! holds. A wrist sensor reads the same wrench in tool axes ([`SpatialWorkspace::tool_wrench`]);
 //! [`wrench_tool_to_world`] rotates it with the tool orientation (use the *measured* `R_WTi`,
 //! from the encoders' forward kinematics). A sensor whose origin is not the tool origin needs a
-//! shift first ([`crate::spatial::motion::shift_force`]). `F_ref,i` is in the same convention:
+//! shift first ([`crate::geometry::motion::shift_force`]). `F_ref,i` is in the same convention:
 //! the arm's share of the nominal object wrench plus the commanded internal wrench (an input).
 //!
 //! **Sign: the reference yields.** As planar (`e = x_r − x_d`, `F̃ = LPF(F) − F_ref`, the force
@@ -131,10 +131,10 @@ use nalgebra::{Isometry3, Matrix2, UnitQuaternion, Vector2, Vector3, Vector6};
 
 use crate::admittance::axis_map;
 use crate::error::{ModelError, positive};
+use crate::geometry::motion::{ang, lin, stack};
+use crate::geometry::so3::exp_quat;
 use crate::reference::se3_path::{Se3Sample, left_jacobian_rates};
 use crate::se3::PoseSample;
-use crate::spatial::motion::{ang, lin, stack};
-use crate::spatial::so3::exp_quat;
 
 /// Lever arm `ℓ` \[m\] that scales the translational defaults to the rotational ones
 /// (`M_rot = M_e ℓ²`, `C_rot = C_e ℓ²`, `K_rot = K_e ℓ²`): the SPEC-spatial S6 grasp-to-centre

@@ -149,7 +149,7 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
 use crate::error::{ModelError, positive};
-use crate::spatial::so3::{exp_quat, left_jacobian_inv, log_quat};
+use crate::geometry::so3::{exp_quat, left_jacobian_inv, log_quat};
 use crate::trajectory::MAX_PHASE;
 use crate::trajectory::{Path, Spline};
 

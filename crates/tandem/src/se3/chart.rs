@@ -72,8 +72,8 @@
 //!
 //! The same functions serve the measured object state and a desired/reference pose sample.
 //!
-//! [`so3`]: crate::spatial::so3
-//! [`so3::SERIES_THRESHOLD`]: crate::spatial::so3::SERIES_THRESHOLD
+//! [`so3`]: crate::geometry::so3
+//! [`so3::SERIES_THRESHOLD`]: crate::geometry::so3::SERIES_THRESHOLD
 
 use nalgebra::{Isometry3, Matrix3, Matrix6, Translation3, UnitQuaternion, Vector3, Vector6};
 
@@ -87,8 +87,9 @@ type Angles = (
     Matrix3<f64>,
     Matrix3<f64>,
 );
-use crate::spatial::motion::{ang, lin, stack};
-use crate::spatial::so3::{self, SERIES_THRESHOLD, hat};
+use crate::geometry::motion::{ang, lin, stack};
+use crate::geometry::so3;
+use crate::geometry::so3::{SERIES_THRESHOLD, hat};
 
 /// Default width (rad) of the band `π − edge_eps ≤ |φ| ≤ π` reported as the chart's edge.
 pub const DEFAULT_EDGE_EPS: f64 = 1e-2;
@@ -403,7 +404,7 @@ pub fn jl_inv_rate(phi: &Vector3<f64>, phi_dot: &Vector3<f64>) -> Matrix3<f64> {
 
 /// `|B_{2k+2}|/(2k+2)!`, `k = 0 … 11`: the series of `d(s) = Σ K_k s^k` (as in [`so3`]).
 ///
-/// [`so3`]: crate::spatial::so3
+/// [`so3`]: crate::geometry::so3
 const D_SERIES: [f64; 12] = [
     1.0 / 12.0,
     1.0 / 720.0,

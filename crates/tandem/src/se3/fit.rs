@@ -79,7 +79,7 @@
 use nalgebra::{Isometry3, Quaternion, UnitQuaternion, Vector3};
 
 use super::{PoseSample, pure};
-use crate::spatial::motion::stack;
+use crate::geometry::motion::stack;
 
 /// Below this `|s|` (weights normalised to sum 1, so `|s| ≤ 1`) the fit is flagged degenerate.
 pub const DEGENERATE_NORM: f64 = 1e-6;

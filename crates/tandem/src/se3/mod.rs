@@ -24,8 +24,8 @@ pub mod fit;
 
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3, Vector6};
 
+use crate::geometry::motion::{ang, lin, stack};
 use crate::plant::spatial::ObjectState;
-use crate::spatial::motion::{ang, lin, stack};
 
 pub use chart::{Chart, ChartJacobian, ChartSample};
 pub use fit::{Fit, candidate, fit, fit_sample, fit_weighted};

@@ -543,7 +543,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             return Err(self.fault(t1, chain_fault(e)));
         }
         // 4. Health.
-        if !crate::linalg::finite_slice(&self.y) {
+        if !crate::math::linalg::finite_slice(&self.y) {
             return Err(self.fault(t1, FaultKind::NonFinite));
         }
         // The output bound on the true pose, every tick.
@@ -564,12 +564,12 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
     fn non_finite_signal(&mut self) -> Option<String> {
         // The common case, every value finite, in one pass over each buffer without early
         // exit; then only the record's own check. The search below names the first offender.
-        if crate::linalg::finite_slice(&self.wrenches)
-            & crate::linalg::finite_slice(&self.sensor_truth)
-            & crate::linalg::finite_slice(&self.meas)
-            & crate::linalg::finite_slice(self.sensors.q())
-            & crate::linalg::finite_slice(self.sensors.qd())
-            & crate::linalg::finite_slice(P::torques_mut(&mut self.input))
+        if crate::math::linalg::finite_slice(&self.wrenches)
+            & crate::math::linalg::finite_slice(&self.sensor_truth)
+            & crate::math::linalg::finite_slice(&self.meas)
+            & crate::math::linalg::finite_slice(self.sensors.q())
+            & crate::math::linalg::finite_slice(self.sensors.qd())
+            & crate::math::linalg::finite_slice(P::torques_mut(&mut self.input))
         {
             return self.rec.non_finite();
         }

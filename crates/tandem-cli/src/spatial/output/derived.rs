@@ -108,7 +108,7 @@ impl Derived {
                 }
                 let s = f.path.sample(d.t[k]);
                 d.angle_to_desired
-                    .push(tandem::spatial::so3::log_quat(&(s.r.inverse() * q)).norm());
+                    .push(tandem::geometry::so3::log_quat(&(s.r.inverse() * q)).norm());
             }
             d.x1 = x1;
         }

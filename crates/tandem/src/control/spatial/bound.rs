@@ -72,9 +72,9 @@ use super::model::{ModelWorkspace, ObjectModel, jjt_sigma_min};
 use crate::adaptive::FuBound;
 use crate::dynamics;
 use crate::error::{ModelError, non_negative, positive};
+use crate::geometry::motion::{ang, lin, stack};
+use crate::geometry::so3::log_quat;
 use crate::se3::chart::Chart;
-use crate::spatial::motion::{ang, lin, stack};
-use crate::spatial::so3::log_quat;
 
 /// Smallest `σ_min(J_i)` (m/rad mixed units) of a pose used for the bound (as the planar
 /// [`FuBound::from_model`]).

@@ -43,7 +43,9 @@ use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 use crate::adaptive::{AdaptiveNn, FuBound, NnInternals};
 use crate::control::{ControlEvents, ControlWarning, Scheme};
 use crate::error::{ModelError, non_negative, positive};
-use crate::linalg::finite_slice;
+use crate::geometry::motion::stack;
+use crate::geometry::so3::log_quat;
+use crate::math::linalg::finite_slice;
 use crate::plant::spatial::object::RigidObject;
 use crate::plant::spatial::{SpatialPlant, SpatialPlantParams};
 use crate::reference::admittance_se3::{
@@ -52,8 +54,6 @@ use crate::reference::admittance_se3::{
 use crate::reference::se3_path::Se3Path;
 use crate::se3::{Chart, PoseSample};
 use crate::sim::{Drive, Measurements, Record};
-use crate::spatial::motion::stack;
-use crate::spatial::so3::log_quat;
 
 use distribute::{Distribution, PostureTask, joint_torques};
 use model::{ModelWorkspace, ObjectModel};

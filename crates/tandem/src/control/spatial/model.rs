@@ -84,11 +84,11 @@ use nalgebra::{Isometry3, Matrix3, Matrix6, Vector3, Vector6};
 
 use crate::dynamics::{self, ChainData};
 use crate::error::ModelError;
-use crate::linalg::{cholesky_rows, forward_rows};
+use crate::geometry::motion::{ang, lin, stack};
+use crate::geometry::so3::hat;
+use crate::math::linalg::{cholesky_rows, forward_rows};
 use crate::model::SpatialArm;
 use crate::plant::spatial::{RigidObject, SpatialPlant, SpatialPlantParams};
-use crate::spatial::motion::{ang, lin, stack};
-use crate::spatial::so3::hat;
 
 /// Smallest pivot of `Λ_i⁻¹ = J M⁻¹ Jᵀ`'s Cholesky relative to its largest diagonal entry for
 /// which [`ObjectModel::dynamics`] still forms `Λ_i` (below it the arm counts as singular).
@@ -452,10 +452,10 @@ impl ObjectModel {
             }
             let mut x = [0.0; 6];
             x.copy_from_slice(grav);
-            if !crate::linalg::lu_solve6_in_place(&mut jt, &mut x) {
+            if !crate::math::linalg::lu_solve6_in_place(&mut jt, &mut x) {
                 return false;
             }
-            if !crate::linalg::finite_slice(&x) {
+            if !crate::math::linalg::finite_slice(&x) {
                 return false;
             }
             ws.arms[i].g_x = Vector6::from(x);

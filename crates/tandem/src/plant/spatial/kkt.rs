@@ -16,7 +16,7 @@ use super::{
     v6,
 };
 use crate::dynamics;
-use crate::linalg::{backward_rows, cholesky_rows, forward_rows};
+use crate::math::linalg::{backward_rows, cholesky_rows, forward_rows};
 
 /// Columns of the per-arm right-hand side `[τ − b | Jᵀ]`.
 const RHS: usize = 7;

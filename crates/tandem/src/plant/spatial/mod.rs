@@ -71,11 +71,11 @@ use nalgebra::{
 
 use crate::dynamics::{self, ChainData};
 use crate::error::{ModelError, non_negative};
-use crate::integrate::{OdeSystem, Rk4};
+pub(crate) use crate::geometry::motion::stack as v6;
+pub(crate) use crate::geometry::so3::{hat as skew, log_quat};
+use crate::math::integrate::{OdeSystem, Rk4};
 use crate::model::SpatialArm;
 use crate::plant::Energy;
-pub(crate) use crate::spatial::motion::stack as v6;
-pub(crate) use crate::spatial::so3::{hat as skew, log_quat};
 pub use object::{RigidObject, SpatialObjectParams};
 
 /// How the grasps hold the object.

@@ -108,7 +108,7 @@ pub trait OdeSystem {
 /// Adapter turning a closure `f(t, y, dy)` into an [`OdeSystem`] of dimension `dim`.
 ///
 /// ```
-/// # use tandem::integrate::{FnSystem, Rk4};
+/// # use tandem::math::integrate::{FnSystem, Rk4};
 /// // ẏ = −y, y(0) = 1: 10 sub-steps of RK4 over one control tick of 0.1 s.
 /// let mut sys = FnSystem::new(1, |_t: f64, y: &[f64], dy: &mut [f64]| dy[0] = -y[0]);
 /// let mut rk4 = Rk4::new(1);
@@ -485,7 +485,7 @@ pub enum IntegrateError {
 /// time. For validation runs; see the [module docs](self) for the method.
 ///
 /// ```
-/// # use tandem::integrate::{DormandPrince, FnSystem};
+/// # use tandem::math::integrate::{DormandPrince, FnSystem};
 /// // Harmonic oscillator ẍ = −x over one period.
 /// let mut sys = FnSystem::new(2, |_t: f64, y: &[f64], dy: &mut [f64]| {
 ///     dy[0] = y[1];

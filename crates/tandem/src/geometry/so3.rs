@@ -308,7 +308,7 @@ pub fn left_jacobian_inv(phi: &Vector3<f64>) -> Matrix3<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fixtures::SplitMix64;
+    use crate::math::random::SplitMix64;
 
     fn unit(rng: &mut SplitMix64) -> Vector3<f64> {
         loop {

@@ -448,7 +448,7 @@ mod tests {
     fn lu_solve_2x2_gives_nalgebras_lu_bits() {
         // Random matrices of every scale and sign, ties of |A_00| and |A_10|, zeros (±0),
         // singular ones, infinities and NaN: the same Option and the same bits as nalgebra.
-        let mut rng = crate::fixtures::SplitMix64(99);
+        let mut rng = crate::math::random::SplitMix64(99);
         let special = [
             0.0,
             -0.0,
@@ -516,7 +516,7 @@ mod tests {
     /// nalgebra's factorisations; singular and indefinite inputs are refused.
     #[test]
     fn fixed_six_by_six_solvers_match_nalgebra() {
-        let mut r = crate::fixtures::SplitMix64(5);
+        let mut r = crate::math::random::SplitMix64(5);
         for _ in 0..20 {
             let g = nalgebra::Matrix6::from_iterator(r.vec(36, 1.0));
             let b = nalgebra::Vector6::from_iterator(r.vec(6, 1.0));
@@ -556,7 +556,7 @@ mod tests {
     #[test]
     fn row_major_kernels_solve_spd_systems() {
         let n = 7;
-        let mut r = crate::fixtures::SplitMix64(11);
+        let mut r = crate::math::random::SplitMix64(11);
         let g: Vec<f64> = r.vec(n * n, 1.0);
         let mut a = vec![0.0; n * n];
         for i in 0..n {
@@ -611,7 +611,7 @@ mod tests {
         // Random SPD matrices of sizes 1..=8 and condition numbers up to ~1e8: L D Lᵀ against
         // L_c L_cᵀ (L_c = L √D), the same pivot ratio, the same solution to the conditioning's
         // round-off, and the same refusals.
-        let mut r = crate::fixtures::SplitMix64(77);
+        let mut r = crate::math::random::SplitMix64(77);
         for trial in 0..400 {
             let n = 1 + trial % 8;
             let g = DMatrix::from_fn(n, n, |_, _| r.range(-1.0, 1.0));

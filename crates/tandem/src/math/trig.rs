@@ -223,7 +223,7 @@ pub fn rotation2(theta: f64) -> nalgebra::Rotation2<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fixtures::SplitMix64;
+    use crate::math::random::SplitMix64;
 
     fn ulps(a: f64, b: f64) -> f64 {
         if a == b {

@@ -164,7 +164,7 @@ pub fn shift_force(f: &Wrench, r: &Vector3<f64>) -> Wrench {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fixtures::SplitMix64;
+    use crate::math::random::SplitMix64;
     use nalgebra::{Translation3, UnitQuaternion};
 
     fn iso(rng: &mut SplitMix64) -> Isometry3<f64> {

@@ -1,4 +1,5 @@
-//! Spatial algebra on fixed-size nalgebra types (SPEC-spatial S1), written by hand.
+//! The SE(3) algebra on fixed-size nalgebra types (SPEC-spatial S1), written by hand. (Until
+//! issue 26 this was `spatial`, a word that now names only the 3-D plant and controller.)
 //!
 //! * [`so3`]: `hat`/`vee`, `Exp`/`Log` of SO(3) and the right and left Jacobians with their
 //!   inverses, accurate near `θ = 0` (Taylor series) and `θ = π` (antipodal `Log`).
@@ -16,9 +17,6 @@ pub mod inertia;
 pub mod motion;
 pub mod se3;
 pub mod so3;
-/// Moved to [`crate::trig`] (session 7), where the planar step uses it too; kept here for the
-/// old path.
-pub use crate::trig;
 
 pub use inertia::SpatialInertia;
 pub use motion::{

@@ -36,8 +36,8 @@ pub fn log(x: &Isometry3<f64>) -> Vector6<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fixtures::SplitMix64;
-    use crate::spatial::motion::adjoint_motion;
+    use crate::geometry::motion::adjoint_motion;
+    use crate::math::random::SplitMix64;
 
     #[test]
     fn exp_log_round_trip() {

@@ -184,8 +184,8 @@ impl AddAssign for SpatialInertia {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fixtures::SplitMix64;
-    use crate::spatial::motion::{adjoint_force, adjoint_motion};
+    use crate::geometry::motion::{adjoint_force, adjoint_motion};
+    use crate::math::random::SplitMix64;
     use nalgebra::{Translation3, UnitQuaternion, Vector6};
 
     fn body(rng: &mut SplitMix64) -> SpatialInertia {
