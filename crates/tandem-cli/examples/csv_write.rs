@@ -6,8 +6,8 @@
 use std::time::Instant;
 
 use tandem::control::{ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
 use tandem::fixtures;
+use tandem::model::disturbance::Disturbance;
 use tandem::sim::{Log, SimParams};
 use tandem_cli::output::F64Text;
 use tandem_cli::runner::write_timeseries;

@@ -31,11 +31,11 @@ use serde::{Deserialize, Serialize};
 use tandem::ModelError;
 use tandem::adaptive::NnGains;
 use tandem::admittance::AdmittanceParams;
-use tandem::arm::{ArmParams, Elbow, LinkParams};
 use tandem::control::{ControlWarning, Controller, ControllerParams, LawParams, Scheme};
 use tandem::ctc::CtcGains;
-use tandem::disturbance::{Disturbance, Push};
-use tandem::object::ObjectParams;
+use tandem::model::disturbance::{Disturbance, Push};
+use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
+use tandem::model::planar::object::ObjectParams;
 use tandem::pd::PdGains;
 use tandem::plant::PlantParams;
 use tandem::sensors::{ChannelNoise, SensorParams};
@@ -354,7 +354,7 @@ pub struct PlantConfig {
 }
 
 fn default_gravity() -> f64 {
-    tandem::arm::GRAVITY
+    tandem::model::planar::arm::GRAVITY
 }
 fn default_baumgarte() -> f64 {
     20.0

@@ -245,13 +245,13 @@ fn sigma_min_and_joint_limit_match_an_independent_computation() {
         let mut closest = (f64::INFINITY, String::new(), 0.0);
         for (i, arm) in f.plant.arms().iter().enumerate() {
             let n = arm.chain.dof();
-            let mut data = tandem::dynamics::ChainData::new(arm);
+            let mut data = tandem::dynamics::spatial::ChainData::new(arm);
             let (mut best, mut at) = (f64::INFINITY, 0.0);
             for k in 0..log.len() {
                 let q: Vec<f64> = (0..n)
                     .map(|j| log.get(&format!("q{}", off + j + 1)).unwrap()[k])
                     .collect();
-                tandem::dynamics::kinematics(arm, &q, None, &mut data);
+                tandem::dynamics::spatial::kinematics(arm, &q, None, &mut data);
                 let j = DMatrix::from_iterator(6, n, data.J.iter().copied());
                 let sv = j.svd(false, false).singular_values;
                 let smin = sv.iter().fold(f64::INFINITY, |a, &b| a.min(b));

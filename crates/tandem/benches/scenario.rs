@@ -3,8 +3,8 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use tandem::adaptive::NnGains;
 use tandem::control::{ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
 use tandem::fixtures;
+use tandem::model::disturbance::Disturbance;
 use tandem::pd::PdGains;
 use tandem::sim::{Formulation, SimParams, Simulation};
 

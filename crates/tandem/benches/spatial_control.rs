@@ -9,8 +9,8 @@ use tandem::control::spatial::{
     SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains, SpatialTickRecord,
 };
-use tandem::disturbance::SpatialDisturbance;
 use tandem::fixtures;
+use tandem::model::disturbance::SpatialDisturbance;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::reference::se3_path::Se3Path;
 use tandem::sensors::SensorParams;

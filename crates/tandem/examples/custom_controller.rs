@@ -13,10 +13,11 @@
 //! `cargo run --release -p tandem --example custom_controller`
 
 use tandem::ModelError;
-use tandem::disturbance::Disturbance;
-use tandem::dynamics::{self, ChainData};
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
 use tandem::fixtures;
-use tandem::grasp::distribute_wrench;
+use tandem::model::disturbance::Disturbance;
+use tandem::model::planar::grasp::distribute_wrench;
 use tandem::nalgebra::{Vector2, Vector3, Vector6};
 use tandem::plant::spatial::SpatialPlant;
 use tandem::plant::{ClosedChain, Plant, SpatialStart};
@@ -126,7 +127,7 @@ fn planar_law(plant: &Plant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &mut [f64
     }
 }
 
-/// Spatial: arm gravity from `dynamics::gravity`; the object's share is the plant's holding
+/// Spatial: arm gravity from `spatial::gravity`; the object's share is the plant's holding
 /// torques at the start minus the arms' own gravity there.
 fn spatial_law(
     plant: &SpatialPlant,
@@ -142,7 +143,7 @@ fn spatial_law(
     let mut gravity = move |q: &[f64], tau: &mut [f64]| {
         for (i, arm) in arms.iter().enumerate() {
             let (o, d) = (offsets[i], arm.chain.dof());
-            dynamics::gravity(arm, &q[o..o + d], &g, &mut tau[o..o + d], &mut data[i]);
+            spatial::gravity(arm, &q[o..o + d], &g, &mut tau[o..o + d], &mut data[i]);
         }
     };
     let mut g0 = vec![0.0; n];
@@ -157,8 +158,8 @@ fn spatial_law(
 }
 
 /// A 2 N / 0.2 N m sinusoidal push on the spatial object (world axes).
-fn push() -> tandem::disturbance::SpatialDisturbance {
-    tandem::disturbance::Disturbance {
+fn push() -> tandem::model::disturbance::SpatialDisturbance {
+    tandem::model::disturbance::Disturbance {
         amplitude: [2.0, 0.0, 0.0, 0.0, 0.0, 0.2],
         frequency: [2.0; 6],
         phase: [0.0; 6],

@@ -2,7 +2,7 @@
 //! (`SCHEME=arm` for the per-arm scheme).
 use tandem::adaptive::NnGains;
 use tandem::control::{ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
+use tandem::model::disturbance::Disturbance;
 use tandem::pd::PdGains;
 use tandem::sim::SimParams;
 use tandem::{fixtures, report};

@@ -6,9 +6,9 @@
 
 use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
 use tandem::fixtures;
 use tandem::math::random::splitmix64;
+use tandem::model::disturbance::Disturbance;
 use tandem::report::{Summary, summarize};
 use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, SimParams, Simulation};

@@ -2,11 +2,11 @@
 
 use nalgebra::Vector3;
 
-use crate::arm::{ArmParams, Elbow, LinkParams};
 use crate::control::{ControlWarning, Controller, ControllerParams};
-use crate::disturbance::Disturbance;
 use crate::error::ModelError;
-use crate::object::ObjectParams;
+use crate::model::disturbance::Disturbance;
+use crate::model::planar::arm::{ArmParams, Elbow, LinkParams};
+use crate::model::planar::object::ObjectParams;
 use crate::plant::PlantParams;
 use crate::sensors::SensorParams;
 use crate::sim::{Driver, SimParams, Simulation};
@@ -96,9 +96,9 @@ pub struct SpatialSetup {
 }
 
 /// The embedded UR5-class arm, `base_link` → `tool0`, placed at `(x, y, 0)` with yaw `yaw`.
-pub fn ur5_arm(x: f64, y: f64, yaw: f64) -> crate::model::SpatialArm {
-    let chain = crate::model::urdf::ur5();
-    crate::model::SpatialArm {
+pub fn ur5_arm(x: f64, y: f64, yaw: f64) -> crate::model::spatial::SpatialArm {
+    let chain = crate::model::spatial::urdf::ur5();
+    crate::model::spatial::SpatialArm {
         chain,
         base: nalgebra::Isometry3::new(
             nalgebra::Vector3::new(x, y, 0.0),
@@ -108,14 +108,14 @@ pub fn ur5_arm(x: f64, y: f64, yaw: f64) -> crate::model::SpatialArm {
 }
 
 /// The embedded Franka-class arm, `panda_link0` → `panda_hand_tcp`, at `(x, y, 0)`, yaw `yaw`.
-pub fn franka_arm(x: f64, y: f64, yaw: f64) -> crate::model::SpatialArm {
-    let (chain, _) = crate::model::urdf::load_chain(
-        crate::model::urdf::FRANKA_URDF,
+pub fn franka_arm(x: f64, y: f64, yaw: f64) -> crate::model::spatial::SpatialArm {
+    let (chain, _) = crate::model::spatial::urdf::load_chain(
+        crate::model::spatial::urdf::FRANKA_URDF,
         "panda_link0",
         "panda_hand_tcp",
     )
     .expect("the embedded Franka model loads");
-    crate::model::SpatialArm {
+    crate::model::spatial::SpatialArm {
         chain,
         base: nalgebra::Isometry3::new(
             nalgebra::Vector3::new(x, y, 0.0),
@@ -142,7 +142,8 @@ fn grasp_frame(p: [f64; 3], x: [f64; 3], y: [f64; 3], z: [f64; 3]) -> nalgebra::
 /// holding the 0.4 × 0.2 × 0.2 m, 3 kg box by its end faces, box at `(0.1, 0, 0.3)` with
 /// `R_WO = I`; the S6 start angles as the guess. Gravity `(0, 0, −9.81)`, Baumgarte 20 rad/s.
 pub fn dual_ur5() -> SpatialSetup {
-    use crate::plant::spatial::{GraspModel, SpatialObjectParams, SpatialPlantParams};
+    use crate::model::spatial::SpatialObjectParams;
+    use crate::plant::spatial::{GraspModel, SpatialPlantParams};
     use std::f64::consts::FRAC_PI_2;
     let params = SpatialPlantParams {
         arms: vec![
@@ -202,7 +203,8 @@ pub fn three_ur5() -> SpatialSetup {
 /// SPEC-spatial S6's remark): bases `(∓0.55, 0, 0)`, box at `(0, 0, 0.35)`, grasps on the top
 /// face at `(∓0.12, 0, 0.1)`.
 pub fn dual_franka() -> SpatialSetup {
-    use crate::plant::spatial::{GraspModel, SpatialObjectParams, SpatialPlantParams};
+    use crate::model::spatial::SpatialObjectParams;
+    use crate::plant::spatial::{GraspModel, SpatialPlantParams};
     let params = SpatialPlantParams {
         arms: vec![
             franka_arm(-0.55, 0.0, 0.0),
@@ -296,7 +298,7 @@ pub fn spatial_s6_simulation_with(
         &start,
         &SensorParams::default(),
         c,
-        crate::disturbance::SpatialDisturbance::spec_s6(),
+        crate::model::disturbance::SpatialDisturbance::spec_s6(),
         SimParams {
             duration,
             plant_step,

@@ -58,9 +58,6 @@ pub mod dynamics;
 pub mod model;
 pub mod se3;
 
-pub mod arm;
-pub mod grasp;
-pub mod object;
 pub mod plant;
 
 pub mod fixtures;
@@ -79,7 +76,6 @@ pub mod trajectory;
 pub mod adaptive;
 pub mod control;
 pub mod ctc;
-pub mod disturbance;
 pub mod pd;
 pub mod report;
 pub mod sim;

@@ -4,9 +4,9 @@
 use nalgebra::Vector3;
 use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
-use tandem::disturbance::Disturbance;
 use tandem::fixtures;
 use tandem::math::integrate::Rk4;
+use tandem::model::disturbance::Disturbance;
 use tandem::pd::PdGains;
 use tandem::plant::{ConstrainedOde, Plant, ReducedOde};
 use tandem::sensors::{ChannelNoise, SensorParams};
@@ -406,7 +406,7 @@ fn generic_loop_ticks_allocate_nothing() {
         &start,
         &sensors,
         drv,
-        tandem::disturbance::SpatialDisturbance::zero(),
+        tandem::model::disturbance::SpatialDisturbance::zero(),
         ssp.clone(),
     )
     .unwrap()
@@ -425,7 +425,7 @@ fn generic_loop_ticks_allocate_nothing() {
         &start,
         &sensors,
         r,
-        tandem::disturbance::SpatialDisturbance::zero(),
+        tandem::model::disturbance::SpatialDisturbance::zero(),
         ssp,
     )
     .unwrap();

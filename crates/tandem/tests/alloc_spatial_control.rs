@@ -7,8 +7,8 @@ use tandem::control::spatial::{
     SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains,
 };
-use tandem::disturbance::{Push, SpatialDisturbance};
 use tandem::fixtures;
+use tandem::model::disturbance::{Push, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
 use tandem::reference::se3_path::Se3Path;
 use tandem::sensors::{ChannelNoise, SensorParams};

@@ -197,7 +197,7 @@ fn the_branch_test_tells_the_eight_ur5_solutions_apart() {
     let x0 = study::s6_pose(&Se3Path::spec_s6(), 0.0);
     let arm = &setup.params.arms[0];
     let g = study::grasp_target(&setup.params, 0, &x0);
-    let mut d = tandem::dynamics::ChainData::new(arm);
+    let mut d = tandem::dynamics::spatial::ChainData::new(arm);
     let mut found: Vec<(Vec<f64>, study::Branch)> = Vec::new();
     for q in study::ik_search(arm, &g, 200, None, 21) {
         let wrap = |a: f64| (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU);

@@ -4,10 +4,11 @@
 
 use nalgebra::Vector3;
 use tandem::control::ControlEvents;
-use tandem::disturbance::Disturbance;
-use tandem::dynamics::{self, ChainData};
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
 use tandem::fixtures;
-use tandem::grasp::distribute_wrench;
+use tandem::model::disturbance::Disturbance;
+use tandem::model::planar::grasp::distribute_wrench;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::plant::{ClosedChain, Plant, SpatialStart};
 use tandem::sensors::SensorParams;
@@ -144,7 +145,7 @@ fn planar_pd(plant: &Plant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &mut [f64]
     }
 }
 
-/// The spatial law: arm gravity from `dynamics::gravity`; the object's share is the plant's
+/// The spatial law: arm gravity from `spatial::gravity`; the object's share is the plant's
 /// holding torques at the start minus the arms' own gravity there.
 fn spatial_pd(plant: &SpatialPlant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &mut [f64]) + use<>> {
     let n = plant.n_q();
@@ -157,7 +158,7 @@ fn spatial_pd(plant: &SpatialPlant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &m
     let mut gravity = move |q: &[f64], tau: &mut [f64]| {
         for (i, arm) in arms.iter().enumerate() {
             let (o, d) = (offsets[i], arm.chain.dof());
-            dynamics::gravity(arm, &q[o..o + d], &g, &mut tau[o..o + d], &mut data[i]);
+            spatial::gravity(arm, &q[o..o + d], &g, &mut tau[o..o + d], &mut data[i]);
         }
     };
     let mut g0 = vec![0.0; n];
@@ -251,8 +252,8 @@ fn a_user_joint_pd_holds_the_planar_paper_plant() {
 }
 
 /// A sinusoidal push on the spatial object: 2 N along x, 0.2 N m about z (world axes).
-fn push() -> tandem::disturbance::SpatialDisturbance {
-    tandem::disturbance::Disturbance {
+fn push() -> tandem::model::disturbance::SpatialDisturbance {
+    tandem::model::disturbance::Disturbance {
         amplitude: [2.0, 0.0, 0.0, 0.0, 0.0, 0.2],
         frequency: [2.0; 6],
         phase: [0.0; 6],
@@ -454,7 +455,7 @@ fn spatial_runs_check_health_and_inject_faults() {
             &start,
             &ideal(),
             d,
-            tandem::disturbance::SpatialDisturbance::zero(),
+            tandem::model::disturbance::SpatialDisturbance::zero(),
             p,
         )
     };

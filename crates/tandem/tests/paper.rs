@@ -3,8 +3,8 @@
 
 use tandem::adaptive::NnGains;
 use tandem::control::{ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
 use tandem::fixtures;
+use tandem::model::disturbance::Disturbance;
 use tandem::pd::PdGains;
 use tandem::report::{Summary, summarize};
 use tandem::sim::{Log, SimParams};

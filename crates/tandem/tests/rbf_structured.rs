@@ -6,10 +6,10 @@
 use nalgebra::{SVector, Vector2, Vector3};
 use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
-use tandem::disturbance::Disturbance;
 use tandem::error::ModelError;
 use tandem::fixtures;
 use tandem::math::random::SplitMix64;
+use tandem::model::disturbance::Disturbance;
 use tandem::plant::Plant;
 use tandem::rbf::{KERNEL_ENV, Kernel, NnUpdate, Rbf, RbfNetwork};
 use tandem::rbf_structured::{

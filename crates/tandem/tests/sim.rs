@@ -2,8 +2,8 @@
 
 use tandem::adaptive::NnGains;
 use tandem::control::{Controller, ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
 use tandem::fixtures;
+use tandem::model::disturbance::Disturbance;
 use tandem::pd::PdGains;
 use tandem::report::summarize;
 use tandem::sensors::{ChannelNoise, SensorParams};

@@ -9,8 +9,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use tandem::adaptive::NnGains;
 use tandem::control::{ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
 use tandem::fixtures;
+use tandem::model::disturbance::Disturbance;
 use tandem::sim::SimParams;
 
 /// Counts allocations and the bytes live (and their peak).

@@ -94,8 +94,8 @@ use tandem::control::spatial::{
     SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains,
 };
-use tandem::disturbance::{Push, SpatialDisturbance};
 use tandem::fixtures::{self, SpatialSetup};
+use tandem::model::disturbance::{Push, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
 use tandem::reference::se3_path::Se3Path;
 use tandem::sensors::SensorParams;
@@ -441,7 +441,7 @@ fn pd_tracks_worse_than_nn_and_every_law_stays_stable_with_the_admittance_on() {
 /// the tool Jacobian's null space (the self-motion of a redundant arm), `q_rest` = the start.
 fn self_motion(log: &Log, a: Arms) -> Vec<(f64, f64)> {
     use nalgebra::{DMatrix, DVector};
-    use tandem::dynamics::{ChainData, kinematics};
+    use tandem::dynamics::spatial::{ChainData, kinematics};
     let s = setup(a);
     let mut out = Vec::new();
     let nq: usize = s.params.arms.iter().map(|a| a.chain.dof()).sum();

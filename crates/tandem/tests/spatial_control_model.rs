@@ -316,8 +316,8 @@ fn null_space_torques_do_not_move_the_tool() {
             // Scale: the unprojected τ0 through J M⁻¹.
             let mut tau0 = DVector::zeros(7);
             let mut g = vec![0.0; 7];
-            let mut d2 = tandem::dynamics::ChainData::new(&model.arms()[i]);
-            tandem::dynamics::gravity(
+            let mut d2 = tandem::dynamics::spatial::ChainData::new(&model.arms()[i]);
+            tandem::dynamics::spatial::gravity(
                 &model.arms()[i],
                 &q[s0..s0 + 7],
                 &model.gravity(),

@@ -2,7 +2,8 @@
 //! arms + box, two Franka-class arms + box, and three UR5-class arms + box.
 
 use nalgebra::{Isometry3, Vector3, Vector6};
-use tandem::dynamics::{self, ChainData};
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
 use tandem::fixtures::{self, SpatialSetup};
 use tandem::math::integrate::{DormandPrince, Rk4};
 use tandem::plant::spatial::{GraspModel, SpatialInput, SpatialOde, SpatialPlant};
@@ -351,7 +352,7 @@ fn grasp_wrenches_match_each_arms_own_dynamics() {
             let mut d = ChainData::new(arm);
             let mut tau = vec![0.0; n];
             let f = ws.wrenches[i];
-            dynamics::rnea(
+            spatial::rnea(
                 arm,
                 &q[s0..s0 + n],
                 &qd[s0..s0 + n],
@@ -540,8 +541,11 @@ fn velocity_constraint_holds_along_the_motion() {
 #[test]
 fn a_locked_chain_is_a_counted_event_with_time_and_state() {
     use nalgebra::{Matrix3, Translation3, UnitQuaternion};
-    use tandem::model::{Chain, ChainJoint, JointKind, JointLimits, RigidBody, SpatialArm};
-    use tandem::plant::spatial::{SpatialObjectParams, SpatialPlantParams};
+    use tandem::model::spatial::SpatialObjectParams;
+    use tandem::model::spatial::{
+        Chain, ChainJoint, JointKind, JointLimits, RigidBody, SpatialArm,
+    };
+    use tandem::plant::spatial::SpatialPlantParams;
     let one_joint = |x: f64| SpatialArm {
         chain: Chain {
             name: "pivot".into(),

@@ -33,11 +33,12 @@ use tandem::control::spatial::{
     PostureParams, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains,
 };
-use tandem::disturbance::{Push, SpatialDisturbance};
-use tandem::model::SpatialArm;
-use tandem::model::urdf;
+use tandem::model::disturbance::{Push, SpatialDisturbance};
+use tandem::model::spatial::SpatialArm;
+use tandem::model::spatial::SpatialObjectParams;
+use tandem::model::spatial::urdf;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::plant::spatial::{GraspModel, SpatialObjectParams, SpatialPlantParams};
+use tandem::plant::spatial::{GraspModel, SpatialPlantParams};
 use tandem::rbf_structured::NetworkStructure;
 use tandem::reference::admittance_se3::AdmittanceSe3Params;
 use tandem::reference::se3_path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};

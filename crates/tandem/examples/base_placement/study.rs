@@ -21,9 +21,10 @@
 
 #![allow(dead_code)] // each of the example and the test uses a part
 
-use tandem::dynamics::{self, ChainData};
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
 use tandem::math::random::SplitMix64;
-use tandem::model::SpatialArm;
+use tandem::model::spatial::SpatialArm;
 use tandem::nalgebra::{Isometry3, Vector3, Vector6};
 use tandem::plant::spatial::{SpatialPlant, SpatialPlantParams};
 use tandem::reference::se3_path::Se3Path;
@@ -58,10 +59,10 @@ impl Branch {
 pub fn ur5_branch(arm: &SpatialArm, q: &[f64], d: &mut ChainData) -> Branch {
     let mut q0 = q.to_vec();
     q0[1] = 0.0;
-    dynamics::kinematics(arm, &q0, None, d);
+    spatial::kinematics(arm, &q0, None, d);
     let s = d.X_WL[1].translation.vector;
     let reach = d.X_WL[2].translation.vector - s;
-    dynamics::kinematics(arm, q, None, d);
+    spatial::kinematics(arm, q, None, d);
     let base = arm.base.translation.vector;
     let tool = d.X_WT.translation.vector - base;
     let shoulder_forward = reach.x * tool.x + reach.y * tool.y > 0.0;
@@ -273,7 +274,7 @@ pub fn follow_lap(
             let s = plant.offset(i);
             let qi = &q[s..s + n];
             let d = &mut data[i];
-            dynamics::kinematics(arm, qi, None, d);
+            spatial::kinematics(arm, qi, None, d);
             let sv = singular_values(d);
             let (smax, smin) = (sv[0], sv[5]);
             lap.sigma_min[i] = lap.sigma_min[i].min(smin);
@@ -468,7 +469,7 @@ fn ik_clamped(
         })
         .collect();
     for _ in 0..300 {
-        dynamics::kinematics(arm, q, None, d);
+        spatial::kinematics(arm, q, None, d);
         let dp = target.translation.vector - d.X_WT.translation.vector;
         let dr = (target.rotation * d.X_WT.rotation.inverse()).scaled_axis();
         if dp.norm() < 1e-10 && dr.norm() < 1e-10 {
@@ -583,7 +584,7 @@ pub fn grasp_target(
 /// The smallest singular value of an arm's tool Jacobian at `q`.
 pub fn sigma_min_at(arm: &SpatialArm, q: &[f64]) -> f64 {
     let mut d = ChainData::new(arm);
-    dynamics::kinematics(arm, q, None, &mut d);
+    spatial::kinematics(arm, q, None, &mut d);
     singular_values(&d)[5]
 }
 

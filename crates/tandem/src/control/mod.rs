@@ -3,16 +3,16 @@
 //!
 //! Data flow of a tick (SPEC §3, steps 1–5):
 //! 1. `(q, q̇) → (x̂_o, ẋ̂_o)`: forward kinematics of each arm, least-squares fit through the grasps
-//!    ([`crate::grasp::fit_pose`]); the controller never reads the plant state.
+//!    ([`crate::model::planar::grasp::fit_pose`]); the controller never reads the plant state.
 //! 2. `t → x_d, ẋ_d, ẍ_d`: the desired path ([`crate::trajectory`]).
 //! 3. `(F_i, x_d) → x_r,i → x_r`: per-arm admittance generators ([`crate::admittance`], SPEC §3.1)
 //!    around the desired end-effector points `x_d,i = p_d + R(θ_d)(r_i − δ_i)`, fed with the
 //!    unexpected force `LPF(F_i) − F_ref,i`; the object-level reference is their least-squares
-//!    fit, with its exact rates ([`crate::grasp::GraspSet::fit_pose_rates`]).
+//!    fit, with its exact rates ([`crate::model::planar::grasp::GraspSet::fit_pose_rates`]).
 //! 4. `(x̂_o, ẋ̂_o, x_r, ẋ_r, ẍ_r) → τ`: the tracking law on the object (iBLF + adaptive NN
 //!    ([`crate::adaptive`]), PD ([`crate::pd`]) or computed torque ([`crate::ctc`])).
 //! 5. `τ → τ_x,i → τ_joint,i = J_e,iᵀ τ_x,i`: wrench distribution with the internal squeeze
-//!    ([`crate::grasp::GraspSet::distribute`]) plus the internal part of the arms' own gravity
+//!    ([`crate::model::planar::grasp::GraspSet::distribute`]) plus the internal part of the arms' own gravity
 //!    (`P_N Ĝ_x`, so the squeeze is the commanded one); for redundant arms, damping and gravity
 //!    compensation in the null space of `J_e`; then actuator limits.
 //!
@@ -24,11 +24,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::adaptive::{AdaptiveNn, FuBound, NnGains, NnInternals};
 use crate::admittance::{Admittance, AdmittanceParams, AdmittanceState, AdmittanceWarning};
-use crate::arm::{Arm, FixedKinematics, FixedLinkArm, TwoLinkArm};
 use crate::ctc::{Ctc, CtcGains, nominal_params};
+use crate::dynamics::planar::{Arm, FixedKinematics, FixedLinkArm, TwoLinkArm};
 use crate::error::{ModelError, non_negative, positive};
-use crate::grasp::{Grasp, GraspSet};
 use crate::math::linalg::finite_slice;
+use crate::model::planar::grasp::{Grasp, GraspSet};
 use crate::pd::{Pd, PdGains};
 use crate::plant::{Plant, PlantParams, PlantWorkspace};
 use crate::trajectory::Path;
@@ -142,7 +142,7 @@ impl ControllerParams {
             delta: 0.005,
             control_period: 1e-3,
             torque_limit: None,
-            disturbance_bound: crate::disturbance::Disturbance::paper().bound(),
+            disturbance_bound: crate::model::disturbance::Disturbance::paper().bound(),
         }
     }
 }
@@ -251,7 +251,7 @@ enum Law {
 /// the general algorithm in fixed-size types for 3 and 4 links
 /// ([`FixedLinkArm::kinematics_gravity`]: `J_e` and `G(q)`, no `M` or `C`); other link counts
 /// the dynamic-size [`Arm::kinematics`] and [`Arm::general_dynamics`] into the workspace's
-/// [`ArmTerms`](crate::arm::ArmTerms).
+/// [`ArmTerms`](crate::dynamics::planar::ArmTerms).
 #[derive(Clone, Copy, Debug)]
 enum ArmKernel {
     Two(TwoLinkArm, Matrix2<f64>),
@@ -937,9 +937,9 @@ impl Controller {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::arm::{ArmParams, Elbow, LinkParams};
     use crate::fixtures;
     use crate::math::random::SplitMix64;
+    use crate::model::planar::arm::{ArmParams, Elbow, LinkParams};
 
     /// Two 4-link arms (0.15 m links) on the paper's box, and an IK guess at the start pose.
     fn four_link_pair() -> (PlantParams, Vec<f64>) {

@@ -73,7 +73,7 @@ pub struct SpatialStart {
     pub q_guess: Vec<f64>,
 }
 
-pub use crate::disturbance::SpatialDisturbance;
+pub use crate::model::disturbance::SpatialDisturbance;
 
 /// `(name, unit)` of a log column.
 pub type ColumnSpec = (String, String);
@@ -143,7 +143,7 @@ pub trait ClosedChain {
 
     /// Where a run starts (the object pose and what the inverse kinematics needs).
     type Start;
-    /// The environment disturbance on the object (planar: [`crate::disturbance::Disturbance`];
+    /// The environment disturbance on the object (planar: [`crate::model::disturbance::Disturbance`];
     /// spatial: [`SpatialDisturbance`]).
     type Disturbance;
 
@@ -295,7 +295,7 @@ impl ClosedChain for super::Plant {
     }
 
     type Start = PlanarStart;
-    type Disturbance = crate::disturbance::Disturbance;
+    type Disturbance = crate::model::disturbance::Disturbance;
 
     fn start_state(&self, start: &PlanarStart) -> Result<Vec<f64>, ModelError> {
         self.initial_state(
@@ -683,7 +683,7 @@ fn joint_kinds(p: &SpatialPlant) -> Vec<bool> {
     p.arms()
         .iter()
         .flat_map(|a| a.chain.joints.iter())
-        .map(|j| j.kind == crate::model::JointKind::Prismatic)
+        .map(|j| j.kind == crate::model::spatial::JointKind::Prismatic)
         .collect()
 }
 

@@ -18,8 +18,8 @@
 //! Two implementations of these equations, selected once per plant ([`Algorithm`](super::Algorithm)):
 //! * two or three arms of 2, 3 or 4 links each (all alike; the paper's pair among them): every
 //!   block is a fixed-size value on the stack — per arm a [`FixedArm`] kernel (2-link arms: the
-//!   SPEC §2.1 closed forms from one `sin_cos` per link, [`TwoLinkArm`](crate::arm::TwoLinkArm),
-//!   `M_i⁻¹ = adj(M_i)/det M_i`; 3- and 4-link arms: [`FixedLinkArm`](crate::arm::FixedLinkArm),
+//!   SPEC §2.1 closed forms from one `sin_cos` per link, [`TwoLinkArm`](crate::dynamics::planar::TwoLinkArm),
+//!   `M_i⁻¹ = adj(M_i)/det M_i`; 3- and 4-link arms: [`FixedLinkArm`](crate::dynamics::planar::FixedLinkArm),
 //!   the general algorithm in `SMatrix` values with one Cholesky of `M_i`), `K` a 4×4 or 6×6
 //!   `SMatrix` factored once a state as `L D Lᵀ` ([`ldl_in_place`]: no square roots, and the
 //!   solves for each torque by multiplications), `M_o⁻¹` and `C_o` as diagonals;
@@ -30,7 +30,7 @@
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
 
 use super::{Kernel, Plant, PlantInput, PlantWorkspace};
-use crate::arm::{ArmSolve, FixedArm};
+use crate::dynamics::planar::{ArmSolve, FixedArm};
 use crate::math::linalg::{
     cholesky_in_place, cholesky_solve_in_place, ldl_in_place, ldl_solve_in_place,
 };
@@ -318,7 +318,7 @@ impl Plant {
     /// The state part of the fixed-size constrained derivative of `M` arms of `N` links each
     /// (`NK = 2M`): the equations of [`Plant::derivative_general`] that the input does not
     /// enter (the same `K` factorisation), with every block in registers — each arm's
-    /// [`ArmBlock`](crate::arm::ArmBlock) from its [`FixedArm::state_block`], `K` an `NK × NK`
+    /// [`ArmBlock`](crate::dynamics::planar::ArmBlock) from its [`FixedArm::state_block`], `K` an `NK × NK`
     /// `SMatrix`. Reads `y`; `None` if an arm's `M_i` (or the regularised `K`) is not
     /// positive definite.
     #[inline(always)]
@@ -586,7 +586,7 @@ impl Plant {
             // Constraint terms of grasp i.
             // R(θ) r_i once; J_i, the grasp point and J̇_i ẋ_o = −R r_i θ̇² from it.
             let rw = rot * self.grasps[i].r;
-            let jg = crate::grasp::Grasp::jacobian_from_arm(rw);
+            let jg = crate::model::planar::grasp::Grasp::jacobian_from_arm(rw);
             ws.grasp_j[i] = jg;
             let phi = t.p_ee - (p_o + rw);
             let phid = t.v_ee - jg * xd_o;

@@ -33,10 +33,11 @@ pub use chain::{
     SpatialStart, Stepper,
 };
 
-use crate::arm::{Arm, ArmParams, ArmTerms, Cartesian, FixedLinkArm, IkFailure, TwoLinkArm};
+use crate::dynamics::planar::{Arm, ArmTerms, Cartesian, FixedLinkArm, IkFailure, TwoLinkArm};
 use crate::error::{ModelError, non_negative};
-use crate::grasp::Grasp;
-use crate::object::{Object, ObjectParams};
+use crate::model::planar::arm::ArmParams;
+use crate::model::planar::grasp::Grasp;
+use crate::model::planar::object::{Object, ObjectParams};
 
 /// Plant parameters: plain data, validated by [`Plant::new`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -59,7 +60,7 @@ impl PlantParams {
     /// mirrored elbows (arm 1 `q2 < 0`, arm 2 `q2 > 0`), `l_o = 0.1 m`, grasps `(∓l_o/2, 0)`,
     /// `M_o = C_o = I`, `G_o = (0, 9.8, 0)`.
     pub fn paper() -> Self {
-        use crate::arm::Elbow;
+        use crate::model::planar::arm::Elbow;
         PlantParams {
             arms: vec![
                 ArmParams::paper([-0.38, 0.0], Elbow::Negative),
@@ -67,7 +68,7 @@ impl PlantParams {
             ],
             grasps: vec![[-0.05, 0.0], [0.05, 0.0]],
             object: ObjectParams::paper(),
-            gravity: crate::arm::GRAVITY,
+            gravity: crate::model::planar::arm::GRAVITY,
             baumgarte: 20.0,
         }
     }
@@ -89,7 +90,7 @@ pub enum Algorithm {
     /// closed forms) and a 4×4 grasp-space solve, no dynamic-size buffers.
     TwoArmsTwoLinks,
     /// `arms` arms (2 or 3) of `links` links each (2, 3 or 4), other than two 2-link arms:
-    /// fixed-size per-arm kernels ([`FixedArm`](crate::arm::FixedArm)) and a `2·arms` square
+    /// fixed-size per-arm kernels ([`FixedArm`](crate::dynamics::planar::FixedArm)) and a `2·arms` square
     /// fixed-size grasp-space solve.
     Fixed {
         /// Number of arms.

@@ -9,9 +9,9 @@
 //! `ẍ_i = J_i ẍ_o + J̇_i ẋ_o`. (Paper (14) prints `J(x_o)` block-diagonal; with pinned grasps it
 //! is the stack of the `J_i`.)
 //!
-//! Every per-arm block is a fixed-size value ([`TwoLinkArm`](crate::arm::TwoLinkArm)): the
+//! Every per-arm block is a fixed-size value ([`TwoLinkArm`](crate::dynamics::planar::TwoLinkArm)): the
 //! inverse kinematics gives the link directions without transcendental calls
-//! ([`TwoLinkArm::ik_pose`](crate::arm::TwoLinkArm::ik_pose)), `M`, `C`, `G` are the SPEC §2.1
+//! ([`TwoLinkArm::ik_pose`](crate::dynamics::planar::TwoLinkArm::ik_pose)), `M`, `C`, `G` are the SPEC §2.1
 //! closed forms, the Cartesian terms (3)–(4) are 2×2 closed forms, and the pinned grasp Jacobian
 //! `J_i = [I₂ | d_i]`, `d_i = (R(θ) r_i)^⊥`, is used by its structure. One `sin_cos` (of `θ`)
 //! per evaluation.
@@ -118,8 +118,8 @@ impl Plant {
     /// the full arm terms into `ws.terms` (what [`Plant::object_space`] promises; the
     /// derivative does not need them).
     ///
-    /// [`TwoLinkArm`]: crate::arm::TwoLinkArm
-    /// [`TwoLinkArm::inverse_kinematics`]: crate::arm::TwoLinkArm::inverse_kinematics
+    /// [`TwoLinkArm`]: crate::dynamics::planar::TwoLinkArm
+    /// [`TwoLinkArm::inverse_kinematics`]: crate::dynamics::planar::TwoLinkArm::inverse_kinematics
     #[inline]
     fn object_space_into(
         &self,

@@ -74,7 +74,7 @@
 //! **No maximum number of grasps:** the fit is a streaming sum over the caller's slices
 //! (`n = min(x_og.len(), tools.len())`); nothing is stored, nothing allocated.
 //!
-//! [`grasp::fit_pose`]: crate::grasp::fit_pose
+//! [`grasp::fit_pose`]: crate::model::planar::grasp::fit_pose
 
 use nalgebra::{Isometry3, Quaternion, UnitQuaternion, Vector3};
 

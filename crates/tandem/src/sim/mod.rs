@@ -32,9 +32,9 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::control::ControlEvents;
-use crate::disturbance::Disturbance;
 use crate::error::{ModelError, positive};
 use crate::faults::{FaultState, Faults};
+use crate::model::disturbance::Disturbance;
 use crate::plant::{ChainFault, ClosedChain, PlanarStart, Plant, PlantParams, Stepper};
 use crate::sensors::{SensorParams, Sensors};
 

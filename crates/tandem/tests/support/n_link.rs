@@ -5,7 +5,7 @@
 //! at `fixtures::paper_start`.
 #![allow(dead_code)]
 
-use tandem::arm::{ArmParams, Elbow, LinkParams};
+use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
 use tandem::plant::PlantParams;
 
 /// `arms` arms (2 or 3; 2 for 5 links) of `links` links (3, 4 or 5) each, and the stacked IK

@@ -10,7 +10,7 @@
 //! Metrics derived from the kinematics (the grasp wrenches in tool axes, the closest approach to
 //! a joint limit, the smallest singular value of each arm's tool Jacobian, the true pose in the
 //! output chart) are computed here on the **logged rows** (every log period, 10 ms for the
-//! presets), with `tandem::dynamics::kinematics` on the logged joint positions.
+//! presets), with `tandem::dynamics::spatial::kinematics` on the logged joint positions.
 //!
 //! The files of this folder: `derived.rs` (the kinematics on the logged rows), `summary.rs`
 //! (`summary.json`), `timeseries.rs` (the CSV columns), `viewer.rs` (`viewer.html` and the

@@ -70,7 +70,7 @@ use nalgebra::{DVector, Isometry3, Matrix6, MatrixXx6, Vector3, Vector6};
 
 use super::model::{ModelWorkspace, ObjectModel, jjt_sigma_min};
 use crate::adaptive::FuBound;
-use crate::dynamics;
+use crate::dynamics::spatial;
 use crate::error::{ModelError, non_negative, positive};
 use crate::geometry::motion::{ang, lin, stack};
 use crate::geometry::so3::log_quat;
@@ -222,7 +222,7 @@ pub fn usable(model: &ObjectModel, q: &[f64], ws: &mut ModelWorkspace) -> bool {
                 return false;
             }
         }
-        dynamics::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
+        spatial::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
         if !(jjt_sigma_min(&ws.data[i]) >= SIGMA_MIN) {
             return false;
         }
@@ -249,7 +249,7 @@ pub fn closed_chain_ik(
         let qi = &mut q[s..s + n];
         let mut converged = false;
         for it in 0..100 {
-            dynamics::kinematics(arm, qi, None, d);
+            spatial::kinematics(arm, qi, None, d);
             let dp = x_wg.translation.vector - d.X_WT.translation.vector;
             let dr = log_quat(&(x_wg.rotation * d.X_WT.rotation.inverse()));
             let (el, ea) = (dp.norm(), dr.norm());
@@ -299,7 +299,7 @@ pub fn closed_chain_ik(
         }
         if !converged {
             // Accept a converged task with an unfinished null-space pull.
-            dynamics::kinematics(arm, qi, None, d);
+            spatial::kinematics(arm, qi, None, d);
             let dp = x_wg.translation.vector - d.X_WT.translation.vector;
             let dr = log_quat(&(x_wg.rotation * d.X_WT.rotation.inverse()));
             if !(dp.norm() <= IK_TOL && dr.norm() <= IK_TOL) {
@@ -332,7 +332,7 @@ impl PoseEval {
     fn prepare(&mut self, model: &ObjectModel, q: &[f64], ws: &mut ModelWorkspace) -> bool {
         for (i, arm) in model.arms().iter().enumerate() {
             let (s, n) = (model.offset(i), arm.chain.dof());
-            dynamics::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
+            spatial::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
             let j = &ws.data[i].J;
             let jjt: Matrix6<f64> = Matrix6::from_fn(|a, b| j.row(a).dot(&j.row(b)));
             let Some(inv) = jjt.try_inverse() else {

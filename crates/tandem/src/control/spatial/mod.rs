@@ -46,7 +46,7 @@ use crate::error::{ModelError, non_negative, positive};
 use crate::geometry::motion::stack;
 use crate::geometry::so3::log_quat;
 use crate::math::linalg::finite_slice;
-use crate::plant::spatial::object::RigidObject;
+use crate::model::spatial::object::RigidObject;
 use crate::plant::spatial::{SpatialPlant, SpatialPlantParams};
 use crate::reference::admittance_se3::{
     AdmittanceSe3, AdmittanceSe3State, pose_sample, tool_from_object, wrench_tool_to_world,

@@ -35,7 +35,7 @@
 //!
 //! The weld (SPEC-spatial S3) at the acceleration level is `a_Ti = G_i V̇ + Ġ_i V` with
 //! `Ġ_i V = [ω × (ω × r_i); 0]` (`ṙ_i = ω × r_i`, so `d/dt(v + ω × r) = v̇ + ω̇ × r + ω × (ω × r)`).
-//! The object (the plant's [`crate::plant::spatial::object`]):
+//! The object (the plant's [`crate::model::spatial::object`]):
 //! `M_o V̇ + h_o(V) + F_d = −Σ_i G_iᵀ F_i`, `M_o = blkdiag(m I, R_WO I_O R_WOᵀ)`,
 //! `h_o = [−m g_W; ω × I_W ω] + C_o V`. Substituting `F_i`:
 //!
@@ -82,13 +82,15 @@
 
 use nalgebra::{Isometry3, Matrix3, Matrix6, Vector3, Vector6};
 
-use crate::dynamics::{self, ChainData};
+use crate::dynamics::spatial;
+use crate::dynamics::spatial::ChainData;
 use crate::error::ModelError;
 use crate::geometry::motion::{ang, lin, stack};
 use crate::geometry::so3::hat;
 use crate::math::linalg::{cholesky_rows, forward_rows};
-use crate::model::SpatialArm;
-use crate::plant::spatial::{RigidObject, SpatialPlant, SpatialPlantParams};
+use crate::model::spatial::RigidObject;
+use crate::model::spatial::SpatialArm;
+use crate::plant::spatial::{SpatialPlant, SpatialPlantParams};
 
 /// Smallest pivot of `Λ_i⁻¹ = J M⁻¹ Jᵀ`'s Cholesky relative to its largest diagonal entry for
 /// which [`ObjectModel::dynamics`] still forms `Λ_i` (below it the arm counts as singular).
@@ -239,7 +241,7 @@ impl ObjectModel {
     pub fn kinematics(&self, q: &[f64], qd: &[f64], ws: &mut ModelWorkspace) {
         for (i, arm) in self.arms.iter().enumerate() {
             let (s, n) = (self.offsets[i], arm.chain.dof());
-            dynamics::kinematics(arm, &q[s..s + n], Some(&qd[s..s + n]), &mut ws.data[i]);
+            spatial::kinematics(arm, &q[s..s + n], Some(&qd[s..s + n]), &mut ws.data[i]);
         }
     }
 
@@ -249,7 +251,7 @@ impl ObjectModel {
     pub fn poses(&self, q: &[f64], ws: &mut ModelWorkspace) {
         for (i, arm) in self.arms.iter().enumerate() {
             let (s, n) = (self.offsets[i], arm.chain.dof());
-            dynamics::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
+            spatial::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
         }
     }
 
@@ -374,9 +376,9 @@ fn arm_terms(
     let d = &mut ws.data[i];
     let grav = &mut ws.grav[i][..n];
     if extras {
-        dynamics::gravity(arm, q, g_W, grav, d);
+        spatial::gravity(arm, q, g_W, grav, d);
     }
-    dynamics::terms(arm, q, qd, g_W, d);
+    spatial::terms(arm, q, qd, g_W, d);
     let l = &mut ws.chol[i][..n * n];
     // M is symmetric: column-major storage = row-major storage.
     l.copy_from_slice(&d.M.as_slice()[..n * n]);
@@ -443,7 +445,7 @@ impl ObjectModel {
             }
             let d = &ws.data[i];
             let grav = &mut ws.grav[i][..6];
-            dynamics::gravity_at_placements(arm, &self.g_W, grav, d);
+            spatial::gravity_at_placements(arm, &self.g_W, grav, d);
             // Row k of Jᵀ is column k of J (contiguous: J is column-major, 6 rows).
             let js = &d.J.as_slice()[..36];
             let mut jt = [[0.0; 6]; 6];

@@ -30,7 +30,7 @@ use super::kinematics::{placements_and_inertias, velocities};
 use super::{ChainData, check_len};
 use crate::geometry::motion::{ang, cross_force_matrix, cross_motion, cross_motion_matrix, lin};
 use crate::geometry::so3::hat;
-use crate::model::SpatialArm;
+use crate::model::spatial::SpatialArm;
 
 /// `X(f)` with `X(f) V = V ×* f`: `−[[0, [f]], [[f], [τ]]]`.
 fn bar_force_matrix(f: &Vector6<f64>) -> Matrix6<f64> {

@@ -13,7 +13,7 @@
 use super::ChainData;
 use super::kinematics::placements_and_inertias;
 use crate::geometry::SpatialInertia;
-use crate::model::SpatialArm;
+use crate::model::spatial::SpatialArm;
 
 /// The CRBA pass on placed bodies (after `placements` and `inertias`): writes `d.M`.
 #[inline]

@@ -16,7 +16,7 @@ use super::kinematics::{placements_and_inertias, tool_jacobian, tool_jdqd_from};
 use super::{ChainData, check_len};
 use crate::geometry::SpatialInertia;
 use crate::geometry::motion::{cross_force, cross_motion, stack};
-use crate::model::SpatialArm;
+use crate::model::spatial::SpatialArm;
 
 /// The plant's fused pass: [`super::kinematics`] with `qd`, `d.M`, and
 /// `d.bias = C q̇ + g` (n, N m or N).

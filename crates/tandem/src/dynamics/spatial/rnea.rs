@@ -18,7 +18,7 @@ use nalgebra::{Vector3, Vector6};
 use super::kinematics::{placements, placements_and_inertias};
 use super::{ChainData, check_len};
 use crate::geometry::motion::{ang, cross_force, cross_motion, lin, stack};
-use crate::model::SpatialArm;
+use crate::model::spatial::SpatialArm;
 
 /// `F_T` (about the tool origin `p_T`, world axes) moved to the base origin:
 /// `[f; τ + p_T × f]`.

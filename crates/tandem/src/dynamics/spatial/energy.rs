@@ -12,7 +12,7 @@ use nalgebra::Vector3;
 
 use super::kinematics::{placements_and_inertias, velocities};
 use super::{ChainData, check_len};
-use crate::model::SpatialArm;
+use crate::model::spatial::SpatialArm;
 
 /// Kinetic energy `T = ½ q̇ᵀ M q̇` and gravitational potential energy
 /// `U = −Σ_k m_k g_W · c_k` (J), as `(T, U)`. Reads `q`, `q̇` (n) and `g_W`; writes the poses

@@ -23,7 +23,7 @@ use super::{ChainData, check_len};
 use crate::geometry::SpatialInertia;
 use crate::geometry::motion::{ang, cross_motion, lin, stack};
 use crate::math::trig::sin_cos;
-use crate::model::{JointKind, SpatialArm};
+use crate::model::spatial::{JointKind, SpatialArm};
 
 /// `R` from a unit quaternion (homogeneous form, no normalisation).
 #[inline(always)]

@@ -83,7 +83,7 @@ use crate::error::ModelError;
 /// The embedded UR5-class model (`models/ur5.urdf`, sources cited in the file): Universal
 /// Robots' DH kinematics, published masses and centres of mass, cylinder inertias. Base
 /// [`UR5_BASE`], tool [`UR5_TOOL`].
-pub const UR5_URDF: &str = include_str!("../../models/ur5.urdf");
+pub const UR5_URDF: &str = include_str!("../../../models/ur5.urdf");
 /// Base link of [`UR5_URDF`] (ur_description's `base_link`: the DH base frame turned by π about z).
 pub const UR5_BASE: &str = "base_link";
 /// Tool link of [`UR5_URDF`] (`tool0`: DH frame 6, z out of the flange).
@@ -92,7 +92,7 @@ pub const UR5_TOOL: &str = "tool0";
 /// The embedded Franka-class (Panda, no hand) model (`models/franka.urdf`, sources cited in the
 /// file): Franka's modified-DH kinematics and limits, Gaz et al. (2019) inertial parameters. Base
 /// [`FRANKA_BASE`], tool [`FRANKA_TOOL`]; a massless `panda_hand_tcp` frame is also there.
-pub const FRANKA_URDF: &str = include_str!("../../models/franka.urdf");
+pub const FRANKA_URDF: &str = include_str!("../../../models/franka.urdf");
 /// Base link of [`FRANKA_URDF`].
 pub const FRANKA_BASE: &str = "panda_link0";
 /// Tool link of [`FRANKA_URDF`] (`panda_link8`: the flange, Craig frame 8).

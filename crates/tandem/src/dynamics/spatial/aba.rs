@@ -22,7 +22,7 @@ use super::kinematics::placements_and_inertias;
 use super::rnea::tool_wrench_at_origin;
 use super::{ChainData, check_len};
 use crate::geometry::motion::{cross_force, cross_motion, stack};
-use crate::model::SpatialArm;
+use crate::model::spatial::SpatialArm;
 
 /// Forward dynamics by the articulated-body algorithm (Featherstone 2008, Table 7.1, world
 /// coordinates): `q̈ = M⁻¹(τ + J_Tᵀ F_T − C q̇ − g)` in O(n).

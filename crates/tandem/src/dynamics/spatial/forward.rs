@@ -11,7 +11,7 @@ use super::kinematics::placements_and_inertias;
 use super::rnea::rnea_passes;
 use super::{ChainData, check_len};
 use crate::math::linalg::{cholesky_in_place, cholesky_solve_in_place};
-use crate::model::SpatialArm;
+use crate::model::spatial::SpatialArm;
 
 /// Forward dynamics by CRBA + RNEA bias + Cholesky of `M`; agrees with [`super::aba`].
 ///
