@@ -25,7 +25,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use tandem::nalgebra::Vector3;
-use tandem::reference::se3_path::{CircleParams, Se3Path};
+use tandem::reference::spatial::path::{CircleParams, Se3Path};
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();

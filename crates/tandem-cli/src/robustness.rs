@@ -23,7 +23,7 @@ use tandem::control::spatial::{
     SpatialControllerParams, SpatialLaw, SpatialNnGains, SpatialPdGains,
 };
 use tandem::plant::spatial::GraspModel;
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 
 use crate::plot::{self, Panel, Series, Style};
 use crate::runner::{self, Finished, Prepared};

@@ -30,17 +30,17 @@ use nalgebra::{Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 use tandem::ModelError;
 use tandem::adaptive::NnGains;
-use tandem::admittance::AdmittanceParams;
 use tandem::control::{ControlWarning, Controller, ControllerParams, LawParams, Scheme};
 use tandem::ctc::CtcGains;
 use tandem::model::disturbance::{Disturbance, Push};
 use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
 use tandem::model::planar::object::ObjectParams;
 use tandem::pd::PdGains;
-use tandem::plant::PlantParams;
+use tandem::plant::planar::PlantParams;
+use tandem::reference::planar::admittance::AdmittanceParams;
+use tandem::reference::planar::path::Path;
 use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, Formulation, Replay, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 use crate::suggest;
 
@@ -1674,7 +1674,7 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
         gravity: sc.plant.gravity,
         baumgarte: sc.plant.baumgarte,
     };
-    tandem::plant::Plant::new(&plant).map_err(|e| src.model_error(e, plant_path))?;
+    tandem::plant::planar::Plant::new(&plant).map_err(|e| src.model_error(e, plant_path))?;
     // Two arms holding the same point leave the object's rotation about it undetermined.
     for (j, b) in sc.arms.iter().enumerate() {
         for (i, a) in sc.arms.iter().enumerate().take(j) {
@@ -1789,7 +1789,7 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
         t
     });
     if let Some(t) = &truth {
-        tandem::plant::Plant::new(t).map_err(|e| {
+        tandem::plant::planar::Plant::new(t).map_err(|e| {
             src.model_error(e, |p| format!("faults (true plant): {}", plant_path(p)))
         })?;
     }

@@ -219,7 +219,7 @@ fn finished(franka: bool, law: SpatialLaw, duration: f64) -> Finished {
         outcome,
         plant: tandem::plant::spatial::SpatialPlant::new(&s.params).unwrap(),
         box_size: [0.4, 0.2, 0.2],
-        path: tandem::reference::se3_path::Se3Path::spec_s6(),
+        path: tandem::reference::spatial::path::Se3Path::spec_s6(),
         duration,
         controller: name,
         label,

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use tandem::control::spatial::{SpatialControllerParams, SpatialLaw, SpatialNnGains};
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 use tandem_cli::scenario::{Source, embedded_source};
 use tandem_cli::spatial::scenario::{self as sp, EMBEDDED};
 

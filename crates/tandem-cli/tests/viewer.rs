@@ -25,7 +25,7 @@ use std::process::Command;
 
 use serde_json::Value;
 use tandem::nalgebra::Vector3;
-use tandem::reference::se3_path::{CircleParams, Se3Path};
+use tandem::reference::spatial::path::{CircleParams, Se3Path};
 use viewer::{Scene3d, demo};
 
 mod support;

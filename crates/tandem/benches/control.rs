@@ -7,9 +7,9 @@ use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Sch
 use tandem::fixtures;
 use tandem::nalgebra::Vector3;
 use tandem::pd::PdGains;
-use tandem::plant::Plant;
+use tandem::plant::planar::Plant;
 use tandem::rbf::{NnUpdate, Rbf, RbfNetwork};
-use tandem::trajectory::Path;
+use tandem::reference::planar::path::Path;
 
 fn bench(c: &mut Criterion) {
     let plant = Plant::new(&fixtures::paper()).unwrap();

@@ -28,10 +28,11 @@ use tandem::fixtures;
 use tandem::math::integrate::Rk4;
 use tandem::model::disturbance::Disturbance;
 use tandem::pd::PdGains;
-use tandem::plant::{ClosedChain, ConstrainedOde, Formulation, Plant, PlantParams};
+use tandem::plant::planar::{ConstrainedOde, Plant, PlantParams};
+use tandem::plant::{ClosedChain, Formulation};
+use tandem::reference::planar::path::Path;
 use tandem::sensors::SensorParams;
 use tandem::sim::{Driver, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 #[path = "../tests/support/n_link.rs"]
 mod n_link;

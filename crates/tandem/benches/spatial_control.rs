@@ -12,7 +12,7 @@ use tandem::control::spatial::{
 use tandem::fixtures;
 use tandem::model::disturbance::SpatialDisturbance;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 use tandem::sensors::SensorParams;
 use tandem::sim::{Formulation, Measurements, SimParams, Simulation, SpatialStart};
 

@@ -20,7 +20,7 @@ use std::fmt::Write as _;
 use study::{FrankaGrasp, Lap};
 use tandem::nalgebra::{Isometry3, Vector3, Vector6};
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 
 /// Sampling step along the lap, s (the path moves 5 mm and turns ≤ 0.18° per step).
 const DT: f64 = 0.5;

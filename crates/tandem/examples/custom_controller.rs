@@ -19,8 +19,9 @@ use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
 use tandem::model::planar::grasp::distribute_wrench;
 use tandem::nalgebra::{Vector2, Vector3, Vector6};
+use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::plant::{ClosedChain, Plant, SpatialStart};
+use tandem::plant::{ClosedChain, SpatialStart};
 use tandem::sensors::SensorParams;
 use tandem::sim::{Drive, Log, Measurements, Outcome, Record, SimParams, Simulation};
 

@@ -8,7 +8,7 @@
 use nalgebra::{Vector3, Vector6};
 use std::hint::black_box;
 use tandem::fixtures;
-use tandem::plant::Plant;
+use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::rbf::{NnUpdate, Rbf, RbfNetwork};
 

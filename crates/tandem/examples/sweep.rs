@@ -9,10 +9,10 @@ use tandem::control::{Controller, ControllerParams, LawParams};
 use tandem::fixtures;
 use tandem::math::random::splitmix64;
 use tandem::model::disturbance::Disturbance;
+use tandem::reference::planar::path::Path;
 use tandem::report::{Summary, summarize};
 use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 fn unit(seed: u64, k: u64) -> f64 {
     (splitmix64(seed ^ splitmix64(k)) >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0

@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, positive};
 use crate::iblf::Iblf;
-use crate::plant::Plant;
+use crate::plant::planar::Plant;
 use crate::rbf::{NnUpdate, Rbf, RbfNetwork, RbfWorkspace};
 use crate::rbf_structured::{NetworkStructure, StructuredNn};
 use crate::switching::{SwitchParams, Switching};

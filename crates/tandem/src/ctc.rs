@@ -10,7 +10,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, positive};
-use crate::plant::PlantParams;
+use crate::plant::planar::PlantParams;
 
 /// Computed-torque gains (plain data).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -7,10 +7,10 @@ use crate::error::ModelError;
 use crate::model::disturbance::Disturbance;
 use crate::model::planar::arm::{ArmParams, Elbow, LinkParams};
 use crate::model::planar::object::ObjectParams;
-use crate::plant::PlantParams;
+use crate::plant::planar::PlantParams;
+use crate::reference::planar::path::Path;
 use crate::sensors::SensorParams;
 use crate::sim::{Driver, SimParams, Simulation};
-use crate::trajectory::Path;
 
 /// The paper's two-arm set-up (SPEC §4); see [`PlantParams::paper`].
 pub fn paper() -> PlantParams {
@@ -281,7 +281,7 @@ pub fn spatial_s6_simulation_with(
     ModelError,
 > {
     use crate::control::spatial::SpatialController;
-    use crate::reference::se3_path::Se3Path;
+    use crate::reference::spatial::path::Se3Path;
     let path = Se3Path::spec_s6();
     let (c, warnings) =
         SpatialController::new(p, &model.params, path.clone(), duration, &model.q_guess)?;

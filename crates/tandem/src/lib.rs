@@ -56,7 +56,6 @@ pub mod math;
 
 pub mod dynamics;
 pub mod model;
-pub mod se3;
 
 pub mod plant;
 
@@ -65,13 +64,11 @@ pub mod fixtures;
 pub mod faults;
 pub mod sensors;
 
-pub mod admittance;
 pub mod iblf;
 pub mod rbf;
 pub mod rbf_structured;
 pub mod reference;
 pub mod switching;
-pub mod trajectory;
 
 pub mod adaptive;
 pub mod control;

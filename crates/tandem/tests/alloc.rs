@@ -8,10 +8,10 @@ use tandem::fixtures;
 use tandem::math::integrate::Rk4;
 use tandem::model::disturbance::Disturbance;
 use tandem::pd::PdGains;
-use tandem::plant::{ConstrainedOde, Plant, ReducedOde};
+use tandem::plant::planar::{ConstrainedOde, Plant, ReducedOde};
+use tandem::reference::planar::path::Path;
 use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 #[path = "support/counting.rs"]
 mod counting;

@@ -10,7 +10,7 @@ use tandem::control::spatial::{
 use tandem::fixtures;
 use tandem::model::disturbance::{Push, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Formulation, SimParams, Simulation, SpatialStart};
 

@@ -8,7 +8,7 @@ mod study;
 use study::FrankaGrasp;
 use tandem::nalgebra::{Isometry3, Vector3, Vector6};
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 
 /// The study's sampling step along the lap, s.
 const DT: f64 = 0.5;

@@ -5,8 +5,9 @@
 use nalgebra::{Vector3, Vector6};
 use tandem::fixtures;
 use tandem::math::integrate::Rk4;
+use tandem::plant::ClosedChain;
+use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::plant::{ClosedChain, Plant};
 
 /// Integrate `steps` steps of `h` with zero torque and return (largest |ΔE| relative to the
 /// peak kinetic energy, largest position residual (m), largest second residual — planar: the

@@ -2,18 +2,18 @@
 
 use nalgebra::Vector3;
 use tandem::adaptive::NnGains;
-use tandem::admittance::AdmittanceParams;
 use tandem::control::{Controller, ControllerParams, LawParams};
 use tandem::error::ModelError;
 use tandem::fixtures;
 use tandem::iblf;
 use tandem::model::disturbance::{Disturbance, Push};
 use tandem::pd::PdGains;
-use tandem::plant::Plant;
+use tandem::plant::planar::Plant;
+use tandem::reference::planar::admittance::AdmittanceParams;
+use tandem::reference::planar::path::Path;
 use tandem::report::{Summary, summarize};
 use tandem::sensors::SensorParams;
 use tandem::sim::{Driver, Log, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 fn params(law: LawParams) -> ControllerParams {
     ControllerParams::paper(law)

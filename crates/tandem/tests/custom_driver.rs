@@ -9,8 +9,9 @@ use tandem::dynamics::spatial::ChainData;
 use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
 use tandem::model::planar::grasp::distribute_wrench;
+use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::plant::{ClosedChain, Plant, SpatialStart};
+use tandem::plant::{ClosedChain, SpatialStart};
 use tandem::sensors::SensorParams;
 use tandem::sim::{Drive, Measurements, Record, SimParams, Simulation};
 
@@ -529,8 +530,8 @@ fn tandems_controller_is_a_driver_itself() {
     // The planar controller as `D` directly and through the CLI's `Driver` enum: the same run.
     use tandem::adaptive::NnGains;
     use tandem::control::{Controller, ControllerParams, LawParams};
+    use tandem::reference::planar::path::Path;
     use tandem::sim::Driver;
-    use tandem::trajectory::Path;
     let params = fixtures::paper();
     let ctl = || {
         Controller::new(

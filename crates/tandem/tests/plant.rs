@@ -5,7 +5,7 @@
 use nalgebra::{Matrix3, Vector2, Vector3};
 use tandem::fixtures;
 use tandem::math::integrate::Rk4;
-use tandem::plant::{
+use tandem::plant::planar::{
     Algorithm, ConstrainedOde, Plant, PlantInput, PlantParams, PlantWorkspace, ReducedOde,
 };
 

@@ -10,14 +10,14 @@ use tandem::error::ModelError;
 use tandem::fixtures;
 use tandem::math::random::SplitMix64;
 use tandem::model::disturbance::Disturbance;
-use tandem::plant::Plant;
+use tandem::plant::planar::Plant;
 use tandem::rbf::{KERNEL_ENV, Kernel, NnUpdate, Rbf, RbfNetwork};
 use tandem::rbf_structured::{
     NetworkStructure, StructuredNn, grid_norm2_at_zero, matched_theta, scrambled_halton,
 };
+use tandem::reference::planar::path::Path;
 use tandem::report::{Summary, summarize};
 use tandem::sim::SimParams;
-use tandem::trajectory::Path;
 
 #[path = "support/counting.rs"]
 mod counting;

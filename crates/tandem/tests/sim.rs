@@ -5,10 +5,10 @@ use tandem::control::{Controller, ControllerParams, LawParams};
 use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
 use tandem::pd::PdGains;
+use tandem::reference::planar::path::Path;
 use tandem::report::summarize;
 use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, FaultKind, Formulation, Outcome, Replay, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 fn controller(law: LawParams, duration: f64) -> Driver {
     let cp = ControllerParams::paper(law);

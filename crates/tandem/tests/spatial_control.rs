@@ -97,7 +97,7 @@ use tandem::control::spatial::{
 use tandem::fixtures::{self, SpatialSetup};
 use tandem::model::disturbance::{Push, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 use tandem::sensors::SensorParams;
 use tandem::sim::{Formulation, Log, Outcome, SimParams, Simulation, SpatialStart};
 
@@ -272,10 +272,11 @@ fn a_push_and_a_twist_make_the_reference_comply_and_it_returns() {
     // M_e ë + C_e ė + K_e e, and the object reference is the fit of the offset tool poses. A 5 N
     // push along world x for 2 s (from 3 s) and a 0.5 N m twist about world z for 2 s (from
     // 9 s); the reference must move as predicted (within 10 %) and return.
+    use tandem::control::spatial::chart::Chart;
     use tandem::control::spatial::distribute::Distribution;
     use tandem::geometry::so3::exp_quat;
-    use tandem::reference::admittance_se3::{AdmittanceSe3Params, tool_from_object_se3};
-    use tandem::se3::{Chart, PoseSample, fit};
+    use tandem::reference::spatial::admittance::{AdmittanceSe3Params, tool_from_object_se3};
+    use tandem::reference::spatial::{PoseSample, fit};
     let a = Arms::Ur5;
     let p = SpatialControllerParams::spec_s6(nn(a));
     let pushes = vec![
@@ -546,7 +547,10 @@ fn nn_tracks_on_two_franka_with_the_self_motion_bounded_and_damped() {
 
 /// The NN run on two UR5 tick by tick for `ticks` ms, logging every tick; `each(k, ŵ)` sees the
 /// weights after tick `k`.
-fn run_ticks(ticks: usize, mut each: impl FnMut(usize, &[f64])) -> (Log, tandem::se3::Chart) {
+fn run_ticks(
+    ticks: usize,
+    mut each: impl FnMut(usize, &[f64]),
+) -> (Log, tandem::control::spatial::chart::Chart) {
     let a = Arms::Ur5;
     let s = setup(a);
     let duration = ticks as f64 * 1e-3;
@@ -764,7 +768,7 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
     let e = err_param(build(a, &p, s6()));
     assert!(e.contains("k_c[1]") && e.contains("0.0866"), "{e}");
     // A path out of the arms' reach (a 0.6 m circle).
-    use tandem::reference::se3_path::CircleParams;
+    use tandem::reference::spatial::path::CircleParams;
     let mut c = CircleParams::spec_s6();
     c.radius = 0.6;
     let mut p = base.clone();
@@ -874,9 +878,9 @@ fn the_path_chart_rates_and_the_controller_chart_agree() {
     // about a tilted axis, with a chart about an arbitrary R_ref (so φ and ω are not parallel),
     // x_1, ẋ_1 and ẍ_1 agree to round-off.
     use nalgebra::UnitQuaternion;
-    use tandem::reference::admittance_se3::pose_sample;
-    use tandem::reference::se3_path::{CircleParams, chart_rates};
-    use tandem::se3::Chart;
+    use tandem::control::spatial::chart::Chart;
+    use tandem::reference::spatial::admittance::pose_sample;
+    use tandem::reference::spatial::path::{CircleParams, chart_rates};
     let mut cp = CircleParams::spec_s6();
     cp.axis = Vector3::new(1.0, 2.0, 3.0).normalize();
     cp.amplitude = 0.8;

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector, Isometry3, UnitQuaternion, Vector3, Vector6};
 use tandem::control::spatial::bound::{self, chart_dynamics, closed_chain_ik, fu_bound, usable};
+use tandem::control::spatial::chart::Chart;
 use tandem::control::spatial::distribute::{Distribution, PostureTask, joint_torques};
 use tandem::control::spatial::model::{ObjectModel, nominal_params};
 use tandem::error::ModelError;
@@ -14,7 +15,6 @@ use tandem::fixtures;
 use tandem::fixtures::SpatialSetup;
 use tandem::math::random::SplitMix64;
 use tandem::plant::spatial::{SpatialInput, SpatialPlant};
-use tandem::se3::chart::Chart;
 
 #[path = "support/counting.rs"]
 mod counting;

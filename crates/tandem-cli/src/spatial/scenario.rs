@@ -29,6 +29,7 @@ use serde::{Deserialize, Serialize};
 use tandem::ModelError;
 use tandem::control::Scheme;
 use tandem::control::spatial::SpatialController;
+use tandem::control::spatial::chart::Chart;
 use tandem::control::spatial::{
     PostureParams, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains,
@@ -40,9 +41,8 @@ use tandem::model::spatial::urdf;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::plant::spatial::{GraspModel, SpatialPlantParams};
 use tandem::rbf_structured::NetworkStructure;
-use tandem::reference::admittance_se3::AdmittanceSe3Params;
-use tandem::reference::se3_path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};
-use tandem::se3::Chart;
+use tandem::reference::spatial::admittance::AdmittanceSe3Params;
+use tandem::reference::spatial::path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};
 use tandem::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Drive, Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
 

@@ -27,7 +27,7 @@ use tandem::math::random::SplitMix64;
 use tandem::model::spatial::SpatialArm;
 use tandem::nalgebra::{Isometry3, Vector3, Vector6};
 use tandem::plant::spatial::{SpatialPlant, SpatialPlantParams};
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 
 /// Lap length of the S6 path, s (ω = 2π/60).
 pub const LAP: f64 = 60.0;

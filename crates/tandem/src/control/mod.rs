@@ -4,8 +4,8 @@
 //! Data flow of a tick (SPEC §3, steps 1–5):
 //! 1. `(q, q̇) → (x̂_o, ẋ̂_o)`: forward kinematics of each arm, least-squares fit through the grasps
 //!    ([`crate::model::planar::grasp::fit_pose`]); the controller never reads the plant state.
-//! 2. `t → x_d, ẋ_d, ẍ_d`: the desired path ([`crate::trajectory`]).
-//! 3. `(F_i, x_d) → x_r,i → x_r`: per-arm admittance generators ([`crate::admittance`], SPEC §3.1)
+//! 2. `t → x_d, ẋ_d, ẍ_d`: the desired path ([`crate::reference::planar::path`]).
+//! 3. `(F_i, x_d) → x_r,i → x_r`: per-arm admittance generators ([`crate::reference::planar::admittance`], SPEC §3.1)
 //!    around the desired end-effector points `x_d,i = p_d + R(θ_d)(r_i − δ_i)`, fed with the
 //!    unexpected force `LPF(F_i) − F_ref,i`; the object-level reference is their least-squares
 //!    fit, with its exact rates ([`crate::model::planar::grasp::GraspSet::fit_pose_rates`]).
@@ -23,15 +23,17 @@ use nalgebra::{Dim, Matrix, Matrix2, Rotation2, SVector, Storage, U2, Vector, Ve
 use serde::{Deserialize, Serialize};
 
 use crate::adaptive::{AdaptiveNn, FuBound, NnGains, NnInternals};
-use crate::admittance::{Admittance, AdmittanceParams, AdmittanceState, AdmittanceWarning};
 use crate::ctc::{Ctc, CtcGains, nominal_params};
 use crate::dynamics::planar::{Arm, FixedKinematics, FixedLinkArm, TwoLinkArm};
 use crate::error::{ModelError, non_negative, positive};
 use crate::math::linalg::finite_slice;
 use crate::model::planar::grasp::{Grasp, GraspSet};
 use crate::pd::{Pd, PdGains};
-use crate::plant::{Plant, PlantParams, PlantWorkspace};
-use crate::trajectory::Path;
+use crate::plant::planar::{Plant, PlantParams, PlantWorkspace};
+use crate::reference::planar::admittance::{
+    Admittance, AdmittanceParams, AdmittanceState, AdmittanceWarning,
+};
+use crate::reference::planar::path::Path;
 
 pub mod spatial;
 

@@ -13,7 +13,8 @@
 use nalgebra::{Vector2, Vector6};
 
 use crate::control::{ControlEvents, Controller, TickRecord};
-use crate::plant::{ClosedChain, Plant};
+use crate::plant::ClosedChain;
+use crate::plant::planar::Plant;
 
 use super::Replay;
 

@@ -35,7 +35,8 @@ use crate::control::ControlEvents;
 use crate::error::{ModelError, positive};
 use crate::faults::{FaultState, Faults};
 use crate::model::disturbance::Disturbance;
-use crate::plant::{ChainFault, ClosedChain, PlanarStart, Plant, PlantParams, Stepper};
+use crate::plant::planar::{Plant, PlantParams};
+use crate::plant::{ChainFault, ClosedChain, PlanarStart, Stepper};
 use crate::sensors::{SensorParams, Sensors};
 
 pub use crate::plant::{Formulation, SpatialDisturbance, SpatialStart};

@@ -6,7 +6,7 @@
 #![allow(dead_code)]
 
 use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
-use tandem::plant::PlantParams;
+use tandem::plant::planar::PlantParams;
 
 /// `arms` arms (2 or 3; 2 for 5 links) of `links` links (3, 4 or 5) each, and the stacked IK
 /// guess. 3 links: 0.2 m each (masses 1.5, 1.0, 0.5 kg); 4 links: 0.15 m each (1.5, 1.0, 0.7,

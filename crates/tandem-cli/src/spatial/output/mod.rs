@@ -36,9 +36,9 @@ use std::time::Instant;
 
 use anyhow::Result;
 use serde_json::Value;
+use tandem::control::spatial::chart::Chart;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
-use tandem::se3::Chart;
+use tandem::reference::spatial::path::Se3Path;
 use tandem::sim::{Log, Outcome};
 
 use crate::output::write_json_atomic;

@@ -2,7 +2,7 @@
 //! Assumption 5 and (39); SPEC-spatial S5), computed once at set-up.
 //!
 //! # What is bounded
-//! The controller works in the output chart ([`crate::se3::chart`]): with
+//! The controller works in the output chart ([`crate::control::spatial::chart`]): with
 //! `x_1 = (p_WO − c, φ)`, `x_2 = ẋ_1 = E V`, the object-level dynamics of [`super::model`]
 //! become `M_x ẍ_1 + h_x(x_1, x_2) + F_d,x = F_x`, `M_x = E⁻ᵀ 𝓜 E⁻¹`,
 //! `h_x = E⁻ᵀ(𝓱 − 𝓜 E⁻¹ Ė V)`, `F_x = E⁻ᵀ F`. At a fixed pose, with the joint rates of the
@@ -70,11 +70,11 @@ use nalgebra::{DVector, Isometry3, Matrix6, MatrixXx6, Vector3, Vector6};
 
 use super::model::{ModelWorkspace, ObjectModel, jjt_sigma_min};
 use crate::adaptive::FuBound;
+use crate::control::spatial::chart::Chart;
 use crate::dynamics::spatial;
 use crate::error::{ModelError, non_negative, positive};
 use crate::geometry::motion::{ang, lin, stack};
 use crate::geometry::so3::log_quat;
-use crate::se3::chart::Chart;
 
 /// Smallest `σ_min(J_i)` (m/rad mixed units) of a pose used for the bound (as the planar
 /// [`FuBound::from_model`]).

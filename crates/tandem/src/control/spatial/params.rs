@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use crate::adaptive::{NnAxes, NnGains};
 use crate::control::Scheme;
 use crate::rbf_structured::NetworkStructure;
-use crate::reference::admittance_se3::AdmittanceSe3Params;
+use crate::reference::spatial::admittance::AdmittanceSe3Params;
 
 /// Gains of the NN law on six outputs (plain data).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

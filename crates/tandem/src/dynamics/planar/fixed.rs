@@ -8,7 +8,7 @@ use nalgebra::{Matrix2, SMatrix, SVector, Vector2};
 use super::general::perp;
 
 /// An arm's block of the constrained plant's Schur-complement solve (SPEC §2.4), in fixed-size
-/// types: what [`Plant::derivative`](crate::plant::Plant::derivative) needs of arm `i` at one
+/// types: what [`Plant::derivative`](crate::plant::planar::Plant::derivative) needs of arm `i` at one
 /// state, computed by [`FixedArm::block`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ArmBlock<const N: usize> {
@@ -51,7 +51,7 @@ pub struct ArmSolve<const N: usize> {
 ///
 /// The block splits into a state part ([`state_block`](Self::state_block): everything but
 /// `a_0`) and the torque part ([`a0`](Self::a0)), so that the plant can evaluate two torques at
-/// one state ([`Plant::derivative_reusing`](crate::plant::Plant::derivative_reusing)) with
+/// one state ([`Plant::derivative_reusing`](crate::plant::planar::Plant::derivative_reusing)) with
 /// one state part; [`block`](Self::block) is the two together, bit for bit the same values.
 pub trait FixedArm<const N: usize>: Copy {
     /// The block at `(q, q̇)` with gravity `g` except `a_0` (left zero), and what

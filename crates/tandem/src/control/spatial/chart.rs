@@ -77,7 +77,7 @@
 
 use nalgebra::{Isometry3, Matrix3, Matrix6, Translation3, UnitQuaternion, Vector3, Vector6};
 
-use super::PoseSample;
+use crate::reference::spatial::PoseSample;
 
 /// `(φ, φ̇, φ̈, J_l⁻¹(φ), d/dt J_l⁻¹)` of a pose sample in a chart.
 type Angles = (

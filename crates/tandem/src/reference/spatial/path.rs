@@ -1,7 +1,7 @@
 //! Desired object poses in SE(3), $X_{WO,d}(t) = (p_d(t), R_d(t))$, with analytic derivatives:
 //! $p, \dot p, \ddot p, \dddot p$ and $R, \omega, \dot\omega, \ddot\omega$.
 //!
-//! The spatial counterpart of [`crate::trajectory`]: step 2 of the control tick (SPEC §3, on
+//! The spatial counterpart of [`crate::reference::planar::path`]: step 2 of the control tick (SPEC §3, on
 //! six outputs as SPEC-spatial S5 says) evaluates the desired pose and its rates analytically,
 //! never by finite differences. Data flow: `t → (p, v, a, j, R, ω, ω̇, ω̈)`.
 //!
@@ -52,7 +52,7 @@
 //!
 //! # 3. Waypoint spline ([`Se3Spline`]): the orientation scheme
 //!
-//! Position: a clamped cubic spline per axis (the planar [`crate::trajectory::Spline`]).
+//! Position: a clamped cubic spline per axis (the planar [`crate::reference::planar::path::Spline`]).
 //! Orientation: **one chart for the whole path**, centred at the first waypoint,
 //! $$R(t) = R_c\,\mathrm{Exp}(\varphi(t)), \qquad R_c = R_0,\quad
 //!   \varphi_k = \mathrm{Log}(R_c^T R_k),\ |\varphi_k| \le \pi - 10^{-6},$$
@@ -89,7 +89,7 @@
 //! # The output chart ([`chart_x1`], [`chart_rates`], [`Se3Path::max_abs`])
 //!
 //! [`chart_rates`] turns a sample into the S5 output coordinates $x_1 = (p - c, \varphi)$ and
-//! their exact first three time derivatives (the planar [`crate::trajectory::PathSample`]'s
+//! their exact first three time derivatives (the planar [`crate::reference::planar::path::PathSample`]'s
 //! role for the six-output iBLF), through $J_l^{-1}$ and the derivatives of $J_l$.
 //!
 //! [`Se3Path::max_abs`] gives $\max_{t\in[0,t_{end}]} |x_{1j}(t)|$ for $x_1 = (p - c,\ \mathrm{Log}(R_{ref}^T R))$
@@ -124,7 +124,7 @@
 //!
 //! ```
 //! use tandem::nalgebra::{UnitQuaternion, Vector3};
-//! use tandem::reference::se3_path::{Se3Path, chart_rates};
+//! use tandem::reference::spatial::path::{Se3Path, chart_rates};
 //!
 //! let path = Se3Path::spec_s6();
 //! let s = path.sample(15.0); // a quarter lap: on the +y side, pitch back through 0
@@ -140,7 +140,7 @@
 //!
 //! # References
 //! 1. SPEC-spatial S1 (conventions), S5 (output chart), S6 (the dual-UR5 path).
-//! 2. SPEC §3 (control tick, step 2); the planar paths in [`crate::trajectory`].
+//! 2. SPEC §3 (control tick, step 2); the planar paths in [`crate::reference::planar::path`].
 //! 3. J. Solà, J. Deray, D. Atchuthan, *A micro Lie theory for state estimation in robotics*,
 //!    2018 (right/left Jacobians of SO(3)).
 
@@ -150,8 +150,8 @@ use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
 use crate::error::{ModelError, positive};
 use crate::geometry::so3::{exp_quat, left_jacobian_inv, log_quat};
-use crate::trajectory::MAX_PHASE;
-use crate::trajectory::{Path, Spline};
+use crate::reference::planar::path::MAX_PHASE;
+use crate::reference::planar::path::{Path, Spline};
 
 /// Smallest distance (rad) from π allowed for a geodesic angle $|\varphi_{AB}|$ or a waypoint's
 /// chart angle $|\mathrm{Log}(R_c^T R_k)|$: at π the rotation vector's sign is undefined.
@@ -1234,7 +1234,11 @@ fn bc_with_derivatives(u: f64) -> [f64; 6] {
 /// The spline's sample at the midpoint of segment `[ta, tb]`, if that midpoint is strictly
 /// inside it (the planar spline holds its first value at the first knot, so the derivatives
 /// of a segment are read inside it).
-fn segment_midpoint(sp: &Spline, ta: f64, tb: f64) -> Option<crate::trajectory::PathSample> {
+fn segment_midpoint(
+    sp: &Spline,
+    ta: f64,
+    tb: f64,
+) -> Option<crate::reference::planar::path::PathSample> {
     let tm = ta + 0.5 * (tb - ta);
     (tm > ta && tm < tb).then(|| sp.sample(tm))
 }

@@ -378,7 +378,7 @@ impl Admittance {
 /// Exact ZOH discretisation of $M\ddot e + C\dot e + K e = u$ (M, C, K > 0) for step h:
 /// returns $(\Phi, \Gamma)$ on the state $(e, \dot e)$. Closed form; see the module docs.
 /// One axis's validated parameters and exact discretisation, shared by the planar and the 6-D
-/// generator ([`crate::reference::admittance_se3`]).
+/// generator ([`crate::reference::spatial::admittance`]).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct AxisMap {
     /// Filter gain `1 − e^{−h/τ_f}` (1 when `τ_f = 0`).

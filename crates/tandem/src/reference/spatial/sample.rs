@@ -1,15 +1,6 @@
-//! Control geometry in SE(3) (SPEC-spatial S5): the output chart of the object pose and the
-//! object-level reference pose fitted to the arms' reference tool poses, both with exact first
-//! and second time derivatives.
-//!
-//! * [`chart`]: `x_1 = (p_WO − c, φ)`, `φ = Log(R_refᵀ R_WO)`, with `ẋ_1`, `ẍ_1`, the chart
-//!   Jacobian `E` (`ẋ_1 = E V_WO`), its rate `Ė`, the inverse maps, and the object dynamics
-//!   rewritten in chart coordinates.
-//! * [`fit`](mod@fit): the reference pose that best fits the arms' reference tool poses through the
-//!   grasps (least squares in position, a quaternion mean in orientation), with exact twist and
-//!   twist rate.
-//!
-//! Both work on a [`PoseSample`]: a pose with its twist and twist rate. Conventions
+//! [`PoseSample`]: a pose with its twist and twist rate, what the reference pose fit
+//! ([`super::fit`](mod@super::fit)), the 6-D admittance ([`super::admittance`]) and the
+//! controller's output chart ([`crate::control::spatial::chart`]) work on. Conventions
 //! (SPEC-spatial S1): SI units; `R_AB` maps `B` coordinates to `A`; twists are `[v; ω]`,
 //! **linear first**, in **world axes**, `v` the velocity of the frame's origin and `ω` the
 //! angular velocity, so `Ṙ_WO = [ω]× R_WO` and `ṗ_WO = v`; the twist rate is the plain time
@@ -19,16 +10,10 @@
 //! Nothing here allocates: every per-tick function works on fixed-size nalgebra values and
 //! slices the caller owns.
 
-pub mod chart;
-pub mod fit;
-
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3, Vector6};
 
 use crate::geometry::motion::{ang, lin, stack};
 use crate::plant::spatial::ObjectState;
-
-pub use chart::{Chart, ChartJacobian, ChartSample};
-pub use fit::{Fit, candidate, fit, fit_sample, fit_weighted};
 
 /// A pose with its twist and twist rate: `(p_WA, R_WA, V_WA = [v; ω], V̇_WA = [v̇; ω̇])` of some
 /// frame `A` (the object `O`, a tool `T_i`, a desired pose), world axes.

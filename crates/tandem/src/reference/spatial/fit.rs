@@ -78,7 +78,7 @@
 
 use nalgebra::{Isometry3, Quaternion, UnitQuaternion, Vector3};
 
-use super::{PoseSample, pure};
+use super::sample::{PoseSample, pure};
 use crate::geometry::motion::stack;
 
 /// Below this `|s|` (weights normalised to sum 1, so `|s| ≤ 1`) the fit is flagged degenerate.

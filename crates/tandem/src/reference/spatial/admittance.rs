@@ -54,7 +54,7 @@
 //!
 //! exactly SPEC §3.1's model on each of the six components, discretised exactly for the input
 //! held over the control period `h` by the planar generator's closed-form zero-order-hold map
-//! ([`crate::admittance`], module doc "Discretisation": `x_{k+1} = Φ x_k + Γ F̃_k` on
+//! ([`crate::reference::planar::admittance`], module doc "Discretisation": `x_{k+1} = Φ x_k + Γ F̃_k` on
 //! `x = (e, ė)`, the three damping branches, and the `M_e = 0` first-order limit with `ė` set to
 //! the ODE's value). The low-pass is the same exact first-order lag,
 //! `y_{k+1} = y_k + (1 − e^{−h/τ_f})(F_k − y_k)`, started at `F_ref,i(0)`
@@ -116,12 +116,12 @@
 //! # References
 //! 1. SPEC-spatial S1 (conventions, the grasp wrench), S3 (welds), S5 "Admittance".
 //! 2. SPEC §3.1 (the second-order generator, the filter started at `F_ref`, the expected force,
-//!    exact discretisation, defaults and why); the planar generator [`crate::admittance`].
+//!    exact discretisation, defaults and why); the planar generator [`crate::reference::planar::admittance`].
 //! 3. J. Solà, J. Deray, D. Atchuthan, *A micro Lie theory for state estimation in robotics*,
 //!    2018 (left Jacobian of SO(3), `d/dt Exp(φ) = [J_l φ̇] Exp(φ)`).
 //!
-//! [`se3::fit`]: crate::se3::fit()
-//! [`se3::fit::candidate`]: crate::se3::fit::candidate
+//! [`se3::fit`]: crate::reference::spatial::fit()
+//! [`se3::fit::candidate`]: crate::reference::spatial::fit::candidate
 //! [`SpatialWorkspace::wrenches`]: crate::plant::spatial::SpatialWorkspace::wrenches
 //! [`SpatialWorkspace::tool_wrench`]: crate::plant::spatial::SpatialWorkspace::tool_wrench
 
@@ -129,12 +129,12 @@ use std::fmt;
 
 use nalgebra::{Isometry3, Matrix2, UnitQuaternion, Vector2, Vector3, Vector6};
 
-use crate::admittance::axis_map;
 use crate::error::{ModelError, positive};
 use crate::geometry::motion::{ang, lin, stack};
 use crate::geometry::so3::exp_quat;
-use crate::reference::se3_path::{Se3Sample, left_jacobian_rates};
-use crate::se3::PoseSample;
+use crate::reference::planar::admittance::axis_map;
+use crate::reference::spatial::PoseSample;
+use crate::reference::spatial::path::{Se3Sample, left_jacobian_rates};
 
 /// Lever arm `ℓ` \[m\] that scales the translational defaults to the rotational ones
 /// (`M_rot = M_e ℓ²`, `C_rot = C_e ℓ²`, `K_rot = K_e ℓ²`): the SPEC-spatial S6 grasp-to-centre
@@ -320,7 +320,7 @@ pub struct AdmittanceSe3 {
 
 impl AdmittanceSe3 {
     /// Validate `params` and precompute the exact zero-order-hold discretisation for the control
-    /// period `h` \[s\] (the planar per-axis maps, [`crate::admittance`]).
+    /// period `h` \[s\] (the planar per-axis maps, [`crate::reference::planar::admittance`]).
     ///
     /// Errors name the field: `admittance.c_e[j]` and `admittance.k_e[j]` must be finite and
     /// positive, `admittance.m_e[j]` and `admittance.tau_f[j]` finite and non-negative
@@ -459,7 +459,7 @@ impl AdmittanceSe3 {
     /// The offset's acceleration $\ddot e$ (m/s², rad/s²) at `state`, from the ODE with the
     /// $\tilde F$ held over the step just taken (`state.f_tilde`):
     /// $(\tilde F - C_e\dot e - K_e e)/M_e$, or $-K_e(\tilde F - K_e e)/C_e^2$ on a first-order
-    /// axis (as planar, [`crate::admittance::Admittance::e_ddot`]). A component that overflows
+    /// axis (as planar, [`crate::reference::planar::admittance::Admittance::e_ddot`]). A component that overflows
     /// is returned as 0.
     #[inline]
     pub fn e_ddot(&self, state: &AdmittanceSe3State) -> Vector6<f64> {
@@ -483,7 +483,7 @@ impl AdmittanceSe3 {
     }
 }
 
-/// A desired [`Se3Sample`] (from [`crate::reference::se3_path`]) as a [`PoseSample`]: pose,
+/// A desired [`Se3Sample`] (from [`crate::reference::spatial::path`]) as a [`PoseSample`]: pose,
 /// twist `[v; ω]` and twist rate `[v̇; ω̇]`, world axes (jerk and `ω̈` dropped).
 #[inline]
 pub fn pose_sample(s: &Se3Sample) -> PoseSample {
@@ -586,7 +586,7 @@ impl ArmsStep {
 /// `n = min` of the slices' lengths (reported); no allocation, never NaN for a finite
 /// `object_d` (a non-finite reference falls back to the desired tool pose, reported).
 ///
-/// [`se3::fit`]: crate::se3::fit()
+/// [`se3::fit`]: crate::reference::spatial::fit()
 #[allow(clippy::too_many_arguments)]
 pub fn step_arms(
     gens: &[AdmittanceSe3],
