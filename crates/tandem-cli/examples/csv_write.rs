@@ -5,7 +5,7 @@
 //! medians over the repeats.
 use std::time::Instant;
 
-use tandem::control::{ControllerParams, LawParams};
+use tandem::control::planar::{ControllerParams, LawParams};
 use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
 use tandem::sim::{Log, SimParams};
@@ -78,7 +78,9 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(5);
-    let cp = ControllerParams::paper(LawParams::Nn(tandem::adaptive::NnGains::tuned()));
+    let cp = ControllerParams::paper(LawParams::Nn(
+        tandem::control::law::adaptive::NnGains::tuned(),
+    ));
     let mut sim_times = Vec::new();
     let mut log = None;
     for _ in 0..repeats.min(3) {

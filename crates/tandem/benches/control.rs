@@ -2,13 +2,15 @@
 //! torques) for each law on the paper set-up, and the NN law's parts.
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
+use tandem::control::Scheme;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams, TickRecord};
+use tandem::control::rbf::{NnUpdate, Rbf, RbfNetwork};
+use tandem::drive::Measurements;
 use tandem::fixtures;
 use tandem::nalgebra::Vector3;
-use tandem::pd::PdGains;
 use tandem::plant::planar::Plant;
-use tandem::rbf::{NnUpdate, Rbf, RbfNetwork};
 use tandem::reference::planar::path::Path;
 
 fn bench(c: &mut Criterion) {

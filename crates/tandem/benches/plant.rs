@@ -23,15 +23,15 @@
 use criterion::{Criterion, criterion_group};
 use nalgebra::Vector3;
 use std::hint::black_box;
-use tandem::control::{Controller, ControllerParams, LawParams};
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams};
 use tandem::fixtures;
 use tandem::math::integrate::Rk4;
 use tandem::model::disturbance::Disturbance;
-use tandem::pd::PdGains;
 use tandem::plant::planar::{ConstrainedOde, Plant, PlantParams};
 use tandem::plant::{ClosedChain, Formulation};
 use tandem::reference::planar::path::Path;
-use tandem::sensors::SensorParams;
+use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Driver, SimParams, Simulation};
 
 #[path = "../tests/support/n_link.rs"]

@@ -9,12 +9,13 @@ use tandem::control::spatial::{
     SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains, SpatialTickRecord,
 };
+use tandem::drive::Measurements;
 use tandem::fixtures;
 use tandem::model::disturbance::SpatialDisturbance;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::reference::spatial::path::Se3Path;
-use tandem::sensors::SensorParams;
-use tandem::sim::{Formulation, Measurements, SimParams, Simulation, SpatialStart};
+use tandem::sim::sensors::SensorParams;
+use tandem::sim::{Formulation, SimParams, Simulation, SpatialStart};
 
 fn sim(
     franka: bool,

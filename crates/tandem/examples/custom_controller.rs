@@ -13,6 +13,7 @@
 //! `cargo run --release -p tandem --example custom_controller`
 
 use tandem::ModelError;
+use tandem::drive::{Drive, Measurements, Record};
 use tandem::dynamics::spatial;
 use tandem::dynamics::spatial::ChainData;
 use tandem::fixtures;
@@ -22,8 +23,8 @@ use tandem::nalgebra::{Vector2, Vector3, Vector6};
 use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::plant::{ClosedChain, SpatialStart};
-use tandem::sensors::SensorParams;
-use tandem::sim::{Drive, Log, Measurements, Outcome, Record, SimParams, Simulation};
+use tandem::sim::sensors::SensorParams;
+use tandem::sim::{Log, Outcome, SimParams, Simulation};
 
 /// The law: gains, the start, the load feed-forward and a gravity model `g(q) → τ` (no
 /// allocation per call).

@@ -7,10 +7,10 @@
 //! closed-chain derivative).
 use nalgebra::{Vector3, Vector6};
 use std::hint::black_box;
+use tandem::control::rbf::{NnUpdate, Rbf, RbfNetwork};
 use tandem::fixtures;
 use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::rbf::{NnUpdate, Rbf, RbfNetwork};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();

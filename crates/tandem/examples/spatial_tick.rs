@@ -18,8 +18,8 @@ use tandem::control::spatial::{
     SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains, SpatialTickRecord,
 };
+use tandem::drive::Measurements;
 use tandem::reference::spatial::path::Se3Path;
-use tandem::sim::Measurements;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();

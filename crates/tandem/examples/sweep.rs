@@ -4,14 +4,14 @@
 //!
 //! `cargo run --release -p tandem --example sweep -- [runs] [seconds] [threads]`
 
-use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams};
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams};
 use tandem::fixtures;
 use tandem::math::random::splitmix64;
 use tandem::model::disturbance::Disturbance;
 use tandem::reference::planar::path::Path;
-use tandem::report::{Summary, summarize};
-use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::report::metrics::{Summary, summarize};
+use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, SimParams, Simulation};
 
 fn unit(seed: u64, k: u64) -> f64 {

@@ -2,14 +2,15 @@
 
 use nalgebra::Vector3;
 
-use crate::control::{ControlWarning, Controller, ControllerParams};
+use crate::control::ControlWarning;
+use crate::control::planar::{Controller, ControllerParams};
 use crate::error::ModelError;
 use crate::model::disturbance::Disturbance;
 use crate::model::planar::arm::{ArmParams, Elbow, LinkParams};
 use crate::model::planar::object::ObjectParams;
 use crate::plant::planar::PlantParams;
 use crate::reference::planar::path::Path;
-use crate::sensors::SensorParams;
+use crate::sim::sensors::SensorParams;
 use crate::sim::{Driver, SimParams, Simulation};
 
 /// The paper's two-arm set-up (SPEC §4); see [`PlantParams::paper`].

@@ -61,19 +61,10 @@ pub mod plant;
 
 pub mod fixtures;
 
-pub mod faults;
-pub mod sensors;
-
-pub mod iblf;
-pub mod rbf;
-pub mod rbf_structured;
 pub mod reference;
-pub mod switching;
 
-pub mod adaptive;
 pub mod control;
-pub mod ctc;
-pub mod pd;
+pub mod drive;
 pub mod report;
 pub mod sim;
 

@@ -2,15 +2,17 @@
 //! allocate nothing once built (STYLE habit 5; Drake's LimitMalloc, Pinocchio's test_crba_malloc).
 
 use nalgebra::Vector3;
-use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
+use tandem::control::Scheme;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams, TickRecord};
+use tandem::drive::Measurements;
 use tandem::fixtures;
 use tandem::math::integrate::Rk4;
 use tandem::model::disturbance::Disturbance;
-use tandem::pd::PdGains;
 use tandem::plant::planar::{ConstrainedOde, Plant, ReducedOde};
 use tandem::reference::planar::path::Path;
-use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, SimParams, Simulation};
 
 #[path = "support/counting.rs"]
@@ -290,10 +292,10 @@ struct HoldPd {
     hold: Vec<f64>,
 }
 
-impl<P: tandem::plant::ClosedChain> tandem::sim::Drive<P> for HoldPd {
-    type Record = tandem::sim::NoRecord;
+impl<P: tandem::plant::ClosedChain> tandem::drive::Drive<P> for HoldPd {
+    type Record = tandem::drive::NoRecord;
     fn new_record(&self) -> Self::Record {
-        tandem::sim::NoRecord
+        tandem::drive::NoRecord
     }
     fn start(&mut self, _t0: f64, meas: &Measurements<'_>) {
         self.q0.copy_from_slice(meas.q);
@@ -307,8 +309,8 @@ impl<P: tandem::plant::ClosedChain> tandem::sim::Drive<P> for HoldPd {
     }
 }
 
-fn faults() -> tandem::faults::Faults {
-    tandem::faults::Faults {
+fn faults() -> tandem::sim::faults::Faults {
+    tandem::sim::faults::Faults {
         dropout_rate: 5.0,
         dropout_length: 0.01,
         force_limit: Some(30.0),
@@ -447,7 +449,7 @@ fn generic_loop_ticks_allocate_nothing() {
 #[test]
 fn fault_injected_driver_ticks_allocate_nothing() {
     let plant = fixtures::paper();
-    let build = |f: Option<tandem::faults::Faults>| {
+    let build = |f: Option<tandem::sim::faults::Faults>| {
         let (c, _) = Controller::new(
             &ControllerParams::paper(LawParams::Nn(NnGains::tuned())),
             &plant,
@@ -471,7 +473,7 @@ fn fault_injected_driver_ticks_allocate_nothing() {
             None => sim,
         }
     };
-    let faults = tandem::faults::Faults {
+    let faults = tandem::sim::faults::Faults {
         dropout_rate: 50.0,
         dropout_length: 0.005,
         force_limit: Some(0.5),
@@ -526,7 +528,7 @@ fn constrained_step_allocations(plant: &Plant, y: &mut [f64]) -> usize {
 /// `f32` store's load and widening, and the norms refresh), ticks without allocating.
 #[test]
 fn rbf_ticks_allocate_nothing_with_every_kernel() {
-    use tandem::rbf::{BATCH_DEPTH, Kernel, NnUpdate, Rbf, RbfNetwork};
+    use tandem::control::rbf::{BATCH_DEPTH, Kernel, NnUpdate, Rbf, RbfNetwork};
     let rbf = Rbf::paper();
     let upd = NnUpdate::new(
         Vector3::new(1.6, 1.5, 0.5),

@@ -11,7 +11,7 @@ use tandem::fixtures;
 use tandem::model::disturbance::{Push, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
 use tandem::reference::spatial::path::Se3Path;
-use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Formulation, SimParams, Simulation, SpatialStart};
 
 #[path = "support/counting.rs"]

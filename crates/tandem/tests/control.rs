@@ -1,18 +1,18 @@
 //! Closed-loop behaviour of the control laws on the constrained plant (issue: control laws).
 
 use nalgebra::Vector3;
-use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams};
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::iblf;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams};
 use tandem::error::ModelError;
 use tandem::fixtures;
-use tandem::iblf;
 use tandem::model::disturbance::{Disturbance, Push};
-use tandem::pd::PdGains;
 use tandem::plant::planar::Plant;
 use tandem::reference::planar::admittance::AdmittanceParams;
 use tandem::reference::planar::path::Path;
-use tandem::report::{Summary, summarize};
-use tandem::sensors::SensorParams;
+use tandem::report::metrics::{Summary, summarize};
+use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Driver, Log, SimParams, Simulation};
 
 fn params(law: LawParams) -> ControllerParams {

@@ -3,7 +3,8 @@
 //! paper plant and the spatial dual-UR5 plant with the same `Drive` implementation.
 
 use nalgebra::Vector3;
-use tandem::control::ControlEvents;
+use tandem::drive::ControlEvents;
+use tandem::drive::{Drive, Measurements, Record};
 use tandem::dynamics::spatial;
 use tandem::dynamics::spatial::ChainData;
 use tandem::fixtures;
@@ -12,8 +13,8 @@ use tandem::model::planar::grasp::distribute_wrench;
 use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::plant::{ClosedChain, SpatialStart};
-use tandem::sensors::SensorParams;
-use tandem::sim::{Drive, Measurements, Record, SimParams, Simulation};
+use tandem::sim::sensors::SensorParams;
+use tandem::sim::{SimParams, Simulation};
 
 /// Joint PD around the start configuration `q0` with gravity compensation:
 /// `τ = g(q) + τ_load + K_p (q0 − q) − K_d q̇`, `g` the arms' own gravity torques at the measured
@@ -407,9 +408,9 @@ struct Probe {
 }
 
 impl<P: ClosedChain> Drive<P> for Probe {
-    type Record = tandem::sim::NoRecord;
+    type Record = tandem::drive::NoRecord;
     fn new_record(&self) -> Self::Record {
-        tandem::sim::NoRecord
+        tandem::drive::NoRecord
     }
     fn start(&mut self, _t0: f64, _meas: &Measurements<'_>) {}
     fn tick(&mut self, t: f64, meas: &Measurements<'_>, tau: &mut [f64], _: &mut Self::Record) {
@@ -431,7 +432,7 @@ impl<P: ClosedChain> Drive<P> for Probe {
 
 #[test]
 fn spatial_runs_check_health_and_inject_faults() {
-    use tandem::faults::Faults;
+    use tandem::sim::faults::Faults;
     use tandem::sim::{FaultKind, Formulation};
     let s = fixtures::dual_ur5();
     let plant = SpatialPlant::new(&s.params).unwrap();
@@ -528,8 +529,8 @@ fn spatial_runs_check_health_and_inject_faults() {
 #[test]
 fn tandems_controller_is_a_driver_itself() {
     // The planar controller as `D` directly and through the CLI's `Driver` enum: the same run.
-    use tandem::adaptive::NnGains;
-    use tandem::control::{Controller, ControllerParams, LawParams};
+    use tandem::control::law::adaptive::NnGains;
+    use tandem::control::planar::{Controller, ControllerParams, LawParams};
     use tandem::reference::planar::path::Path;
     use tandem::sim::Driver;
     let params = fixtures::paper();

@@ -1,12 +1,12 @@
 //! The paper's claims on the full 90 s scenario (SPEC §4), one test per claim. Long: run with
 //! `cargo test --release -- --ignored` (CI does).
 
-use tandem::adaptive::NnGains;
-use tandem::control::{ControllerParams, LawParams};
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{ControllerParams, LawParams};
 use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
-use tandem::pd::PdGains;
-use tandem::report::{Summary, summarize};
+use tandem::report::metrics::{Summary, summarize};
 use tandem::sim::{Log, SimParams};
 
 fn paper_run(law: LawParams) -> (Summary, Log) {

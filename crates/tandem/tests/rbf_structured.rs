@@ -1,22 +1,24 @@
-//! Structured RBF networks (`tandem::rbf_structured`, SPEC-spatial S5): each structure equals
+//! Structured RBF networks (`tandem::control::rbf::structured`, SPEC-spatial S5): each structure equals
 //! its naive sum, its update is the exact held-input solution of (44), a planar closed loop with
 //! the per-axis structure stays inside the bounds and tracks close to the full grid, ticks
 //! allocate nothing, and the default structure is the paper's full grid bit for bit.
 
 use nalgebra::{SVector, Vector2, Vector3};
-use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
+use tandem::control::Scheme;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams, TickRecord};
+use tandem::control::rbf::structured::{
+    NetworkStructure, StructuredNn, grid_norm2_at_zero, matched_theta, scrambled_halton,
+};
+use tandem::control::rbf::{KERNEL_ENV, Kernel, NnUpdate, Rbf, RbfNetwork};
+use tandem::drive::Measurements;
 use tandem::error::ModelError;
 use tandem::fixtures;
 use tandem::math::random::SplitMix64;
 use tandem::model::disturbance::Disturbance;
 use tandem::plant::planar::Plant;
-use tandem::rbf::{KERNEL_ENV, Kernel, NnUpdate, Rbf, RbfNetwork};
-use tandem::rbf_structured::{
-    NetworkStructure, StructuredNn, grid_norm2_at_zero, matched_theta, scrambled_halton,
-};
 use tandem::reference::planar::path::Path;
-use tandem::report::{Summary, summarize};
+use tandem::report::metrics::{Summary, summarize};
 use tandem::sim::SimParams;
 
 #[path = "support/counting.rs"]

@@ -1,13 +1,13 @@
 //! The simulation loop: determinism, replay, faults reported with time and state, bad settings.
 
-use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams};
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams};
 use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
-use tandem::pd::PdGains;
 use tandem::reference::planar::path::Path;
-use tandem::report::summarize;
-use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::report::metrics::summarize;
+use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, FaultKind, Formulation, Outcome, Replay, SimParams, Simulation};
 
 fn controller(law: LawParams, duration: f64) -> Driver {

@@ -7,8 +7,8 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use tandem::adaptive::NnGains;
-use tandem::control::{ControllerParams, LawParams};
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::planar::{ControllerParams, LawParams};
 use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
 use tandem::sim::SimParams;

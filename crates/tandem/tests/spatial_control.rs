@@ -3,7 +3,7 @@
 //! along the SPEC-spatial S6 path.
 
 use nalgebra::{SVector, Vector6};
-use tandem::iblf::{Iblf, v1};
+use tandem::control::law::iblf::{Iblf, v1};
 
 /// Six smooth signals: `x_r,j(t)` and `z_j(t)` as sums of sines well inside the bounds.
 struct Smooth6 {
@@ -98,7 +98,7 @@ use tandem::fixtures::{self, SpatialSetup};
 use tandem::model::disturbance::{Push, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
 use tandem::reference::spatial::path::Se3Path;
-use tandem::sensors::SensorParams;
+use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Formulation, Log, Outcome, SimParams, Simulation, SpatialStart};
 
 /// Which set-up.
@@ -778,7 +778,7 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
     assert!(e.contains("path") && e.contains("reach"), "{e}");
     // The paper's full grid on six outputs; the per-arm scheme with the NN law.
     let mut g = SpatialNnGains::dual_ur5();
-    g.network = tandem::rbf_structured::NetworkStructure::FullGrid;
+    g.network = tandem::control::rbf::structured::NetworkStructure::FullGrid;
     let mut p = base.clone();
     p.law = SpatialLaw::Nn(g);
     assert!(err_param(build(a, &p, s6())).contains("gains.network"));
@@ -817,7 +817,7 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
 
 #[test]
 fn non_finite_measurements_give_zero_torque_and_are_counted_never_nan() {
-    use tandem::sim::Measurements;
+    use tandem::drive::Measurements;
     let a = Arms::Ur5;
     let s = setup(a);
     let (mut c, _) = build(

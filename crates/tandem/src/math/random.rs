@@ -3,7 +3,7 @@
 //! * [`splitmix64`] and [`SplitMix64`]: a 64-bit hash and a tiny generator for per-run seeds,
 //!   fault streams and reproducible test states (Steele, Lea, Flood 2014).
 //! * The sensor noise streams (crate-internal): ChaCha8 streams keyed by a seed and a stream
-//!   number, 53-bit uniforms and Box–Muller normals ([`crate::sensors`] documents the
+//!   number, 53-bit uniforms and Box–Muller normals ([`crate::sim::sensors`] documents the
 //!   stream numbers and the sampling).
 
 use rand_chacha::ChaCha8Rng;

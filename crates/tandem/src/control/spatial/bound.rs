@@ -69,7 +69,7 @@
 use nalgebra::{DVector, Isometry3, Matrix6, MatrixXx6, Vector3, Vector6};
 
 use super::model::{ModelWorkspace, ObjectModel, jjt_sigma_min};
-use crate::adaptive::FuBound;
+use crate::control::law::adaptive::FuBound;
 use crate::control::spatial::chart::Chart;
 use crate::dynamics::spatial;
 use crate::error::{ModelError, non_negative, positive};

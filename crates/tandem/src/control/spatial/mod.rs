@@ -14,7 +14,7 @@
 //!    orientation); the object reference is the fit of the arms' reference tool poses, with exact
 //!    rates, and its chart coordinates give `x_r, ẋ_r, ẍ_r`. As planar, the reference of a tick
 //!    uses the generators' state *before* this tick's wrench is taken in (no direct feed-through).
-//! 4. **Law** on the chart: iBLF + adaptive RBF network with switching ([`crate::adaptive`] on six
+//! 4. **Law** on the chart: iBLF + adaptive RBF network with switching ([`crate::control::law::adaptive`] on six
 //!    outputs), PD, or computed torque; its chart-space force `τ_x` is the object wrench
 //!    `F = Eᵀ τ_x` (power-conjugate: `τ_x · ẋ_1 = F · V`).
 //! 5. **Distribution** ([`distribute`]): the minimum-norm share of `F` plus the commanded squeeze
@@ -41,9 +41,11 @@ pub use params::{
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 
-use crate::adaptive::{AdaptiveNn, FuBound, NnInternals};
+use crate::control::law::adaptive::{AdaptiveNn, FuBound, NnInternals};
 use crate::control::spatial::chart::Chart;
-use crate::control::{ControlEvents, ControlWarning, Scheme};
+use crate::control::{ControlWarning, Scheme};
+use crate::drive::ControlEvents;
+use crate::drive::{Drive, Measurements, Record};
 use crate::error::{ModelError, non_negative, positive};
 use crate::geometry::motion::stack;
 use crate::geometry::so3::log_quat;
@@ -55,7 +57,6 @@ use crate::reference::spatial::admittance::{
     AdmittanceSe3, AdmittanceSe3State, pose_sample, tool_from_object, wrench_tool_to_world,
 };
 use crate::reference::spatial::path::Se3Path;
-use crate::sim::{Drive, Measurements, Record};
 
 use distribute::{Distribution, PostureTask, joint_torques};
 use model::{ModelWorkspace, ObjectModel};

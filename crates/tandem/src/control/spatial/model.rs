@@ -495,7 +495,7 @@ pub(crate) fn jjt_sigma_min(d: &ChainData) -> f64 {
 
 /// The computed-torque baseline's nominal model (SPEC §3.5, spatial): every mass and inertia —
 /// each link body of each arm and the object — scaled by `1 + model_error` (centres of mass,
-/// kinematics, damping and gravity unchanged), as the planar [`crate::ctc::nominal_params`].
+/// kinematics, damping and gravity unchanged), as the planar [`crate::control::law::ctc::nominal_params`].
 pub fn nominal_params(truth: &SpatialPlantParams, model_error: f64) -> SpatialPlantParams {
     let s = 1.0 + model_error;
     let mut p = truth.clone();

@@ -5,7 +5,7 @@
 //!   evaluations. It is not the library's function, so the factors differ from the portable
 //!   reference's by an ulp or two; the AVX-512 kernels are within the determinism policy's
 //!   tolerance, not bit-identical, so this is theirs to take (tested against `f64::exp`).
-//! * [`kron`] forms the same products in the same order as `super::kron_into`, so its bits
+//! * [`kron`] forms the same products in the same order as `super::basis::kron_into`, so its bits
 //!   are the same: the tail inputs whose levels multiply to 8 (the last three of the paper's
 //!   grid) vary inside a register, and every register is its prefix product times those
 //!   inputs' lane patterns, multiplied in input order.
@@ -146,7 +146,7 @@ pub(super) unsafe fn gaussians(
 }
 
 /// `out = f_from ⊗ … ⊗ f_{to−1}` (the last input varying fastest), the same products in the
-/// same order as `super::kron_into`, hence the same bits; `tmp` as long as `out`.
+/// same order as `super::basis::kron_into`, hence the same bits; `tmp` as long as `out`.
 ///
 /// # Safety
 /// The CPU must support AVX-512F.
@@ -167,7 +167,7 @@ pub(super) unsafe fn kron(
         split -= 1;
     }
     if lanes != LANE || out.len() < LANE {
-        super::kron_into(f, offsets, from, to, out, tmp);
+        super::basis::kron_into(f, offsets, from, to, out, tmp);
         return;
     }
     let regs = out.len() / LANE;
@@ -186,7 +186,7 @@ pub(super) unsafe fn kron(
     // The prefix products (one a register), by `kron_into` itself in two eighths of `tmp`.
     let (prefix, rest) = tmp.split_at_mut(regs);
     if !prefix_in_register {
-        super::kron_into(f, offsets, from, split, prefix, &mut rest[..regs]);
+        super::basis::kron_into(f, offsets, from, split, prefix, &mut rest[..regs]);
     }
     let prefix = &*prefix;
     // SAFETY: AVX-512F (caller's contract); every access in bounds (`regs·8 = out.len()`).
@@ -420,7 +420,7 @@ mod tests {
             let (mut b, mut u) = (vec![0.0; len], vec![0.0; len]);
             // SAFETY: AVX-512F checked above.
             unsafe { kron(&f, &offsets, 0, levels.len(), &mut a, &mut t) };
-            crate::rbf::kron_into(&f, &offsets, 0, levels.len(), &mut b, &mut u);
+            crate::control::rbf::basis::kron_into(&f, &offsets, 0, levels.len(), &mut b, &mut u);
             assert!(
                 a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
                 "{levels:?}"

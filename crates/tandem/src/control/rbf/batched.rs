@@ -558,8 +558,8 @@ impl<const M: usize> Batch32<M> {
 
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
-    use super::super::avx512::store;
-    use super::super::reduce512;
+    use super::super::kernels::avx512::store;
+    use super::super::kernels::reduce512;
     use super::{Batch, DEPTH, LANE, MAX_OUTPUTS};
     use std::arch::x86_64::{
         __m512d, _mm512_fmadd_pd, _mm512_fnmadd_pd, _mm512_loadu_pd, _mm512_loadu_si512,

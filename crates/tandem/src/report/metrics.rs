@@ -2,7 +2,7 @@
 
 use serde::Serialize;
 
-use crate::control::ControlEvents;
+use crate::drive::ControlEvents;
 use crate::sim::{Fault, Log, Outcome};
 
 /// The summary of one run (`summary.json`).

@@ -8,7 +8,7 @@
 //!
 //! Errata applied (SPEC §3.4): the robust term and `K_r sgn(z2)` oppose `z2` (the paper adds
 //! them), and the NN term is gated by `Q` (Remark 4). `α`, `α̇` use `x_1` in `k² − x²` (SPEC §3.3,
-//! module [`crate::iblf`]).
+//! module [`crate::control::law::iblf`]).
 //!
 //! `f_jᵁ(Z) = a_j + b_j ‖x_2‖‖α‖ + c_j ‖α̇‖ + d_j ‖α‖` bounds `|F_j(Z)|` of (39),
 //! `F = 𝓖 + 𝓒α + 𝓜α̇ + F_d`; the constants come from the controller's model at set-up
@@ -17,12 +17,12 @@
 use nalgebra::{Matrix2, SVector, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::control::law::iblf::Iblf;
+use crate::control::law::switching::{SwitchParams, Switching};
+use crate::control::rbf::structured::{NetworkStructure, StructuredNn};
+use crate::control::rbf::{NnUpdate, Rbf, RbfNetwork, RbfWorkspace};
 use crate::error::{ModelError, positive};
-use crate::iblf::Iblf;
 use crate::plant::planar::Plant;
-use crate::rbf::{NnUpdate, Rbf, RbfNetwork, RbfWorkspace};
-use crate::rbf_structured::{NetworkStructure, StructuredNn};
-use crate::switching::{SwitchParams, Switching};
 
 /// Gains of the NN law (plain data). Presets: [`NnGains::paper`], [`NnGains::tuned`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -52,7 +52,7 @@ pub struct NnGains {
     pub d2: f64,
     /// Switching shape `ω ≥ 1`.
     pub omega: f64,
-    /// Structure of the RBF network ([`crate::rbf_structured`]): the paper's full grid on
+    /// Structure of the RBF network ([`crate::control::rbf::structured`]): the paper's full grid on
     /// `levels` (the default, bit for bit), one grid per output over a subset of `Z`, or
     /// quasi-random centres. Not serialised when it is the default.
     #[serde(default, skip_serializing_if = "NetworkStructure::is_full_grid")]

@@ -11,8 +11,8 @@
 //! own network, `F_j = W_j^{*\mathsf T} S_j(Z) + ε_j`, and uses nothing about `S_j` except that
 //! it is bounded; the basis may differ between outputs. So every structure below keeps the
 //! proof's form: one weight vector per output, the exact held-input solution of (44) per output
-//! ([`crate::rbf`]), and the scalar `Q = M(Z)` of (38) over the **full** `Z` (computed by the
-//! caller, [`crate::switching`]).
+//! ([`crate::control::rbf`]), and the scalar `Q = M(Z)` of (38) over the **full** `Z` (computed by the
+//! caller, [`crate::control::law::switching`]).
 //!
 //! | structure | basis of output `j` | nodes (planar, `n = 3`) | nodes (spatial, `n = 6`) |
 //! |---|---|---|---|
@@ -42,14 +42,14 @@
 //! arrays; for networks of six or more outputs (the spatial law) it also shares exponentials
 //! between the factors (five a node grid instead of eight, a few ulps from the direct form),
 //! for the planar ones it keeps the direct factors and the generic path's bits. Shared bases (full grid, quasi-random) go
-//! through [`RbfNetwork::tick_at`] (the fused AVX2 pass of [`crate::rbf`]).
+//! through [`RbfNetwork::tick_at`] (the fused AVX2 pass of [`crate::control::rbf`]).
 
 use nalgebra::{DMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
+use crate::control::rbf::{MAX_NODES, NnTick, NnUpdate, Rbf, RbfNetwork, RbfWorkspace};
 use crate::error::ModelError;
 use crate::math::random::splitmix64;
-use crate::rbf::{MAX_NODES, NnTick, NnUpdate, Rbf, RbfNetwork, RbfWorkspace};
 
 /// Largest number of quasi-random centres (a guard against typos; 2^20 × 8 outputs is 64 MB).
 pub const MAX_QUASI_RANDOM: usize = 1 << 20;
@@ -307,7 +307,7 @@ fn pair4_tick(
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 enum Kind<const M: usize> {
-    /// One basis for all outputs (full grid or quasi-random): the fused kernel of `crate::rbf`.
+    /// One basis for all outputs (full grid or quasi-random): the fused kernel of `crate::control::rbf`.
     Shared {
         rbf: Rbf,
         ws: RbfWorkspace,
