@@ -6,8 +6,8 @@
 use std::time::Instant;
 
 use tandem::control::planar::{ControllerParams, LawParams};
-use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
+use tandem::presets;
 use tandem::sim::{Log, SimParams};
 use tandem_cli::output::F64Text;
 use tandem_cli::runner::write_timeseries;
@@ -84,7 +84,7 @@ fn main() {
     let mut sim_times = Vec::new();
     let mut log = None;
     for _ in 0..repeats.min(3) {
-        let (sim, _) = fixtures::paper_simulation(&cp, SimParams::paper(), Disturbance::paper())
+        let (sim, _) = presets::paper_simulation(&cp, SimParams::paper(), Disturbance::paper())
             .expect("paper simulation");
         let t0 = Instant::now();
         let (out, _) = sim.run(|_| {});

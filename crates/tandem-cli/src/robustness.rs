@@ -479,7 +479,7 @@ pub fn slip_substeps(k: f64, k_rot: f64) -> usize {
     (w * 1e-3).ceil().max(1.0) as usize
 }
 
-/// One grasp-slip run: the S6 dual-UR5 closed loop (`fixtures::spatial_s6_simulation_with`),
+/// One grasp-slip run: the S6 dual-UR5 closed loop (`presets::spatial_s6_simulation_with`),
 /// the controller assuming welds, the true grasps compliant at `SLIP_LEVELS[level]` (`None`:
 /// welded), law `SLIP_LAWS[law]`, [`SLIP_DURATION`] s; classified as the planar runs with the
 /// true box pose against the path as the tracking error.
@@ -491,7 +491,7 @@ pub fn slip_run(level: Option<usize>, law: usize) -> Result<Cell> {
 /// step-convergence check).
 pub fn slip_run_with(level: Option<usize>, law: usize, factor: usize) -> Result<Cell> {
     let l = &SLIP_LAWS[law];
-    let setup = tandem::fixtures::dual_ur5();
+    let setup = tandem::presets::dual_ur5();
     let mut truth = setup.params.clone();
     let mut substeps = 1;
     if let Some(lv) = level {
@@ -509,7 +509,7 @@ pub fn slip_run_with(level: Option<usize>, law: usize, factor: usize) -> Result<
     if !l.admittance {
         p.admittance = None;
     }
-    let (sim, _warnings) = tandem::fixtures::spatial_s6_simulation_with(
+    let (sim, _warnings) = tandem::presets::spatial_s6_simulation_with(
         &truth,
         &setup,
         &p,
@@ -846,7 +846,7 @@ fn slip_section<'a>(md: &mut String, find: &FindSlip<'a>, halved: Option<&Cell>)
     let info = |lv: Option<usize>, law: usize| find(lv, law).and_then(|c| c.slip.clone());
     md.push_str(&format!(
         "## Grasp slip (spatial S6, dual UR5: compliant true grasps, stiffness N/m / N m/rad)\n\n\
-         The SPEC-spatial S6 closed loop (`fixtures::spatial_s6_simulation_with`: the S6 circle \
+         The SPEC-spatial S6 closed loop (`presets::spatial_s6_simulation_with`: the S6 circle \
          with its pitch oscillation, the S6 disturbance, a start 1 cm inside the circle, 1 kHz \
          control, the default 6-D admittance) with a controller that assumes welded grasps, on \
          a true plant whose grasps are 6-D spring–dampers (`plant::spatial::GraspModel::\

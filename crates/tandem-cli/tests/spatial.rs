@@ -206,13 +206,13 @@ fn presets_are_listed() {
 /// A finished run of the S6 set-up `setup` with `law` (for the laws no preset runs yet).
 fn finished(franka: bool, law: SpatialLaw, duration: f64) -> Finished {
     let s = if franka {
-        tandem::fixtures::dual_franka()
+        tandem::presets::dual_franka()
     } else {
-        tandem::fixtures::dual_ur5()
+        tandem::presets::dual_ur5()
     };
     let (name, label) = (law.name().to_string(), law.name().to_uppercase());
     let (sim, _) =
-        tandem::fixtures::spatial_s6_simulation(&s.params, &s, law, duration, 1e-3, 1e-6).unwrap();
+        tandem::presets::spatial_s6_simulation(&s.params, &s, law, duration, 1e-3, 1e-6).unwrap();
     let (outcome, sim) = sim.run(|_| {});
     let k = sim.driver().k_c();
     Finished {

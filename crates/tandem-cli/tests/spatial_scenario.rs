@@ -42,12 +42,12 @@ fn presets_are_the_library_s6_setups_exactly() {
     for (name, setup, gains) in [
         (
             "dual-ur5",
-            tandem::fixtures::dual_ur5(),
+            tandem::presets::dual_ur5(),
             SpatialNnGains::dual_ur5(),
         ),
         (
             "dual-franka",
-            tandem::fixtures::dual_franka(),
+            tandem::presets::dual_franka(),
             SpatialNnGains::dual_franka(),
         ),
     ] {
@@ -511,7 +511,7 @@ fn bad_input_names_the_field_and_the_urdf_line() {
 #[test]
 fn three_arms_from_a_file_with_the_designed_gains_meet_the_s5_claims() {
     // A third UR5-class arm at (0, −0.70, 0) facing +y holds the box's −y face (as
-    // `fixtures::three_ur5`); the NN gains are designed on the measured path inertia (no
+    // `presets::three_ur5`); the NN gains are designed on the measured path inertia (no
     // `design.inertia`): with the dual-UR5 inertia the rotational K2 would be too small (warned).
     let d = tmp("three");
     let third = "[[arms]]\nmodel = \"ur5\"\n\

@@ -4,8 +4,8 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::pd::PdGains;
 use tandem::control::planar::{ControllerParams, LawParams};
-use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
+use tandem::presets;
 use tandem::sim::{Formulation, SimParams, Simulation};
 
 fn build(law: LawParams, formulation: Formulation) -> Simulation {
@@ -13,7 +13,7 @@ fn build(law: LawParams, formulation: Formulation) -> Simulation {
         formulation,
         ..SimParams::paper()
     };
-    fixtures::paper_simulation(&ControllerParams::paper(law), sp, Disturbance::paper())
+    presets::paper_simulation(&ControllerParams::paper(law), sp, Disturbance::paper())
         .unwrap()
         .0
 }

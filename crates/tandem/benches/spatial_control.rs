@@ -10,9 +10,9 @@ use tandem::control::spatial::{
     SpatialPdGains, SpatialTickRecord,
 };
 use tandem::drive::Measurements;
-use tandem::fixtures;
 use tandem::model::disturbance::SpatialDisturbance;
 use tandem::plant::spatial::SpatialPlant;
+use tandem::presets;
 use tandem::reference::spatial::path::Se3Path;
 use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Formulation, SimParams, Simulation, SpatialStart};
@@ -23,9 +23,9 @@ fn sim(
     duration: f64,
 ) -> Simulation<SpatialPlant, SpatialController> {
     let s = if franka {
-        fixtures::dual_franka()
+        presets::dual_franka()
     } else {
-        fixtures::dual_ur5()
+        presets::dual_ur5()
     };
     let p = SpatialControllerParams::spec_s6(law);
     let path = Se3Path::spec_s6();
@@ -96,9 +96,9 @@ fn bench(c: &mut Criterion) {
             rec_w.push(s.last_readings().to_vec());
         }
         let s2 = if franka {
-            fixtures::dual_franka()
+            presets::dual_franka()
         } else {
-            fixtures::dual_ur5()
+            presets::dual_ur5()
         };
         let (mut controller, _) = SpatialController::new(
             &SpatialControllerParams::spec_s6(law2),

@@ -3,15 +3,15 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Vector6;
 use std::hint::black_box;
-use tandem::fixtures;
 use tandem::math::integrate::Rk4;
 use tandem::plant::spatial::SpatialPlant;
+use tandem::presets;
 
 fn bench(c: &mut Criterion) {
     for (name, s) in [
-        ("dual_ur5", fixtures::dual_ur5()),
-        ("dual_franka", fixtures::dual_franka()),
-        ("three_ur5", fixtures::three_ur5()),
+        ("dual_ur5", presets::dual_ur5()),
+        ("dual_franka", presets::dual_franka()),
+        ("three_ur5", presets::three_ur5()),
     ] {
         let plant = SpatialPlant::new(&s.params).unwrap();
         let twist = Vector6::new(0.02, -0.01, 0.03, 0.1, -0.05, 0.2);

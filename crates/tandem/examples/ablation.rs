@@ -13,8 +13,8 @@ use tandem::control::law::adaptive::NnGains;
 use tandem::control::planar::{ControllerParams, LawParams};
 use tandem::control::rbf::NnUpdate;
 use tandem::control::rbf::structured::{NetworkStructure, StructuredNn, matched_theta};
-use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
+use tandem::presets;
 use tandem::report::metrics::summarize;
 use tandem::sim::SimParams;
 
@@ -164,7 +164,7 @@ fn main() {
             duration,
             ..SimParams::paper()
         };
-        let (sim, _) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).expect("builds");
+        let (sim, _) = presets::paper_simulation(&cp, sp, Disturbance::paper()).expect("builds");
         let (out, _) = sim.run(|_| {});
         let s2 = summarize(&out, "nn", c.name, [0.35; 3], 2.0, duration);
         let s5 = summarize(&out, "nn", c.name, [0.35; 3], 5.0, duration);

@@ -16,13 +16,13 @@ use tandem::ModelError;
 use tandem::drive::{Drive, Measurements, Record};
 use tandem::dynamics::spatial;
 use tandem::dynamics::spatial::ChainData;
-use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
 use tandem::model::planar::grasp::distribute_wrench;
 use tandem::nalgebra::{Vector2, Vector3, Vector6};
 use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::plant::{ClosedChain, SpatialStart};
+use tandem::presets;
 use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Log, Outcome, SimParams, Simulation};
 
@@ -210,13 +210,13 @@ fn main() -> Result<(), ModelError> {
     let ideal = SensorParams::default();
 
     // (a) The planar paper plant, under the paper's disturbance.
-    let params = fixtures::paper();
+    let params = presets::paper();
     let plant = Plant::new(&params)?;
-    let y0 = plant.initial_state(fixtures::paper_start(), Vector3::zeros(), None)?;
+    let y0 = plant.initial_state(presets::paper_start(), Vector3::zeros(), None)?;
     let law = planar_law(&plant, &y0);
     let sim = Simulation::new(&params, &ideal, law, Disturbance::paper(), run(1e-3), None)?;
     let (out, _) = sim.run(|_| {});
-    let x0 = fixtures::paper_start();
+    let x0 = presets::paper_start();
     report(
         "planar",
         &out,
@@ -224,7 +224,7 @@ fn main() -> Result<(), ModelError> {
     );
 
     // (b) The spatial dual UR5, under a sinusoidal push.
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let plant = SpatialPlant::new(&s.params)?;
     let y0 = plant.initial_state(&s.x_wo, &Vector6::zeros(), &s.q_guess)?;
     let law = spatial_law(&plant, &y0);

@@ -5,7 +5,7 @@ use tandem::control::law::pd::PdGains;
 use tandem::control::planar::{ControllerParams, LawParams};
 use tandem::model::disturbance::Disturbance;
 use tandem::sim::SimParams;
-use tandem::{fixtures, report};
+use tandem::{presets, report};
 
 fn main() {
     let which = std::env::args().nth(1).unwrap_or("nn".into());
@@ -35,7 +35,7 @@ fn main() {
         duration: dur,
         ..SimParams::paper()
     };
-    let (sim, w) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
+    let (sim, w) = presets::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
     for w in w {
         println!("warning: {w}");
     }

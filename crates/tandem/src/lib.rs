@@ -59,14 +59,14 @@ pub mod model;
 
 pub mod plant;
 
-pub mod fixtures;
-
 pub mod reference;
 
 pub mod control;
 pub mod drive;
 pub mod report;
 pub mod sim;
+
+pub mod presets;
 
 pub use error::ModelError;
 pub use nalgebra;

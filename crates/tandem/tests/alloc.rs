@@ -7,10 +7,10 @@ use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::pd::PdGains;
 use tandem::control::planar::{Controller, ControllerParams, LawParams, TickRecord};
 use tandem::drive::Measurements;
-use tandem::fixtures;
 use tandem::math::integrate::Rk4;
 use tandem::model::disturbance::Disturbance;
 use tandem::plant::planar::{ConstrainedOde, Plant, ReducedOde};
+use tandem::presets;
 use tandem::reference::planar::path::Path;
 use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, SimParams, Simulation};
@@ -45,11 +45,11 @@ fn params(law: LawParams) -> ControllerParams {
 #[test]
 fn n_link_constrained_steps_allocate_nothing() {
     // The fixed-size kernel of two 3-link arms (and the general path on the same plant).
-    let (p, guess) = fixtures::redundant_pair();
+    let (p, guess) = presets::redundant_pair();
     let plant = Plant::new(&p).unwrap();
     let mut y = plant
         .initial_state(
-            fixtures::paper_start(),
+            presets::paper_start(),
             Vector3::new(0.01, 0.0, 0.1),
             Some(&guess),
         )
@@ -74,10 +74,10 @@ fn n_link_constrained_steps_allocate_nothing() {
 
 #[test]
 fn plant_steps_allocate_nothing() {
-    for p in [fixtures::paper(), fixtures::three_arms()] {
+    for p in [presets::paper(), presets::three_arms()] {
         let plant = Plant::new(&p).unwrap();
         let mut y = plant
-            .initial_state(fixtures::paper_start(), Vector3::new(0.01, 0.0, 0.1), None)
+            .initial_state(presets::paper_start(), Vector3::new(0.01, 0.0, 0.1), None)
             .unwrap();
         let mut yr = [0.19, 0.0, 0.0, 0.01, 0.0, 0.1];
         let mut rkr = Rk4::new(6);
@@ -102,9 +102,9 @@ fn plant_steps_allocate_nothing() {
 
 #[test]
 fn controller_ticks_allocate_nothing() {
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let y = plant
-        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .initial_state(presets::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let (q, _, qd, _) = plant.split(&y);
     let forces = [1.0, -5.0, -1.0, -5.0];
@@ -115,7 +115,7 @@ fn controller_ticks_allocate_nothing() {
     ] {
         let name = law.name();
         let (mut c, _) =
-            Controller::new(&params(law), &fixtures::paper(), Path::paper(), 10.0).unwrap();
+            Controller::new(&params(law), &presets::paper(), Path::paper(), 10.0).unwrap();
         let meas = Measurements {
             q,
             qd,
@@ -138,7 +138,7 @@ fn controller_ticks_allocate_nothing() {
                 _ => LawParams::Pd(PdGains::paper()),
             });
             p.scheme = tandem::control::Scheme::PerArm;
-            let (mut c, _) = Controller::new(&p, &fixtures::paper(), Path::paper(), 10.0).unwrap();
+            let (mut c, _) = Controller::new(&p, &presets::paper(), Path::paper(), 10.0).unwrap();
             c.start(0.0, &meas);
             c.tick(0.0, &meas, &mut tau, &mut rec);
             let n = count(|| {
@@ -162,7 +162,7 @@ fn n_link_controller_ticks_and_plant_steps_allocate_nothing() {
         let plant = Plant::new(&p).unwrap();
         let mut y = plant
             .initial_state(
-                fixtures::paper_start(),
+                presets::paper_start(),
                 Vector3::new(0.01, 0.0, 0.1),
                 Some(&guess),
             )
@@ -200,7 +200,7 @@ fn n_link_controller_ticks_and_plant_steps_allocate_nothing() {
 
 #[test]
 fn simulation_ticks_allocate_nothing() {
-    let plant = fixtures::paper();
+    let plant = presets::paper();
     let (c, _) = Controller::new(
         &params(LawParams::Nn(NnGains::tuned())),
         &plant,
@@ -246,9 +246,9 @@ fn simulation_ticks_allocate_nothing() {
 fn spatial_plant_steps_allocate_nothing() {
     use tandem::plant::spatial::{GraspModel, SpatialPlant};
     for s in [
-        fixtures::dual_ur5(),
-        fixtures::dual_franka(),
-        fixtures::three_ur5(),
+        presets::dual_ur5(),
+        presets::dual_franka(),
+        presets::three_ur5(),
     ] {
         for compliant in [false, true] {
             let mut p = s.params.clone();
@@ -327,7 +327,7 @@ fn generic_loop_ticks_allocate_nothing() {
     use tandem::plant::SpatialStart;
     use tandem::plant::spatial::SpatialPlant;
     use tandem::sim::Replay;
-    let plant = fixtures::paper();
+    let plant = presets::paper();
     let sensors = SensorParams {
         seed: 7,
         ..Default::default()
@@ -386,7 +386,7 @@ fn generic_loop_ticks_allocate_nothing() {
         assert_eq!(n, 0, "replay ticks allocated {n} times (linear: {linear})");
     }
     // The spatial plant with a user driver, with faults, and a spatial replay.
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let sp_plant = SpatialPlant::new(&s.params).unwrap();
     let y0 = sp_plant
         .initial_state(&s.x_wo, &nalgebra::Vector6::zeros(), &s.q_guess)
@@ -448,7 +448,7 @@ fn generic_loop_ticks_allocate_nothing() {
 /// differs from the same ticks without them).
 #[test]
 fn fault_injected_driver_ticks_allocate_nothing() {
-    let plant = fixtures::paper();
+    let plant = presets::paper();
     let build = |f: Option<tandem::sim::faults::Faults>| {
         let (c, _) = Controller::new(
             &ControllerParams::paper(LawParams::Nn(NnGains::tuned())),

@@ -7,12 +7,12 @@ use tandem::drive::ControlEvents;
 use tandem::drive::{Drive, Measurements, Record};
 use tandem::dynamics::spatial;
 use tandem::dynamics::spatial::ChainData;
-use tandem::fixtures;
 use tandem::model::disturbance::Disturbance;
 use tandem::model::planar::grasp::distribute_wrench;
 use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::plant::{ClosedChain, SpatialStart};
+use tandem::presets;
 use tandem::sim::sensors::SensorParams;
 use tandem::sim::{SimParams, Simulation};
 
@@ -182,10 +182,10 @@ fn col<'a>(log: &'a tandem::sim::Log, name: &str) -> &'a [f64] {
 
 #[test]
 fn a_user_joint_pd_holds_the_planar_paper_plant() {
-    let params = fixtures::paper();
+    let params = presets::paper();
     let plant = Plant::new(&params).unwrap();
     let y0 = plant
-        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .initial_state(presets::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let pd = planar_pd(&plant, &y0);
     // The paper's disturbance F_d = (0.02 sin t, 0.02 cos t, 0) N works against the PD.
@@ -217,7 +217,7 @@ fn a_user_joint_pd_holds_the_planar_paper_plant() {
     );
     assert_eq!(names[names.len() - 2..], ["pd_norm [N m]", "drift [m]"]);
     assert!(log.get("F_meas2.y").is_some() && log.get("q4").is_some());
-    let x0 = fixtures::paper_start();
+    let x0 = presets::paper_start();
     let dev = (0..log.len())
         .map(|k| {
             let x = col(log, "x_o.x")[k] - x0.x;
@@ -265,7 +265,7 @@ fn push() -> tandem::model::disturbance::SpatialDisturbance {
 
 #[test]
 fn the_same_user_law_holds_the_spatial_dual_ur5() {
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let plant = SpatialPlant::new(&s.params).unwrap();
     let y0 = plant
         .initial_state(&s.x_wo, &nalgebra::Vector6::zeros(), &s.q_guess)
@@ -434,7 +434,7 @@ impl<P: ClosedChain> Drive<P> for Probe {
 fn spatial_runs_check_health_and_inject_faults() {
     use tandem::sim::faults::Faults;
     use tandem::sim::{FaultKind, Formulation};
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let plant = SpatialPlant::new(&s.params).unwrap();
     let y0 = plant
         .initial_state(&s.x_wo, &nalgebra::Vector6::zeros(), &s.q_guess)
@@ -533,7 +533,7 @@ fn tandems_controller_is_a_driver_itself() {
     use tandem::control::planar::{Controller, ControllerParams, LawParams};
     use tandem::reference::planar::path::Path;
     use tandem::sim::Driver;
-    let params = fixtures::paper();
+    let params = presets::paper();
     let ctl = || {
         Controller::new(
             &ControllerParams::paper(LawParams::Nn(NnGains::tuned())),

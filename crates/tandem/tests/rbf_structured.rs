@@ -13,10 +13,10 @@ use tandem::control::rbf::structured::{
 use tandem::control::rbf::{KERNEL_ENV, Kernel, NnUpdate, Rbf, RbfNetwork};
 use tandem::drive::Measurements;
 use tandem::error::ModelError;
-use tandem::fixtures;
 use tandem::math::random::SplitMix64;
 use tandem::model::disturbance::Disturbance;
 use tandem::plant::planar::Plant;
+use tandem::presets;
 use tandem::reference::planar::path::Path;
 use tandem::report::metrics::{Summary, summarize};
 use tandem::sim::SimParams;
@@ -250,7 +250,7 @@ fn short_run(g: NnGains) -> u64 {
         log_period: 1e-3,
         ..SimParams::paper()
     };
-    let (sim, _) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
+    let (sim, _) = presets::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
     let (out, _) = sim.run(|_| {});
     log_hash(&out.log)
 }
@@ -358,7 +358,7 @@ fn validation_names_the_field() {
     let mut g = NnGains::tuned();
     g.network = NetworkStructure::QuasiRandom { n: 0, seed: 0 };
     let cp = ControllerParams::paper(LawParams::Nn(g));
-    let Err(e) = Controller::new(&cp, &fixtures::paper(), Path::paper(), 1.0) else {
+    let Err(e) = Controller::new(&cp, &presets::paper(), Path::paper(), 1.0) else {
         panic!("accepted n = 0");
     };
     assert!(matches!(&e, ModelError::Invalid { param, .. } if param == "gains.network.n"));
@@ -403,7 +403,7 @@ fn closed_loop(g: NnGains, duration: f64) -> Summary {
         duration,
         ..SimParams::paper()
     };
-    let (sim, _) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
+    let (sim, _) = presets::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
     let (out, _) = sim.run(|_| {});
     let s = summarize(&out, "nn", "", [0.35; 3], 2.0, duration);
     assert!(s.completed, "{:?}", s.fault);
@@ -455,7 +455,7 @@ fn per_arm_scheme_runs_with_a_per_axis_network() {
             duration: 5.0,
             ..SimParams::paper()
         };
-        let (sim, _) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
+        let (sim, _) = presets::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
         let (out, _) = sim.run(|_| {});
         let s = summarize(&out, "nn", "", [0.35; 3], 2.0, 5.0);
         assert!(s.completed, "{:?}", s.fault);
@@ -505,9 +505,9 @@ fn ticks_allocate_nothing() {
         assert_eq!(n, 0, "{} ticks allocated {n} times", s.name());
     }
     // The controller with a structured network.
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let y = plant
-        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .initial_state(presets::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let (q, _, qd, _) = plant.split(&y);
     let forces = [1.0, -5.0, -1.0, -5.0];
@@ -516,7 +516,7 @@ fn ticks_allocate_nothing() {
         NetworkStructure::QuasiRandom { n: 256, seed: 1 },
     ] {
         let cp = ControllerParams::paper(LawParams::Nn(matched(s.clone(), &LEVELS)));
-        let (mut c, _) = Controller::new(&cp, &fixtures::paper(), Path::paper(), 1.0).unwrap();
+        let (mut c, _) = Controller::new(&cp, &presets::paper(), Path::paper(), 1.0).unwrap();
         let meas = Measurements {
             q,
             qd,

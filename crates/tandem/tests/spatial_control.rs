@@ -94,9 +94,10 @@ use tandem::control::spatial::{
     SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains,
 };
-use tandem::fixtures::{self, SpatialSetup};
 use tandem::model::disturbance::{Push, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
+use tandem::presets;
+use tandem::presets::SpatialSetup;
 use tandem::reference::spatial::path::Se3Path;
 use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Formulation, Log, Outcome, SimParams, Simulation, SpatialStart};
@@ -110,8 +111,8 @@ enum Arms {
 
 fn setup(a: Arms) -> SpatialSetup {
     match a {
-        Arms::Ur5 => fixtures::dual_ur5(),
-        Arms::Franka => fixtures::dual_franka(),
+        Arms::Ur5 => presets::dual_ur5(),
+        Arms::Franka => presets::dual_franka(),
     }
 }
 

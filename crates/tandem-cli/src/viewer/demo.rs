@@ -10,8 +10,8 @@
 
 use anyhow::{Context, Result};
 use nalgebra::{Isometry3, Translation3};
-use tandem::fixtures::SpatialSetup;
 use tandem::plant::spatial::SpatialPlant;
+use tandem::presets::SpatialSetup;
 use tandem::reference::spatial::path::Se3Path;
 
 use super::{ScalarTrack, Scene3d, scene_from_states};

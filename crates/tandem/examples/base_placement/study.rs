@@ -325,11 +325,11 @@ pub fn follow_lap(
     lap
 }
 
-/// The S6 UR5 set-up ([`tandem::fixtures::dual_ur5`]) with the bases at `(∓d/2, 0, 0)`.
+/// The S6 UR5 set-up ([`tandem::presets::dual_ur5`]) with the bases at `(∓d/2, 0, 0)`.
 pub fn dual_ur5_at(d: f64) -> SpatialPlantParams {
-    let mut p = tandem::fixtures::dual_ur5().params;
-    p.arms[0] = tandem::fixtures::ur5_arm(-d / 2.0, 0.0, 0.0);
-    p.arms[1] = tandem::fixtures::ur5_arm(d / 2.0, 0.0, std::f64::consts::PI);
+    let mut p = tandem::presets::dual_ur5().params;
+    p.arms[0] = tandem::presets::ur5_arm(-d / 2.0, 0.0, 0.0);
+    p.arms[1] = tandem::presets::ur5_arm(d / 2.0, 0.0, std::f64::consts::PI);
     p
 }
 
@@ -360,7 +360,7 @@ pub fn ur5_sweep(ds: &[f64], dt: f64) -> Vec<Ur5Row> {
         .collect();
     let mut rows = Vec::new();
     for side in [up, down] {
-        let mut guess = tandem::fixtures::dual_ur5().q_guess;
+        let mut guess = tandem::presets::dual_ur5().q_guess;
         for d in side {
             let params = dual_ur5_at(d);
             let plant = SpatialPlant::new(&params).expect("valid set-up");
@@ -411,7 +411,7 @@ fn empty_lap() -> Lap {
 /// How the Franka pair holds the box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum FrankaGrasp {
-    /// The preset's: on the top face at `(∓0.12, 0, 0.1)`, tool z down (`fixtures::dual_franka`).
+    /// The preset's: on the top face at `(∓0.12, 0, 0.1)`, tool z down (`presets::dual_franka`).
     Top,
     /// The UR5's end-face grasps at `(∓0.2, 0, 0)` (tool z into the box), turned about the tool
     /// z axis by `roll` rad (0 = tool x down, as the UR5).
@@ -420,11 +420,11 @@ pub enum FrankaGrasp {
 
 /// The Franka pair with bases at `(∓d/2, 0, 0)` and the given grasp.
 pub fn dual_franka_at(d: f64, grasp: FrankaGrasp) -> SpatialPlantParams {
-    let mut p = tandem::fixtures::dual_franka().params;
-    p.arms[0] = tandem::fixtures::franka_arm(-d / 2.0, 0.0, 0.0);
-    p.arms[1] = tandem::fixtures::franka_arm(d / 2.0, 0.0, std::f64::consts::PI);
+    let mut p = tandem::presets::dual_franka().params;
+    p.arms[0] = tandem::presets::franka_arm(-d / 2.0, 0.0, 0.0);
+    p.arms[1] = tandem::presets::franka_arm(d / 2.0, 0.0, std::f64::consts::PI);
     if let FrankaGrasp::End { roll } = grasp {
-        let ur = tandem::fixtures::dual_ur5().params.grasps;
+        let ur = tandem::presets::dual_ur5().params.grasps;
         let turn = Isometry3::rotation(Vector3::z() * roll);
         p.grasps = vec![ur[0] * turn, ur[1] * turn];
     }

@@ -993,9 +993,9 @@ impl Drive<Plant> for Controller {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fixtures;
     use crate::math::random::SplitMix64;
     use crate::model::planar::arm::{ArmParams, Elbow, LinkParams};
+    use crate::presets;
 
     /// Two 4-link arms (0.15 m links) on the paper's box, and an IK guess at the start pose.
     fn four_link_pair() -> (PlantParams, Vec<f64>) {
@@ -1028,7 +1028,7 @@ mod tests {
         // limit so the clamp runs (it clips at least one torque in 25–85 % of the ticks); 200
         // ticks at joint angles within ±2e-4 rad of the start pose, rates within ±0.01 rad/s
         // and grasp forces within ±3 N, drawn afresh each tick.
-        let (p3, g3) = fixtures::redundant_pair();
+        let (p3, g3) = presets::redundant_pair();
         let (p4, g4) = four_link_pair();
         for (name, model, guess, links) in [("3-link", p3, g3, 3), ("4-link", p4, g4, 4)] {
             for scheme in [Scheme::Object, Scheme::PerArm] {
@@ -1048,7 +1048,7 @@ mod tests {
                 }
                 let plant = Plant::new(&model).unwrap();
                 let y = plant
-                    .initial_state(fixtures::paper_start(), Vector3::zeros(), Some(&guess))
+                    .initial_state(presets::paper_start(), Vector3::zeros(), Some(&guess))
                     .unwrap();
                 let nq = plant.n_q();
                 let mut rng = SplitMix64(7);

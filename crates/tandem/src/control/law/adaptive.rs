@@ -615,7 +615,7 @@ mod tests {
         // The norms are carried by a recurrence between exact refreshes; after 2500 ticks of
         // varied inputs they must equal ‖Ŵ_j‖ computed from the weights (relative 1e-9: the
         // recurrence adds a few ulps per tick, refreshed every 1000 ticks).
-        let plant = Plant::new(&crate::fixtures::paper()).unwrap();
+        let plant = Plant::new(&crate::presets::paper()).unwrap();
         let k_c = Vector3::repeat(0.35);
         let fu = FuBound::from_model(&plant, k_c, [0.02, 0.02, 0.0], 1.5).unwrap();
         let mut nn = AdaptiveNn::<3>::new(&NnGains::paper(), k_c, fu, 1e-3).unwrap();
