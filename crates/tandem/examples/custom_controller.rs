@@ -129,7 +129,7 @@ fn planar_law(plant: &Plant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &mut [f64
     }
 }
 
-/// Spatial: arm gravity from `spatial::gravity`; the object's share is the plant's holding
+/// Spatial: arm gravity from `dynamics::spatial::gravity`; the object's share is the plant's holding
 /// torques at the start minus the arms' own gravity there.
 fn spatial_law(
     plant: &SpatialPlant,

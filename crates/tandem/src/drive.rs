@@ -67,7 +67,7 @@ pub trait Record {
     fn non_finite(&self) -> Option<String>;
 }
 
-/// A record with no columns (the torque [`Replay`], or a driver that logs nothing).
+/// A record with no columns (the torque [`Replay`](crate::sim::Replay), or a driver that logs nothing).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct NoRecord;
 
@@ -114,7 +114,7 @@ pub trait Drive<P: ClosedChain> {
     }
     /// Fill record columns that show the true state of the tick (called right after
     /// [`tick`](Self::tick); default: nothing). For drivers that estimate nothing: the planar
-    /// [`Driver::Replay`] logs the true pose as `x_hat`. Never feeds the torques.
+    /// [`Driver::Replay`](crate::sim::Driver::Replay) logs the true pose as `x_hat`. Never feeds the torques.
     fn record_truth(&self, plant: &P, y: &[f64], rec: &mut Self::Record) {
         let _ = (plant, y, rec);
     }

@@ -1,7 +1,7 @@
 //! The per-arm 6-D admittance generator (`tandem::reference::spatial::admittance`, SPEC-spatial S5
 //! "Admittance", SPEC §3.1): exact per-axis responses, static compliance and its sign, the
 //! rigid transport and the offset composition against finite differences, consistency with
-//! `se3::fit`, no allocation, never NaN.
+//! `reference::spatial::fit`, no allocation, never NaN.
 
 use proptest::prelude::*;
 use tandem::ModelError;
@@ -357,7 +357,7 @@ fn static_offset_push_and_twist_yield_and_return() {
 
 /// Two arms (S6 grasps) hold the object at rest; an external push `P` on the object at its
 /// centre is resisted by the arms, which then read `Σ G_iᵀ F̃_i = P` (SPEC-spatial S3), shared
-/// at minimum norm. Through `se3::fit` the object reference yields in the push direction: a 2 N
+/// at minimum norm. Through `reference::spatial::fit` the object reference yields in the push direction: a 2 N
 /// push along x moves it by `P/(2K_e) = 1` mm (SPEC §3.1's two arms in parallel); a 0.5 N m twist
 /// about z turns it about +z by `τ_i/K_rot` (the torque part of each arm's share) without
 /// moving it.

@@ -147,7 +147,7 @@ fn planar_pd(plant: &Plant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &mut [f64]
     }
 }
 
-/// The spatial law: arm gravity from `spatial::gravity`; the object's share is the plant's
+/// The spatial law: arm gravity from `dynamics::spatial::gravity`; the object's share is the plant's
 /// holding torques at the start minus the arms' own gravity there.
 fn spatial_pd(plant: &SpatialPlant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &mut [f64]) + use<>> {
     let n = plant.n_q();

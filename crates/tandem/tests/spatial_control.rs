@@ -874,7 +874,7 @@ fn non_finite_measurements_give_zero_torque_and_are_counted_never_nan() {
 #[test]
 fn the_path_chart_rates_and_the_controller_chart_agree() {
     // Two implementations of the S5 chart's rates: `se3_path::chart_rates` (the desired path's,
-    // up to the third derivative, by the left-Jacobian series) and `se3::Chart::sample` (what the
+    // up to the third derivative, by the left-Jacobian series) and `control::spatial::chart::Chart::sample` (what the
     // controller uses on every pose sample). On a circle whose orientation swings by 0.8 rad
     // about a tilted axis, with a chart about an arbitrary R_ref (so φ and ω are not parallel),
     // x_1, ẋ_1 and ẍ_1 agree to round-off.

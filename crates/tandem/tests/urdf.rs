@@ -1,4 +1,4 @@
-//! URDF loader (`model::urdf`, SPEC-spatial S2): typed errors with lines, fixed-joint merging,
+//! URDF loader (`model::spatial::urdf`, SPEC-spatial S2): typed errors with lines, fixed-joint merging,
 //! conventions, and the embedded models.
 
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};

@@ -1,7 +1,7 @@
 //! Fixed-size evaluation paths of the planar arm for the constrained plant's hot path: the
 //! [`FixedArm`] trait (an arm's [`ArmBlock`] on the stack), implemented by
 //! [`TwoLinkArm`](super::TwoLinkArm) (closed forms) and [`FixedLinkArm`] (the general algorithm
-//! for `N = 3, 4` in fixed-size types); the two-arm SSE2 code is in [`pair`](super::pair).
+//! for `N = 3, 4` in fixed-size types); the two-arm SSE2 code is in `pair.rs`.
 
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2};
 
@@ -34,19 +34,19 @@ pub struct ArmBlock<const N: usize> {
 /// Each kernel says how it fills the fields.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ArmSolve<const N: usize> {
-    /// [`TwoLinkArm`] and 3-link [`FixedLinkArm`]: `M⁻¹ = adj M / det M`; 4-link: the
+    /// [`TwoLinkArm`](super::TwoLinkArm) and 3-link [`FixedLinkArm`]: `M⁻¹ = adj M / det M`; 4-link: the
     /// Cholesky factor `L` of `M = L Lᵀ` (lower triangle).
     pub m: SMatrix<f64, N, N>,
     /// 4-link [`FixedLinkArm`]: `1 / L_ii` (zeros otherwise).
     pub inv_diag: SVector<f64, N>,
-    /// [`TwoLinkArm`]: `C q̇`; [`FixedLinkArm`]: the whole bias `C q̇ + G`, N m.
+    /// [`TwoLinkArm`](super::TwoLinkArm): `C q̇`; [`FixedLinkArm`]: the whole bias `C q̇ + G`, N m.
     pub bias: SVector<f64, N>,
-    /// [`TwoLinkArm`]: `G` (zeros for [`FixedLinkArm`]), N m.
+    /// [`TwoLinkArm`](super::TwoLinkArm): `G` (zeros for [`FixedLinkArm`]), N m.
     pub g: SVector<f64, N>,
 }
 
 /// An arm with a fixed link count `N` whose constrained-plant block ([`ArmBlock`]) is computed
-/// entirely on the stack: [`TwoLinkArm`] (`N = 2`, SPEC §2.1 closed forms) and
+/// entirely on the stack: [`TwoLinkArm`](super::TwoLinkArm) (`N = 2`, SPEC §2.1 closed forms) and
 /// [`FixedLinkArm`] (`N = 3, 4`, the general algorithm in fixed-size types).
 ///
 /// The block splits into a state part ([`state_block`](Self::state_block): everything but
@@ -86,13 +86,13 @@ pub trait FixedArm<const N: usize>: Copy {
 /// The general n-link algorithms of this module (kinematics, composite-rigid-body `M`,
 /// Christoffel `C`, `G`, Cholesky of `M`) for a fixed link count `N`: arrays and `SMatrix`
 /// values on the stack, loops of constant trip count (unrolled, no bounds checks): the sums
-/// of [`Arm::kinematics`] and `M` of [`Arm::general_dynamics`] in the same order (`M` filled
+/// of [`Arm::kinematics`](super::Arm::kinematics) and `M` of [`Arm::general_dynamics`](super::Arm::general_dynamics) in the same order (`M` filled
 /// as a symmetric matrix from the lever arms `c_k − P_i`), the bias `C q̇ + G` in O(n²)
 /// without forming `C` (`C q̇ = Σ_k m_k J_{c_k}ᵀ J̇_{c_k} q̇`, the Christoffel form), then
 /// `a_0` and `M⁻¹ J_eᵀ` together: for `N = 3` by the closed-form inverse `adj M / det M` (a
 /// short dependency chain: one division; the tick of two 3-link arms is latency-bound), else
 /// by one Cholesky of `M` and the substitutions (by reciprocal pivots). Equal to the general
-/// algorithm up to round-off. Built by [`Arm::fixed`] (`N = 3, 4` in the plant);
+/// algorithm up to round-off. Built by [`Arm::fixed`](super::Arm::fixed) (`N = 3, 4` in the plant);
 /// [`FixedLinkArm::kinematics_gravity`] is the controller's part of it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FixedLinkArm<const N: usize> {
@@ -105,7 +105,7 @@ pub struct FixedLinkArm<const N: usize> {
 }
 
 /// The absolute link angles `φ_k = base + Σ_{i≤k} q_i` and rates `φ̇_k = Σ_{i≤k} q̇_i` (the
-/// running sums of [`Arm::kinematics`], in its order) and the link directions
+/// running sums of [`Arm::kinematics`](super::Arm::kinematics), in its order) and the link directions
 /// `u_k = (cos φ_k, sin φ_k)`, two links at a time by [`crate::math::trig::sin_cos2`] (the same
 /// bits as one [`crate::math::trig::sin_cos`] a link, for about half the instructions; an odd last
 /// link takes both lanes).
@@ -345,7 +345,7 @@ pub(crate) fn cholesky_substitute<const N: usize>(
 /// types: what the controller's tick needs of a redundant arm (its pose estimate, `J_eᵀ`, and
 /// the null-space gravity compensation; SPEC §3 steps 1 and 5). Computed by
 /// [`FixedLinkArm::kinematics_gravity`]; the same values, bit for bit, as the matching
-/// [`ArmTerms`] fields after [`Arm::kinematics`] and [`Arm::general_dynamics`].
+/// [`ArmTerms`](super::ArmTerms) fields after [`Arm::kinematics`](super::Arm::kinematics) and [`Arm::general_dynamics`](super::Arm::general_dynamics).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FixedKinematics<const N: usize> {
     /// End-effector Jacobian `J_e`, 2 × N, m/rad.
@@ -361,8 +361,8 @@ pub struct FixedKinematics<const N: usize> {
 impl<const N: usize> FixedLinkArm<N> {
     /// End-effector position, velocity and Jacobian, and the gravity torques
     /// `G_i = g Σ_{k≥i} m_k (c_k − P_i)_x` (module docs; gravity along −y, SPEC §1), at `(q, q̇)`:
-    /// one `sin_cos` per link, no `M`, no `C`. The operations of [`Arm::kinematics`] and of
-    /// `G` in [`Arm::general_dynamics`], in the same order, so the same bits.
+    /// one `sin_cos` per link, no `M`, no `C`. The operations of [`Arm::kinematics`](super::Arm::kinematics) and of
+    /// `G` in [`Arm::general_dynamics`](super::Arm::general_dynamics), in the same order, so the same bits.
     #[inline]
     pub fn kinematics_gravity(&self, q: [f64; N], qd: [f64; N], g: f64) -> FixedKinematics<N> {
         let mut points = [Vector2::zeros(); N];

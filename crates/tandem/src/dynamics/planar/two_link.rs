@@ -8,7 +8,7 @@ use super::fixed::{ArmBlock, ArmSolve, FixedArm};
 use super::general::{Cartesian, cartesian_2x2, cross, perp};
 
 /// A 2-link arm's fast path: the constants of the SPEC §2.1 closed forms and the geometry its
-/// fixed-size kinematics need, computed once by [`Arm::new`] (see [`Arm::two_link`]).
+/// fixed-size kinematics need, computed once by [`Arm::new`](super::Arm::new) (see [`Arm::two_link`](super::Arm::two_link)).
 ///
 /// Every method works on `Matrix2`/`Vector2` values on the stack: no `DMatrix` indexing, no
 /// per-link `Vec` stores, at most one `sin_cos` per link ([`TwoLinkArm::pose`]) and none on the
@@ -55,7 +55,7 @@ pub struct TwoLinkPose {
 }
 
 /// Kinematics and dynamics of a 2-link arm at one state in fixed-size types
-/// ([`TwoLinkArm::terms`]); the same quantities as the matching [`ArmTerms`] fields.
+/// ([`TwoLinkArm::terms`]); the same quantities as the matching [`ArmTerms`](super::ArmTerms) fields.
 #[allow(non_snake_case)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TwoLinkTerms {
@@ -187,7 +187,7 @@ impl TwoLinkArm {
         }
     }
 
-    /// Pose at joint angles `q`: one `sin_cos` per link, accumulated as [`Arm::kinematics`]
+    /// Pose at joint angles `q`: one `sin_cos` per link, accumulated as [`Arm::kinematics`](super::Arm::kinematics)
     /// does (`φ_1 = base angle + q_1`, `φ_2 = φ_1 + q_2`), so the directions are bitwise those
     /// of the general path; `cos q2 = u_1·u_12`, `sin q2 = u_1 × u_12`. Inlined into every
     /// caller (the plant's and the controller's hot paths), so that the two `sin_cos2` lanes
@@ -294,7 +294,7 @@ impl TwoLinkTerms {
         Matrix2::new(m[(1, 1)], -m[(0, 1)], -m[(1, 0)], m[(0, 0)]) * (1.0 / self.det_M)
     }
 
-    /// Cartesian dynamics (3)–(4), as [`Arm::cartesian`]; `None` when |det J_e| < `min_det`.
+    /// Cartesian dynamics (3)–(4), as [`Arm::cartesian`](super::Arm::cartesian); `None` when |det J_e| < `min_det`.
     #[inline]
     pub fn cartesian(&self, min_det: f64) -> Option<Cartesian> {
         cartesian_2x2(&self.J, &self.M, &self.C, &self.Jdot, &self.G, min_det)

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 /// Standard gravity used by the paper, m/s² (acts along −y).
 pub const GRAVITY: f64 = 9.8;
 
-/// One rigid link: plain data, validated by [`Arm::new`].
+/// One rigid link: plain data, validated by [`Arm::new`](crate::dynamics::planar::Arm::new).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LinkParams {
@@ -40,7 +40,7 @@ impl Elbow {
     }
 }
 
-/// Parameters of one planar arm: plain data, validated by [`Arm::new`].
+/// Parameters of one planar arm: plain data, validated by [`Arm::new`](crate::dynamics::planar::Arm::new).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ArmParams {

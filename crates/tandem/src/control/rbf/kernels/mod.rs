@@ -1,6 +1,6 @@
 //! The RBF weight-pass kernels (issue 12), beside the equations of [`super::network`]: the
 //! [`Kernel`] choice and the CPU detection behind it, the portable kernels, and the AVX2
-//! ([`avx2`]) and AVX-512 ([`avx512`]) builds on x86-64.
+//! (`avx2.rs`) and AVX-512 (`avx512.rs`) builds on x86-64.
 
 use crate::error::ModelError;
 
@@ -26,7 +26,7 @@ pub(crate) fn detect_avx2() -> bool {
 /// Name of the environment variable that forces a weight-pass kernel.
 pub const KERNEL_ENV: &str = "TANDEM_KERNEL";
 
-/// The weight-pass kernel of [`RbfNetwork`], chosen once at set-up (never one the CPU lacks).
+/// The weight-pass kernel of [`RbfNetwork`](super::RbfNetwork), chosen once at set-up (never one the CPU lacks).
 ///
 /// Determinism policy (`docs/performance.md`): the same binary on the same machine with the
 /// same kernel gives bitwise-identical runs. [`Kernel::Portable`] and [`Kernel::Avx2`] use the
@@ -52,8 +52,8 @@ pub enum Kernel {
     /// AVX-512F (512-bit registers, fused multiply-adds, blocks of 8 nodes): not
     /// bit-identical (within the stated tolerance).
     Avx512,
-    /// AVX-512F with the update of [`RbfNetwork::tick_at_outputs`] held and applied
-    /// [`BATCH_DEPTH`] ticks at a time (module `batched`: exact algebra, a read-only pass on
+    /// AVX-512F with the update of [`RbfNetwork::tick_at_outputs`](super::RbfNetwork::tick_at_outputs) held and applied
+    /// [`BATCH_DEPTH`](super::BATCH_DEPTH) ticks at a time (module `batched`: exact algebra, a read-only pass on
     /// most ticks): not bit-identical (within the stated tolerance). The default on Intel CPUs
     /// with AVX-512F ([`Kernel::default_for_cpu`]). Its other passes are those of
     /// [`Kernel::Avx512`].
