@@ -5,9 +5,9 @@
 //! medians over the repeats.
 use std::time::Instant;
 
-use tandem::control::{ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
-use tandem::fixtures;
+use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::model::disturbance::Disturbance;
+use tandem::presets;
 use tandem::sim::{Log, SimParams};
 use tandem_cli::output::F64Text;
 use tandem_cli::runner::write_timeseries;
@@ -78,11 +78,13 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(5);
-    let cp = ControllerParams::paper(LawParams::Nn(tandem::adaptive::NnGains::tuned()));
+    let cp = ControllerParams::paper(LawParams::Nn(
+        tandem::control::law::adaptive::NnGains::tuned(),
+    ));
     let mut sim_times = Vec::new();
     let mut log = None;
     for _ in 0..repeats.min(3) {
-        let (sim, _) = fixtures::paper_simulation(&cp, SimParams::paper(), Disturbance::paper())
+        let (sim, _) = presets::paper_simulation(&cp, SimParams::paper(), Disturbance::paper())
             .expect("paper simulation");
         let t0 = Instant::now();
         let (out, _) = sim.run(|_| {});

@@ -25,7 +25,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use tandem::nalgebra::Vector3;
-use tandem::reference::se3_path::{CircleParams, Se3Path};
+use tandem::reference::spatial::path::{CircleParams, Se3Path};
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -38,7 +38,7 @@ fn main() -> Result<()> {
 
     // Dual UR5, the S6 path.
     let path = Se3Path::spec_s6();
-    let pb = viewer::demo::play(&tandem::fixtures::dual_ur5(), &path, seconds, fps)?;
+    let pb = viewer::demo::play(&tandem::presets::dual_ur5(), &path, seconds, fps)?;
     let scene = viewer::demo::scene(
         "dual UR5, S6 path, kinematic playback",
         &pb,
@@ -51,7 +51,7 @@ fn main() -> Result<()> {
     let mut c = CircleParams::spec_s6();
     c.center = Vector3::new(-0.1, 0.0, 0.35);
     let path = Se3Path::circle(&c)?;
-    let pb = viewer::demo::play(&tandem::fixtures::dual_franka(), &path, seconds, fps)?;
+    let pb = viewer::demo::play(&tandem::presets::dual_franka(), &path, seconds, fps)?;
     let scene = viewer::demo::scene(
         "dual Franka (7-DOF), S6-type path, kinematic playback",
         &pb,

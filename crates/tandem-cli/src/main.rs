@@ -243,7 +243,7 @@ fn main() -> ExitCode {
     if let Some(k) = &cli.kernel {
         // Checked at once (an unknown name, or one this CPU lacks, lists the valid ones), then
         // handed to the library, and to sweep workers, through the environment.
-        if let Err(e) = tandem::rbf::Kernel::parse(k) {
+        if let Err(e) = tandem::control::rbf::Kernel::parse(k) {
             eprintln!(
                 "error: --kernel: {}",
                 e.to_string().replace("TANDEM_KERNEL: ", "")
@@ -252,13 +252,13 @@ fn main() -> ExitCode {
         }
         // SAFETY: no other thread exists yet (nothing has been spawned), so nothing reads the
         // environment concurrently.
-        unsafe { std::env::set_var(tandem::rbf::KERNEL_ENV, k.trim()) };
+        unsafe { std::env::set_var(tandem::control::rbf::KERNEL_ENV, k.trim()) };
     }
     // `TANDEM_KERNEL` is read from the environment, not from a scenario: refuse a bad value
     // here, before any file is read or written, also for runs that never build a network (a
     // PD run would otherwise ignore it). The library path reports it the same way
     // (`Source::model_error`).
-    if let Err(e) = tandem::rbf::Kernel::from_env() {
+    if let Err(e) = tandem::control::rbf::Kernel::from_env() {
         eprintln!("error: environment variable {e}");
         return ExitCode::from(2);
     }
@@ -628,7 +628,7 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
         }
     }
     let labels: Vec<String> = finished.iter().map(|(_, f)| f.label()).collect();
-    let cols: Vec<(&str, &tandem::report::Summary)> = finished
+    let cols: Vec<(&str, &tandem::report::metrics::Summary)> = finished
         .iter()
         .zip(&labels)
         .map(|((_, f), l)| (l.as_str(), &f.summary))
@@ -678,7 +678,7 @@ fn report_md(
     src: &Source,
     base: &Scenario,
     finished: &[(&str, Finished)],
-    cols: &[(&str, &tandem::report::Summary)],
+    cols: &[(&str, &tandem::report::metrics::Summary)],
     figures: &[String],
 ) -> String {
     let mut s = format!(
@@ -838,7 +838,7 @@ fn cmd_sweep(a: SweepArgs) -> Result<ExitCode> {
     let (ok, faulted, invalid) = (count("completed"), count("fault"), count("invalid"));
     let rows: Vec<sweep::run::Row> = results.into_iter().map(|r| r.row).collect();
     // The kernel the runs used (checked at start-up, so present), recorded in sweep.json.
-    let kernels: Vec<String> = tandem::rbf::Kernel::from_env()
+    let kernels: Vec<String> = tandem::control::rbf::Kernel::from_env()
         .map(|k| vec![k.name().to_string()])
         .unwrap_or_default();
     let problems = sweep::merge::write_folder(

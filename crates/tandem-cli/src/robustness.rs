@@ -23,7 +23,7 @@ use tandem::control::spatial::{
     SpatialControllerParams, SpatialLaw, SpatialNnGains, SpatialPdGains,
 };
 use tandem::plant::spatial::GraspModel;
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 
 use crate::plot::{self, Panel, Series, Style};
 use crate::runner::{self, Finished, Prepared};
@@ -479,7 +479,7 @@ pub fn slip_substeps(k: f64, k_rot: f64) -> usize {
     (w * 1e-3).ceil().max(1.0) as usize
 }
 
-/// One grasp-slip run: the S6 dual-UR5 closed loop (`fixtures::spatial_s6_simulation_with`),
+/// One grasp-slip run: the S6 dual-UR5 closed loop (`presets::spatial_s6_simulation_with`),
 /// the controller assuming welds, the true grasps compliant at `SLIP_LEVELS[level]` (`None`:
 /// welded), law `SLIP_LAWS[law]`, [`SLIP_DURATION`] s; classified as the planar runs with the
 /// true box pose against the path as the tracking error.
@@ -491,7 +491,7 @@ pub fn slip_run(level: Option<usize>, law: usize) -> Result<Cell> {
 /// step-convergence check).
 pub fn slip_run_with(level: Option<usize>, law: usize, factor: usize) -> Result<Cell> {
     let l = &SLIP_LAWS[law];
-    let setup = tandem::fixtures::dual_ur5();
+    let setup = tandem::presets::dual_ur5();
     let mut truth = setup.params.clone();
     let mut substeps = 1;
     if let Some(lv) = level {
@@ -509,7 +509,7 @@ pub fn slip_run_with(level: Option<usize>, law: usize, factor: usize) -> Result<
     if !l.admittance {
         p.admittance = None;
     }
-    let (sim, _warnings) = tandem::fixtures::spatial_s6_simulation_with(
+    let (sim, _warnings) = tandem::presets::spatial_s6_simulation_with(
         &truth,
         &setup,
         &p,

@@ -5,7 +5,8 @@ use std::time::Instant;
 
 use anyhow::Result;
 use serde_json::{Value, json};
-use tandem::report::{self, Summary};
+use tandem::report;
+use tandem::report::metrics::Summary;
 use tandem::sim::{Log, Outcome};
 
 use crate::anim::{self, AnimOptions};
@@ -70,7 +71,7 @@ pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Finished {
     if sc.controller.kind == ControllerKind::Replay {
         fill_replay_columns(&mut outcome.log, &built, sc.k_c());
     }
-    let summary = report::summarize(
+    let summary = report::metrics::summarize(
         &outcome,
         sc.controller.kind.name(),
         &sc.gains_label(),
@@ -154,7 +155,11 @@ pub fn summary_json(f: &Finished, scenario: &str, output_time: Option<f64>) -> V
     // determinism policy's tolerance; `batched-f32` within its own).
     head.insert(
         "rbf_kernel".into(),
-        json!(tandem::rbf::Kernel::from_env().ok().map(|k| k.name())),
+        json!(
+            tandem::control::rbf::Kernel::from_env()
+                .ok()
+                .map(|k| k.name())
+        ),
     );
     head.insert("label".into(), json!(f.label()));
     head.insert("duration".into(), json!(f.built.sim.duration));

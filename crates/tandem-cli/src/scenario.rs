@@ -29,18 +29,19 @@ use std::path::{Path as FsPath, PathBuf};
 use nalgebra::{Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 use tandem::ModelError;
-use tandem::adaptive::NnGains;
-use tandem::admittance::AdmittanceParams;
-use tandem::arm::{ArmParams, Elbow, LinkParams};
-use tandem::control::{ControlWarning, Controller, ControllerParams, LawParams, Scheme};
-use tandem::ctc::CtcGains;
-use tandem::disturbance::{Disturbance, Push};
-use tandem::object::ObjectParams;
-use tandem::pd::PdGains;
-use tandem::plant::PlantParams;
-use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::ctc::CtcGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams};
+use tandem::control::{ControlWarning, Scheme};
+use tandem::model::disturbance::{Disturbance, Push};
+use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
+use tandem::model::planar::object::ObjectParams;
+use tandem::plant::planar::PlantParams;
+use tandem::reference::planar::admittance::AdmittanceParams;
+use tandem::reference::planar::path::Path;
+use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, Formulation, Replay, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 use crate::suggest;
 
@@ -237,7 +238,7 @@ pub struct Scenario {
     pub faults: FaultsConfig,
 }
 
-/// Injected faults (see `tandem::faults`); everything off by default.
+/// Injected faults (see `tandem::sim::faults`); everything off by default.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FaultsConfig {
@@ -296,8 +297,8 @@ impl FaultsConfig {
         *self == FaultsConfig::default()
     }
     /// The library's injection (the payload is applied to the plant instead).
-    pub fn injection(&self, seed: u64) -> tandem::faults::Faults {
-        tandem::faults::Faults {
+    pub fn injection(&self, seed: u64) -> tandem::sim::faults::Faults {
+        tandem::sim::faults::Faults {
             dropout_rate: self.dropout_rate,
             dropout_length: self.dropout_length,
             force_limit: self.force_limit,
@@ -312,7 +313,7 @@ impl FaultsConfig {
 
 /// A seed for the fault stream distinct from the sensors' (same run seed).
 fn splitmix(seed: u64) -> u64 {
-    tandem::fixtures::splitmix64(seed ^ 0x6661_756c_7473)
+    tandem::math::random::splitmix64(seed ^ 0x6661_756c_7473)
 }
 
 /// One arm.
@@ -354,7 +355,7 @@ pub struct PlantConfig {
 }
 
 fn default_gravity() -> f64 {
-    tandem::arm::GRAVITY
+    tandem::model::planar::arm::GRAVITY
 }
 fn default_baumgarte() -> f64 {
     20.0
@@ -973,7 +974,7 @@ impl Source {
                 self.error_at(&path, format!("{path} = {}: {reason}", num(value)))
             }
             // The kernel comes from the environment, not from the file: no field, no line.
-            ModelError::Geometry { what, reason } if what == tandem::rbf::KERNEL_ENV => {
+            ModelError::Geometry { what, reason } if what == tandem::control::rbf::KERNEL_ENV => {
                 self.error_at("", format!("environment variable {what}: {reason}"))
             }
             ModelError::Geometry { what, reason } => {
@@ -1674,7 +1675,7 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
         gravity: sc.plant.gravity,
         baumgarte: sc.plant.baumgarte,
     };
-    tandem::plant::Plant::new(&plant).map_err(|e| src.model_error(e, plant_path))?;
+    tandem::plant::planar::Plant::new(&plant).map_err(|e| src.model_error(e, plant_path))?;
     // Two arms holding the same point leave the object's rotation about it undetermined.
     for (j, b) in sc.arms.iter().enumerate() {
         for (i, a) in sc.arms.iter().enumerate().take(j) {
@@ -1789,7 +1790,7 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
         t
     });
     if let Some(t) = &truth {
-        tandem::plant::Plant::new(t).map_err(|e| {
+        tandem::plant::planar::Plant::new(t).map_err(|e| {
             src.model_error(e, |p| format!("faults (true plant): {}", plant_path(p)))
         })?;
     }
@@ -2028,7 +2029,7 @@ mod tests {
     #[test]
     fn a_kernel_error_names_the_environment_variable_not_a_field() {
         let src = embedded_source(&EMBEDDED[0]);
-        let e = tandem::rbf::Kernel::parse("sse9").expect_err("unknown kernel");
+        let e = tandem::control::rbf::Kernel::parse("sse9").expect_err("unknown kernel");
         let msg = src
             .model_error(e, |p| format!("controller.{p}"))
             .to_string();

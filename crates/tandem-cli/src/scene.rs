@@ -7,9 +7,9 @@
 //! frame.
 
 use nalgebra::Vector3;
-use tandem::plant::{Plant, PlantParams};
+use tandem::plant::planar::{Plant, PlantParams};
+use tandem::reference::planar::path::Path;
 use tandem::sim::Log;
-use tandem::trajectory::Path;
 
 use crate::anim::{AnimFrames, Frame};
 

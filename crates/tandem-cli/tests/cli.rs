@@ -50,7 +50,10 @@ fn run_writes_every_output_and_they_agree() {
     assert!(s["fault"].is_null());
     assert!(s["tandem_version"].is_string());
     let kernel = s["rbf_kernel"].as_str().expect("rbf_kernel");
-    assert!(tandem::rbf::Kernel::parse(kernel).is_ok(), "{kernel}");
+    assert!(
+        tandem::control::rbf::Kernel::parse(kernel).is_ok(),
+        "{kernel}"
+    );
     assert!(s["timing"]["wall_time"].is_number());
     let (zx, zy) = (column(&h, &cols, "z1.x [m]"), column(&h, &cols, "z1.y [m]"));
     let e: Vec<f64> = zx.iter().zip(zy).map(|(a, b)| a.hypot(*b)).collect();

@@ -1090,7 +1090,7 @@ fn the_kernel_option_overrides_the_environment_and_a_bad_one_writes_nothing() {
         "portable"
     );
     // After the subcommand too (global), over a valid environment value.
-    if tandem::rbf::Kernel::parse("avx2").is_ok() {
+    if tandem::control::rbf::Kernel::parse("avx2").is_ok() {
         let o = run(
             &["run", "--duration", "0.2", "--out", "b", "--kernel", "avx2"],
             "portable",

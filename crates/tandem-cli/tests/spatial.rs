@@ -206,20 +206,20 @@ fn presets_are_listed() {
 /// A finished run of the S6 set-up `setup` with `law` (for the laws no preset runs yet).
 fn finished(franka: bool, law: SpatialLaw, duration: f64) -> Finished {
     let s = if franka {
-        tandem::fixtures::dual_franka()
+        tandem::presets::dual_franka()
     } else {
-        tandem::fixtures::dual_ur5()
+        tandem::presets::dual_ur5()
     };
     let (name, label) = (law.name().to_string(), law.name().to_uppercase());
     let (sim, _) =
-        tandem::fixtures::spatial_s6_simulation(&s.params, &s, law, duration, 1e-3, 1e-6).unwrap();
+        tandem::presets::spatial_s6_simulation(&s.params, &s, law, duration, 1e-3, 1e-6).unwrap();
     let (outcome, sim) = sim.run(|_| {});
     let k = sim.driver().k_c();
     Finished {
         outcome,
         plant: tandem::plant::spatial::SpatialPlant::new(&s.params).unwrap(),
         box_size: [0.4, 0.2, 0.2],
-        path: tandem::reference::se3_path::Se3Path::spec_s6(),
+        path: tandem::reference::spatial::path::Se3Path::spec_s6(),
         duration,
         controller: name,
         label,
@@ -245,13 +245,13 @@ fn sigma_min_and_joint_limit_match_an_independent_computation() {
         let mut closest = (f64::INFINITY, String::new(), 0.0);
         for (i, arm) in f.plant.arms().iter().enumerate() {
             let n = arm.chain.dof();
-            let mut data = tandem::dynamics::ChainData::new(arm);
+            let mut data = tandem::dynamics::spatial::ChainData::new(arm);
             let (mut best, mut at) = (f64::INFINITY, 0.0);
             for k in 0..log.len() {
                 let q: Vec<f64> = (0..n)
                     .map(|j| log.get(&format!("q{}", off + j + 1)).unwrap()[k])
                     .collect();
-                tandem::dynamics::kinematics(arm, &q, None, &mut data);
+                tandem::dynamics::spatial::kinematics(arm, &q, None, &mut data);
                 let j = DMatrix::from_iterator(6, n, data.J.iter().copied());
                 let sv = j.svd(false, false).singular_values;
                 let smin = sv.iter().fold(f64::INFINITY, |a, &b| a.min(b));

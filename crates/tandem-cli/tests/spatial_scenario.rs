@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use tandem::control::spatial::{SpatialControllerParams, SpatialLaw, SpatialNnGains};
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 use tandem_cli::scenario::{Source, embedded_source};
 use tandem_cli::spatial::scenario::{self as sp, EMBEDDED};
 
@@ -42,12 +42,12 @@ fn presets_are_the_library_s6_setups_exactly() {
     for (name, setup, gains) in [
         (
             "dual-ur5",
-            tandem::fixtures::dual_ur5(),
+            tandem::presets::dual_ur5(),
             SpatialNnGains::dual_ur5(),
         ),
         (
             "dual-franka",
-            tandem::fixtures::dual_franka(),
+            tandem::presets::dual_franka(),
             SpatialNnGains::dual_franka(),
         ),
     ] {
@@ -62,7 +62,7 @@ fn presets_are_the_library_s6_setups_exactly() {
         assert_eq!(b.controller, want, "{name}: controller");
         assert_eq!(
             b.disturbance,
-            tandem::disturbance::SpatialDisturbance::spec_s6()
+            tandem::model::disturbance::SpatialDisturbance::spec_s6()
         );
         // S6: the start at rest 1 cm inside the circle.
         let d0 = b.path.sample(0.0);
@@ -115,7 +115,7 @@ fn the_default_design_is_measured_on_the_path() {
 /// A scenario that uses a URDF file on disk (a copy of the embedded UR5 model) instead of
 /// `model = "ur5"`, shortened to `duration` s.
 fn user_scenario(dir: &Path, duration: &str, extra: &[(&str, &str)]) -> PathBuf {
-    std::fs::write(dir.join("arm.urdf"), tandem::model::urdf::UR5_URDF).unwrap();
+    std::fs::write(dir.join("arm.urdf"), tandem::model::spatial::urdf::UR5_URDF).unwrap();
     let mut text = preset("dual-ur5")
         .text
         .replace(
@@ -208,7 +208,7 @@ fn a_user_urdf_runs_like_the_embedded_model_and_reruns_and_replays_exactly() {
     // Nothing of the user's was touched.
     assert_eq!(
         std::fs::read_to_string(d.join("arm.urdf")).unwrap(),
-        tandem::model::urdf::UR5_URDF
+        tandem::model::spatial::urdf::UR5_URDF
     );
 }
 
@@ -277,14 +277,18 @@ fn bad_input_names_the_field_and_the_urdf_line() {
         &["arms[0].urdf", "cannot read", "nowhere.urdf", "line 20"],
     );
     // A malformed URDF: the XML error's own line in the URDF.
-    std::fs::write(d.join("cut.urdf"), &tandem::model::urdf::UR5_URDF[..3000]).unwrap();
+    std::fs::write(
+        d.join("cut.urdf"),
+        &tandem::model::spatial::urdf::UR5_URDF[..3000],
+    )
+    .unwrap();
     bad(
         &d,
         &[("urdf = \"arm.urdf\"", "urdf = \"cut.urdf\"")],
         &["arms[0].urdf", "cut.urdf", "URDF line", "malformed XML"],
     );
     // A URDF fault inside an element: a negative mass on a known line.
-    let text = tandem::model::urdf::UR5_URDF;
+    let text = tandem::model::spatial::urdf::UR5_URDF;
     let at = text.find("<mass value=\"").unwrap();
     let line = text[..at].matches('\n').count() + 1;
     let end = at + text[at..].find("/>").unwrap();
@@ -507,7 +511,7 @@ fn bad_input_names_the_field_and_the_urdf_line() {
 #[test]
 fn three_arms_from_a_file_with_the_designed_gains_meet_the_s5_claims() {
     // A third UR5-class arm at (0, −0.70, 0) facing +y holds the box's −y face (as
-    // `fixtures::three_ur5`); the NN gains are designed on the measured path inertia (no
+    // `presets::three_ur5`); the NN gains are designed on the measured path inertia (no
     // `design.inertia`): with the dual-UR5 inertia the rotational K2 would be too small (warned).
     let d = tmp("three");
     let third = "[[arms]]\nmodel = \"ur5\"\n\

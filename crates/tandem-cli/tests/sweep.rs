@@ -578,7 +578,7 @@ fn shards_record_their_kernel_and_a_mixed_merge_is_warned() {
     );
     let j: serde_json::Value = serde_json::from_slice(&read(&d.join("same/sweep.json"))).unwrap();
     assert_eq!(j["rbf_kernel"], "portable");
-    if tandem::rbf::Kernel::parse("avx2").is_ok() {
+    if tandem::control::rbf::Kernel::parse("avx2").is_ok() {
         shard(1, "avx2");
         let o = tandem(&d, &["merge", "s0-portable", "s1-avx2", "--out", "mixed"]);
         ok(&o);

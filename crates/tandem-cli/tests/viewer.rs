@@ -25,7 +25,7 @@ use std::process::Command;
 
 use serde_json::Value;
 use tandem::nalgebra::Vector3;
-use tandem::reference::se3_path::{CircleParams, Se3Path};
+use tandem::reference::spatial::path::{CircleParams, Se3Path};
 use viewer::{Scene3d, demo};
 
 mod support;
@@ -36,7 +36,7 @@ const BOX: [f64; 3] = [0.4, 0.2, 0.2];
 /// The S6 path played kinematically on the dual UR5 over `seconds` at `fps`.
 fn ur5_scene(seconds: f64, fps: f64) -> Scene3d {
     let path = Se3Path::spec_s6();
-    let pb = demo::play(&tandem::fixtures::dual_ur5(), &path, seconds, fps).expect("playback");
+    let pb = demo::play(&tandem::presets::dual_ur5(), &path, seconds, fps).expect("playback");
     demo::scene("dual UR5, S6 path, kinematic playback", &pb, &path, BOX)
 }
 
@@ -45,7 +45,7 @@ fn franka_scene(seconds: f64, fps: f64) -> Scene3d {
     let mut c = CircleParams::spec_s6();
     c.center = Vector3::new(-0.1, 0.0, 0.35);
     let path = Se3Path::circle(&c).expect("circle");
-    let pb = demo::play(&tandem::fixtures::dual_franka(), &path, seconds, fps).expect("playback");
+    let pb = demo::play(&tandem::presets::dual_franka(), &path, seconds, fps).expect("playback");
     demo::scene("dual Franka, kinematic playback", &pb, &path, BOX)
 }
 
@@ -154,7 +154,7 @@ fn edge_scenes() -> Vec<(&'static str, Scene3d)> {
     assert_eq!(single.times.len(), 1);
     // NaN in a state: a joint angle of arm 2 at frames 10..15 (as a faulted run would log).
     let path = Se3Path::spec_s6();
-    let mut pb = demo::play(&tandem::fixtures::dual_ur5(), &path, 4.0, 10.0).unwrap();
+    let mut pb = demo::play(&tandem::presets::dual_ur5(), &path, 4.0, 10.0).unwrap();
     for k in 10..15 {
         pb.states[k][8] = f64::NAN;
     }
@@ -195,7 +195,7 @@ fn edge_cases_write_whole_pages() {
 
 #[test]
 fn state_of_the_wrong_length_is_a_skipped_frame() {
-    let setup = tandem::fixtures::dual_ur5();
+    let setup = tandem::presets::dual_ur5();
     let plant = tandem::plant::spatial::SpatialPlant::new(&setup.params).unwrap();
     let good = plant
         .initial_state(&setup.x_wo, &Default::default(), &setup.q_guess)

@@ -1,5 +1,5 @@
-//! Criterion benches for the admittance generator (`tandem::admittance`) and the desired path
-//! (`tandem::trajectory`): the per-tick cost of SPEC §3 steps 2–3 for the paper's two arms.
+//! Criterion benches for the admittance generator (`tandem::reference::planar::admittance`) and the desired path
+//! (`tandem::reference::planar::path`): the per-tick cost of SPEC §3 steps 2–3 for the paper's two arms.
 //!
 //! Target: one admittance step for two arms plus one `Path::Circle` sample ≤ 0.2 µs.
 //!
@@ -11,8 +11,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Vector2;
-use tandem::admittance::{Admittance, AdmittanceParams, AdmittanceState};
-use tandem::trajectory::Path;
+use tandem::reference::planar::admittance::{Admittance, AdmittanceParams, AdmittanceState};
+use tandem::reference::planar::path::Path;
 
 fn bench_admittance(c: &mut Criterion) {
     let h = 1e-3;

@@ -2,23 +2,21 @@
 //! torques) for each law on the paper set-up, and the NN law's parts.
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
-use tandem::fixtures;
+use tandem::control::Scheme;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams, TickRecord};
+use tandem::control::rbf::{NnUpdate, Rbf, RbfNetwork};
+use tandem::drive::Measurements;
 use tandem::nalgebra::Vector3;
-use tandem::pd::PdGains;
-use tandem::plant::Plant;
-use tandem::rbf::{NnUpdate, Rbf, RbfNetwork};
-use tandem::trajectory::Path;
+use tandem::plant::planar::Plant;
+use tandem::presets;
+use tandem::reference::planar::path::Path;
 
 fn bench(c: &mut Criterion) {
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let y = plant
-        .initial_state(
-            fixtures::paper_start(),
-            Vector3::new(0.001, 0.02, 0.0),
-            None,
-        )
+        .initial_state(presets::paper_start(), Vector3::new(0.001, 0.02, 0.0), None)
         .unwrap();
     let (q, _, qd, _) = plant.split(&y);
     let forces = [1.3, -1.2, -1.5, -7.4];
@@ -53,7 +51,7 @@ fn bench(c: &mut Criterion) {
             scheme,
             ..ControllerParams::paper(law)
         };
-        let (mut ctl, _) = Controller::new(&p, &fixtures::paper(), Path::paper(), 90.0).unwrap();
+        let (mut ctl, _) = Controller::new(&p, &presets::paper(), Path::paper(), 90.0).unwrap();
         ctl.start(0.0, &meas);
         let mut tau = [0.0; 4];
         let mut rec = TickRecord::default();

@@ -36,8 +36,9 @@ use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Isometry3, Vector3};
-use tandem::dynamics::{self, ChainData};
-use tandem::model::{Chain, SpatialArm};
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
+use tandem::model::spatial::{Chain, SpatialArm};
 
 #[path = "../tests/support/chains.rs"]
 mod chains;
@@ -99,7 +100,7 @@ fn bench(c: &mut Criterion) {
 
         group.bench_function("rnea/tandem", |b| {
             b.iter(|| {
-                dynamics::rnea(
+                spatial::rnea(
                     &k.arm,
                     black_box(&k.q),
                     &k.qd,
@@ -119,14 +120,14 @@ fn bench(c: &mut Criterion) {
             })
         });
         group.bench_function("crba/tandem", |b| {
-            b.iter(|| dynamics::crba(&k.arm, black_box(&k.q), &mut d))
+            b.iter(|| spatial::crba(&k.arm, black_box(&k.q), &mut d))
         });
         group.bench_function("crba/dynibo", |b| {
             b.iter(|| k.robot.mass_matrix(black_box(&k.q), &mut mass).unwrap())
         });
         group.bench_function("aba/tandem", |b| {
             b.iter(|| {
-                dynamics::aba(
+                spatial::aba(
                     &k.arm,
                     black_box(&k.q),
                     &k.qd,
@@ -147,7 +148,7 @@ fn bench(c: &mut Criterion) {
         });
         group.bench_function("forward_dynamics_cholesky/tandem", |b| {
             b.iter(|| {
-                dynamics::forward_dynamics(
+                spatial::forward_dynamics(
                     &k.arm,
                     black_box(&k.q),
                     &k.qd,
@@ -160,7 +161,7 @@ fn bench(c: &mut Criterion) {
             })
         });
         group.bench_function("kinematics/tandem", |b| {
-            b.iter(|| dynamics::kinematics(&k.arm, black_box(&k.q), Some(&k.qd), &mut d))
+            b.iter(|| spatial::kinematics(&k.arm, black_box(&k.q), Some(&k.qd), &mut d))
         });
         group.bench_function("kinematics/dynibo", |b| {
             b.iter(|| {
@@ -171,7 +172,7 @@ fn bench(c: &mut Criterion) {
             })
         });
         group.bench_function("terms/tandem", |b| {
-            b.iter(|| dynamics::terms(&k.arm, black_box(&k.q), &k.qd, &g, &mut d))
+            b.iter(|| spatial::terms(&k.arm, black_box(&k.q), &k.qd, &g, &mut d))
         });
         group.bench_function("terms/dynibo", |b| {
             b.iter(|| {

@@ -7,7 +7,7 @@
 //!
 //! Bytes moved = 2 × buffer (read + write) for the update pass, 1 × for the read pass; divide
 //! by the median time. The buffers start on a 64-byte boundary, as the network's weights do
-//! (`rbf::Aligned`): an unaligned 64-byte load touches two cache lines; with plain `Vec`s
+//! (`control::rbf::Aligned`): an unaligned 64-byte load touches two cache lines; with plain `Vec`s
 //! (16-byte aligned), as before 2026-12-02 09:00 UTC, the read rates were 20–38 % lower.
 //!
 //! `machine/fma512_12x1000`: 12 000 AVX-512 fused multiply-adds in 12 independent chains

@@ -14,7 +14,7 @@
 //!
 //! `tick/*` (issue 12): one control tick (sensors, the PD law, the plant's RK4 substeps at the
 //! paper's 1 kHz control / 0.2 ms plant step) of two 2-link arms (the paper), three 2-link
-//! arms ([`fixtures::three_arms`]), two 3-link arms ([`fixtures::redundant_pair`]) and two
+//! arms ([`presets::three_arms`]), two 3-link arms ([`presets::redundant_pair`]) and two
 //! 4-link arms (`tests/support/n_link.rs`), side by side; divide by the arm count for the
 //! per-arm cost. The PD law, because the NN law is built
 //! for 2-link arms only. With `TANDEM_TICKS=<config>:<n>` in the environment the binary runs
@@ -23,26 +23,27 @@
 use criterion::{Criterion, criterion_group};
 use nalgebra::Vector3;
 use std::hint::black_box;
-use tandem::control::{Controller, ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
-use tandem::fixtures;
-use tandem::integrate::Rk4;
-use tandem::pd::PdGains;
-use tandem::plant::{ClosedChain, ConstrainedOde, Formulation, Plant, PlantParams};
-use tandem::sensors::SensorParams;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams};
+use tandem::math::integrate::Rk4;
+use tandem::model::disturbance::Disturbance;
+use tandem::plant::planar::{ConstrainedOde, Plant, PlantParams};
+use tandem::plant::{ClosedChain, Formulation};
+use tandem::presets;
+use tandem::reference::planar::path::Path;
+use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Driver, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 #[path = "../tests/support/n_link.rs"]
 mod n_link;
 
 /// The tick configurations: name, plant, joint-angle guess, arm count.
 fn tick_configs() -> Vec<(&'static str, PlantParams, Option<Vec<f64>>, usize)> {
-    let (p3, guess) = fixtures::redundant_pair();
+    let (p3, guess) = presets::redundant_pair();
     let (p4, guess4) = n_link::chain(2, 4);
     vec![
-        ("two_2link", fixtures::paper(), None, 2),
-        ("three_2link", fixtures::three_arms(), None, 3),
+        ("two_2link", presets::paper(), None, 2),
+        ("three_2link", presets::three_arms(), None, 3),
         ("two_3link", p3, Some(guess), 2),
         ("two_4link", p4, Some(guess4), 2),
     ]
@@ -89,9 +90,9 @@ fn ticks(c: &mut Criterion) {
 }
 
 fn bench(c: &mut Criterion) {
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let y = plant
-        .initial_state(fixtures::paper_start(), Vector3::new(0.01, 0.02, 0.0), None)
+        .initial_state(presets::paper_start(), Vector3::new(0.01, 0.02, 0.0), None)
         .unwrap();
     let mut ws = plant.workspace();
     let mut input = plant.zero_input();

@@ -28,7 +28,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Vector3;
-use tandem::rbf::{BATCH_DEPTH, Kernel, NnUpdate, Rbf, RbfNetwork};
+use tandem::control::rbf::{BATCH_DEPTH, Kernel, NnUpdate, Rbf, RbfNetwork};
 
 /// A plausible NN input `Z = [x1, x2, α, α̇]` near the start of the paper run.
 const Z: [f64; 12] = [

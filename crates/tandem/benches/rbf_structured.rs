@@ -1,4 +1,4 @@
-//! Structured RBF network benches (`tandem::rbf_structured`, SPEC-spatial S5): one full tick
+//! Structured RBF network benches (`tandem::control::rbf::structured`, SPEC-spatial S5): one full tick
 //! (`S_j(Z)`, outputs with the old weights, exact update (44), norms) per structure, planar
 //! (3 outputs, 12 inputs) and spatial (6 outputs, 24 inputs). The paper's full grid is
 //! `rbf/nn_tick_fused_4096x3` in `benches/rbf.rs`; it is repeated here through the same API.
@@ -10,8 +10,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::SVector;
-use tandem::rbf::NnUpdate;
-use tandem::rbf_structured::{NetworkStructure, StructuredNn};
+use tandem::control::rbf::NnUpdate;
+use tandem::control::rbf::structured::{NetworkStructure, StructuredNn};
 
 fn bench_m<const M: usize>(
     c: &mut Criterion,

@@ -1,11 +1,11 @@
 //! The whole 90 s paper scenario (SPEC §4), outputs excluded: NN (tuned) at 1 kHz control on the
 //! constrained plant (the default) and on the reduced plant, and PD for comparison.
 use criterion::{Criterion, criterion_group, criterion_main};
-use tandem::adaptive::NnGains;
-use tandem::control::{ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
-use tandem::fixtures;
-use tandem::pd::PdGains;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::model::disturbance::Disturbance;
+use tandem::presets;
 use tandem::sim::{Formulation, SimParams, Simulation};
 
 fn build(law: LawParams, formulation: Formulation) -> Simulation {
@@ -13,7 +13,7 @@ fn build(law: LawParams, formulation: Formulation) -> Simulation {
         formulation,
         ..SimParams::paper()
     };
-    fixtures::paper_simulation(&ControllerParams::paper(law), sp, Disturbance::paper())
+    presets::paper_simulation(&ControllerParams::paper(law), sp, Disturbance::paper())
         .unwrap()
         .0
 }

@@ -9,12 +9,13 @@ use tandem::control::spatial::{
     SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains, SpatialTickRecord,
 };
-use tandem::disturbance::SpatialDisturbance;
-use tandem::fixtures;
+use tandem::drive::Measurements;
+use tandem::model::disturbance::SpatialDisturbance;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
-use tandem::sensors::SensorParams;
-use tandem::sim::{Formulation, Measurements, SimParams, Simulation, SpatialStart};
+use tandem::presets;
+use tandem::reference::spatial::path::Se3Path;
+use tandem::sim::sensors::SensorParams;
+use tandem::sim::{Formulation, SimParams, Simulation, SpatialStart};
 
 fn sim(
     franka: bool,
@@ -22,9 +23,9 @@ fn sim(
     duration: f64,
 ) -> Simulation<SpatialPlant, SpatialController> {
     let s = if franka {
-        fixtures::dual_franka()
+        presets::dual_franka()
     } else {
-        fixtures::dual_ur5()
+        presets::dual_ur5()
     };
     let p = SpatialControllerParams::spec_s6(law);
     let path = Se3Path::spec_s6();
@@ -95,9 +96,9 @@ fn bench(c: &mut Criterion) {
             rec_w.push(s.last_readings().to_vec());
         }
         let s2 = if franka {
-            fixtures::dual_franka()
+            presets::dual_franka()
         } else {
-            fixtures::dual_ur5()
+            presets::dual_ur5()
         };
         let (mut controller, _) = SpatialController::new(
             &SpatialControllerParams::spec_s6(law2),

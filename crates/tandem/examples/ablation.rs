@@ -1,6 +1,6 @@
 //! Network-structure ablation (SPEC-spatial S5, `docs/network.md`): the planar paper scenario
 //! (90 s, NN `tuned`, constrained plant, admittance, paper disturbance) with the paper's full
-//! grid against the structures of `tandem::rbf_structured`, with the tuned `Θ` as it is and
+//! grid against the structures of `tandem::control::rbf::structured`, with the tuned `Θ` as it is and
 //! with `Θ` matched to the full grid's loop gain `Θ‖S(0)‖²`. Writes a Markdown table.
 //!
 //! `cargo run --release -p tandem --example ablation -- [seconds] [out.md]`
@@ -9,13 +9,13 @@
 use std::time::Instant;
 
 use nalgebra::{SVector, Vector3};
-use tandem::adaptive::NnGains;
-use tandem::control::{ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
-use tandem::fixtures;
-use tandem::rbf::NnUpdate;
-use tandem::rbf_structured::{NetworkStructure, StructuredNn, matched_theta};
-use tandem::report::summarize;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::control::rbf::NnUpdate;
+use tandem::control::rbf::structured::{NetworkStructure, StructuredNn, matched_theta};
+use tandem::model::disturbance::Disturbance;
+use tandem::presets;
+use tandem::report::metrics::summarize;
 use tandem::sim::SimParams;
 
 /// One row of the ablation.
@@ -164,7 +164,7 @@ fn main() {
             duration,
             ..SimParams::paper()
         };
-        let (sim, _) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).expect("builds");
+        let (sim, _) = presets::paper_simulation(&cp, sp, Disturbance::paper()).expect("builds");
         let (out, _) = sim.run(|_| {});
         let s2 = summarize(&out, "nn", c.name, [0.35; 3], 2.0, duration);
         let s5 = summarize(&out, "nn", c.name, [0.35; 3], 5.0, duration);

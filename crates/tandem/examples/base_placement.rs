@@ -1,10 +1,10 @@
 //! The base-placement study behind the spatial presets (SPEC-spatial S6, `docs/base-placement.md`):
 //! `cargo run --release -p tandem --example base_placement -- [results.csv] [--svg=figure.svg] [--force]`.
 //!
-//! 1. Dual UR5 (`fixtures::dual_ur5` grasps and box): bases at `(∓d/2, 0, 0)` facing each other,
+//! 1. Dual UR5 (`presets::dual_ur5` grasps and box): bases at `(∓d/2, 0, 0)` facing each other,
 //!    `d` from 0.90 to 1.80 m; one lap of the S6 path by inverse kinematics with continuation on
 //!    the S6 branch (shoulder toward the box, elbow up, `sin q5 > 0`), every 0.5 s.
-//! 2. Dual Franka (`fixtures::dual_franka`): which grasps have in-limit solutions at all (top
+//! 2. Dual Franka (`presets::dual_franka`): which grasps have in-limit solutions at all (top
 //!    face vs end faces, box height 0.30–0.40 m), laps for the top-face grasp over `d`, and the
 //!    redundancy's range (the values of joint 7 with an in-limit solution) along the lap.
 //!
@@ -20,7 +20,7 @@ use std::fmt::Write as _;
 use study::{FrankaGrasp, Lap};
 use tandem::nalgebra::{Isometry3, Vector3, Vector6};
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 
 /// Sampling step along the lap, s (the path moves 5 mm and turns ≤ 0.18° per step).
 const DT: f64 = 0.5;
@@ -135,7 +135,7 @@ fn main() {
         study::follow_lap(
             &study::dual_ur5_at(1.40),
             &Se3Path::spec_s6(),
-            &tandem::fixtures::dual_ur5().q_guess,
+            &tandem::presets::dual_ur5().q_guess,
             dt,
             true,
         )
@@ -306,7 +306,7 @@ fn main() {
         let d = 0.80 + 0.05 * k as f64;
         let params = study::dual_franka_at(d, FrankaGrasp::Top);
         let plant = SpatialPlant::new(&params).expect("valid");
-        let guess = tandem::fixtures::dual_franka().q_guess;
+        let guess = tandem::presets::dual_franka().q_guess;
         let l = match plant.initial_state(&x0, &Vector6::zeros(), &guess) {
             Ok(y) => study::follow_lap(&params, &path, &y[..plant.n_q()], DT, false),
             Err(e) => Lap {
@@ -353,7 +353,7 @@ fn main() {
         .initial_state(
             &x0,
             &Vector6::zeros(),
-            &tandem::fixtures::dual_franka().q_guess,
+            &tandem::presets::dual_franka().q_guess,
         )
         .expect("the preset starts");
     let lap = study::follow_lap(&params, &path, &y0[..14], DT, false);

@@ -13,15 +13,18 @@
 //! `cargo run --release -p tandem --example custom_controller`
 
 use tandem::ModelError;
-use tandem::disturbance::Disturbance;
-use tandem::dynamics::{self, ChainData};
-use tandem::fixtures;
-use tandem::grasp::distribute_wrench;
+use tandem::drive::{Drive, Measurements, Record};
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
+use tandem::model::disturbance::Disturbance;
+use tandem::model::planar::grasp::distribute_wrench;
 use tandem::nalgebra::{Vector2, Vector3, Vector6};
+use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::plant::{ClosedChain, Plant, SpatialStart};
-use tandem::sensors::SensorParams;
-use tandem::sim::{Drive, Log, Measurements, Outcome, Record, SimParams, Simulation};
+use tandem::plant::{ClosedChain, SpatialStart};
+use tandem::presets;
+use tandem::sim::sensors::SensorParams;
+use tandem::sim::{Log, Outcome, SimParams, Simulation};
 
 /// The law: gains, the start, the load feed-forward and a gravity model `g(q) → τ` (no
 /// allocation per call).
@@ -126,7 +129,7 @@ fn planar_law(plant: &Plant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &mut [f64
     }
 }
 
-/// Spatial: arm gravity from `dynamics::gravity`; the object's share is the plant's holding
+/// Spatial: arm gravity from `dynamics::spatial::gravity`; the object's share is the plant's holding
 /// torques at the start minus the arms' own gravity there.
 fn spatial_law(
     plant: &SpatialPlant,
@@ -142,7 +145,7 @@ fn spatial_law(
     let mut gravity = move |q: &[f64], tau: &mut [f64]| {
         for (i, arm) in arms.iter().enumerate() {
             let (o, d) = (offsets[i], arm.chain.dof());
-            dynamics::gravity(arm, &q[o..o + d], &g, &mut tau[o..o + d], &mut data[i]);
+            spatial::gravity(arm, &q[o..o + d], &g, &mut tau[o..o + d], &mut data[i]);
         }
     };
     let mut g0 = vec![0.0; n];
@@ -157,8 +160,8 @@ fn spatial_law(
 }
 
 /// A 2 N / 0.2 N m sinusoidal push on the spatial object (world axes).
-fn push() -> tandem::disturbance::SpatialDisturbance {
-    tandem::disturbance::Disturbance {
+fn push() -> tandem::model::disturbance::SpatialDisturbance {
+    tandem::model::disturbance::Disturbance {
         amplitude: [2.0, 0.0, 0.0, 0.0, 0.0, 0.2],
         frequency: [2.0; 6],
         phase: [0.0; 6],
@@ -207,13 +210,13 @@ fn main() -> Result<(), ModelError> {
     let ideal = SensorParams::default();
 
     // (a) The planar paper plant, under the paper's disturbance.
-    let params = fixtures::paper();
+    let params = presets::paper();
     let plant = Plant::new(&params)?;
-    let y0 = plant.initial_state(fixtures::paper_start(), Vector3::zeros(), None)?;
+    let y0 = plant.initial_state(presets::paper_start(), Vector3::zeros(), None)?;
     let law = planar_law(&plant, &y0);
     let sim = Simulation::new(&params, &ideal, law, Disturbance::paper(), run(1e-3), None)?;
     let (out, _) = sim.run(|_| {});
-    let x0 = fixtures::paper_start();
+    let x0 = presets::paper_start();
     report(
         "planar",
         &out,
@@ -221,7 +224,7 @@ fn main() -> Result<(), ModelError> {
     );
 
     // (b) The spatial dual UR5, under a sinusoidal push.
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let plant = SpatialPlant::new(&s.params)?;
     let y0 = plant.initial_state(&s.x_wo, &Vector6::zeros(), &s.q_guess)?;
     let law = spatial_law(&plant, &y0);

@@ -1,11 +1,11 @@
 //! The paper scenario with one law, summary printed: `cargo run --release -p tandem --example paper -- [nn|paper|pd|ctc] [seconds]`
 //! (`SCHEME=arm` for the per-arm scheme).
-use tandem::adaptive::NnGains;
-use tandem::control::{ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
-use tandem::pd::PdGains;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::model::disturbance::Disturbance;
 use tandem::sim::SimParams;
-use tandem::{fixtures, report};
+use tandem::{presets, report};
 
 fn main() {
     let which = std::env::args().nth(1).unwrap_or("nn".into());
@@ -35,14 +35,14 @@ fn main() {
         duration: dur,
         ..SimParams::paper()
     };
-    let (sim, w) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
+    let (sim, w) = presets::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
     for w in w {
         println!("warning: {w}");
     }
     let (out, _) = sim.run(|_| {});
-    let s = report::summarize(&out, &which, "", [0.35; 3], 5.0, dur);
+    let s = report::metrics::summarize(&out, &which, "", [0.35; 3], 5.0, dur);
     println!("{}", serde_json_like(&s));
 }
-fn serde_json_like(s: &report::Summary) -> String {
+fn serde_json_like(s: &report::metrics::Summary) -> String {
     format!("{s:#?}")
 }

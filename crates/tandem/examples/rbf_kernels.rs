@@ -1,7 +1,7 @@
 //! 1000 fused NN ticks of the paper network (4096 × 3) with the kernel `TANDEM_KERNEL` selects;
 //! for instruction counts: `valgrind --tool=callgrind target/release/examples/rbf_kernels`.
 use nalgebra::Vector3;
-use tandem::rbf::{NnUpdate, Rbf, RbfNetwork};
+use tandem::control::rbf::{NnUpdate, Rbf, RbfNetwork};
 
 fn main() {
     let rbf = Rbf::paper();

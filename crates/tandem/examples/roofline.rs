@@ -7,10 +7,10 @@
 //! closed-chain derivative).
 use nalgebra::{Vector3, Vector6};
 use std::hint::black_box;
-use tandem::fixtures;
-use tandem::plant::Plant;
+use tandem::control::rbf::{NnUpdate, Rbf, RbfNetwork};
+use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::rbf::{NnUpdate, Rbf, RbfNetwork};
+use tandem::presets;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -36,9 +36,9 @@ fn main() {
             }
         }
         "planar" => {
-            let plant = Plant::new(&fixtures::paper()).expect("paper plant");
+            let plant = Plant::new(&presets::paper()).expect("paper plant");
             let y = plant
-                .initial_state(fixtures::paper_start(), Vector3::new(0.01, 0.02, 0.0), None)
+                .initial_state(presets::paper_start(), Vector3::new(0.01, 0.02, 0.0), None)
                 .expect("initial state");
             let mut ws = plant.workspace();
             let mut input = plant.zero_input();
@@ -49,7 +49,7 @@ fn main() {
             }
         }
         "spatial" => {
-            let s = fixtures::dual_ur5();
+            let s = presets::dual_ur5();
             let plant = SpatialPlant::new(&s.params).expect("dual UR5 plant");
             let twist = Vector6::new(0.02, -0.01, 0.03, 0.1, -0.05, 0.2);
             let y = plant

@@ -9,17 +9,17 @@
 //! The difference of the two totals over 1000 is the instructions per derivative
 //! (`docs/performance.md`). Setups: `dual_ur5`, `dual_franka`, `three_ur5`.
 use nalgebra::Vector6;
-use tandem::fixtures;
 use tandem::plant::spatial::SpatialPlant;
+use tandem::presets;
 
 fn main() {
     let mut args = std::env::args().skip(1);
     let name = args.next().unwrap_or_else(|| "dual_ur5".into());
     let n: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(1000);
     let s = match name.as_str() {
-        "dual_franka" => fixtures::dual_franka(),
-        "three_ur5" => fixtures::three_ur5(),
-        _ => fixtures::dual_ur5(),
+        "dual_franka" => presets::dual_franka(),
+        "three_ur5" => presets::three_ur5(),
+        _ => presets::dual_ur5(),
     };
     let plant = SpatialPlant::new(&s.params).expect("valid plant");
     let twist = Vector6::new(0.02, -0.01, 0.03, 0.1, -0.05, 0.2);

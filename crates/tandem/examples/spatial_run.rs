@@ -12,9 +12,9 @@ fn main() {
     let franka = args.get(2).is_some_and(|s| s == "franka");
     let duration: f64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(10.0);
     let setup = if franka {
-        tandem::fixtures::dual_franka()
+        tandem::presets::dual_franka()
     } else {
-        tandem::fixtures::dual_ur5()
+        tandem::presets::dual_ur5()
     };
     let law = match law {
         "pd" => SpatialLaw::Pd(SpatialPdGains::paper()),
@@ -24,7 +24,7 @@ fn main() {
     };
     let t0 = std::time::Instant::now();
     let (sim, warnings) =
-        tandem::fixtures::spatial_s6_simulation(&setup.params, &setup, law, duration, 1e-3, 1e-6)
+        tandem::presets::spatial_s6_simulation(&setup.params, &setup, law, duration, 1e-3, 1e-6)
             .expect("simulation");
     println!(
         "set-up {:.3} s; path inertia (chart diagonal) {:.3?}; warnings: {warnings:?}",

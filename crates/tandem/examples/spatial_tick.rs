@@ -18,8 +18,8 @@ use tandem::control::spatial::{
     SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains, SpatialTickRecord,
 };
-use tandem::reference::se3_path::Se3Path;
-use tandem::sim::Measurements;
+use tandem::drive::Measurements;
+use tandem::reference::spatial::path::Se3Path;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -29,10 +29,10 @@ fn main() {
         "ctc" => SpatialLaw::Ctc(SpatialCtcGains::default()),
         _ => SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
     };
-    let setup = tandem::fixtures::dual_ur5();
+    let setup = tandem::presets::dual_ur5();
     if mode == "log" {
         let duration: f64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(2.0);
-        let (sim, _) = tandem::fixtures::spatial_s6_simulation(
+        let (sim, _) = tandem::presets::spatial_s6_simulation(
             &setup.params,
             &setup,
             law(),
@@ -59,7 +59,7 @@ fn main() {
     }
     let n: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(2000);
     let (mut sim, _) =
-        tandem::fixtures::spatial_s6_simulation(&setup.params, &setup, law(), 3.0, 1e-3, 1e-6)
+        tandem::presets::spatial_s6_simulation(&setup.params, &setup, law(), 3.0, 1e-3, 1e-6)
             .expect("simulation");
     let nq = sim.plant().n_q();
     let ticks = 2000;

@@ -4,21 +4,22 @@
 //!
 //! `cargo run --release -p tandem --example sweep -- [runs] [seconds] [threads]`
 
-use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
-use tandem::fixtures::{self, splitmix64};
-use tandem::report::{Summary, summarize};
-use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams};
+use tandem::math::random::splitmix64;
+use tandem::model::disturbance::Disturbance;
+use tandem::presets;
+use tandem::reference::planar::path::Path;
+use tandem::report::metrics::{Summary, summarize};
+use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 fn unit(seed: u64, k: u64) -> f64 {
     (splitmix64(seed ^ splitmix64(k)) >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
 }
 
 fn one(run: u64, duration: f64) -> Summary {
-    let mut plant = fixtures::paper();
+    let mut plant = presets::paper();
     // ±20 % object mass and inertia (the controller keeps the nominal model).
     let s = 1.0 + 0.2 * unit(run, 1);
     for k in 0..3 {
@@ -26,7 +27,7 @@ fn one(run: u64, duration: f64) -> Summary {
         plant.object.gravity[k] *= s;
     }
     let cp = ControllerParams::paper(LawParams::Nn(NnGains::tuned()));
-    let (c, _) = Controller::new(&cp, &fixtures::paper(), Path::paper(), duration).unwrap();
+    let (c, _) = Controller::new(&cp, &presets::paper(), Path::paper(), duration).unwrap();
     let noise = ChannelNoise {
         std_dev: 1e-5,
         bias: 0.0,

@@ -24,12 +24,12 @@
 //! | `x_1, x_2` | `TickRecord::{x_o, xd_o}` | estimated object pose and velocity (22) | 3 |
 //! | `z_1, z_2` | `TickRecord::{z1, z2}` | `x_1 − x_r`, `x_2 − α` (23) | 3 |
 //! | `k_c` | `ControllerParams::k_c` | output bounds, `|x_1j| < k_cj` (24) | 3 |
-//! | `ρ, α, α̇` | [`crate::iblf`] | (29), (31) with the SPEC §3.3 errata | 3 |
+//! | `ρ, α, α̇` | [`crate::control::law::iblf`] | (29), (31) with the SPEC §3.3 errata | 3 |
 //! | `κ_1, K_1, K_2, K_r` | `NnGains::{k1, k2, k_r}` | backstepping and robust gains (31), (42) | 3 |
 //! | `Z` | — | NN input `[x_1, x_2, α, α̇]` | 12 |
-//! | `S(Z), ϑ` | [`crate::rbf`], `NnGains::width2` (= ϑ²) | Gaussian basis (8) | 4096 |
+//! | `S(Z), ϑ` | [`crate::control::rbf`], `NnGains::width2` (= ϑ²) | Gaussian basis (8) | 4096 |
 //! | `Ŵ_j, Θ_j, σ_j` | `NnGains::{theta, sigma}` | weights and adaptation law (44) | 4096×3 |
-//! | `Q = M(Z), m(z), d_1, d_2, ω` | [`crate::switching`] | switching function (37)–(38) | scalar |
+//! | `Q = M(Z), m(z), d_1, d_2, ω` | [`crate::control::law::switching`] | switching function (37)–(38) | scalar |
 //! | `f^U, ϖ` | `FuBound`, `NnGains::varpi` | bound of `|F(Z)|` and robust-term smoothing (40), (43) | 3 |
 //! | `V_1, V_2, V_3` | `iblf::v1` | Lyapunov functions (27), (33), (46) | scalar |
 //!

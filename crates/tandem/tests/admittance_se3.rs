@@ -1,21 +1,21 @@
-//! The per-arm 6-D admittance generator (`tandem::reference::admittance_se3`, SPEC-spatial S5
+//! The per-arm 6-D admittance generator (`tandem::reference::spatial::admittance`, SPEC-spatial S5
 //! "Admittance", SPEC §3.1): exact per-axis responses, static compliance and its sign, the
 //! rigid transport and the offset composition against finite differences, consistency with
-//! `se3::fit`, no allocation, never NaN.
+//! `reference::spatial::fit`, no allocation, never NaN.
 
 use proptest::prelude::*;
 use tandem::ModelError;
+use tandem::geometry::so3;
 use tandem::nalgebra::{
     Complex, Isometry3, Matrix3, Matrix6, SMatrix, Translation3, UnitQuaternion, Vector3, Vector6,
 };
-use tandem::reference::admittance_se3::{
+use tandem::reference::spatial::admittance::{
     AdmittanceSe3, AdmittanceSe3Params, AdmittanceSe3State, AdmittanceSe3Warning, StepFlags,
     pose_sample, reference_tool, step_arms, tool_from_object, tool_from_object_se3,
     wrench_tool_to_world,
 };
-use tandem::reference::se3_path::{AxisFrame, CircleParams, Se3Path};
-use tandem::se3::{PoseSample, fit};
-use tandem::spatial::so3;
+use tandem::reference::spatial::path::{AxisFrame, CircleParams, Se3Path};
+use tandem::reference::spatial::{PoseSample, fit};
 
 // ---------------------------------------------------------------------------------------------
 // Counting allocator (pattern of tests/alloc.rs)
@@ -357,7 +357,7 @@ fn static_offset_push_and_twist_yield_and_return() {
 
 /// Two arms (S6 grasps) hold the object at rest; an external push `P` on the object at its
 /// centre is resisted by the arms, which then read `Σ G_iᵀ F̃_i = P` (SPEC-spatial S3), shared
-/// at minimum norm. Through `se3::fit` the object reference yields in the push direction: a 2 N
+/// at minimum norm. Through `reference::spatial::fit` the object reference yields in the push direction: a 2 N
 /// push along x moves it by `P/(2K_e) = 1` mm (SPEC §3.1's two arms in parallel); a 0.5 N m twist
 /// about z turns it about +z by `τ_i/K_rot` (the torque part of each arm's share) without
 /// moving it.
@@ -721,8 +721,8 @@ fn validation_names_the_field_and_first_order_warns() {
     // Defaults: no warning; discretisation per axis is the planar one.
     let (adm, w) = AdmittanceSe3::new(&d, H).unwrap();
     assert!(w.is_empty());
-    let (planar, _) = tandem::admittance::Admittance::new(
-        &tandem::admittance::AdmittanceParams::uniform(8.0, 25.04, 40.0, 0.01),
+    let (planar, _) = tandem::reference::planar::admittance::Admittance::new(
+        &tandem::reference::planar::admittance::AdmittanceParams::uniform(8.0, 25.04, 40.0, 0.01),
         H,
     )
     .unwrap();

@@ -2,16 +2,18 @@
 //! allocate nothing once built (STYLE habit 5; Drake's LimitMalloc, Pinocchio's test_crba_malloc).
 
 use nalgebra::Vector3;
-use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
-use tandem::disturbance::Disturbance;
-use tandem::fixtures;
-use tandem::integrate::Rk4;
-use tandem::pd::PdGains;
-use tandem::plant::{ConstrainedOde, Plant, ReducedOde};
-use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::control::Scheme;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams, TickRecord};
+use tandem::drive::Measurements;
+use tandem::math::integrate::Rk4;
+use tandem::model::disturbance::Disturbance;
+use tandem::plant::planar::{ConstrainedOde, Plant, ReducedOde};
+use tandem::presets;
+use tandem::reference::planar::path::Path;
+use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 #[path = "support/counting.rs"]
 mod counting;
@@ -43,11 +45,11 @@ fn params(law: LawParams) -> ControllerParams {
 #[test]
 fn n_link_constrained_steps_allocate_nothing() {
     // The fixed-size kernel of two 3-link arms (and the general path on the same plant).
-    let (p, guess) = fixtures::redundant_pair();
+    let (p, guess) = presets::redundant_pair();
     let plant = Plant::new(&p).unwrap();
     let mut y = plant
         .initial_state(
-            fixtures::paper_start(),
+            presets::paper_start(),
             Vector3::new(0.01, 0.0, 0.1),
             Some(&guess),
         )
@@ -72,10 +74,10 @@ fn n_link_constrained_steps_allocate_nothing() {
 
 #[test]
 fn plant_steps_allocate_nothing() {
-    for p in [fixtures::paper(), fixtures::three_arms()] {
+    for p in [presets::paper(), presets::three_arms()] {
         let plant = Plant::new(&p).unwrap();
         let mut y = plant
-            .initial_state(fixtures::paper_start(), Vector3::new(0.01, 0.0, 0.1), None)
+            .initial_state(presets::paper_start(), Vector3::new(0.01, 0.0, 0.1), None)
             .unwrap();
         let mut yr = [0.19, 0.0, 0.0, 0.01, 0.0, 0.1];
         let mut rkr = Rk4::new(6);
@@ -100,9 +102,9 @@ fn plant_steps_allocate_nothing() {
 
 #[test]
 fn controller_ticks_allocate_nothing() {
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let y = plant
-        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .initial_state(presets::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let (q, _, qd, _) = plant.split(&y);
     let forces = [1.0, -5.0, -1.0, -5.0];
@@ -113,7 +115,7 @@ fn controller_ticks_allocate_nothing() {
     ] {
         let name = law.name();
         let (mut c, _) =
-            Controller::new(&params(law), &fixtures::paper(), Path::paper(), 10.0).unwrap();
+            Controller::new(&params(law), &presets::paper(), Path::paper(), 10.0).unwrap();
         let meas = Measurements {
             q,
             qd,
@@ -136,7 +138,7 @@ fn controller_ticks_allocate_nothing() {
                 _ => LawParams::Pd(PdGains::paper()),
             });
             p.scheme = tandem::control::Scheme::PerArm;
-            let (mut c, _) = Controller::new(&p, &fixtures::paper(), Path::paper(), 10.0).unwrap();
+            let (mut c, _) = Controller::new(&p, &presets::paper(), Path::paper(), 10.0).unwrap();
             c.start(0.0, &meas);
             c.tick(0.0, &meas, &mut tau, &mut rec);
             let n = count(|| {
@@ -160,7 +162,7 @@ fn n_link_controller_ticks_and_plant_steps_allocate_nothing() {
         let plant = Plant::new(&p).unwrap();
         let mut y = plant
             .initial_state(
-                fixtures::paper_start(),
+                presets::paper_start(),
                 Vector3::new(0.01, 0.0, 0.1),
                 Some(&guess),
             )
@@ -198,7 +200,7 @@ fn n_link_controller_ticks_and_plant_steps_allocate_nothing() {
 
 #[test]
 fn simulation_ticks_allocate_nothing() {
-    let plant = fixtures::paper();
+    let plant = presets::paper();
     let (c, _) = Controller::new(
         &params(LawParams::Nn(NnGains::tuned())),
         &plant,
@@ -244,9 +246,9 @@ fn simulation_ticks_allocate_nothing() {
 fn spatial_plant_steps_allocate_nothing() {
     use tandem::plant::spatial::{GraspModel, SpatialPlant};
     for s in [
-        fixtures::dual_ur5(),
-        fixtures::dual_franka(),
-        fixtures::three_ur5(),
+        presets::dual_ur5(),
+        presets::dual_franka(),
+        presets::three_ur5(),
     ] {
         for compliant in [false, true] {
             let mut p = s.params.clone();
@@ -290,10 +292,10 @@ struct HoldPd {
     hold: Vec<f64>,
 }
 
-impl<P: tandem::plant::ClosedChain> tandem::sim::Drive<P> for HoldPd {
-    type Record = tandem::sim::NoRecord;
+impl<P: tandem::plant::ClosedChain> tandem::drive::Drive<P> for HoldPd {
+    type Record = tandem::drive::NoRecord;
     fn new_record(&self) -> Self::Record {
-        tandem::sim::NoRecord
+        tandem::drive::NoRecord
     }
     fn start(&mut self, _t0: f64, meas: &Measurements<'_>) {
         self.q0.copy_from_slice(meas.q);
@@ -307,8 +309,8 @@ impl<P: tandem::plant::ClosedChain> tandem::sim::Drive<P> for HoldPd {
     }
 }
 
-fn faults() -> tandem::faults::Faults {
-    tandem::faults::Faults {
+fn faults() -> tandem::sim::faults::Faults {
+    tandem::sim::faults::Faults {
         dropout_rate: 5.0,
         dropout_length: 0.01,
         force_limit: Some(30.0),
@@ -325,7 +327,7 @@ fn generic_loop_ticks_allocate_nothing() {
     use tandem::plant::SpatialStart;
     use tandem::plant::spatial::SpatialPlant;
     use tandem::sim::Replay;
-    let plant = fixtures::paper();
+    let plant = presets::paper();
     let sensors = SensorParams {
         seed: 7,
         ..Default::default()
@@ -384,7 +386,7 @@ fn generic_loop_ticks_allocate_nothing() {
         assert_eq!(n, 0, "replay ticks allocated {n} times (linear: {linear})");
     }
     // The spatial plant with a user driver, with faults, and a spatial replay.
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let sp_plant = SpatialPlant::new(&s.params).unwrap();
     let y0 = sp_plant
         .initial_state(&s.x_wo, &nalgebra::Vector6::zeros(), &s.q_guess)
@@ -406,7 +408,7 @@ fn generic_loop_ticks_allocate_nothing() {
         &start,
         &sensors,
         drv,
-        tandem::disturbance::SpatialDisturbance::zero(),
+        tandem::model::disturbance::SpatialDisturbance::zero(),
         ssp.clone(),
     )
     .unwrap()
@@ -425,7 +427,7 @@ fn generic_loop_ticks_allocate_nothing() {
         &start,
         &sensors,
         r,
-        tandem::disturbance::SpatialDisturbance::zero(),
+        tandem::model::disturbance::SpatialDisturbance::zero(),
         ssp,
     )
     .unwrap();
@@ -446,8 +448,8 @@ fn generic_loop_ticks_allocate_nothing() {
 /// differs from the same ticks without them).
 #[test]
 fn fault_injected_driver_ticks_allocate_nothing() {
-    let plant = fixtures::paper();
-    let build = |f: Option<tandem::faults::Faults>| {
+    let plant = presets::paper();
+    let build = |f: Option<tandem::sim::faults::Faults>| {
         let (c, _) = Controller::new(
             &ControllerParams::paper(LawParams::Nn(NnGains::tuned())),
             &plant,
@@ -471,7 +473,7 @@ fn fault_injected_driver_ticks_allocate_nothing() {
             None => sim,
         }
     };
-    let faults = tandem::faults::Faults {
+    let faults = tandem::sim::faults::Faults {
         dropout_rate: 50.0,
         dropout_length: 0.005,
         force_limit: Some(0.5),
@@ -526,7 +528,7 @@ fn constrained_step_allocations(plant: &Plant, y: &mut [f64]) -> usize {
 /// `f32` store's load and widening, and the norms refresh), ticks without allocating.
 #[test]
 fn rbf_ticks_allocate_nothing_with_every_kernel() {
-    use tandem::rbf::{BATCH_DEPTH, Kernel, NnUpdate, Rbf, RbfNetwork};
+    use tandem::control::rbf::{BATCH_DEPTH, Kernel, NnUpdate, Rbf, RbfNetwork};
     let rbf = Rbf::paper();
     let upd = NnUpdate::new(
         Vector3::new(1.6, 1.5, 0.5),

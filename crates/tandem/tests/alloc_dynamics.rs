@@ -2,8 +2,9 @@
 //! after `ChainData::new` (STYLE habit 5; Pinocchio's test_crba_malloc).
 
 use nalgebra::{DMatrix, Isometry3, Matrix3, Translation3, Unit, UnitQuaternion, Vector3, Vector6};
-use tandem::dynamics::{self, ChainData};
-use tandem::model::{Chain, ChainJoint, JointKind, JointLimits, RigidBody, SpatialArm};
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
+use tandem::model::spatial::{Chain, ChainJoint, JointKind, JointLimits, RigidBody, SpatialArm};
 
 #[path = "support/counting.rs"]
 mod counting;
@@ -81,17 +82,17 @@ fn rigid_body_algorithms_allocate_nothing() {
     let mut out = vec![0.0; n];
     let mut c = DMatrix::zeros(n, n);
     let mut run = |q: &[f64], d: &mut ChainData| {
-        dynamics::kinematics(&arm, q, None, d);
-        dynamics::kinematics(&arm, q, Some(&qd), d);
-        dynamics::crba(&arm, q, d);
-        dynamics::rnea(&arm, q, &qd, &qdd, &g, None, &mut tau, d);
-        dynamics::rnea(&arm, q, &qd, &qdd, &g, Some(&f_t), &mut tau, d);
-        dynamics::aba(&arm, q, &qd, &tau, &g, Some(&f_t), &mut out, d);
-        dynamics::forward_dynamics(&arm, q, &qd, &tau, &g, Some(&f_t), &mut out, d);
-        dynamics::terms(&arm, q, &qd, &g, d);
-        dynamics::coriolis_matrix(&arm, q, &qd, &mut c, d);
-        dynamics::gravity(&arm, q, &g, &mut out, d);
-        std::hint::black_box(dynamics::energy(&arm, q, &qd, &g, d));
+        spatial::kinematics(&arm, q, None, d);
+        spatial::kinematics(&arm, q, Some(&qd), d);
+        spatial::crba(&arm, q, d);
+        spatial::rnea(&arm, q, &qd, &qdd, &g, None, &mut tau, d);
+        spatial::rnea(&arm, q, &qd, &qdd, &g, Some(&f_t), &mut tau, d);
+        spatial::aba(&arm, q, &qd, &tau, &g, Some(&f_t), &mut out, d);
+        spatial::forward_dynamics(&arm, q, &qd, &tau, &g, Some(&f_t), &mut out, d);
+        spatial::terms(&arm, q, &qd, &g, d);
+        spatial::coriolis_matrix(&arm, q, &qd, &mut c, d);
+        spatial::gravity(&arm, q, &g, &mut out, d);
+        std::hint::black_box(spatial::energy(&arm, q, &qd, &g, d));
     };
     run(&q, &mut d); // warm-up
     let allocs = count(|| {

@@ -7,11 +7,11 @@ use tandem::control::spatial::{
     SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains,
 };
-use tandem::disturbance::{Push, SpatialDisturbance};
-use tandem::fixtures;
+use tandem::model::disturbance::{Push, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
-use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::presets;
+use tandem::reference::spatial::path::Se3Path;
+use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Formulation, SimParams, Simulation, SpatialStart};
 
 #[path = "support/counting.rs"]
@@ -93,9 +93,9 @@ fn every_spatial_law_and_scheme_ticks_without_allocating() {
         ),
     ] {
         let s = if franka {
-            fixtures::dual_franka()
+            presets::dual_franka()
         } else {
-            fixtures::dual_ur5()
+            presets::dual_ur5()
         };
         let mut p = SpatialControllerParams::spec_s6(law);
         p.scheme = scheme;

@@ -4,10 +4,11 @@
 
 use nalgebra::{DMatrix, Matrix2, Vector2};
 use proptest::prelude::*;
-use tandem::arm::{Arm, ArmParams, Elbow, FixedArm, LinkParams};
+use tandem::dynamics::planar::{Arm, FixedArm};
 use tandem::error::ModelError;
+use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
 
-use tandem::fixtures::SplitMix64 as Rng;
+use tandem::math::random::SplitMix64 as Rng;
 
 fn paper_arm() -> Arm {
     Arm::new("arm", &ArmParams::paper([-0.38, 0.0], Elbow::Negative)).unwrap()
@@ -496,7 +497,10 @@ proptest! {
 
 /// Every field of a [`FixedArm::state_block`] result as bits.
 fn block_bits<const N: usize>(
-    r: &(tandem::arm::ArmBlock<N>, tandem::arm::ArmSolve<N>),
+    r: &(
+        tandem::dynamics::planar::ArmBlock<N>,
+        tandem::dynamics::planar::ArmSolve<N>,
+    ),
 ) -> Vec<u64> {
     let (b, s) = r;
     [

@@ -8,7 +8,7 @@ mod study;
 use study::FrankaGrasp;
 use tandem::nalgebra::{Isometry3, Vector3, Vector6};
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 
 /// The study's sampling step along the lap, s.
 const DT: f64 = 0.5;
@@ -18,7 +18,7 @@ fn ur5_lap(params: &tandem::plant::spatial::SpatialPlantParams) -> study::Lap {
     study::follow_lap(
         params,
         &Se3Path::spec_s6(),
-        &tandem::fixtures::dual_ur5().q_guess,
+        &tandem::presets::dual_ur5().q_guess,
         DT,
         true,
     )
@@ -35,7 +35,7 @@ fn max2(a: [f64; 2]) -> f64 {
 #[test]
 fn dual_ur5_preset_keeps_the_s6_branch_with_the_s6_figures() {
     // The preset itself (bases ∓0.70 m), not a rebuilt copy.
-    let setup = tandem::fixtures::dual_ur5();
+    let setup = tandem::presets::dual_ur5();
     let lap = ur5_lap(&setup.params);
     assert!(lap.failure.is_none(), "{:?}", lap.failure);
     assert_eq!(lap.samples, 121, "every 0.5 s over 60 s, both ends");
@@ -111,11 +111,7 @@ fn dual_ur5_closer_than_a_metre_cannot_reach_and_farther_breaks_the_figures() {
     // The plant's IK agrees, and so does a search from random starts (any branch).
     let plant = SpatialPlant::new(&params).expect("valid");
     let e = plant
-        .initial_state(
-            &x0,
-            &Vector6::zeros(),
-            &tandem::fixtures::dual_ur5().q_guess,
-        )
+        .initial_state(&x0, &Vector6::zeros(), &tandem::presets::dual_ur5().q_guess)
         .expect_err("out of reach");
     assert!(e.to_string().contains("arms[1]"), "{e}");
     assert!(study::ik_search(arm2, &g, 50, None, 3).is_empty());
@@ -149,7 +145,7 @@ fn dual_ur5_closer_than_a_metre_cannot_reach_and_farther_breaks_the_figures() {
 #[test]
 fn dual_franka_preset_holds_from_above_and_not_by_the_end_faces() {
     // The preset itself (bases ∓0.55 m, top-face grasps) from its own guess, as the run starts.
-    let setup = tandem::fixtures::dual_franka();
+    let setup = tandem::presets::dual_franka();
     let path = Se3Path::spec_s6();
     let x0 = study::s6_pose(&path, 0.0);
     let plant = SpatialPlant::new(&setup.params).expect("valid");
@@ -193,11 +189,11 @@ fn the_branch_test_tells_the_eight_ur5_solutions_apart() {
     // has (generically) 8 inverse-kinematics solutions: shoulder × elbow × wrist. Found from
     // random starts at the preset's start pose, distinct solutions (modulo 2π) must get
     // distinct branches, and only the S6 start angles the S6 branch.
-    let setup = tandem::fixtures::dual_ur5();
+    let setup = tandem::presets::dual_ur5();
     let x0 = study::s6_pose(&Se3Path::spec_s6(), 0.0);
     let arm = &setup.params.arms[0];
     let g = study::grasp_target(&setup.params, 0, &x0);
-    let mut d = tandem::dynamics::ChainData::new(arm);
+    let mut d = tandem::dynamics::spatial::ChainData::new(arm);
     let mut found: Vec<(Vec<f64>, study::Branch)> = Vec::new();
     for q in study::ik_search(arm, &g, 200, None, 21) {
         let wrap = |a: f64| (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU);

@@ -2,11 +2,14 @@
 //! [`ClosedChain`] interface (the crate docs, "Architecture"): the planar paper plant and the
 //! spatial dual-UR5 plant run the same generic code.
 
+mod support;
+
 use nalgebra::{Vector3, Vector6};
-use tandem::fixtures;
-use tandem::integrate::Rk4;
+use tandem::math::integrate::Rk4;
+use tandem::plant::ClosedChain;
+use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::plant::{ClosedChain, Plant};
+use tandem::presets;
 
 /// Integrate `steps` steps of `h` with zero torque and return (largest |ΔE| relative to the
 /// peak kinetic energy, largest position residual (m), largest second residual — planar: the
@@ -39,9 +42,9 @@ fn coast<P: ClosedChain>(plant: &P, y0: &[f64], h: f64, steps: usize) -> (f64, f
 #[test]
 fn planar_and_spatial_plants_share_the_invariant_checks() {
     // Planar: the paper's plant, undamped, falling from the NN start for 0.5 s.
-    let planar = Plant::new(&fixtures::undamped(fixtures::paper())).unwrap();
+    let planar = Plant::new(&support::undamped(presets::paper())).unwrap();
     let y0 = planar
-        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .initial_state(presets::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let (de, res, res2, w) = coast(&planar, &y0, 1e-3, 500);
     println!("planar: relative energy drift {de:.2e}, residual {res:.2e} m, {res2:.2e} m/s");
@@ -49,7 +52,7 @@ fn planar_and_spatial_plants_share_the_invariant_checks() {
     assert!(de < 1e-6 && res < 1e-8 && res2 < 1e-6);
     assert_eq!(w.len(), 4);
     // Spatial: two UR5-class arms + box, undamped, falling for 0.5 s.
-    let mut s = fixtures::dual_ur5();
+    let mut s = presets::dual_ur5();
     s.params.object.damping = Vector6::zeros();
     let spatial = SpatialPlant::new(&s.params).unwrap();
     let y0 = spatial

@@ -1,19 +1,19 @@
 //! Closed-loop behaviour of the control laws on the constrained plant (issue: control laws).
 
 use nalgebra::Vector3;
-use tandem::adaptive::NnGains;
-use tandem::admittance::AdmittanceParams;
-use tandem::control::{Controller, ControllerParams, LawParams};
-use tandem::disturbance::{Disturbance, Push};
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::iblf;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams};
 use tandem::error::ModelError;
-use tandem::fixtures;
-use tandem::iblf;
-use tandem::pd::PdGains;
-use tandem::plant::Plant;
-use tandem::report::{Summary, summarize};
-use tandem::sensors::SensorParams;
+use tandem::model::disturbance::{Disturbance, Push};
+use tandem::plant::planar::Plant;
+use tandem::presets;
+use tandem::reference::planar::admittance::AdmittanceParams;
+use tandem::reference::planar::path::Path;
+use tandem::report::metrics::{Summary, summarize};
+use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Driver, Log, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 fn params(law: LawParams) -> ControllerParams {
     ControllerParams::paper(law)
@@ -26,7 +26,7 @@ fn run(cp: ControllerParams, dist: Disturbance, duration: f64, log_period: f64) 
         ..SimParams::paper()
     };
     let name = cp.law.name();
-    let (sim, _) = fixtures::paper_simulation(&cp, sp, dist).unwrap();
+    let (sim, _) = presets::paper_simulation(&cp, sp, dist).unwrap();
     let (out, _) = sim.run(|_| {});
     let s = summarize(&out, name, "", [0.35; 3], 2.0, duration);
     assert!(s.completed, "{name}: run stopped: {:?}", s.fault);
@@ -58,7 +58,7 @@ fn nn_tuned_respects_the_bound_and_settles_within_2_s() {
 /// Run the tuned NN law tick by tick for `ticks` ms (log every tick), calling `each` with the
 /// controller's weights after every tick.
 fn run_ticks(ticks: usize, mut each: impl FnMut(usize, &[f64])) -> Log {
-    let plant = fixtures::paper();
+    let plant = presets::paper();
     let duration = ticks as f64 * 1e-3;
     let (c, _) = Controller::new(
         &params(LawParams::Nn(NnGains::tuned())),
@@ -119,7 +119,7 @@ fn lyapunov_function_decreases_outside_its_ultimate_bound() {
         }
         prev = s;
     });
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let mut ws = plant.workspace();
     let ax = ["x", "y", "theta"];
     let mut cols: Vec<Vec<f64>> = Vec::new();
@@ -290,7 +290,7 @@ fn paper_gains_stay_bounded_but_chatter() {
 }
 
 fn err_of(cp: ControllerParams) -> String {
-    match Controller::new(&cp, &fixtures::paper(), Path::paper(), 90.0) {
+    match Controller::new(&cp, &presets::paper(), Path::paper(), 90.0) {
         Err(e) => e.to_string(),
         Ok(_) => panic!("accepted bad parameters"),
     }
@@ -328,7 +328,7 @@ fn gains_that_break_the_theory_are_named() {
     let wide = Path::circle(nalgebra::Vector2::new(0.1, 0.0), 0.25, 0.1, 0.0, 0.0).unwrap();
     let mut cp = params(LawParams::Pd(PdGains::paper()));
     cp.k_c = [0.36, 0.36, 0.35];
-    let e = Controller::new(&cp, &fixtures::paper(), wide, 90.0)
+    let e = Controller::new(&cp, &presets::paper(), wide, 90.0)
         .err()
         .unwrap()
         .to_string();
@@ -348,7 +348,7 @@ fn gains_that_break_the_theory_are_named() {
     .unwrap();
     let e = Controller::new(
         &params(LawParams::Pd(PdGains::paper())),
-        &fixtures::paper(),
+        &presets::paper(),
         path,
         10.0,
     )
@@ -364,7 +364,7 @@ fn gains_that_break_the_theory_are_named() {
 fn the_papers_first_order_admittance_is_allowed_but_warned() {
     let mut cp = params(LawParams::Pd(PdGains::paper()));
     cp.admittance = Some(AdmittanceParams::paper_first_order(626.0, 1000.0));
-    let (_, w) = Controller::new(&cp, &fixtures::paper(), Path::paper(), 10.0).unwrap();
+    let (_, w) = Controller::new(&cp, &presets::paper(), Path::paper(), 10.0).unwrap();
     assert!(!w.is_empty());
     let msg = w[0].to_string();
     println!("{msg}");
@@ -472,7 +472,7 @@ fn redundant_arms_carry_the_object_with_a_damped_self_motion() {
     // Two 3-link arms, PD on the object; the law fixes the end-effectors, the null-space term
     // damps the self-motion and compensates its gravity. The joint angles must settle (log rows
     // 5 s apart differ by < 1 mrad once the object tracks) and the object must track.
-    let (plant, guess) = fixtures::redundant_pair();
+    let (plant, guess) = presets::redundant_pair();
     let (c, _) = Controller::new(
         &params(LawParams::Pd(PdGains::paper())),
         &plant,
@@ -532,7 +532,7 @@ fn redundant_arms_carry_the_object_with_a_damped_self_motion() {
 fn the_papers_nn_gains_are_allowed_but_warned() {
     let (_, w) = Controller::new(
         &params(LawParams::Nn(NnGains::paper())),
-        &fixtures::paper(),
+        &presets::paper(),
         Path::paper(),
         90.0,
     )
@@ -544,7 +544,7 @@ fn the_papers_nn_gains_are_allowed_but_warned() {
     assert!(w[1].to_string().contains("gains.k2[1]") && w[1].to_string().contains("limit cycle"));
     let (_, w) = Controller::new(
         &params(LawParams::Nn(NnGains::tuned())),
-        &fixtures::paper(),
+        &presets::paper(),
         Path::paper(),
         90.0,
     )

@@ -3,15 +3,18 @@
 //! paper plant and the spatial dual-UR5 plant with the same `Drive` implementation.
 
 use nalgebra::Vector3;
-use tandem::control::ControlEvents;
-use tandem::disturbance::Disturbance;
-use tandem::dynamics::{self, ChainData};
-use tandem::fixtures;
-use tandem::grasp::distribute_wrench;
+use tandem::drive::ControlEvents;
+use tandem::drive::{Drive, Measurements, Record};
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
+use tandem::model::disturbance::Disturbance;
+use tandem::model::planar::grasp::distribute_wrench;
+use tandem::plant::planar::Plant;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::plant::{ClosedChain, Plant, SpatialStart};
-use tandem::sensors::SensorParams;
-use tandem::sim::{Drive, Measurements, Record, SimParams, Simulation};
+use tandem::plant::{ClosedChain, SpatialStart};
+use tandem::presets;
+use tandem::sim::sensors::SensorParams;
+use tandem::sim::{SimParams, Simulation};
 
 /// Joint PD around the start configuration `q0` with gravity compensation:
 /// `τ = g(q) + τ_load + K_p (q0 − q) − K_d q̇`, `g` the arms' own gravity torques at the measured
@@ -144,7 +147,7 @@ fn planar_pd(plant: &Plant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &mut [f64]
     }
 }
 
-/// The spatial law: arm gravity from `dynamics::gravity`; the object's share is the plant's
+/// The spatial law: arm gravity from `dynamics::spatial::gravity`; the object's share is the plant's
 /// holding torques at the start minus the arms' own gravity there.
 fn spatial_pd(plant: &SpatialPlant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &mut [f64]) + use<>> {
     let n = plant.n_q();
@@ -157,7 +160,7 @@ fn spatial_pd(plant: &SpatialPlant, y0: &[f64]) -> JointPd<impl FnMut(&[f64], &m
     let mut gravity = move |q: &[f64], tau: &mut [f64]| {
         for (i, arm) in arms.iter().enumerate() {
             let (o, d) = (offsets[i], arm.chain.dof());
-            dynamics::gravity(arm, &q[o..o + d], &g, &mut tau[o..o + d], &mut data[i]);
+            spatial::gravity(arm, &q[o..o + d], &g, &mut tau[o..o + d], &mut data[i]);
         }
     };
     let mut g0 = vec![0.0; n];
@@ -179,10 +182,10 @@ fn col<'a>(log: &'a tandem::sim::Log, name: &str) -> &'a [f64] {
 
 #[test]
 fn a_user_joint_pd_holds_the_planar_paper_plant() {
-    let params = fixtures::paper();
+    let params = presets::paper();
     let plant = Plant::new(&params).unwrap();
     let y0 = plant
-        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .initial_state(presets::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let pd = planar_pd(&plant, &y0);
     // The paper's disturbance F_d = (0.02 sin t, 0.02 cos t, 0) N works against the PD.
@@ -214,7 +217,7 @@ fn a_user_joint_pd_holds_the_planar_paper_plant() {
     );
     assert_eq!(names[names.len() - 2..], ["pd_norm [N m]", "drift [m]"]);
     assert!(log.get("F_meas2.y").is_some() && log.get("q4").is_some());
-    let x0 = fixtures::paper_start();
+    let x0 = presets::paper_start();
     let dev = (0..log.len())
         .map(|k| {
             let x = col(log, "x_o.x")[k] - x0.x;
@@ -251,8 +254,8 @@ fn a_user_joint_pd_holds_the_planar_paper_plant() {
 }
 
 /// A sinusoidal push on the spatial object: 2 N along x, 0.2 N m about z (world axes).
-fn push() -> tandem::disturbance::SpatialDisturbance {
-    tandem::disturbance::Disturbance {
+fn push() -> tandem::model::disturbance::SpatialDisturbance {
+    tandem::model::disturbance::Disturbance {
         amplitude: [2.0, 0.0, 0.0, 0.0, 0.0, 0.2],
         frequency: [2.0; 6],
         phase: [0.0; 6],
@@ -262,7 +265,7 @@ fn push() -> tandem::disturbance::SpatialDisturbance {
 
 #[test]
 fn the_same_user_law_holds_the_spatial_dual_ur5() {
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let plant = SpatialPlant::new(&s.params).unwrap();
     let y0 = plant
         .initial_state(&s.x_wo, &nalgebra::Vector6::zeros(), &s.q_guess)
@@ -405,9 +408,9 @@ struct Probe {
 }
 
 impl<P: ClosedChain> Drive<P> for Probe {
-    type Record = tandem::sim::NoRecord;
+    type Record = tandem::drive::NoRecord;
     fn new_record(&self) -> Self::Record {
-        tandem::sim::NoRecord
+        tandem::drive::NoRecord
     }
     fn start(&mut self, _t0: f64, _meas: &Measurements<'_>) {}
     fn tick(&mut self, t: f64, meas: &Measurements<'_>, tau: &mut [f64], _: &mut Self::Record) {
@@ -429,9 +432,9 @@ impl<P: ClosedChain> Drive<P> for Probe {
 
 #[test]
 fn spatial_runs_check_health_and_inject_faults() {
-    use tandem::faults::Faults;
+    use tandem::sim::faults::Faults;
     use tandem::sim::{FaultKind, Formulation};
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let plant = SpatialPlant::new(&s.params).unwrap();
     let y0 = plant
         .initial_state(&s.x_wo, &nalgebra::Vector6::zeros(), &s.q_guess)
@@ -454,7 +457,7 @@ fn spatial_runs_check_health_and_inject_faults() {
             &start,
             &ideal(),
             d,
-            tandem::disturbance::SpatialDisturbance::zero(),
+            tandem::model::disturbance::SpatialDisturbance::zero(),
             p,
         )
     };
@@ -526,11 +529,11 @@ fn spatial_runs_check_health_and_inject_faults() {
 #[test]
 fn tandems_controller_is_a_driver_itself() {
     // The planar controller as `D` directly and through the CLI's `Driver` enum: the same run.
-    use tandem::adaptive::NnGains;
-    use tandem::control::{Controller, ControllerParams, LawParams};
+    use tandem::control::law::adaptive::NnGains;
+    use tandem::control::planar::{Controller, ControllerParams, LawParams};
+    use tandem::reference::planar::path::Path;
     use tandem::sim::Driver;
-    use tandem::trajectory::Path;
-    let params = fixtures::paper();
+    let params = presets::paper();
     let ctl = || {
         Controller::new(
             &ControllerParams::paper(LawParams::Nn(NnGains::tuned())),

@@ -1,7 +1,7 @@
-//! Cross-checks of `tandem::dynamics` (STYLE habit 8, layers (a)–(c) and (f)):
+//! Cross-checks of `tandem::dynamics::spatial` (STYLE habit 8, layers (a)–(c) and (f)):
 //!
 //! * closed forms: the planar 2-link arm of SPEC §2.1 built as a spatial chain against
-//!   `tandem::arm` (M, C, C q̇, G, J, J̇ q̇, RNEA);
+//!   `tandem::dynamics::planar` (M, C, C q̇, G, J, J̇ q̇, RNEA);
 //! * internal consistency: CRBA against RNEA columns, ABA against Cholesky forward dynamics,
 //!   forward ∘ inverse, `C q̇ + g` against RNEA at `q̈ = 0`, the base pose against a chain that
 //!   absorbs it, the energy rate `d/dt (T + U) = q̇ᵀ τ`;
@@ -18,11 +18,13 @@ use nalgebra::{
     DMatrix, DVector, Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3, Vector4, Vector6,
 };
 use proptest::prelude::*;
-use tandem::arm::{Arm, ArmParams, Elbow, LinkParams};
-use tandem::dynamics::{self, ChainData};
-use tandem::fixtures::SplitMix64;
-use tandem::model::{Chain, JointKind, RigidBody, SpatialArm};
-use tandem::spatial::so3;
+use tandem::dynamics::planar::Arm;
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
+use tandem::geometry::so3;
+use tandem::math::random::SplitMix64;
+use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
+use tandem::model::spatial::{Chain, JointKind, RigidBody, SpatialArm};
 
 #[path = "support/chains.rs"]
 mod chains;
@@ -180,7 +182,7 @@ fn rnea_vec(
     d: &mut ChainData,
 ) -> Vec<f64> {
     let mut tau = vec![0.0; q.len()];
-    dynamics::rnea(arm, q, qd, qdd, g, f, &mut tau, d);
+    spatial::rnea(arm, q, qd, qdd, g, f, &mut tau, d);
     tau
 }
 
@@ -227,7 +229,7 @@ fn jacobian_matches_finite_differences_of_the_tool_pose() {
         let mut d = ChainData::new(&arm);
         for _ in 0..5 {
             let s = random_state(&mut rng, n);
-            dynamics::kinematics(&arm, &s.q, None, &mut d);
+            spatial::kinematics(&arm, &s.q, None, &mut d);
             let jac = d.J.clone();
             let r_ref = d.X_WT.rotation;
             let mut dd = ChainData::new(&arm);
@@ -236,7 +238,7 @@ fn jacobian_matches_finite_differences_of_the_tool_pose() {
                     |t| {
                         let mut q = s.q.clone();
                         q[k] += t;
-                        dynamics::kinematics(&arm, &q, None, &mut dd);
+                        spatial::kinematics(&arm, &q, None, &mut dd);
                         tool_chart(&dd, &r_ref)
                     },
                     h,
@@ -264,14 +266,14 @@ fn jdot_qdot_matches_finite_differences_of_the_jacobian() {
         let mut dd = ChainData::new(&arm);
         for _ in 0..5 {
             let s = random_state(&mut rng, n);
-            dynamics::kinematics(&arm, &s.q, Some(&s.qd), &mut d);
+            spatial::kinematics(&arm, &s.q, Some(&s.qd), &mut d);
             let qd1: f64 = s.qd.iter().map(|v| v.abs()).sum();
             let qdi = s.qd.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
             let h = 2e-3 / qd1;
             let jdot = d5(
                 |t| {
                     let q: Vec<f64> = s.q.iter().zip(&s.qd).map(|(q, v)| q + t * v).collect();
-                    dynamics::kinematics(&arm, &q, None, &mut dd);
+                    spatial::kinematics(&arm, &q, None, &mut dd);
                     DVector::from_column_slice(dd.J.as_slice())
                 },
                 h,
@@ -303,7 +305,7 @@ fn poses_follow_the_chain_convention() {
         let n = arm.chain.dof();
         let mut d = ChainData::new(&arm);
         let s = random_state(&mut rng, n);
-        dynamics::kinematics(&arm, &s.q, None, &mut d);
+        spatial::kinematics(&arm, &s.q, None, &mut d);
         let mut x = arm.base;
         for (k, j) in arm.chain.joints.iter().enumerate() {
             let jq = match j.kind {
@@ -340,7 +342,7 @@ fn crba_matches_rnea_columns() {
         let mut d = ChainData::new(&arm);
         for _ in 0..5 {
             let s = random_state(&mut rng, n);
-            dynamics::crba(&arm, &s.q, &mut d);
+            spatial::crba(&arm, &s.q, &mut d);
             let m = d.M.clone();
             assert_eq!(m, m.transpose());
             let g = g_down();
@@ -371,12 +373,12 @@ fn terms_match_the_separate_algorithms() {
         let g = g_down();
         for _ in 0..3 {
             let s = random_state(&mut rng, n);
-            dynamics::terms(&arm, &s.q, &s.qd, &g, &mut d);
-            dynamics::crba(&arm, &s.q, &mut e);
+            spatial::terms(&arm, &s.q, &s.qd, &g, &mut d);
+            spatial::crba(&arm, &s.q, &mut e);
             assert_eq!(d.M, e.M);
             let b = rnea_vec(&arm, &s.q, &s.qd, &vec![0.0; n], &g, None, &mut e);
             assert!(rel_err(d.bias.as_slice(), &b, 1.0) < 1e-15);
-            dynamics::kinematics(&arm, &s.q, Some(&s.qd), &mut e);
+            spatial::kinematics(&arm, &s.q, Some(&s.qd), &mut e);
             assert_eq!(d.J, e.J);
             // terms reads J̇ q̇ off the RNEA's accelerations: same sums, other rounding.
             assert!((d.jdqd - e.jdqd).amax() < 1e-14 * e.jdqd.amax().max(1.0));
@@ -404,8 +406,8 @@ fn aba_matches_cholesky_and_inverts_rnea() {
             for f in [None, Some(&s.f_t)] {
                 let mut a = vec![0.0; n];
                 let mut c = vec![0.0; n];
-                dynamics::aba(&arm, &s.q, &s.qd, &s.tau, &g, f, &mut a, &mut d);
-                dynamics::forward_dynamics(&arm, &s.q, &s.qd, &s.tau, &g, f, &mut c, &mut d);
+                spatial::aba(&arm, &s.q, &s.qd, &s.tau, &g, f, &mut a, &mut d);
+                spatial::forward_dynamics(&arm, &s.q, &s.qd, &s.tau, &g, f, &mut c, &mut d);
                 let e = rel_err(&a, &c, 1.0);
                 worst = worst.max(e);
                 assert!(e < 5e-11, "{}: ABA vs Cholesky {e:e}", arm.chain.name);
@@ -416,7 +418,7 @@ fn aba_matches_cholesky_and_inverts_rnea() {
                 assert!(e < 5e-11, "{}: rnea ∘ aba {e:e}", arm.chain.name);
                 // inverse ∘ forward: aba(q, q̇, rnea(q̈)) = q̈.
                 let t = rnea_vec(&arm, &s.q, &s.qd, &s.qdd, &g, f, &mut d);
-                dynamics::aba(&arm, &s.q, &s.qd, &t, &g, f, &mut a, &mut d);
+                spatial::aba(&arm, &s.q, &s.qd, &t, &g, f, &mut a, &mut d);
                 let e = rel_err(&a, &s.qdd, 1.0);
                 worst_inv = worst_inv.max(e);
                 assert!(e < 5e-11, "{}: aba ∘ rnea {e:e}", arm.chain.name);
@@ -438,7 +440,7 @@ fn tool_wrench_enters_as_minus_j_transpose() {
         let s = random_state(&mut rng, n);
         let t0 = rnea_vec(&arm, &s.q, &s.qd, &s.qdd, &g, None, &mut d);
         let t1 = rnea_vec(&arm, &s.q, &s.qd, &s.qdd, &g, Some(&s.f_t), &mut d);
-        dynamics::kinematics(&arm, &s.q, None, &mut d);
+        spatial::kinematics(&arm, &s.q, None, &mut d);
         let jtf = d.J.transpose() * s.f_t;
         let diff: Vec<f64> = t1.iter().zip(&t0).map(|(a, b)| b - a).collect();
         assert!(
@@ -461,8 +463,8 @@ fn coriolis_and_gravity_reassemble_the_rnea() {
         let mut gv = vec![0.0; n];
         for _ in 0..5 {
             let s = random_state(&mut rng, n);
-            dynamics::coriolis_matrix(&arm, &s.q, &s.qd, &mut c, &mut d);
-            dynamics::gravity(&arm, &s.q, &g, &mut gv, &mut d);
+            spatial::coriolis_matrix(&arm, &s.q, &s.qd, &mut c, &mut d);
+            spatial::gravity(&arm, &s.q, &g, &mut gv, &mut d);
             let zero = vec![0.0; n];
             let g_rnea = rnea_vec(&arm, &s.q, &zero, &zero, &g, None, &mut d);
             assert!(rel_err(&gv, &g_rnea, 1.0) < 1e-14, "{}: g", arm.chain.name);
@@ -477,8 +479,8 @@ fn coriolis_and_gravity_reassemble_the_rnea() {
             let (u, w) = (rng.vec(n, 1.0), rng.vec(n, 1.0));
             let mut cu = DMatrix::zeros(n, n);
             let mut cw = DMatrix::zeros(n, n);
-            dynamics::coriolis_matrix(&arm, &s.q, &u, &mut cu, &mut d);
-            dynamics::coriolis_matrix(&arm, &s.q, &w, &mut cw, &mut d);
+            spatial::coriolis_matrix(&arm, &s.q, &u, &mut cu, &mut d);
+            spatial::coriolis_matrix(&arm, &s.q, &w, &mut cw, &mut d);
             let a = &cu * DVector::from_column_slice(&w);
             let b = &cw * DVector::from_column_slice(&u);
             assert!(
@@ -498,7 +500,7 @@ fn mdot(arm: &SpatialArm, q: &[f64], qd: &[f64], d: &mut ChainData) -> DMatrix<f
     let v = d5(
         |t| {
             let qt: Vec<f64> = q.iter().zip(qd).map(|(q, v)| q + t * v).collect();
-            dynamics::crba(arm, &qt, d);
+            spatial::crba(arm, &qt, d);
             DVector::from_column_slice(d.M.as_slice())
         },
         h,
@@ -525,8 +527,8 @@ proptest! {
         let s = random_state(&mut rng, n);
         let md = mdot(&arm, &s.q, &s.qd, &mut d);
         let mut c = DMatrix::zeros(n, n);
-        dynamics::coriolis_matrix(&arm, &s.q, &s.qd, &mut c, &mut d);
-        dynamics::crba(&arm, &s.q, &mut d);
+        spatial::coriolis_matrix(&arm, &s.q, &s.qd, &mut c, &mut d);
+        spatial::crba(&arm, &s.q, &mut d);
         let qd1: f64 = s.qd.iter().map(|v| v.abs()).sum();
         let scale = d.M.amax() * qd1.max(1e-3);
         let n_mat = &md - 2.0 * &c;
@@ -557,14 +559,14 @@ fn energy_rate_equals_power() {
             let qd1: f64 = s.qd.iter().map(|v| v.abs()).sum();
             let qdd1: f64 = s.qdd.iter().map(|v| v.abs()).sum();
             let h = 2e-3 / qd1.max(qdd1.sqrt());
-            let (te0, ue0) = dynamics::energy(&arm, &s.q, &s.qd, &g, &mut d);
+            let (te0, ue0) = spatial::energy(&arm, &s.q, &s.qd, &g, &mut d);
             let rate = d5(
                 |t| {
                     let q: Vec<f64> = (0..n)
                         .map(|k| s.q[k] + t * s.qd[k] + 0.5 * t * t * s.qdd[k])
                         .collect();
                     let qd: Vec<f64> = (0..n).map(|k| s.qd[k] + t * s.qdd[k]).collect();
-                    let (te, ue) = dynamics::energy(&arm, &q, &qd, &g, &mut d);
+                    let (te, ue) = spatial::energy(&arm, &q, &qd, &g, &mut d);
                     DVector::from_element(1, te + ue)
                 },
                 h,
@@ -579,8 +581,8 @@ fn energy_rate_equals_power() {
             worst = worst.max(e / tol);
             assert!(e < tol, "{}: dE/dt {rate} vs q̇ᵀτ {power}", arm.chain.name);
             // T = ½ q̇ᵀ M q̇.
-            let (te, _) = dynamics::energy(&arm, &s.q, &s.qd, &g, &mut d);
-            dynamics::crba(&arm, &s.q, &mut d);
+            let (te, _) = spatial::energy(&arm, &s.q, &s.qd, &g, &mut d);
+            spatial::crba(&arm, &s.q, &mut d);
             let v = DVector::from_column_slice(&s.qd);
             let t2 = 0.5 * v.dot(&(&d.M * &v));
             assert!((te - t2).abs() < 1e-13 * t2.max(1.0));
@@ -599,8 +601,8 @@ fn base_pose_equals_a_chain_that_absorbs_it() {
         let mut e = ChainData::new(&abs);
         let g = g_down();
         let s = random_state(&mut rng, n);
-        dynamics::terms(&arm, &s.q, &s.qd, &g, &mut d);
-        dynamics::terms(&abs, &s.q, &s.qd, &g, &mut e);
+        spatial::terms(&arm, &s.q, &s.qd, &g, &mut d);
+        spatial::terms(&abs, &s.q, &s.qd, &g, &mut e);
         assert!((&d.M - &e.M).amax() < 1e-13 * d.M.amax());
         assert!(rel_err(d.bias.as_slice(), e.bias.as_slice(), 1.0) < 1e-13);
         assert!((&d.J - &e.J).amax() < 1e-14);
@@ -613,7 +615,7 @@ fn base_pose_equals_a_chain_that_absorbs_it() {
 // The planar arm of SPEC §2.1 as a spatial chain
 // ---------------------------------------------------------------------------------------------
 
-/// A planar arm (`tandem::arm`) as a spatial chain: joint axes along world z, link `k` along its
+/// A planar arm (`tandem::dynamics::planar`) as a spatial chain: joint axes along world z, link `k` along its
 /// body x axis (joint `k+1` at `(l_k, 0, 0)`), COM at `(l_c, 0, 0)`, rotational inertia
 /// `diag(I, I, I)` (only `I_zz` matters in the plane), the base at `(x, y, 0)` turned by the
 /// base angle about z, the tool at the last link's tip.
@@ -675,7 +677,7 @@ fn planar_arm_reproduces_the_closed_forms() {
     // closed-form fast path) and the planar general algorithm (3 links): M, C (the Christoffel
     // matrix itself, which is unique), C q̇, G, J (the x, y linear rows), J̇ q̇, the tool position
     // and RNEA with an end-effector force, all to 1e-12 relative (rounding only).
-    let g = tandem::arm::GRAVITY;
+    let g = tandem::model::planar::arm::GRAVITY;
     let g_w = Vector3::new(0.0, -g, 0.0);
     let mut rng = SplitMix64(301);
     let mut worst: f64 = 0.0;
@@ -690,9 +692,9 @@ fn planar_arm_reproduces_the_closed_forms() {
         for _ in 0..20 {
             let s = random_state(&mut rng, n);
             planar.dynamics(&s.q, &s.qd, g, &mut t);
-            dynamics::terms(&sp, &s.q, &s.qd, &g_w, &mut d);
-            dynamics::coriolis_matrix(&sp, &s.q, &s.qd, &mut c, &mut d);
-            dynamics::gravity(&sp, &s.q, &g_w, &mut gv, &mut d);
+            spatial::terms(&sp, &s.q, &s.qd, &g_w, &mut d);
+            spatial::coriolis_matrix(&sp, &s.q, &s.qd, &mut c, &mut d);
+            spatial::gravity(&sp, &s.q, &g_w, &mut gv, &mut d);
             let mut check = |what: &str, a: &[f64], b: &[f64]| {
                 let e = rel_err(a, b, 1e-3);
                 worst = worst.max(e);
@@ -722,7 +724,7 @@ fn planar_arm_reproduces_the_closed_forms() {
             let tau_s = rnea_vec(&sp, &s.q, &s.qd, &s.qdd, &g_w, Some(&f6), &mut d);
             check("RNEA", &tau_s, &tau_p);
             // And the energy.
-            let (te, ue) = dynamics::energy(&sp, &s.q, &s.qd, &g_w, &mut d);
+            let (te, ue) = spatial::energy(&sp, &s.q, &s.qd, &g_w, &mut d);
             planar.dynamics(&s.q, &s.qd, g, &mut t);
             let (tp, up) = planar.energy(&s.qd, g, &t);
             check("energy", &[te, ue], &[tp, up]);
@@ -876,7 +878,7 @@ fn dynibo_check_file(
         let (q, qd, qdd, tau) = (to_g(&s.q), to_g(&s.qd), to_g(&s.qdd), to_g(&s.tau));
 
         // Poses.
-        dynamics::terms(arm, &s.q, &s.qd, &g, &mut d);
+        spatial::terms(arm, &s.q, &s.qd, &g, &mut d);
         let x = robot.forward_kinematics(&q, tool).unwrap().to_homogeneous();
         let ours = d.X_WT.to_homogeneous();
         let xs: Vec<f64> = (0..12).map(|i| x[(i % 3, i / 3)]).collect();
@@ -896,9 +898,9 @@ fn dynibo_check_file(
         robot.gravity(&q, &[], &mut out).unwrap();
         let g_ref = from_g(&out);
         let mut gv = vec![0.0; n];
-        dynamics::gravity(arm, &s.q, &g, &mut gv, &mut d);
+        spatial::gravity(arm, &s.q, &g, &mut gv, &mut d);
         e.gravity = e.gravity.max(rel_err(&gv, &g_ref, 1.0));
-        dynamics::terms(arm, &s.q, &s.qd, &g, &mut d);
+        spatial::terms(arm, &s.q, &s.qd, &g, &mut d);
         let cqd: Vec<f64> = (0..n).map(|k| d.bias[k] - gv[k]).collect();
         e.cqd = e.cqd.max(rel_err(&cqd, &cqd_ref, 1.0));
 
@@ -949,7 +951,7 @@ fn dynibo_check_file(
             .forward_dynamics(&q, &qd, &tau, &loads, &mut out)
             .unwrap();
         let mut a = vec![0.0; n];
-        dynamics::aba(arm, &s.q, &s.qd, &s.tau, &g, Some(&s.f_t), &mut a, &mut d);
+        spatial::aba(arm, &s.q, &s.qd, &s.tau, &g, Some(&s.f_t), &mut a, &mut d);
         e.aba = e.aba.max(rel_err(&a, &from_g(&out), 1.0));
     }
     e
@@ -1040,13 +1042,13 @@ fn dynibo_agrees_on_the_embedded_ur5_and_franka_models() {
     for (file, chain, tool) in [
         (
             "ur5.urdf",
-            tandem::model::urdf::ur5(),
-            tandem::model::urdf::UR5_TOOL,
+            tandem::model::spatial::urdf::ur5(),
+            tandem::model::spatial::urdf::UR5_TOOL,
         ),
         (
             "franka.urdf",
-            tandem::model::urdf::franka(),
-            tandem::model::urdf::FRANKA_TOOL,
+            tandem::model::spatial::urdf::franka(),
+            tandem::model::spatial::urdf::FRANKA_TOOL,
         ),
     ] {
         let arm = SpatialArm {
@@ -1067,9 +1069,9 @@ fn dynibo_agrees_on_the_embedded_ur5_and_franka_models() {
 #[test]
 fn planar_arm_from_urdf_reproduces_the_closed_forms() {
     let text = include_str!("data/planar2.urdf");
-    let (chain, warnings) = tandem::model::urdf::load_chain(text, "base", "tool").unwrap();
+    let (chain, warnings) = tandem::model::spatial::urdf::load_chain(text, "base", "tool").unwrap();
     assert!(warnings.is_empty(), "{warnings:?}");
-    let g = tandem::arm::GRAVITY;
+    let g = tandem::model::planar::arm::GRAVITY;
     let g_w = Vector3::new(0.0, -g, 0.0);
     let mut rng = SplitMix64(911);
     for elbow in [Elbow::Positive, Elbow::Negative] {
@@ -1085,8 +1087,8 @@ fn planar_arm_from_urdf_reproduces_the_closed_forms() {
         for _ in 0..50 {
             let s = random_state(&mut rng, 2);
             planar.dynamics(&s.q, &s.qd, g, &mut t);
-            dynamics::terms(&sp, &s.q, &s.qd, &g_w, &mut d);
-            dynamics::gravity(&sp, &s.q, &g_w, &mut gv, &mut d);
+            spatial::terms(&sp, &s.q, &s.qd, &g_w, &mut d);
+            spatial::gravity(&sp, &s.q, &g_w, &mut gv, &mut d);
             let check = |what: &str, a: &[f64], b: &[f64]| {
                 let e = rel_err(a, b, 1e-3);
                 assert!(e < 1e-12, "{what}: {e:e}\n{a:?}\n{b:?}");
@@ -1140,11 +1142,11 @@ fn large_finite_inputs_give_finite_outputs() {
             let mut out = vec![0.0; n];
             let t = rnea_vec(&arm, &q, &qd, &qdd, &g, Some(&f), &mut d);
             assert!(t.iter().all(|v| v.is_finite()));
-            dynamics::aba(&arm, &q, &qd, &tau, &g, Some(&f), &mut out, &mut d);
+            spatial::aba(&arm, &q, &qd, &tau, &g, Some(&f), &mut out, &mut d);
             assert!(out.iter().all(|v| v.is_finite()));
-            dynamics::forward_dynamics(&arm, &q, &qd, &tau, &g, Some(&f), &mut out, &mut d);
+            spatial::forward_dynamics(&arm, &q, &qd, &tau, &g, Some(&f), &mut out, &mut d);
             assert!(out.iter().all(|v| v.is_finite()));
-            dynamics::terms(&arm, &q, &qd, &g, &mut d);
+            spatial::terms(&arm, &q, &qd, &g, &mut d);
             assert!(
                 d.M.iter()
                     .chain(d.bias.iter())
@@ -1152,9 +1154,9 @@ fn large_finite_inputs_give_finite_outputs() {
                     .all(|v| v.is_finite())
             );
             assert!(d.jdqd.iter().all(|v| v.is_finite()));
-            dynamics::coriolis_matrix(&arm, &q, &qd, &mut c, &mut d);
+            spatial::coriolis_matrix(&arm, &q, &qd, &mut c, &mut d);
             assert!(c.iter().all(|v| v.is_finite()));
-            let (te, ue) = dynamics::energy(&arm, &q, &qd, &g, &mut d);
+            let (te, ue) = spatial::energy(&arm, &q, &qd, &g, &mut d);
             assert!(te.is_finite() && ue.is_finite());
             assert_eq!(d.singular_pivots(), 0);
         }
@@ -1180,7 +1182,7 @@ fn invalid_massless_chain_does_not_panic_or_give_nan() {
         let mut d = ChainData::new(&arm);
         let s = random_state(&mut rng, 6);
         let mut out = vec![0.0; 6];
-        dynamics::aba(
+        spatial::aba(
             &arm,
             &s.q,
             &s.qd,
@@ -1191,7 +1193,7 @@ fn invalid_massless_chain_does_not_panic_or_give_nan() {
             &mut d,
         );
         assert!(out.iter().all(|v| v.is_finite()), "{out:?}");
-        dynamics::forward_dynamics(&arm, &s.q, &s.qd, &s.tau, &g_down(), None, &mut out, &mut d);
+        spatial::forward_dynamics(&arm, &s.q, &s.qd, &s.tau, &g_down(), None, &mut out, &mut d);
         assert!(out.iter().all(|v| v.is_finite()), "{out:?}");
         assert!(d.singular_pivots() > 0);
     }

@@ -1,19 +1,19 @@
 //! The paper's claims on the full 90 s scenario (SPEC §4), one test per claim. Long: run with
 //! `cargo test --release -- --ignored` (CI does).
 
-use tandem::adaptive::NnGains;
-use tandem::control::{ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
-use tandem::fixtures;
-use tandem::pd::PdGains;
-use tandem::report::{Summary, summarize};
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::model::disturbance::Disturbance;
+use tandem::presets;
+use tandem::report::metrics::{Summary, summarize};
 use tandem::sim::{Log, SimParams};
 
 fn paper_run(law: LawParams) -> (Summary, Log) {
     let name = law.name();
     let cp = ControllerParams::paper(law);
     let (sim, _) =
-        fixtures::paper_simulation(&cp, SimParams::paper(), Disturbance::paper()).unwrap();
+        presets::paper_simulation(&cp, SimParams::paper(), Disturbance::paper()).unwrap();
     let (out, _) = sim.run(|_| {});
     let s = summarize(&out, name, "", [0.35; 3], 5.0, 90.0);
     println!("{name}: {s:#?}");

@@ -2,14 +2,16 @@
 //! agreement, RK4 order, redundant and three-arm chains, bad input; the fixed-size fast paths
 //! against the general algorithms.
 
+mod support;
+
 use nalgebra::{Matrix3, Vector2, Vector3};
-use tandem::fixtures;
-use tandem::integrate::Rk4;
-use tandem::plant::{
+use tandem::math::integrate::Rk4;
+use tandem::plant::planar::{
     Algorithm, ConstrainedOde, Plant, PlantInput, PlantParams, PlantWorkspace, ReducedOde,
 };
+use tandem::presets;
 
-use tandem::fixtures::SplitMix64 as Rng;
+use tandem::math::random::SplitMix64 as Rng;
 
 #[path = "support/n_link.rs"]
 mod n_link;
@@ -63,9 +65,9 @@ fn hold_law(
 }
 
 fn undamped_paper() -> (Plant, Vec<f64>) {
-    let plant = Plant::new(&fixtures::undamped(fixtures::paper())).unwrap();
+    let plant = Plant::new(&support::undamped(presets::paper())).unwrap();
     let y = plant
-        .initial_state(fixtures::paper_start(), Vector3::new(0.0, 0.0, 0.3), None)
+        .initial_state(presets::paper_start(), Vector3::new(0.0, 0.0, 0.3), None)
         .unwrap();
     (plant, y)
 }
@@ -106,9 +108,9 @@ fn undamped_unforced_chain_conserves_energy() {
 fn damped_chain_never_gains_energy_and_balance_holds() {
     // With C_o > 0, dE/dt = −ẋᵀC_oẋ ≤ 0. Check monotone decrease (to round-off) and the energy
     // balance E(t) − E(0) = ∫ P_in dt by the trapezoidal rule over 1 ms samples.
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let mut y = plant
-        .initial_state(fixtures::paper_start(), Vector3::new(0.1, 0.0, 0.5), None)
+        .initial_state(presets::paper_start(), Vector3::new(0.1, 0.0, 0.5), None)
         .unwrap();
     let mut ws = plant.workspace();
     let input = plant.zero_input();
@@ -138,9 +140,9 @@ fn damped_chain_never_gains_energy_and_balance_holds() {
 
 #[test]
 fn constraint_drift_stays_below_1e9_m_over_90_s() {
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let mut y = plant
-        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .initial_state(presets::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let q0 = y[..plant.n_q()].to_vec();
     let mut ws = plant.workspace();
@@ -167,8 +169,8 @@ fn constraint_drift_stays_below_1e9_m_over_90_s() {
 
 #[test]
 fn constrained_and_reduced_formulations_agree() {
-    let plant = Plant::new(&fixtures::paper()).unwrap();
-    let x0 = fixtures::paper_start();
+    let plant = Plant::new(&presets::paper()).unwrap();
+    let x0 = presets::paper_start();
     let mut y = plant.initial_state(x0, Vector3::zeros(), None).unwrap();
     let q0 = y[..plant.n_q()].to_vec();
     let mut yr = [x0.x, x0.y, x0.z, 0.0, 0.0, 0.0];
@@ -281,9 +283,9 @@ fn halving_the_plant_step_moves_the_held_input_run_by_less_than_1e6_m() {
     // chain is unstable (measured: the difference grows ×12 every 0.5 s, a Lyapunov exponent of
     // about 5 /s, from 5e-13 m at 0.5 s to 5e-3 m at 5 s), so the window is 2 s, where the
     // difference is ~2e-9 m; closed-loop runs are compared by their metrics (SPEC §2.4).
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let y0 = plant
-        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .initial_state(presets::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let q0 = y0[..plant.n_q()].to_vec();
     let mut ws = plant.workspace();
@@ -328,11 +330,11 @@ fn invariants(plant: &Plant, y: Vec<f64>, label: &str) {
 
 #[test]
 fn redundant_three_link_arms_keep_the_invariants() {
-    let (p, guess) = fixtures::redundant_pair();
-    let plant = Plant::new(&fixtures::undamped(p)).unwrap();
+    let (p, guess) = presets::redundant_pair();
+    let plant = Plant::new(&support::undamped(p)).unwrap();
     let y = plant
         .initial_state(
-            fixtures::paper_start(),
+            presets::paper_start(),
             Vector3::new(0.0, 0.0, 0.2),
             Some(&guess),
         )
@@ -342,9 +344,9 @@ fn redundant_three_link_arms_keep_the_invariants() {
 
 #[test]
 fn three_arm_chain_keeps_the_invariants() {
-    let plant = Plant::new(&fixtures::undamped(fixtures::three_arms())).unwrap();
+    let plant = Plant::new(&support::undamped(presets::three_arms())).unwrap();
     let y = plant
-        .initial_state(fixtures::paper_start(), Vector3::new(0.05, 0.0, 0.2), None)
+        .initial_state(presets::paper_start(), Vector3::new(0.05, 0.0, 0.2), None)
         .unwrap();
     invariants(&plant, y, "three arms");
 }
@@ -356,11 +358,11 @@ fn three_3_link_arms_and_4_link_arms_keep_the_invariants() {
     // the grasp constraint held (the bounds of `invariants`).
     for (arms, links) in [(3, 3), (2, 4), (3, 4)] {
         let (p, guess) = n_link::chain(arms, links);
-        let plant = Plant::new(&fixtures::undamped(p)).unwrap();
+        let plant = Plant::new(&support::undamped(p)).unwrap();
         assert_eq!(plant.algorithm(), Algorithm::Fixed { arms, links });
         let y = plant
             .initial_state(
-                fixtures::paper_start(),
+                presets::paper_start(),
                 Vector3::new(0.0, 0.0, 0.2),
                 Some(&guess),
             )
@@ -387,7 +389,7 @@ fn bad_plant_input_is_named() {
     assert!(e.contains("arms[0]") && e.contains("reaches"), "{e}");
     // A starting pose that violates the grasp.
     let mut y = plant
-        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .initial_state(presets::paper_start(), Vector3::zeros(), None)
         .unwrap();
     y[0] += 0.01;
     let e = plant.check_state(&y, 1e-9).unwrap_err().to_string();
@@ -470,15 +472,15 @@ fn random_state(plant: &Plant, rng: &mut Rng) -> Vec<f64> {
 #[test]
 fn each_plant_selects_its_constrained_algorithm() {
     let alg = |p: PlantParams| Plant::new(&p).unwrap().algorithm();
-    assert_eq!(alg(fixtures::paper()), Algorithm::TwoArmsTwoLinks);
+    assert_eq!(alg(presets::paper()), Algorithm::TwoArmsTwoLinks);
     let fixed = |arms, links| Algorithm::Fixed { arms, links };
-    assert_eq!(alg(fixtures::three_arms()), fixed(3, 2));
-    assert_eq!(alg(fixtures::redundant_pair().0), fixed(2, 3));
+    assert_eq!(alg(presets::three_arms()), fixed(3, 2));
+    assert_eq!(alg(presets::redundant_pair().0), fixed(2, 3));
     // Mixed link counts and other arm counts fall back to the general algorithm.
-    let mut mixed = fixtures::three_arms();
-    mixed.arms[2] = fixtures::redundant_pair().0.arms[0].clone();
+    let mut mixed = presets::three_arms();
+    mixed.arms[2] = presets::redundant_pair().0.arms[0].clone();
     assert_eq!(alg(mixed), Algorithm::General);
-    let mut one = fixtures::paper();
+    let mut one = presets::paper();
     one.arms.truncate(1);
     one.grasps.truncate(1);
     assert_eq!(alg(one), Algorithm::General);
@@ -511,7 +513,7 @@ fn fixed_vs_general(
     while trials < 100 {
         attempts += 1;
         assert!(attempts < 1000, "{name}: the start poses are out of reach");
-        let x = fixtures::paper_start()
+        let x = presets::paper_start()
             + Vector3::new(
                 rng.range(-0.03, 0.03),
                 rng.range(-0.03, 0.03),
@@ -553,11 +555,11 @@ fn fixed_size_n_link_kernels_equal_the_general_algorithm() {
     // types, Cholesky by reciprocal pivots) against the dynamic-size path. Same equations,
     // different operation order: round-off amplified by cond(K) (≲ 1e2 here), hence 1e-12
     // relative, as for the paper plant.
-    let (p3, guess) = fixtures::redundant_pair();
+    let (p3, guess) = presets::redundant_pair();
     let fixed = |arms, links| Algorithm::Fixed { arms, links };
     fixed_vs_general(
         "three 2-link arms",
-        &fixtures::three_arms(),
+        &presets::three_arms(),
         None,
         fixed(3, 2),
         47,
@@ -587,7 +589,7 @@ fn fixed_size_constrained_derivative_equals_the_general_algorithm() {
     // Two implementations of the same KKT solve (fixed-size closed forms with M⁻¹ = adj M/det M
     // vs dynamic-size blocks with per-arm Cholesky), so only round-off separates them; it is
     // amplified by cond(K) (≤ ~1/kkt_pivot ≈ 1e2 here), hence 1e-12 relative.
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let mut rng = Rng(31);
     let (mut ws_a, mut ws_b) = (plant.workspace(), plant.workspace());
     let n = plant.state_dim();
@@ -623,7 +625,7 @@ fn both_constrained_paths_regularise_a_locked_chain_alike() {
     // exactly singular and both paths regularise it (K + 1e-10 tr(K) I). λ then has a ~1e11 N
     // component along that locked direction, known only to ~cond·ε ≈ 1e-6 relative; it does
     // not reach the accelerations (J_eᵀ λ_i = 0, 𝐉ᵀλ = 0), which stay well conditioned.
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let n = plant.state_dim();
     let mut y = vec![0.0; n];
     y[4] = 0.2;
@@ -724,7 +726,7 @@ fn fixed_size_reduced_terms_equal_the_arm_terms_route() {
     // The fixed-size reduced path (transcendental-free IK, closed-form 2×2 Cartesian terms,
     // structured grasp products) against the ArmTerms route at random well-conditioned states:
     // round-off apart, amplified by cond(J_e)² ≲ 4e2 in the Cartesian terms, hence 1e-12.
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let mut rng = Rng(37);
     let mut ws = plant.workspace();
     let mut input = plant.zero_input();
@@ -790,10 +792,10 @@ fn rk4_at_the_default_step_matches_the_adaptive_reference() {
     // Dormand–Prince 5(4) at rtol = atol = 1e-12 between the same ticks, over 1 s. (The inputs
     // are replayed open loop for DP5, and the open-loop chain amplifies differences about ×12
     // per 0.5 s — see the step-halving test — so the window is short; at 2 s the gap is 1.8e-9 m.)
-    use tandem::integrate::DormandPrince;
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    use tandem::math::integrate::DormandPrince;
+    let plant = Plant::new(&presets::paper()).unwrap();
     let y0 = plant
-        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .initial_state(presets::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let q0 = y0[..plant.n_q()].to_vec();
     let mut ws = plant.workspace();
@@ -860,9 +862,9 @@ struct KeepCase {
 
 fn keep_cases(redundant: bool, chains: &[(usize, usize)], dx: Vector3<f64>) -> Vec<KeepCase> {
     let mut params: Vec<(PlantParams, Option<Vec<f64>>)> =
-        vec![(fixtures::paper(), None), (fixtures::three_arms(), None)];
+        vec![(presets::paper(), None), (presets::three_arms(), None)];
     if redundant {
-        let (p, g) = fixtures::redundant_pair();
+        let (p, g) = presets::redundant_pair();
         params.push((p, Some(g)));
     }
     for &(arms, links) in chains {
@@ -874,7 +876,7 @@ fn keep_cases(redundant: bool, chains: &[(usize, usize)], dx: Vector3<f64>) -> V
         .map(|(p, guess)| {
             let plant = Plant::new(&p).unwrap();
             let y0 = plant
-                .initial_state(fixtures::paper_start(), dx, guess.as_deref())
+                .initial_state(presets::paper_start(), dx, guess.as_deref())
                 .unwrap();
             let n = plant.state_dim();
             KeepCase {
@@ -958,7 +960,7 @@ fn issue_12_a_reused_state_part_gives_the_fresh_derivative_bit_for_bit() {
 fn issue_12_one_kinematics_pass_gives_the_drift_and_the_singular_value_bits() {
     // The loop's health check shares the arms' kinematics between the constraint residual and
     // the smallest singular value: the same bits as the two separate calls.
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let mut ws = plant.workspace();
     let mut rng = Rng(3);
     for _ in 0..50 {

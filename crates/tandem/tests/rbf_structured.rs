@@ -1,22 +1,25 @@
-//! Structured RBF networks (`tandem::rbf_structured`, SPEC-spatial S5): each structure equals
+//! Structured RBF networks (`tandem::control::rbf::structured`, SPEC-spatial S5): each structure equals
 //! its naive sum, its update is the exact held-input solution of (44), a planar closed loop with
 //! the per-axis structure stays inside the bounds and tracks close to the full grid, ticks
 //! allocate nothing, and the default structure is the paper's full grid bit for bit.
 
 use nalgebra::{SVector, Vector2, Vector3};
-use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams, Measurements, Scheme, TickRecord};
-use tandem::disturbance::Disturbance;
-use tandem::error::ModelError;
-use tandem::fixtures::{self, SplitMix64};
-use tandem::plant::Plant;
-use tandem::rbf::{KERNEL_ENV, Kernel, NnUpdate, Rbf, RbfNetwork};
-use tandem::rbf_structured::{
+use tandem::control::Scheme;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams, TickRecord};
+use tandem::control::rbf::structured::{
     NetworkStructure, StructuredNn, grid_norm2_at_zero, matched_theta, scrambled_halton,
 };
-use tandem::report::{Summary, summarize};
+use tandem::control::rbf::{KERNEL_ENV, Kernel, NnUpdate, Rbf, RbfNetwork};
+use tandem::drive::Measurements;
+use tandem::error::ModelError;
+use tandem::math::random::SplitMix64;
+use tandem::model::disturbance::Disturbance;
+use tandem::plant::planar::Plant;
+use tandem::presets;
+use tandem::reference::planar::path::Path;
+use tandem::report::metrics::{Summary, summarize};
 use tandem::sim::SimParams;
-use tandem::trajectory::Path;
 
 #[path = "support/counting.rs"]
 mod counting;
@@ -247,7 +250,7 @@ fn short_run(g: NnGains) -> u64 {
         log_period: 1e-3,
         ..SimParams::paper()
     };
-    let (sim, _) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
+    let (sim, _) = presets::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
     let (out, _) = sim.run(|_| {});
     log_hash(&out.log)
 }
@@ -303,7 +306,7 @@ fn golden_hashes_with_a_bit_identical_kernel() {
     // every logged value's bits were first taken with tandem before the structure existed
     // (commit 28f6815: 0x1c9f_816c_a052_1c92, 0x1db9_14f2_96e3_3ec8, which the structure
     // reproduced), and taken again when the planar plant and controller moved from the
-    // library's `sin_cos` to `tandem::trig` and the fixed-size plant's grasp-space solve from
+    // library's `sin_cos` to `tandem::math::trig` and the fixed-size plant's grasp-space solve from
     // Cholesky to `L D Lᵀ` (issue 12, session 7; the NN law is unchanged).
     let tuned = short_run(NnGains::tuned());
     let paper = short_run(NnGains::paper());
@@ -355,7 +358,7 @@ fn validation_names_the_field() {
     let mut g = NnGains::tuned();
     g.network = NetworkStructure::QuasiRandom { n: 0, seed: 0 };
     let cp = ControllerParams::paper(LawParams::Nn(g));
-    let Err(e) = Controller::new(&cp, &fixtures::paper(), Path::paper(), 1.0) else {
+    let Err(e) = Controller::new(&cp, &presets::paper(), Path::paper(), 1.0) else {
         panic!("accepted n = 0");
     };
     assert!(matches!(&e, ModelError::Invalid { param, .. } if param == "gains.network.n"));
@@ -400,7 +403,7 @@ fn closed_loop(g: NnGains, duration: f64) -> Summary {
         duration,
         ..SimParams::paper()
     };
-    let (sim, _) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
+    let (sim, _) = presets::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
     let (out, _) = sim.run(|_| {});
     let s = summarize(&out, "nn", "", [0.35; 3], 2.0, duration);
     assert!(s.completed, "{:?}", s.fault);
@@ -452,7 +455,7 @@ fn per_arm_scheme_runs_with_a_per_axis_network() {
             duration: 5.0,
             ..SimParams::paper()
         };
-        let (sim, _) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
+        let (sim, _) = presets::paper_simulation(&cp, sp, Disturbance::paper()).unwrap();
         let (out, _) = sim.run(|_| {});
         let s = summarize(&out, "nn", "", [0.35; 3], 2.0, 5.0);
         assert!(s.completed, "{:?}", s.fault);
@@ -502,9 +505,9 @@ fn ticks_allocate_nothing() {
         assert_eq!(n, 0, "{} ticks allocated {n} times", s.name());
     }
     // The controller with a structured network.
-    let plant = Plant::new(&fixtures::paper()).unwrap();
+    let plant = Plant::new(&presets::paper()).unwrap();
     let y = plant
-        .initial_state(fixtures::paper_start(), Vector3::zeros(), None)
+        .initial_state(presets::paper_start(), Vector3::zeros(), None)
         .unwrap();
     let (q, _, qd, _) = plant.split(&y);
     let forces = [1.0, -5.0, -1.0, -5.0];
@@ -513,7 +516,7 @@ fn ticks_allocate_nothing() {
         NetworkStructure::QuasiRandom { n: 256, seed: 1 },
     ] {
         let cp = ControllerParams::paper(LawParams::Nn(matched(s.clone(), &LEVELS)));
-        let (mut c, _) = Controller::new(&cp, &fixtures::paper(), Path::paper(), 1.0).unwrap();
+        let (mut c, _) = Controller::new(&cp, &presets::paper(), Path::paper(), 1.0).unwrap();
         let meas = Measurements {
             q,
             qd,

@@ -17,10 +17,11 @@ use nalgebra::{
     Isometry3, Matrix3, Matrix6, Quaternion, Translation3, UnitQuaternion, Vector3, Vector6,
 };
 use proptest::prelude::*;
-use tandem::fixtures::SplitMix64;
-use tandem::se3::chart::jl_inv_rate;
-use tandem::se3::{Chart, PoseSample, candidate, fit, fit_sample, fit_weighted};
-use tandem::spatial::so3;
+use tandem::control::spatial::chart::Chart;
+use tandem::control::spatial::chart::jl_inv_rate;
+use tandem::geometry::so3;
+use tandem::math::random::SplitMix64;
+use tandem::reference::spatial::{PoseSample, candidate, fit, fit_sample, fit_weighted};
 
 // ---------------------------------------------------------------------------------------------
 // Counting allocator (pattern of tests/alloc.rs).

@@ -1,4 +1,4 @@
-//! Desired SE(3) paths (`tandem::reference::se3_path`): analytic derivatives against
+//! Desired SE(3) paths (`tandem::reference::spatial::path`): analytic derivatives against
 //! finite differences, the SPEC-spatial S6 values, the geodesic, the spline's interpolation and
 //! C² continuity, the chart reach, bad input, finiteness under random input, no allocation.
 //!
@@ -14,11 +14,11 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 use proptest::prelude::*;
 use tandem::ModelError;
-use tandem::reference::se3_path::{
+use tandem::geometry::so3;
+use tandem::reference::spatial::path::{
     AxisFrame, CircleParams, Se3Path, Se3Sample, Se3Spline, Se3Waypoint, chart_rates, chart_x1,
     left_jacobian_rates,
 };
-use tandem::spatial::so3;
 
 // ---------------------------------------------------------------------------------------------
 // Counting allocator (as tests/alloc.rs)

@@ -1,19 +1,19 @@
 //! The simulation loop: determinism, replay, faults reported with time and state, bad settings.
 
-use tandem::adaptive::NnGains;
-use tandem::control::{Controller, ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
-use tandem::fixtures;
-use tandem::pd::PdGains;
-use tandem::report::summarize;
-use tandem::sensors::{ChannelNoise, SensorParams};
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::planar::{Controller, ControllerParams, LawParams};
+use tandem::model::disturbance::Disturbance;
+use tandem::presets;
+use tandem::reference::planar::path::Path;
+use tandem::report::metrics::summarize;
+use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, FaultKind, Formulation, Outcome, Replay, SimParams, Simulation};
-use tandem::trajectory::Path;
 
 fn controller(law: LawParams, duration: f64) -> Driver {
     let cp = ControllerParams::paper(law);
     Driver::Controller(Box::new(
-        Controller::new(&cp, &fixtures::paper(), Path::paper(), duration)
+        Controller::new(&cp, &presets::paper(), Path::paper(), duration)
             .unwrap()
             .0,
     ))
@@ -31,7 +31,7 @@ fn sim(
     sp.log_period = log_period;
     sp.formulation = f;
     Simulation::new(
-        &fixtures::paper(),
+        &presets::paper(),
         sensors,
         driver,
         Disturbance::paper(),
@@ -208,7 +208,7 @@ fn bad_periods_are_named() {
         edit(&mut sp);
         let driver = controller(LawParams::Pd(PdGains::paper()), 90.0);
         match Simulation::new(
-            &fixtures::paper(),
+            &presets::paper(),
             &SensorParams::default(),
             driver,
             Disturbance::paper(),
@@ -238,12 +238,12 @@ fn bound_violations_are_counted_every_tick_not_only_on_logged_rows() {
         k_c: [0.201, 0.35, 0.35],
         ..ControllerParams::paper(LawParams::Pd(PdGains::paper()))
     };
-    let (c, _) = Controller::new(&cp, &fixtures::paper(), Path::paper(), 70.0).unwrap();
+    let (c, _) = Controller::new(&cp, &presets::paper(), Path::paper(), 70.0).unwrap();
     let mut sp = SimParams::paper();
     sp.duration = 70.0;
     sp.log_period = 0.5;
     let sim = Simulation::new(
-        &fixtures::paper(),
+        &presets::paper(),
         &SensorParams::default(),
         Driver::Controller(Box::new(c)),
         Disturbance::paper(),

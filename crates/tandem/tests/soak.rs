@@ -7,10 +7,10 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use tandem::adaptive::NnGains;
-use tandem::control::{ControllerParams, LawParams};
-use tandem::disturbance::Disturbance;
-use tandem::fixtures;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::model::disturbance::Disturbance;
+use tandem::presets;
 use tandem::sim::SimParams;
 
 /// Counts allocations and the bytes live (and their peak).
@@ -54,7 +54,7 @@ fn soak_1000_s_memory_flat_and_drift_below_1e_9() {
         duration: 1000.0,
         ..SimParams::paper()
     };
-    let (sim, _) = fixtures::paper_simulation(&cp, sp, Disturbance::paper()).expect("builds");
+    let (sim, _) = presets::paper_simulation(&cp, sp, Disturbance::paper()).expect("builds");
     assert_eq!(sim.total_ticks(), 1_000_000);
     let (allocs0, live0) = (ALLOCS.load(Ordering::Relaxed), LIVE.load(Ordering::Relaxed));
     PEAK.store(live0, Ordering::Relaxed);

@@ -3,7 +3,7 @@
 //! along the SPEC-spatial S6 path.
 
 use nalgebra::{SVector, Vector6};
-use tandem::iblf::{Iblf, v1};
+use tandem::control::law::iblf::{Iblf, v1};
 
 /// Six smooth signals: `x_r,j(t)` and `z_j(t)` as sums of sines well inside the bounds.
 struct Smooth6 {
@@ -94,11 +94,12 @@ use tandem::control::spatial::{
     SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains,
 };
-use tandem::disturbance::{Push, SpatialDisturbance};
-use tandem::fixtures::{self, SpatialSetup};
+use tandem::model::disturbance::{Push, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
-use tandem::sensors::SensorParams;
+use tandem::presets;
+use tandem::presets::SpatialSetup;
+use tandem::reference::spatial::path::Se3Path;
+use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Formulation, Log, Outcome, SimParams, Simulation, SpatialStart};
 
 /// Which set-up.
@@ -110,8 +111,8 @@ enum Arms {
 
 fn setup(a: Arms) -> SpatialSetup {
     match a {
-        Arms::Ur5 => fixtures::dual_ur5(),
-        Arms::Franka => fixtures::dual_franka(),
+        Arms::Ur5 => presets::dual_ur5(),
+        Arms::Franka => presets::dual_franka(),
     }
 }
 
@@ -272,10 +273,11 @@ fn a_push_and_a_twist_make_the_reference_comply_and_it_returns() {
     // M_e ë + C_e ė + K_e e, and the object reference is the fit of the offset tool poses. A 5 N
     // push along world x for 2 s (from 3 s) and a 0.5 N m twist about world z for 2 s (from
     // 9 s); the reference must move as predicted (within 10 %) and return.
+    use tandem::control::spatial::chart::Chart;
     use tandem::control::spatial::distribute::Distribution;
-    use tandem::reference::admittance_se3::{AdmittanceSe3Params, tool_from_object_se3};
-    use tandem::se3::{Chart, PoseSample, fit};
-    use tandem::spatial::so3::exp_quat;
+    use tandem::geometry::so3::exp_quat;
+    use tandem::reference::spatial::admittance::{AdmittanceSe3Params, tool_from_object_se3};
+    use tandem::reference::spatial::{PoseSample, fit};
     let a = Arms::Ur5;
     let p = SpatialControllerParams::spec_s6(nn(a));
     let pushes = vec![
@@ -441,7 +443,7 @@ fn pd_tracks_worse_than_nn_and_every_law_stays_stable_with_the_admittance_on() {
 /// the tool Jacobian's null space (the self-motion of a redundant arm), `q_rest` = the start.
 fn self_motion(log: &Log, a: Arms) -> Vec<(f64, f64)> {
     use nalgebra::{DMatrix, DVector};
-    use tandem::dynamics::{ChainData, kinematics};
+    use tandem::dynamics::spatial::{ChainData, kinematics};
     let s = setup(a);
     let mut out = Vec::new();
     let nq: usize = s.params.arms.iter().map(|a| a.chain.dof()).sum();
@@ -546,7 +548,10 @@ fn nn_tracks_on_two_franka_with_the_self_motion_bounded_and_damped() {
 
 /// The NN run on two UR5 tick by tick for `ticks` ms, logging every tick; `each(k, ŵ)` sees the
 /// weights after tick `k`.
-fn run_ticks(ticks: usize, mut each: impl FnMut(usize, &[f64])) -> (Log, tandem::se3::Chart) {
+fn run_ticks(
+    ticks: usize,
+    mut each: impl FnMut(usize, &[f64]),
+) -> (Log, tandem::control::spatial::chart::Chart) {
     let a = Arms::Ur5;
     let s = setup(a);
     let duration = ticks as f64 * 1e-3;
@@ -764,7 +769,7 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
     let e = err_param(build(a, &p, s6()));
     assert!(e.contains("k_c[1]") && e.contains("0.0866"), "{e}");
     // A path out of the arms' reach (a 0.6 m circle).
-    use tandem::reference::se3_path::CircleParams;
+    use tandem::reference::spatial::path::CircleParams;
     let mut c = CircleParams::spec_s6();
     c.radius = 0.6;
     let mut p = base.clone();
@@ -774,7 +779,7 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
     assert!(e.contains("path") && e.contains("reach"), "{e}");
     // The paper's full grid on six outputs; the per-arm scheme with the NN law.
     let mut g = SpatialNnGains::dual_ur5();
-    g.network = tandem::rbf_structured::NetworkStructure::FullGrid;
+    g.network = tandem::control::rbf::structured::NetworkStructure::FullGrid;
     let mut p = base.clone();
     p.law = SpatialLaw::Nn(g);
     assert!(err_param(build(a, &p, s6())).contains("gains.network"));
@@ -813,7 +818,7 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
 
 #[test]
 fn non_finite_measurements_give_zero_torque_and_are_counted_never_nan() {
-    use tandem::sim::Measurements;
+    use tandem::drive::Measurements;
     let a = Arms::Ur5;
     let s = setup(a);
     let (mut c, _) = build(
@@ -869,14 +874,14 @@ fn non_finite_measurements_give_zero_torque_and_are_counted_never_nan() {
 #[test]
 fn the_path_chart_rates_and_the_controller_chart_agree() {
     // Two implementations of the S5 chart's rates: `se3_path::chart_rates` (the desired path's,
-    // up to the third derivative, by the left-Jacobian series) and `se3::Chart::sample` (what the
+    // up to the third derivative, by the left-Jacobian series) and `control::spatial::chart::Chart::sample` (what the
     // controller uses on every pose sample). On a circle whose orientation swings by 0.8 rad
     // about a tilted axis, with a chart about an arbitrary R_ref (so φ and ω are not parallel),
     // x_1, ẋ_1 and ẍ_1 agree to round-off.
     use nalgebra::UnitQuaternion;
-    use tandem::reference::admittance_se3::pose_sample;
-    use tandem::reference::se3_path::{CircleParams, chart_rates};
-    use tandem::se3::Chart;
+    use tandem::control::spatial::chart::Chart;
+    use tandem::reference::spatial::admittance::pose_sample;
+    use tandem::reference::spatial::path::{CircleParams, chart_rates};
     let mut cp = CircleParams::spec_s6();
     cp.axis = Vector3::new(1.0, 2.0, 3.0).normalize();
     cp.amplitude = 0.8;

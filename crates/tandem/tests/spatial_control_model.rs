@@ -7,12 +7,14 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector, Isometry3, UnitQuaternion, Vector3, Vector6};
 use tandem::control::spatial::bound::{self, chart_dynamics, closed_chain_ik, fu_bound, usable};
+use tandem::control::spatial::chart::Chart;
 use tandem::control::spatial::distribute::{Distribution, PostureTask, joint_torques};
 use tandem::control::spatial::model::{ObjectModel, nominal_params};
 use tandem::error::ModelError;
-use tandem::fixtures::{self, SpatialSetup, SplitMix64};
+use tandem::math::random::SplitMix64;
 use tandem::plant::spatial::{SpatialInput, SpatialPlant};
-use tandem::se3::chart::Chart;
+use tandem::presets;
+use tandem::presets::SpatialSetup;
 
 #[path = "support/counting.rs"]
 mod counting;
@@ -23,9 +25,9 @@ static A: counting::Counting = counting::Counting;
 
 fn setups() -> Vec<(&'static str, SpatialSetup)> {
     vec![
-        ("dual UR5", fixtures::dual_ur5()),
-        ("dual Franka", fixtures::dual_franka()),
-        ("three UR5", fixtures::three_ur5()),
+        ("dual UR5", presets::dual_ur5()),
+        ("dual Franka", presets::dual_franka()),
+        ("three UR5", presets::three_ur5()),
     ]
 }
 
@@ -99,8 +101,8 @@ fn add_self_motion(model: &ObjectModel, q: &[f64], qd: &mut [f64], rng: &mut Spl
 fn model_matches_the_closed_chain_plant() {
     let mut rng = SplitMix64(7);
     let mut all = setups();
-    all.push(("dual Franka, damped", damped(fixtures::dual_franka())));
-    all.push(("dual UR5, damped", damped(fixtures::dual_ur5())));
+    all.push(("dual Franka, damped", damped(presets::dual_franka())));
+    all.push(("dual UR5, damped", damped(presets::dual_ur5())));
     for (name, s) in all {
         for baumgarte in [0.0, 20.0] {
             let mut p = s.params.clone();
@@ -276,7 +278,7 @@ fn weighted_share_is_unit_independent() {
 #[test]
 fn null_space_torques_do_not_move_the_tool() {
     let mut rng = SplitMix64(11);
-    let s = fixtures::dual_franka();
+    let s = presets::dual_franka();
     let model = ObjectModel::new(&s.params).unwrap();
     let plant = SpatialPlant::new(&s.params).unwrap();
     let n_q = model.n_q();
@@ -314,8 +316,8 @@ fn null_space_torques_do_not_move_the_tool() {
             // Scale: the unprojected τ0 through J M⁻¹.
             let mut tau0 = DVector::zeros(7);
             let mut g = vec![0.0; 7];
-            let mut d2 = tandem::dynamics::ChainData::new(&model.arms()[i]);
-            tandem::dynamics::gravity(
+            let mut d2 = tandem::dynamics::spatial::ChainData::new(&model.arms()[i]);
+            tandem::dynamics::spatial::gravity(
                 &model.arms()[i],
                 &q[s0..s0 + 7],
                 &model.gravity(),
@@ -351,7 +353,7 @@ fn null_space_torques_do_not_move_the_tool() {
     assert!(worst < 1e-12, "{worst:e}");
 
     // 6-DOF: the posture task is ignored.
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let model = ObjectModel::new(&s.params).unwrap();
     let plant = SpatialPlant::new(&s.params).unwrap();
     let y = plant
@@ -498,7 +500,7 @@ fn box_for(name: &str, s: &SpatialSetup) -> (Chart, Vector6<f64>) {
 fn fu_bound_bounds_the_model() {
     let mut rng = SplitMix64(13);
     let mut all: Vec<_> = setups().into_iter().take(2).collect();
-    all.push(("dual Franka, damped", damped(fixtures::dual_franka())));
+    all.push(("dual Franka, damped", damped(presets::dual_franka())));
     for (name, s) in all {
         let model = ObjectModel::new(&s.params).unwrap();
         let (chart, k_c) = box_for(name, &s);
@@ -571,7 +573,7 @@ fn fu_bound_bounds_the_model() {
 /// inertia by `1 + e` scales them by exactly `1 + e`.
 #[test]
 fn nominal_params_scale_the_model() {
-    let s = fixtures::dual_franka();
+    let s = presets::dual_franka();
     let plant = SpatialPlant::new(&s.params).unwrap();
     let y = plant
         .initial_state(&s.x_wo, &Vector6::zeros(), &s.q_guess)
@@ -601,7 +603,7 @@ fn nominal_params_scale_the_model() {
 /// answers, and `σ_min` shows how close it is.
 #[test]
 fn singular_arm_has_no_operational_space_inertia() {
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let model = ObjectModel::new(&s.params).unwrap();
     let mut ws = model.workspace();
     let mut q = s.q_guess.clone();
@@ -674,7 +676,7 @@ fn names(e: ModelError, want: &str) {
 /// Bad input is a `ModelError` naming the field.
 #[test]
 fn bad_input_names_the_field() {
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let mut p = s.params.clone();
     p.grasps.pop();
     names(ObjectModel::new(&p).unwrap_err(), "grasps");
@@ -706,7 +708,7 @@ fn bad_input_names_the_field() {
     let post = PostureTask::new(1.0, 1.0, vec![0.0, 0.0, 0.0, 0.0, 0.0, 100.0]).unwrap();
     names(post.check(&model, 1).unwrap_err(), "posture.q_rest[5]");
     names(post.check(&model, 2).unwrap_err(), "arm");
-    let f = fixtures::dual_franka();
+    let f = presets::dual_franka();
     let fm = ObjectModel::new(&f.params).unwrap();
     PostureTask::franka(f.q_guess[..7].to_vec())
         .check(&fm, 1)
@@ -743,7 +745,7 @@ fn bad_input_names_the_field() {
 /// The per-tick cost of the model (printed, not asserted: the VM is shared).
 #[test]
 fn model_evaluation_cost() {
-    let s = fixtures::dual_franka();
+    let s = presets::dual_franka();
     let model = ObjectModel::new(&s.params).unwrap();
     let plant = SpatialPlant::new(&s.params).unwrap();
     let twist = Vector6::new(0.1, -0.05, 0.02, 0.2, 0.1, -0.3);

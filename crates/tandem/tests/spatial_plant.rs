@@ -2,10 +2,12 @@
 //! arms + box, two Franka-class arms + box, and three UR5-class arms + box.
 
 use nalgebra::{Isometry3, Vector3, Vector6};
-use tandem::dynamics::{self, ChainData};
-use tandem::fixtures::{self, SpatialSetup};
-use tandem::integrate::{DormandPrince, Rk4};
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
+use tandem::math::integrate::{DormandPrince, Rk4};
 use tandem::plant::spatial::{GraspModel, SpatialInput, SpatialOde, SpatialPlant};
+use tandem::presets;
+use tandem::presets::SpatialSetup;
 
 /// `max` that propagates NaN (so a diverged run cannot pass as 0).
 fn nan_max(a: f64, b: f64) -> f64 {
@@ -52,9 +54,9 @@ fn integrate(
 
 fn setups() -> Vec<(&'static str, SpatialSetup)> {
     vec![
-        ("dual UR5", fixtures::dual_ur5()),
-        ("dual Franka", fixtures::dual_franka()),
-        ("three UR5", fixtures::three_ur5()),
+        ("dual UR5", presets::dual_ur5()),
+        ("dual Franka", presets::dual_franka()),
+        ("three UR5", presets::three_ur5()),
     ]
 }
 
@@ -285,7 +287,7 @@ fn drift_stays_below_1e_9_over_5_s() {
 /// Dormand–Prince at 1e-12) by about 16.
 #[test]
 fn rk4_error_ratio_is_about_16() {
-    let s = undamped(fixtures::dual_ur5());
+    let s = undamped(presets::dual_ur5());
     let (plant, y0) = build(&s);
     let input = plant.zero_input();
     let t_end = 0.4;
@@ -351,7 +353,7 @@ fn grasp_wrenches_match_each_arms_own_dynamics() {
             let mut d = ChainData::new(arm);
             let mut tau = vec![0.0; n];
             let f = ws.wrenches[i];
-            dynamics::rnea(
+            spatial::rnea(
                 arm,
                 &q[s0..s0 + n],
                 &qd[s0..s0 + n],
@@ -412,7 +414,7 @@ fn grasp_wrenches_match_each_arms_own_dynamics() {
 /// motion after 0.2 s falls roughly as 1/k.
 #[test]
 fn compliant_grasp_converges_to_the_weld() {
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let (rigid, y0) = build(&s);
     let mut input = rigid.zero_input();
     input.tau = hold_torques(&rigid, &y0);
@@ -454,7 +456,7 @@ fn compliant_grasp_converges_to_the_weld() {
 /// An unreachable grasp and a grasp past the joint limits are set-up errors naming the arm.
 #[test]
 fn unreachable_grasps_are_errors_naming_the_arm() {
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let plant = SpatialPlant::new(&s.params).unwrap();
     let mut far = s.x_wo;
     far.translation.vector += Vector3::new(0.0, 0.0, 2.0);
@@ -480,7 +482,7 @@ fn unreachable_grasps_are_errors_naming_the_arm() {
 /// Bad plant parameters are errors naming the field.
 #[test]
 fn bad_plant_parameters_name_the_field() {
-    let base = fixtures::dual_ur5().params;
+    let base = presets::dual_ur5().params;
     let check = |f: &dyn Fn(&mut tandem::plant::spatial::SpatialPlantParams), want: &str| {
         let mut p = base.clone();
         f(&mut p);
@@ -540,8 +542,11 @@ fn velocity_constraint_holds_along_the_motion() {
 #[test]
 fn a_locked_chain_is_a_counted_event_with_time_and_state() {
     use nalgebra::{Matrix3, Translation3, UnitQuaternion};
-    use tandem::model::{Chain, ChainJoint, JointKind, JointLimits, RigidBody, SpatialArm};
-    use tandem::plant::spatial::{SpatialObjectParams, SpatialPlantParams};
+    use tandem::model::spatial::SpatialObjectParams;
+    use tandem::model::spatial::{
+        Chain, ChainJoint, JointKind, JointLimits, RigidBody, SpatialArm,
+    };
+    use tandem::plant::spatial::SpatialPlantParams;
     let one_joint = |x: f64| SpatialArm {
         chain: Chain {
             name: "pivot".into(),
@@ -614,7 +619,7 @@ fn a_locked_chain_is_a_counted_event_with_time_and_state() {
 #[test]
 fn a_non_finite_step_is_undone_and_reported() {
     use tandem::plant::spatial::StepFault;
-    let s = fixtures::dual_ur5();
+    let s = presets::dual_ur5();
     let (plant, y0) = build(&s);
     let mut ws = plant.workspace();
     let mut input = plant.zero_input();
@@ -644,9 +649,9 @@ fn reusing_the_state_only_part_gives_bitwise_the_full_evaluation() {
     // That must be bitwise what a fresh workspace computes, for every set-up, and a state
     // query in between (which rewrites the kinematics) must not leave it stale.
     for s in [
-        fixtures::dual_ur5(),
-        fixtures::dual_franka(),
-        fixtures::three_ur5(),
+        presets::dual_ur5(),
+        presets::dual_franka(),
+        presets::three_ur5(),
     ] {
         let plant = SpatialPlant::new(&s.params).unwrap();
         let twist = nalgebra::Vector6::new(0.02, -0.01, 0.03, 0.1, -0.05, 0.2);

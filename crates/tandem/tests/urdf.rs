@@ -1,9 +1,9 @@
-//! URDF loader (`model::urdf`, SPEC-spatial S2): typed errors with lines, fixed-joint merging,
+//! URDF loader (`model::spatial::urdf`, SPEC-spatial S2): typed errors with lines, fixed-joint merging,
 //! conventions, and the embedded models.
 
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
-use tandem::model::urdf::{Urdf, UrdfError, load_chain};
-use tandem::model::{Chain, JointKind};
+use tandem::model::spatial::urdf::{Urdf, UrdfError, load_chain};
+use tandem::model::spatial::{Chain, JointKind};
 
 /// 1-based line of the first occurrence of `needle` in `text`.
 fn line_of(text: &str, needle: &str) -> u32 {
@@ -825,7 +825,7 @@ fn ur5_dh(q: &[f64]) -> Vec<Isometry3<f64>> {
 
 #[test]
 fn ur5_loads_with_expected_joints_limits_and_masses() {
-    use tandem::model::urdf::{UR5_BASE, UR5_TOOL, UR5_URDF, ur5};
+    use tandem::model::spatial::urdf::{UR5_BASE, UR5_TOOL, UR5_URDF, ur5};
     let (c, w) = load_chain(UR5_URDF, UR5_BASE, UR5_TOOL).unwrap();
     assert!(w.is_empty(), "{w:?}");
     assert_eq!(c, ur5());
@@ -899,7 +899,7 @@ fn ur5_loads_with_expected_joints_limits_and_masses() {
 
 #[test]
 fn ur5_tool0_pose_equals_dh_forward_kinematics() {
-    let c = tandem::model::urdf::ur5();
+    let c = tandem::model::spatial::urdf::ur5();
     // q = 0, then a few fixed configurations.
     let qs: [[f64; 6]; 4] = [
         [0.0; 6],
@@ -934,7 +934,7 @@ fn ur5_tool0_pose_equals_dh_forward_kinematics() {
 fn ur5_spec_s6_start_puts_the_tools_on_the_grasps() {
     // SPEC-spatial S6: bases (∓0.70, 0, 0) with yaw 0 and π, box at (0.1, 0, 0.3), R_WO = I,
     // grasps r = (∓0.2, 0, 0) with R_OG1 = [(0,0,−1) (0,1,0) (1,0,0)], R_OG2 = [(0,0,−1) (0,−1,0) (−1,0,0)].
-    let c = tandem::model::urdf::ur5();
+    let c = tandem::model::spatial::urdf::ur5();
     let q1 = [
         -0.212431, -1.267797, 1.525974, -0.258177, 1.358366, -1.570796,
     ];
@@ -973,7 +973,7 @@ const PANDA_MDH: [(f64, f64, f64); 8] = [
 
 #[test]
 fn franka_loads_with_expected_joints_limits_masses_and_kinematics() {
-    use tandem::model::urdf::{FRANKA_BASE, FRANKA_TOOL, FRANKA_URDF, franka};
+    use tandem::model::spatial::urdf::{FRANKA_BASE, FRANKA_TOOL, FRANKA_URDF, franka};
     let (c, w) = load_chain(FRANKA_URDF, FRANKA_BASE, FRANKA_TOOL).unwrap();
     assert!(w.is_empty(), "{w:?}");
     assert_eq!(c, franka());
@@ -1064,7 +1064,7 @@ fn xacro_style_ur5_loads_and_matches_the_embedded_model() {
     assert_eq!(u.name(), "ur5_robot");
     // The <joint> elements nested in <transmission> and <ros2_control> are not joints.
     assert_eq!(u.joints().count(), 13);
-    let want = tandem::model::urdf::ur5();
+    let want = tandem::model::spatial::urdf::ur5();
     for base in ["world", "base_link"] {
         let (c, w) = u.chain(base, "tool0").unwrap();
         assert!(w.is_empty(), "{w:?}");
@@ -1101,11 +1101,11 @@ fn xacro_style_ur5_loads_and_matches_the_embedded_model() {
         // The forearm carries the camera: merge it by hand (parallel-axis theorem).
         let x_fc = Isometry3::from_parts(
             Translation3::new(-0.2, 0.05, 0.06),
-            tandem::model::urdf::rpy_to_rotation([0.2, -0.4, 1.0]),
+            tandem::model::spatial::urdf::rpy_to_rotation([0.2, -0.4, 1.0]),
         );
         let x_ci = Isometry3::from_parts(
             Translation3::new(0.01, 0.0, 0.005),
-            tandem::model::urdf::rpy_to_rotation([0.0, 0.0, 0.3]),
+            tandem::model::spatial::urdf::rpy_to_rotation([0.0, 0.0, 0.3]),
         );
         let x_fi = x_fc * x_ci;
         let (m_c, c_c) = (0.072, x_fi.translation.vector);
@@ -1131,7 +1131,7 @@ fn xacro_style_ur5_loads_and_matches_the_embedded_model() {
 
 #[test]
 fn planar2_matches_table_one() {
-    use tandem::arm::{ArmParams, Elbow};
+    use tandem::model::planar::arm::{ArmParams, Elbow};
     let table = ArmParams::paper([0.0, 0.0], Elbow::Positive);
     let (c, w) = load_chain(PLANAR2, "base", "tool").unwrap();
     assert!(w.is_empty(), "{w:?}");
@@ -1237,7 +1237,7 @@ mod robustness {
             which in 0usize..3,
             ops in proptest::collection::vec((any::<u8>(), any::<usize>(), any::<usize>(), any::<u8>()), 1..6),
         ) {
-            let base = [XACRO_UR5, PLANAR2, tandem::model::urdf::FRANKA_URDF][which];
+            let base = [XACRO_UR5, PLANAR2, tandem::model::spatial::urdf::FRANKA_URDF][which];
             exercise(&mutate(base, &ops));
         }
 

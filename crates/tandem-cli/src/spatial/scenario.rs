@@ -28,22 +28,24 @@ use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vect
 use serde::{Deserialize, Serialize};
 use tandem::ModelError;
 use tandem::control::Scheme;
+use tandem::control::rbf::structured::NetworkStructure;
 use tandem::control::spatial::SpatialController;
+use tandem::control::spatial::chart::Chart;
 use tandem::control::spatial::{
     PostureParams, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
     SpatialPdGains,
 };
-use tandem::disturbance::{Push, SpatialDisturbance};
-use tandem::model::SpatialArm;
-use tandem::model::urdf;
+use tandem::drive::Drive;
+use tandem::model::disturbance::{Push, SpatialDisturbance};
+use tandem::model::spatial::SpatialArm;
+use tandem::model::spatial::SpatialObjectParams;
+use tandem::model::spatial::urdf;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::plant::spatial::{GraspModel, SpatialObjectParams, SpatialPlantParams};
-use tandem::rbf_structured::NetworkStructure;
-use tandem::reference::admittance_se3::AdmittanceSe3Params;
-use tandem::reference::se3_path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};
-use tandem::se3::Chart;
-use tandem::sensors::{ChannelNoise, SensorParams};
-use tandem::sim::{Drive, Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
+use tandem::plant::spatial::{GraspModel, SpatialPlantParams};
+use tandem::reference::spatial::admittance::AdmittanceSe3Params;
+use tandem::reference::spatial::path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};
+use tandem::sim::sensors::{ChannelNoise, SensorParams};
+use tandem::sim::{Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
 
 use crate::scenario::{
     Embedded, MAX_ARMS, MAX_LINKS, MetricsConfig, ScenarioError, Source, control_warning,

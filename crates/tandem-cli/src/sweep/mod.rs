@@ -17,7 +17,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use serde_json::{Value as Json, json};
-use tandem::fixtures::splitmix64;
+use tandem::math::random::splitmix64;
 use toml::{Table, Value};
 
 use crate::scenario::{self, ScenarioError, Source};

@@ -10,9 +10,9 @@
 
 use anyhow::{Context, Result};
 use nalgebra::{Isometry3, Translation3};
-use tandem::fixtures::SpatialSetup;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
+use tandem::presets::SpatialSetup;
+use tandem::reference::spatial::path::Se3Path;
 
 use super::{ScalarTrack, Scene3d, scene_from_states};
 

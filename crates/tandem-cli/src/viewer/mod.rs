@@ -26,7 +26,8 @@ use std::path::Path;
 use anyhow::Result;
 use nalgebra::Isometry3;
 use serde_json::{Value, json};
-use tandem::dynamics::{self, ChainData};
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
 use tandem::plant::spatial::SpatialPlant;
 
 /// The page template (the data and the script are substituted in).
@@ -108,7 +109,7 @@ fn pose_parts(x: &Isometry3<f64>) -> ([f64; 3], [f64; 4]) {
 }
 
 /// The arms and the object of the flat plant states `states[k]` at `times[k]` by forward
-/// kinematics (`tandem::dynamics::kinematics`: `X_WL` per body, `X_WT`); `box_size` is the
+/// kinematics (`tandem::dynamics::spatial::kinematics`: `X_WL` per body, `X_WT`); `box_size` is the
 /// object's edge lengths (m). Desired path, wrenches, scalars and notes are left empty for the
 /// caller. A state of the wrong length or with non-finite joint angles gives NaN points for
 /// that frame (the page skips it).
@@ -145,7 +146,7 @@ pub fn scene_from_states(
             let q = if ok { &y[s..s + n] } else { &[][..] };
             if ok && q.iter().all(|v| v.is_finite()) {
                 let d = &mut data[i];
-                dynamics::kinematics(arm, q, None, d);
+                spatial::kinematics(arm, q, None, d);
                 arms[i]
                     .joints
                     .push(d.X_WL.iter().map(|x| pose_parts(x).0).collect());

@@ -21,12 +21,13 @@
 
 #![allow(dead_code)] // each of the example and the test uses a part
 
-use tandem::dynamics::{self, ChainData};
-use tandem::fixtures::SplitMix64;
-use tandem::model::SpatialArm;
+use tandem::dynamics::spatial;
+use tandem::dynamics::spatial::ChainData;
+use tandem::math::random::SplitMix64;
+use tandem::model::spatial::SpatialArm;
 use tandem::nalgebra::{Isometry3, Vector3, Vector6};
 use tandem::plant::spatial::{SpatialPlant, SpatialPlantParams};
-use tandem::reference::se3_path::Se3Path;
+use tandem::reference::spatial::path::Se3Path;
 
 /// Lap length of the S6 path, s (ω = 2π/60).
 pub const LAP: f64 = 60.0;
@@ -58,10 +59,10 @@ impl Branch {
 pub fn ur5_branch(arm: &SpatialArm, q: &[f64], d: &mut ChainData) -> Branch {
     let mut q0 = q.to_vec();
     q0[1] = 0.0;
-    dynamics::kinematics(arm, &q0, None, d);
+    spatial::kinematics(arm, &q0, None, d);
     let s = d.X_WL[1].translation.vector;
     let reach = d.X_WL[2].translation.vector - s;
-    dynamics::kinematics(arm, q, None, d);
+    spatial::kinematics(arm, q, None, d);
     let base = arm.base.translation.vector;
     let tool = d.X_WT.translation.vector - base;
     let shoulder_forward = reach.x * tool.x + reach.y * tool.y > 0.0;
@@ -273,7 +274,7 @@ pub fn follow_lap(
             let s = plant.offset(i);
             let qi = &q[s..s + n];
             let d = &mut data[i];
-            dynamics::kinematics(arm, qi, None, d);
+            spatial::kinematics(arm, qi, None, d);
             let sv = singular_values(d);
             let (smax, smin) = (sv[0], sv[5]);
             lap.sigma_min[i] = lap.sigma_min[i].min(smin);
@@ -324,11 +325,11 @@ pub fn follow_lap(
     lap
 }
 
-/// The S6 UR5 set-up ([`tandem::fixtures::dual_ur5`]) with the bases at `(∓d/2, 0, 0)`.
+/// The S6 UR5 set-up ([`tandem::presets::dual_ur5`]) with the bases at `(∓d/2, 0, 0)`.
 pub fn dual_ur5_at(d: f64) -> SpatialPlantParams {
-    let mut p = tandem::fixtures::dual_ur5().params;
-    p.arms[0] = tandem::fixtures::ur5_arm(-d / 2.0, 0.0, 0.0);
-    p.arms[1] = tandem::fixtures::ur5_arm(d / 2.0, 0.0, std::f64::consts::PI);
+    let mut p = tandem::presets::dual_ur5().params;
+    p.arms[0] = tandem::presets::ur5_arm(-d / 2.0, 0.0, 0.0);
+    p.arms[1] = tandem::presets::ur5_arm(d / 2.0, 0.0, std::f64::consts::PI);
     p
 }
 
@@ -359,7 +360,7 @@ pub fn ur5_sweep(ds: &[f64], dt: f64) -> Vec<Ur5Row> {
         .collect();
     let mut rows = Vec::new();
     for side in [up, down] {
-        let mut guess = tandem::fixtures::dual_ur5().q_guess;
+        let mut guess = tandem::presets::dual_ur5().q_guess;
         for d in side {
             let params = dual_ur5_at(d);
             let plant = SpatialPlant::new(&params).expect("valid set-up");
@@ -410,7 +411,7 @@ fn empty_lap() -> Lap {
 /// How the Franka pair holds the box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum FrankaGrasp {
-    /// The preset's: on the top face at `(∓0.12, 0, 0.1)`, tool z down (`fixtures::dual_franka`).
+    /// The preset's: on the top face at `(∓0.12, 0, 0.1)`, tool z down (`presets::dual_franka`).
     Top,
     /// The UR5's end-face grasps at `(∓0.2, 0, 0)` (tool z into the box), turned about the tool
     /// z axis by `roll` rad (0 = tool x down, as the UR5).
@@ -419,11 +420,11 @@ pub enum FrankaGrasp {
 
 /// The Franka pair with bases at `(∓d/2, 0, 0)` and the given grasp.
 pub fn dual_franka_at(d: f64, grasp: FrankaGrasp) -> SpatialPlantParams {
-    let mut p = tandem::fixtures::dual_franka().params;
-    p.arms[0] = tandem::fixtures::franka_arm(-d / 2.0, 0.0, 0.0);
-    p.arms[1] = tandem::fixtures::franka_arm(d / 2.0, 0.0, std::f64::consts::PI);
+    let mut p = tandem::presets::dual_franka().params;
+    p.arms[0] = tandem::presets::franka_arm(-d / 2.0, 0.0, 0.0);
+    p.arms[1] = tandem::presets::franka_arm(d / 2.0, 0.0, std::f64::consts::PI);
     if let FrankaGrasp::End { roll } = grasp {
-        let ur = tandem::fixtures::dual_ur5().params.grasps;
+        let ur = tandem::presets::dual_ur5().params.grasps;
         let turn = Isometry3::rotation(Vector3::z() * roll);
         p.grasps = vec![ur[0] * turn, ur[1] * turn];
     }
@@ -468,7 +469,7 @@ fn ik_clamped(
         })
         .collect();
     for _ in 0..300 {
-        dynamics::kinematics(arm, q, None, d);
+        spatial::kinematics(arm, q, None, d);
         let dp = target.translation.vector - d.X_WT.translation.vector;
         let dr = (target.rotation * d.X_WT.rotation.inverse()).scaled_axis();
         if dp.norm() < 1e-10 && dr.norm() < 1e-10 {
@@ -583,7 +584,7 @@ pub fn grasp_target(
 /// The smallest singular value of an arm's tool Jacobian at `q`.
 pub fn sigma_min_at(arm: &SpatialArm, q: &[f64]) -> f64 {
     let mut d = ChainData::new(arm);
-    dynamics::kinematics(arm, q, None, &mut d);
+    spatial::kinematics(arm, q, None, &mut d);
     singular_values(&d)[5]
 }
 

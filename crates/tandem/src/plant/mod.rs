@@ -1,214 +1,88 @@
-//! The closed-chain plant: arms + object + grasps, SPEC §2.4.
+//! The closed chain, paper (10)–(14): arms, object and grasps as one plant, and what the
+//! simulation loop needs from it, planar or spatial.
 //!
-//! Two formulations that must agree wherever both apply:
-//! * [`constrained`] (the default plant): all joint angles plus the object pose, one holonomic
-//!   constraint per grasp, Lagrange multipliers = grasp forces, Baumgarte drift control. Any
-//!   number of arms, any number of joints.
-//! * [`reduced`]: object coordinates only, paper (14); arms from analytic inverse kinematics
-//!   (2-link arms only).
+//! * [`planar`]: the planar plant (SPEC §2.4), constrained ([`planar::constrained`]) and
+//!   reduced (14) ([`planar::reduced`]) formulations.
+//! * [`spatial`]: the spatial plant (SPEC-spatial S3–S4): URDF arms, an object in SE(3),
+//!   welded or compliant grasps, the KKT solve.
 //!
-//! State layout (flat, for the integrators): `y = [q (n_q), x_o (3), q̇ (n_q), ẋ_o (3)]`, where
-//! `q` stacks the arms' joint angles in arm order.
-//!
-//! # Fast paths
-//! [`Plant::new`] selects the constrained algorithm once ([`Algorithm`]): two or three arms of 2,
-//! 3 or 4 links each (all arms the same) run [`Plant::derivative`] entirely in fixed-size types,
-//! per arm (2-link arms: 2×2 blocks from the SPEC §2.1 closed forms, closed-form `M⁻¹`; 3- and
-//! 4-link arms: the general algorithm in `SMatrix` values with a fixed-size Cholesky), with a
-//! 4×4 or 6×6 grasp-space `L D Lᵀ`; any other plant runs the general dynamic-size algorithm
-//! ([`Plant::derivative_general`]), which stays public so tests hold the two equal. The reduced
-//! plant (2-link arms only) always uses the fixed-size per-arm terms ([`TwoLinkArm`]), with the
-//! inverse kinematics as link directions (no transcendental calls).
+//! One trait, [`ClosedChain`], two implementations ([`Plant`](planar::Plant): planar arms with point grasps and
+//! 2-D grasp forces; [`SpatialPlant`]: URDF arms with welds and
+//! 6-D grasp wrenches). Both keep a flat state `y` (the integrators' view), hold the input over
+//! a step (zero-order hold), and report their grasp wrenches as the wrist sensors read them, so
+//! one loop, one sensor model and one set of health checks serve both. See the crate docs,
+//! "Architecture".
 
-pub mod chain;
-pub mod constrained;
-pub mod reduced;
-pub mod spatial;
-
-use nalgebra::{DMatrix, Matrix2, Matrix2x3, Vector2, Vector3};
+use nalgebra::{Isometry3, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
-pub use chain::{
-    ChainFault, ClosedChain, ColumnSpec, Formulation, PlanarStart, SpatialDisturbance,
-    SpatialStart, Stepper,
-};
+use crate::error::ModelError;
+use crate::math::integrate::Rk4;
 
-use crate::arm::{Arm, ArmParams, ArmTerms, Cartesian, FixedLinkArm, IkFailure, TwoLinkArm};
-use crate::error::{ModelError, non_negative};
-use crate::grasp::Grasp;
-use crate::object::{Object, ObjectParams};
+pub mod planar;
+pub mod spatial;
 
-/// Plant parameters: plain data, validated by [`Plant::new`].
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PlantParams {
-    /// The arms.
-    pub arms: Vec<ArmParams>,
-    /// Grasp point `r_i` of each arm in the object frame, m (one per arm).
-    pub grasps: Vec<[f64; 2]>,
-    /// The object.
-    pub object: ObjectParams,
-    /// Gravity `g` along −y, m/s².
-    pub gravity: f64,
-    /// Baumgarte drift-control natural frequency `ω_b` (critically damped), rad/s; 0 disables.
-    pub baumgarte: f64,
+use planar::ReducedOde;
+use spatial::{SpatialPlant, SpatialWorkspace};
+
+/// Which plant formulation integrates the truth (SPEC §2.4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Formulation {
+    /// Joints + object with Lagrange multipliers (default; any arms; both plants).
+    #[default]
+    Constrained,
+    /// Object coordinates only, (14) (planar 2-link arms).
+    Reduced,
 }
 
-impl PlantParams {
-    /// The paper's two-arm set-up (SPEC §4): Table I arms with `l_c = l/2`, bases `(±0.38, 0)`,
-    /// mirrored elbows (arm 1 `q2 < 0`, arm 2 `q2 > 0`), `l_o = 0.1 m`, grasps `(∓l_o/2, 0)`,
-    /// `M_o = C_o = I`, `G_o = (0, 9.8, 0)`.
-    pub fn paper() -> Self {
-        use crate::arm::Elbow;
-        PlantParams {
-            arms: vec![
-                ArmParams::paper([-0.38, 0.0], Elbow::Negative),
-                ArmParams::paper([0.38, 0.0], Elbow::Positive),
-            ],
-            grasps: vec![[-0.05, 0.0], [0.05, 0.0]],
-            object: ObjectParams::paper(),
-            gravity: crate::arm::GRAVITY,
-            baumgarte: 20.0,
-        }
-    }
-}
-
-/// Joint torques and the object disturbance, held constant over a plant step (ZOH).
-#[derive(Clone, Debug, PartialEq)]
-pub struct PlantInput {
-    /// Joint torques of all arms, stacked in arm order, N m (n_q).
-    pub tau: Vec<f64>,
-    /// Environment disturbance `F_d` on the object (subtracted in (10)), (N, N, N m).
-    pub f_d: Vector3<f64>,
-}
-
-/// The constrained-derivative algorithm of a plant, selected once by [`Plant::new`].
+/// Why the loop's evaluation or step of a plant failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Algorithm {
-    /// Exactly two 2-link arms (the paper's set-up): fixed-size 2×2 arm blocks (SPEC §2.1
-    /// closed forms) and a 4×4 grasp-space solve, no dynamic-size buffers.
-    TwoArmsTwoLinks,
-    /// `arms` arms (2 or 3) of `links` links each (2, 3 or 4), other than two 2-link arms:
-    /// fixed-size per-arm kernels ([`FixedArm`](crate::arm::FixedArm)) and a `2·arms` square
-    /// fixed-size grasp-space solve.
-    Fixed {
-        /// Number of arms.
-        arms: usize,
-        /// Links per arm.
-        links: usize,
-    },
-    /// Any number of arms with any number of joints: dynamic-size blocks in the workspace.
-    General,
+pub enum ChainFault {
+    /// The state (or the derivative) became non-finite.
+    NonFinite,
+    /// The reduced formulation could not be evaluated (IK out of reach or a singular arm).
+    Reduced,
 }
 
-/// The per-plant kernel behind [`Algorithm`]: `L{links}A{arms}` holds each arm's fixed-size
-/// kernel.
+/// The simulation loop's integrator of a plant: the formulation, the RK4 buffers and a
+/// derivative scratch, sized once ([`ClosedChain::stepper`]). The planar reduced formulation
+/// (14) needs no state of its own: its 6-state `(x_o, ẋ_o)` is read from and written back into
+/// the object part of the flat state, bit for bit, and the joints follow by the analytic IK.
 #[derive(Clone, Debug)]
-pub(crate) enum Kernel {
-    L2A2([TwoLinkArm; 2]),
-    L2A3([TwoLinkArm; 3]),
-    L3A2([FixedLinkArm<3>; 2]),
-    L3A3([FixedLinkArm<3>; 3]),
-    L4A2([FixedLinkArm<4>; 2]),
-    L4A3([FixedLinkArm<4>; 3]),
-    General,
+pub struct Stepper {
+    formulation: Formulation,
+    rk: Rk4,
+    rk_red: Rk4,
+    dy: Vec<f64>,
 }
 
-impl Kernel {
-    /// Select the kernel for `arms` (once, at construction).
-    fn select(arms: &[Arm]) -> Kernel {
-        fn all<T: Copy, const M: usize>(
-            arms: &[Arm],
-            f: impl Fn(&Arm) -> Option<T>,
-        ) -> Option<[T; M]> {
-            if arms.len() != M {
-                return None;
-            }
-            let v: Option<Vec<T>> = arms.iter().map(f).collect();
-            v.map(|v| std::array::from_fn(|i| v[i]))
-        }
-        let two = |a: &Arm| a.two_link().copied();
-        if let Some(a) = all(arms, two) {
-            return Kernel::L2A2(a);
-        }
-        if let Some(a) = all(arms, two) {
-            return Kernel::L2A3(a);
-        }
-        if let Some(a) = all(arms, Arm::fixed::<3>) {
-            return Kernel::L3A2(a);
-        }
-        if let Some(a) = all(arms, Arm::fixed::<3>) {
-            return Kernel::L3A3(a);
-        }
-        if let Some(a) = all(arms, Arm::fixed::<4>) {
-            return Kernel::L4A2(a);
-        }
-        if let Some(a) = all(arms, Arm::fixed::<4>) {
-            return Kernel::L4A3(a);
-        }
-        Kernel::General
+impl Stepper {
+    /// The formulation this stepper integrates.
+    pub fn formulation(&self) -> Formulation {
+        self.formulation
     }
 }
 
-/// A validated, immutable plant model.
-#[derive(Clone, Debug)]
-pub struct Plant {
-    arms: Vec<Arm>,
-    grasps: Vec<Grasp>,
-    object: Object,
-    g: f64,
-    baumgarte: f64,
-    offsets: Vec<usize>,
-    n_q: usize,
-    /// The constrained derivative's kernel, selected once ([`Plant::algorithm`]).
-    kernel: Kernel,
-    /// Diagonal of `M_o⁻¹` ([`Object::new`] builds `M_o` diagonal), (1/kg, 1/kg, 1/(kg m²)).
-    m_o_inv: Vector3<f64>,
-    /// Diagonal of `C_o` (diagonal by construction), (N s/m, N s/m, N m s/rad).
-    c_o: Vector3<f64>,
+/// Where a planar run starts: the object pose at rest, `q_guess` for arms that are not 2-link.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanarStart {
+    /// Object pose `(x, y, θ)`, (m, m, rad).
+    pub x_o: [f64; 3],
+    /// Initial joint guess (stacked n_q) for the numerical IK of arms with more than 2 links.
+    pub q_guess: Option<Vec<f64>>,
 }
 
-/// Per-step scratch and the step's secondary results (grasp forces, diagnostics).
-#[derive(Clone, Debug)]
-pub struct PlantWorkspace {
-    /// Per-arm kinematics and dynamics. Written by the functions that say so
-    /// ([`Plant::energy`], [`Plant::constraint_residual`], [`Plant::min_singular_value`],
-    /// [`Plant::arms_from_object`], [`Plant::object_space`], [`Plant::derivative_general`]); the
-    /// fixed-size paths of [`Plant::derivative`] and [`Plant::reduced_derivative`] keep their
-    /// per-arm terms on the stack and leave it as it was.
-    pub terms: Vec<ArmTerms>,
-    /// Grasp forces `F_i` (the object on end-effector `i`) of the last evaluation, N.
-    pub forces: Vec<Vector2<f64>>,
-    /// Object acceleration of the last evaluation.
-    pub xdd_o: Vector3<f64>,
-    /// Smallest pivot over the largest diagonal entry of the last grasp-space factorisation
-    /// (conditioning indicator; the Cholesky's and the `L D Lᵀ`'s pivots are the same).
-    pub kkt_pivot: f64,
-    /// Number of evaluations whose grasp-space system needed regularisation (singular chain).
-    pub regularised: u64,
-    grasp_j: Vec<Matrix2x3<f64>>,
-    minv_jt: Vec<DMatrix<f64>>,
-    a0: Vec<f64>,
-    k: DMatrix<f64>,
-    k_copy: DMatrix<f64>,
-    rhs: Vec<f64>,
-    /// Joint angles from IK in the reduced formulation (n_q).
-    pub q_red: Vec<f64>,
-    /// Joint velocities in the reduced formulation (n_q).
-    pub qd_red: Vec<f64>,
-    /// Per-arm Cartesian terms (3)–(4) from the last reduced evaluation.
-    pub cartesian: Vec<Cartesian>,
-    tau_x: Vec<Vector2<f64>>,
-    /// Per-arm `R(θ) r_i` of the last reduced evaluation, m.
-    rw: Vec<Vector2<f64>>,
-    /// The state part of the last [`Plant::derivative_keep`] (fixed-size kernels only), for
-    /// [`Plant::derivative_reusing`] at the same state.
-    kept: constrained::Kept,
-    /// The state `y` of [`PlantWorkspace::kept`] (state_dim), compared bit for bit.
-    kept_y: Vec<f64>,
-    /// Whether `kept` holds the state part of `kept_y`.
-    kept_valid: bool,
+/// Where a spatial run starts: the object pose at rest and a joint guess for the IK.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpatialStart {
+    /// Object pose `X_WO`.
+    pub x_wo: Isometry3<f64>,
+    /// Initial joint guess (stacked n_q) of each arm's Newton–Raphson IK.
+    pub q_guess: Vec<f64>,
 }
+
+pub use crate::model::disturbance::SpatialDisturbance;
 
 /// Plant energy split, J.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -226,464 +100,621 @@ impl Energy {
     }
 }
 
-impl Plant {
-    /// Validate the parameters (each arm, the object, one grasp per arm, `g ≥ 0`, `ω_b ≥ 0`).
-    pub fn new(p: &PlantParams) -> Result<Self, ModelError> {
-        if p.arms.is_empty() {
-            return Err(ModelError::geometry("arms", "at least one arm is needed"));
+/// `(name, unit)` of a log column.
+pub type ColumnSpec = (String, String);
+
+fn col(name: impl Into<String>, unit: &str) -> ColumnSpec {
+    (name.into(), unit.to_string())
+}
+
+/// A closed-chain plant as the simulation loop sees it.
+pub trait ClosedChain {
+    /// Per-step scratch and the last evaluation's secondary results.
+    type Workspace;
+    /// The input held over a step: joint torques plus the object disturbance.
+    type Input;
+    /// Channels per grasp wrench: 2 (a planar force) or 6 (a spatial `[f; τ]`).
+    const WRENCH_DIM: usize;
+
+    /// Joints over all arms.
+    fn n_q(&self) -> usize;
+    /// Number of arms (one grasp and one wrist sensor each).
+    fn n_arms(&self) -> usize;
+    /// Flat state dimension.
+    fn state_dim(&self) -> usize;
+    /// A workspace for this plant (allocates).
+    fn workspace(&self) -> Self::Workspace;
+    /// A zero input (allocates).
+    fn zero_input(&self) -> Self::Input;
+    /// The joint torques of an input (stacked, arm order, n_q).
+    fn torques_mut(input: &mut Self::Input) -> &mut [f64];
+    /// `(q, q̇)` of a state (stacked, arm order).
+    fn joints<'a>(&self, y: &'a [f64]) -> (&'a [f64], &'a [f64]);
+    /// `ẏ` at `(y, input)`; writes the grasp wrenches into the workspace. `false` when the
+    /// derivative does not exist (never for a validated model at a finite state).
+    fn derivative(
+        &self,
+        y: &[f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        dy: &mut [f64],
+    ) -> bool;
+    /// `n` RK4 steps of size `h` from `(t, y)` with the input held, including any projection
+    /// the state needs (the spatial plant renormalises its quaternion). No allocation.
+    /// Returns `false` when the state became non-finite (the spatial plant then leaves `y` at
+    /// the last good state).
+    fn advance(
+        &self,
+        rk: &mut Rk4,
+        t: f64,
+        y: &mut [f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        h: f64,
+        n: usize,
+    ) -> bool;
+    /// The grasp wrenches of the last evaluation as the wrist sensors read them, flat
+    /// (`WRENCH_DIM` per arm): planar forces in world axes; spatial `[f; τ]` in tool axes.
+    fn sensor_wrenches(&self, ws: &Self::Workspace, out: &mut [f64]);
+    /// Largest grasp-constraint violation of a state `(position, m; rotation, rad)`; the planar
+    /// plant has no rotational constraint and reports its velocity residual (m/s) instead.
+    fn constraint_residual(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64);
+    /// Smallest singular value over the arms' Jacobians.
+    fn min_singular_value(&self, y: &[f64], ws: &mut Self::Workspace) -> f64;
+    /// Mechanical energy of a state, J.
+    fn energy(&self, y: &[f64], ws: &mut Self::Workspace) -> Energy;
+
+    // --- What the simulation loop needs beyond the dynamics (crate::sim). ---
+
+    /// Where a run starts (the object pose and what the inverse kinematics needs).
+    type Start;
+    /// The environment disturbance on the object (planar: [`crate::model::disturbance::Disturbance`];
+    /// spatial: [`SpatialDisturbance`]).
+    type Disturbance;
+
+    /// A consistent state at rest at `start` (IK of every arm); errors name the arm or field.
+    fn start_state(&self, start: &Self::Start) -> Result<Vec<f64>, ModelError>;
+    /// Validate a disturbance (errors name the field).
+    fn check_disturbance(&self, d: &Self::Disturbance) -> Result<(), ModelError>;
+    /// Set the input's disturbance to `F_d(t)`; the name of its first non-finite channel
+    /// (`the disturbance F_d.x`), if any (allocates only then).
+    fn disturb(&self, d: &Self::Disturbance, t: f64, input: &mut Self::Input) -> Option<String>;
+    /// The loop's integrator for a formulation; errors name `formulation` when the plant has
+    /// no such formulation (the reduced one is planar, 2-link arms only).
+    fn stepper(&self, formulation: Formulation) -> Result<Stepper, ModelError>;
+    /// **The grasp wrenches of a state**: evaluate the plant at `(y, input)` in the stepper's
+    /// formulation and write the grasp wrenches (the object on tool `i`, world axes) flat
+    /// into `out` (`WRENCH_DIM` per arm: planar `(F_x, F_y)` N; spatial `[f; τ]` (N, N m)
+    /// about the tool origin). Leaves that evaluation in `ws`, so
+    /// [`sensor_wrenches`](Self::sensor_wrenches) then gives the wrist readings of the same
+    /// state. No allocation.
+    fn grasp_wrenches(
+        &self,
+        st: &mut Stepper,
+        y: &[f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        out: &mut [f64],
+    ) -> Result<(), ChainFault>;
+    /// Advance `n` plant steps of size `h` from `(t, y)` with the input held, in the stepper's
+    /// formulation. On `Err` the state is not a new good one (the loop reports the last good
+    /// state it kept). No allocation.
+    fn step_with(
+        &self,
+        st: &mut Stepper,
+        t: f64,
+        y: &mut [f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        h: f64,
+        n: usize,
+    ) -> Result<(), ChainFault>;
+    /// Grasp-constraint drift of a state `(position, m; rotation, rad)`; the planar point
+    /// grasps constrain no rotation (0).
+    fn drift(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64);
+    /// [`drift`](Self::drift) and [`min_singular_value`](Self::min_singular_value) of one
+    /// state (the loop's health check), the same values as the two calls; a plant may share
+    /// their kinematics.
+    fn drift_and_min_singular_value(
+        &self,
+        y: &[f64],
+        ws: &mut Self::Workspace,
+    ) -> ((f64, f64), f64) {
+        (self.drift(y, ws), self.min_singular_value(y, ws))
+    }
+    /// Evaluations so far that needed a regularised grasp-space solve.
+    fn regularised(ws: &Self::Workspace) -> u64;
+    /// The object's pose of a state for a fault report: planar `(x, y, θ)`; spatial
+    /// `(p_WO, q_WO = (w, x, y, z))` (allocates).
+    fn object_pose(&self, y: &[f64]) -> Vec<f64>;
+    /// Log columns of the object's true state (planar `x_o.{x,y,theta}`; spatial pose and
+    /// twist), with units.
+    fn object_columns(&self) -> Vec<ColumnSpec>;
+    /// Write the [`object_columns`](Self::object_columns) of a state.
+    fn write_object(&self, y: &[f64], out: &mut [f64]);
+    /// Log columns of the joints' true state (planar `q*`; spatial `q*` and `qd*`).
+    fn joint_columns(&self) -> Vec<ColumnSpec>;
+    /// Write the [`joint_columns`](Self::joint_columns) of a state.
+    fn write_joints(&self, y: &[f64], out: &mut [f64]);
+    /// Units of the joint torques `tau_q*` (N m; N for a prismatic joint).
+    fn torque_units(&self) -> Vec<String>;
+    /// `(suffix, unit)` of one wrench's channels: planar `x, y` (N); spatial `fx … tz`
+    /// (N, N m). The log names them `F{i}.{suffix}` (grasp, world axes) and
+    /// `F_meas{i}.{suffix}` (wrist reading).
+    fn wrench_channels(&self) -> Vec<(&'static str, &'static str)>;
+    /// Drift columns: planar `drift` (m); spatial `drift` (m) and `drift_rot` (rad).
+    fn drift_columns(&self) -> Vec<ColumnSpec>;
+}
+
+const AX3: [&str; 3] = ["x", "y", "theta"];
+const AX6: [&str; 6] = ["fx", "fy", "fz", "tx", "ty", "tz"];
+
+impl ClosedChain for planar::Plant {
+    type Workspace = planar::PlantWorkspace;
+    type Input = planar::PlantInput;
+    const WRENCH_DIM: usize = 2;
+
+    fn n_q(&self) -> usize {
+        planar::Plant::n_q(self)
+    }
+    fn n_arms(&self) -> usize {
+        self.arms().len()
+    }
+    fn state_dim(&self) -> usize {
+        planar::Plant::state_dim(self)
+    }
+    fn workspace(&self) -> Self::Workspace {
+        planar::Plant::workspace(self)
+    }
+    fn zero_input(&self) -> Self::Input {
+        planar::Plant::zero_input(self)
+    }
+    fn torques_mut(input: &mut Self::Input) -> &mut [f64] {
+        &mut input.tau
+    }
+    fn joints<'a>(&self, y: &'a [f64]) -> (&'a [f64], &'a [f64]) {
+        let (q, _, qd, _) = self.split(y);
+        (q, qd)
+    }
+    fn derivative(
+        &self,
+        y: &[f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        dy: &mut [f64],
+    ) -> bool {
+        planar::Plant::derivative(self, y, input, ws, dy)
+    }
+    fn advance(
+        &self,
+        rk: &mut Rk4,
+        t: f64,
+        y: &mut [f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        h: f64,
+        n: usize,
+    ) -> bool {
+        let mut sys = planar::ConstrainedOde {
+            plant: self,
+            ws,
+            input,
+        };
+        rk.substeps(&mut sys, t, y, h * n as f64, n);
+        y.iter().all(|v| v.is_finite())
+    }
+    fn sensor_wrenches(&self, ws: &Self::Workspace, out: &mut [f64]) {
+        for (i, f) in ws.forces.iter().enumerate() {
+            out[2 * i] = f.x;
+            out[2 * i + 1] = f.y;
         }
-        if p.grasps.len() != p.arms.len() {
-            return Err(ModelError::geometry(
-                "grasps",
-                format!(
-                    "{} grasp points for {} arms: give one per arm",
-                    p.grasps.len(),
-                    p.arms.len()
-                ),
-            ));
-        }
-        let mut arms = Vec::with_capacity(p.arms.len());
-        let mut offsets = Vec::with_capacity(p.arms.len());
-        let mut n_q = 0;
-        for (i, a) in p.arms.iter().enumerate() {
-            let arm = Arm::new(&format!("arms[{i}]"), a)?;
-            offsets.push(n_q);
-            n_q += arm.dof();
-            arms.push(arm);
-        }
-        let mut grasps = Vec::with_capacity(p.grasps.len());
-        for (i, r) in p.grasps.iter().enumerate() {
-            for (k, v) in r.iter().enumerate() {
-                if !v.is_finite() {
-                    return Err(ModelError::invalid(
-                        format!("grasps[{i}][{k}]"),
-                        *v,
-                        "must be finite",
-                    ));
-                }
-            }
-            grasps.push(Grasp {
-                r: Vector2::new(r[0], r[1]),
-            });
-        }
-        let object = Object::new(&p.object)?;
-        let g = non_negative("gravity", p.gravity)?;
-        let baumgarte = non_negative("baumgarte", p.baumgarte)?;
-        let kernel = Kernel::select(&arms);
-        let m_o_inv = object.M_o_inv.diagonal();
-        let c_o = object.C_o.diagonal();
-        Ok(Plant {
-            arms,
-            grasps,
-            object,
-            g,
-            baumgarte,
-            offsets,
-            n_q,
-            kernel,
-            m_o_inv,
-            c_o,
-        })
+    }
+    fn constraint_residual(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64) {
+        planar::Plant::constraint_residual(self, y, ws)
+    }
+    fn min_singular_value(&self, y: &[f64], ws: &mut Self::Workspace) -> f64 {
+        planar::Plant::min_singular_value(self, y, ws)
+    }
+    fn energy(&self, y: &[f64], ws: &mut Self::Workspace) -> Energy {
+        planar::Plant::energy(self, y, ws)
     }
 
-    /// The constrained-derivative algorithm selected at construction.
-    pub fn algorithm(&self) -> Algorithm {
-        let fixed = |arms, links| Algorithm::Fixed { arms, links };
-        match self.kernel {
-            Kernel::L2A2(_) => Algorithm::TwoArmsTwoLinks,
-            Kernel::L2A3(_) => fixed(3, 2),
-            Kernel::L3A2(_) => fixed(2, 3),
-            Kernel::L3A3(_) => fixed(3, 3),
-            Kernel::L4A2(_) => fixed(2, 4),
-            Kernel::L4A3(_) => fixed(3, 4),
-            Kernel::General => Algorithm::General,
-        }
-    }
-    /// The arms.
-    pub fn arms(&self) -> &[Arm] {
-        &self.arms
-    }
-    /// The grasps, one per arm.
-    pub fn grasps(&self) -> &[Grasp] {
-        &self.grasps
-    }
-    /// The object.
-    pub fn object(&self) -> &Object {
-        &self.object
-    }
-    /// Gravity, m/s².
-    pub fn gravity(&self) -> f64 {
-        self.g
-    }
-    /// Total number of joints `n_q`.
-    pub fn n_q(&self) -> usize {
-        self.n_q
-    }
-    /// Offset of arm `i`'s joints in the stacked `q`.
-    pub fn offset(&self, i: usize) -> usize {
-        self.offsets[i]
-    }
-    /// Length of the flat state `y`.
-    pub fn state_dim(&self) -> usize {
-        2 * (self.n_q + 3)
-    }
-    /// `(q, x_o, q̇, ẋ_o)` views of a flat state.
-    pub fn split<'a>(&self, y: &'a [f64]) -> (&'a [f64], Vector3<f64>, &'a [f64], Vector3<f64>) {
-        let n = self.n_q;
-        (
-            &y[..n],
-            Vector3::new(y[n], y[n + 1], y[n + 2]),
-            &y[n + 3..2 * n + 3],
-            Vector3::new(y[2 * n + 3], y[2 * n + 4], y[2 * n + 5]),
+    type Start = PlanarStart;
+    type Disturbance = crate::model::disturbance::Disturbance;
+
+    fn start_state(&self, start: &PlanarStart) -> Result<Vec<f64>, ModelError> {
+        self.initial_state(
+            Vector3::from(start.x_o),
+            Vector3::zeros(),
+            start.q_guess.as_deref(),
         )
     }
-    /// An all-zero input of the right size.
-    pub fn zero_input(&self) -> PlantInput {
-        PlantInput {
-            tau: vec![0.0; self.n_q],
-            f_d: Vector3::zeros(),
-        }
+    fn check_disturbance(&self, d: &Self::Disturbance) -> Result<(), ModelError> {
+        d.validate()
     }
-
-    /// Allocate the workspace (once).
-    pub fn workspace(&self) -> PlantWorkspace {
-        let m = self.arms.len();
-        PlantWorkspace {
-            terms: self.arms.iter().map(|a| a.terms()).collect(),
-            forces: vec![Vector2::zeros(); m],
-            xdd_o: Vector3::zeros(),
-            kkt_pivot: 1.0,
-            regularised: 0,
-            grasp_j: vec![Matrix2x3::zeros(); m],
-            minv_jt: self
-                .arms
-                .iter()
-                .map(|a| DMatrix::zeros(a.dof(), 2))
-                .collect(),
-            a0: vec![0.0; self.n_q],
-            k: DMatrix::zeros(2 * m, 2 * m),
-            k_copy: DMatrix::zeros(2 * m, 2 * m),
-            rhs: vec![0.0; 2 * m],
-            q_red: vec![0.0; self.n_q],
-            qd_red: vec![0.0; self.n_q],
-            cartesian: vec![
-                Cartesian {
-                    M_x: Matrix2::identity(),
-                    C_x: Matrix2::zeros(),
-                    G_x: Vector2::zeros(),
-                    J_inv: Matrix2::identity()
-                };
-                m
-            ],
-            tau_x: vec![Vector2::zeros(); m],
-            rw: vec![Vector2::zeros(); m],
-            kept: constrained::Kept::for_kernel(&self.kernel),
-            kept_y: vec![0.0; self.state_dim()],
-            kept_valid: false,
-        }
+    fn disturb(&self, d: &Self::Disturbance, t: f64, input: &mut Self::Input) -> Option<String> {
+        input.f_d = d.at(t);
+        input
+            .f_d
+            .iter()
+            .position(|v| !v.is_finite())
+            .map(|j| format!("the disturbance F_d.{}", AX3[j]))
     }
-
-    /// A consistent state with the object at `x_o` moving at `ẋ_o`: 2-link arms by analytic IK
-    /// on their elbow branch, other arms by damped Gauss–Newton from `q_guess` (stacked n_q; the
-    /// 2-link entries are ignored). Joint velocities are the minimum-norm solution of
-    /// `J_e q̇ = J_i ẋ_o`. Fails, naming the arm, if a grasp point is out of reach.
-    pub fn initial_state(
-        &self,
-        x_o: Vector3<f64>,
-        xd_o: Vector3<f64>,
-        q_guess: Option<&[f64]>,
-    ) -> Result<Vec<f64>, ModelError> {
-        let n = self.n_q;
-        let mut y = vec![0.0; self.state_dim()];
-        let mut ws = self.workspace();
-        for (i, arm) in self.arms.iter().enumerate() {
-            let off = self.offsets[i];
-            let target = self.grasps[i].point(&x_o);
-            let dof = arm.dof();
-            if dof == 2 {
-                let q = arm
-                    .inverse_kinematics(target)
-                    .map_err(|e| ik_error(arm, i, target, e))?;
-                y[off..off + 2].copy_from_slice(&q);
-            } else {
-                let q = &mut y[off..off + dof];
-                if let Some(g) = q_guess {
-                    q.copy_from_slice(&g[off..off + dof]);
-                }
-                solve_ik_numeric(arm, target, q, &mut ws.terms[i]).map_err(|d| {
-                    ModelError::geometry(
-                        format!("arms[{i}]"),
-                        format!("cannot reach its grasp point ({:.4}, {:.4}) m from the given initial joint angles (residual {d:.3e} m)", target.x, target.y),
-                    )
-                })?;
-            }
-            // Velocities: minimum-norm q̇ with J_e q̇ = J_i ẋ_o.
-            let zeros = vec![0.0; dof];
-            arm.kinematics(&y[off..off + dof], &zeros, &mut ws.terms[i]);
-            let v = self.grasps[i].jacobian(x_o.z) * xd_o;
-            let j = &ws.terms[i].J;
-            let jjt = j * j.transpose();
-            let w = jjt.try_inverse().ok_or_else(|| {
-                ModelError::geometry(
-                    format!("arms[{i}]"),
-                    "starts in a singular configuration (J_e Jᵀ_e not invertible)",
-                )
-            })? * v;
-            let qd = j.transpose() * w;
-            y[n + 3 + off..n + 3 + off + dof].copy_from_slice(qd.as_slice());
-        }
-        y[n..n + 3].copy_from_slice(x_o.as_slice());
-        y[2 * n + 3..].copy_from_slice(xd_o.as_slice());
-        self.check_state(&y, 1e-9)?;
-        Ok(y)
-    }
-
-    /// Check that a state satisfies every grasp to within `tol` (position, m, and velocity,
-    /// m/s); otherwise an error naming the arm and the violation.
-    pub fn check_state(&self, y: &[f64], tol: f64) -> Result<(), ModelError> {
-        if y.len() != self.state_dim() {
+    /// Constrained: any arms; reduced (14): 2-link arms only.
+    fn stepper(&self, formulation: Formulation) -> Result<Stepper, ModelError> {
+        if formulation == Formulation::Reduced && self.arms().iter().any(|a| a.dof() != 2) {
             return Err(ModelError::geometry(
-                "state",
-                format!(
-                    "has {} entries, the plant needs {}",
-                    y.len(),
-                    self.state_dim()
-                ),
+                "formulation",
+                "the reduced formulation needs 2-link arms",
             ));
         }
-        if let Some(k) = y.iter().position(|v| !v.is_finite()) {
-            return Err(ModelError::invalid(
-                format!("state[{k}]"),
-                y[k],
-                "must be finite",
-            ));
-        }
-        let mut ws = self.workspace();
-        let (q, x_o, qd, xd_o) = self.split(y);
-        for (i, arm) in self.arms.iter().enumerate() {
-            let off = self.offsets[i];
-            let dof = arm.dof();
-            arm.kinematics(&q[off..off + dof], &qd[off..off + dof], &mut ws.terms[i]);
-            let t = &ws.terms[i];
-            let dp = (t.p_ee - self.grasps[i].point(&x_o)).norm();
-            let dv = (t.v_ee - self.grasps[i].jacobian(x_o.z) * xd_o).norm();
-            if dp > tol || dv > tol {
-                return Err(ModelError::geometry(
-                    format!("arms[{i}]"),
-                    format!(
-                        "the starting pose violates the grasp: end-effector {dp:.3e} m and {dv:.3e} m/s away from its grasp point"
-                    ),
-                ));
-            }
-        }
-        Ok(())
+        let n = planar::Plant::state_dim(self);
+        Ok(Stepper {
+            formulation,
+            rk: Rk4::new(n),
+            rk_red: Rk4::new(6),
+            dy: vec![0.0; n],
+        })
     }
-
-    /// Largest grasp-constraint violation `(position m, velocity m/s)` of a state.
-    pub fn constraint_residual(&self, y: &[f64], ws: &mut PlantWorkspace) -> (f64, f64) {
-        self.residual_and_sigma::<false>(y, ws).0
-    }
-
-    /// Mechanical energy of a state (arms + object; the object's potential is `G_oᵀ x_o`).
-    pub fn energy(&self, y: &[f64], ws: &mut PlantWorkspace) -> Energy {
-        let (q, x_o, qd, xd_o) = self.split(y);
-        let mut e = Energy::default();
-        for (i, arm) in self.arms.iter().enumerate() {
-            let off = self.offsets[i];
-            let dof = arm.dof();
-            arm.dynamics(
-                &q[off..off + dof],
-                &qd[off..off + dof],
-                self.g,
-                &mut ws.terms[i],
-            );
-            let (k, p) = arm.energy(&qd[off..off + dof], self.g, &ws.terms[i]);
-            e.kinetic += k;
-            e.potential += p;
-        }
-        let (k, p) = self.object.energy(&x_o, &xd_o);
-        e.kinetic += k;
-        e.potential += p;
-        e
-    }
-
-    /// Power flowing in: `τᵀq̇ − F_dᵀẋ_o − ẋ_oᵀ C_o ẋ_o` (the energy balance's right side), W.
-    pub fn power_in(&self, y: &[f64], input: &PlantInput) -> f64 {
-        let (_, _, qd, xd_o) = self.split(y);
-        let tq: f64 = input.tau.iter().zip(qd).map(|(a, b)| a * b).sum();
-        tq - input.f_d.dot(&xd_o) - xd_o.dot(&(self.object.C_o * xd_o))
-    }
-
-    /// Smallest singular value of any arm's end-effector Jacobian in state `y`, m/rad.
-    pub fn min_singular_value(&self, y: &[f64], ws: &mut PlantWorkspace) -> f64 {
-        let (q, _, qd, _) = self.split(y);
-        let mut s = f64::INFINITY;
-        for (i, arm) in self.arms.iter().enumerate() {
-            let off = self.offsets[i];
-            let dof = arm.dof();
-            arm.kinematics(&q[off..off + dof], &qd[off..off + dof], &mut ws.terms[i]);
-            s = s.min(arm.min_singular_value(&ws.terms[i]));
-        }
-        s
-    }
-
-    /// [`Plant::constraint_residual`] and [`Plant::min_singular_value`] of one state from one
-    /// [`Arm::kinematics`] per arm (the two would compute the same kinematics twice): the same
-    /// values, bit for bit. Writes `ws.terms`.
-    pub fn residual_and_min_singular_value(
+    fn grasp_wrenches(
         &self,
+        st: &mut Stepper,
         y: &[f64],
-        ws: &mut PlantWorkspace,
-    ) -> ((f64, f64), f64) {
-        self.residual_and_sigma::<true>(y, ws)
-    }
-
-    /// The loop of [`Plant::constraint_residual`], and `σ_min` too if `SIGMA` (else `+∞`).
-    fn residual_and_sigma<const SIGMA: bool>(
-        &self,
-        y: &[f64],
-        ws: &mut PlantWorkspace,
-    ) -> ((f64, f64), f64) {
-        let (q, x_o, qd, xd_o) = self.split(y);
-        let (mut ep, mut ev) = (0.0f64, 0.0f64);
-        let mut s = f64::INFINITY;
-        for (i, arm) in self.arms.iter().enumerate() {
-            let off = self.offsets[i];
-            let dof = arm.dof();
-            arm.kinematics(&q[off..off + dof], &qd[off..off + dof], &mut ws.terms[i]);
-            let t = &ws.terms[i];
-            ep = ep.max((t.p_ee - self.grasps[i].point(&x_o)).norm());
-            ev = ev.max((t.v_ee - self.grasps[i].jacobian(x_o.z) * xd_o).norm());
-            if SIGMA {
-                s = s.min(arm.min_singular_value(t));
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        out: &mut [f64],
+    ) -> Result<(), ChainFault> {
+        let ok = match st.formulation {
+            // Kept for the first RK4 stage of the step that follows at this state; the
+            // accelerations are not needed here.
+            Formulation::Constrained => {
+                planar::Plant::grasp_forces_keep(self, y, input, ws, &mut st.dy)
             }
-        }
-        ((ep, ev), s)
-    }
-}
-
-fn ik_error(arm: &Arm, i: usize, target: Vector2<f64>, e: IkFailure) -> ModelError {
-    match e {
-        IkFailure::OutOfReach { distance, min, max } => ModelError::geometry(
-            format!("arms[{i}]"),
-            format!(
-                "grasp point ({:.4}, {:.4}) m is {distance:.4} m from the base ({:.3}, {:.3}); the arm reaches {min:.4}..{max:.4} m",
-                target.x,
-                target.y,
-                arm.base().x,
-                arm.base().y
-            ),
-        ),
-        IkFailure::NotTwoLink => {
-            ModelError::geometry(format!("arms[{i}]"), "analytic IK needs a 2-link arm")
-        }
-    }
-}
-
-/// Damped Gauss–Newton position IK for an n-link arm from the angles in `q`; returns the final
-/// residual on failure.
-fn solve_ik_numeric(
-    arm: &Arm,
-    target: Vector2<f64>,
-    q: &mut [f64],
-    t: &mut ArmTerms,
-) -> Result<(), f64> {
-    let zeros = vec![0.0; q.len()];
-    let mut res = f64::INFINITY;
-    for _ in 0..200 {
-        arm.kinematics(q, &zeros, t);
-        let e = target - t.p_ee;
-        res = e.norm();
-        if res < 1e-13 {
-            return Ok(());
-        }
-        let j = &t.J;
-        let lambda2 = 1e-6;
-        let a = j * j.transpose() + nalgebra::Matrix2::identity() * lambda2;
-        let w = a.try_inverse().ok_or(res)? * e;
-        let dq = j.transpose() * w;
-        for (qi, d) in q.iter_mut().zip(dq.iter()) {
-            *qi += d;
-        }
-    }
-    if res < 1e-11 { Ok(()) } else { Err(res) }
-}
-
-/// The constrained plant as an [`OdeSystem`](crate::integrate::OdeSystem) with a held input
-/// (zero-order hold). If the derivative cannot be evaluated (never for a validated model) it
-/// writes NaN, which the caller's non-finite check catches.
-pub struct ConstrainedOde<'a> {
-    /// The model.
-    pub plant: &'a Plant,
-    /// Scratch; after a step it holds the last stage's grasp forces.
-    pub ws: &'a mut PlantWorkspace,
-    /// The held input.
-    pub input: &'a PlantInput,
-}
-
-impl crate::integrate::OdeSystem for ConstrainedOde<'_> {
-    fn dim(&self) -> usize {
-        self.plant.state_dim()
-    }
-    fn deriv(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
-        if !self.plant.derivative(y, self.input, self.ws, dy) {
-            dy.fill(f64::NAN);
-        }
-    }
-}
-
-/// [`ConstrainedOde`] whose first evaluation is [`Plant::derivative_reusing`]: the first RK4
-/// stage of a control tick is at the state where the loop evaluated the grasp forces
-/// ([`Plant::derivative_keep`], the previous input held), so only its torque part is redone.
-/// The same values, bit for bit, as [`ConstrainedOde`].
-pub(crate) struct ReusingOde<'a> {
-    pub(crate) plant: &'a Plant,
-    pub(crate) ws: &'a mut PlantWorkspace,
-    pub(crate) input: &'a PlantInput,
-    /// Whether the next evaluation is the first.
-    pub(crate) first: bool,
-}
-
-impl crate::integrate::OdeSystem for ReusingOde<'_> {
-    fn dim(&self) -> usize {
-        self.plant.state_dim()
-    }
-    fn deriv(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
-        let ok = if self.first {
-            self.first = false;
-            self.plant.derivative_reusing(y, self.input, self.ws, dy)
-        } else {
-            self.plant.derivative(y, self.input, self.ws, dy)
+            Formulation::Reduced => {
+                let mut d = [0.0; 6];
+                self.reduced_derivative(&reduced_state(self, y), input, ws, &mut d)
+                    .is_ok()
+            }
         };
-        if !ok {
-            dy.fill(f64::NAN);
+        self.sensor_wrenches(ws, out);
+        // A failed evaluation is reported as the reduced formulation's failure in both
+        // formulations (the constrained one fails only for an inertia that is not positive
+        // definite, never for a validated model).
+        if ok { Ok(()) } else { Err(ChainFault::Reduced) }
+    }
+    fn step_with(
+        &self,
+        st: &mut Stepper,
+        t: f64,
+        y: &mut [f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        h: f64,
+        n: usize,
+    ) -> Result<(), ChainFault> {
+        match st.formulation {
+            Formulation::Constrained => {
+                // As `advance`, with the first stage on the state part that
+                // `grasp_wrenches` kept at this `y` (if it did): bit for bit the same.
+                let mut sys = planar::ReusingOde {
+                    plant: self,
+                    ws,
+                    input,
+                    first: true,
+                };
+                st.rk.substeps(&mut sys, t, y, h * n as f64, n);
+                if crate::math::linalg::finite_slice(y) {
+                    Ok(())
+                } else {
+                    Err(ChainFault::NonFinite)
+                }
+            }
+            Formulation::Reduced => {
+                let mut y_red = reduced_state(self, y);
+                let mut sys = ReducedOde {
+                    plant: self,
+                    ws: &mut *ws,
+                    input,
+                };
+                st.rk_red.substeps(&mut sys, t, &mut y_red, h * n as f64, n);
+                if !y_red.iter().all(|v| v.is_finite()) {
+                    return Err(ChainFault::NonFinite);
+                }
+                // The joints follow the object (for sensors and logs).
+                let nq = planar::Plant::n_q(self);
+                let x = Vector3::new(y_red[0], y_red[1], y_red[2]);
+                let xd = Vector3::new(y_red[3], y_red[4], y_red[5]);
+                let (q, rest) = y.split_at_mut(nq);
+                let (xo, rest) = rest.split_at_mut(3);
+                let (qd, xdo) = rest.split_at_mut(nq);
+                xo.copy_from_slice(x.as_slice());
+                xdo.copy_from_slice(xd.as_slice());
+                self.arms_from_object(&x, &xd, q, qd, ws)
+                    .map_err(|_| ChainFault::Reduced)?;
+                if y.iter().all(|v| v.is_finite()) {
+                    Ok(())
+                } else {
+                    Err(ChainFault::NonFinite)
+                }
+            }
         }
+    }
+    fn drift(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64) {
+        (planar::Plant::constraint_residual(self, y, ws).0, 0.0)
+    }
+    /// One kinematics pass per arm for both ([`planar::Plant::residual_and_min_singular_value`]).
+    fn drift_and_min_singular_value(
+        &self,
+        y: &[f64],
+        ws: &mut Self::Workspace,
+    ) -> ((f64, f64), f64) {
+        let ((ep, _), s) = planar::Plant::residual_and_min_singular_value(self, y, ws);
+        ((ep, 0.0), s)
+    }
+    fn regularised(ws: &Self::Workspace) -> u64 {
+        ws.regularised
+    }
+    fn object_pose(&self, y: &[f64]) -> Vec<f64> {
+        let n = planar::Plant::n_q(self);
+        y[n..n + 3].to_vec()
+    }
+    fn object_columns(&self) -> Vec<ColumnSpec> {
+        vec![
+            col("x_o.x", "m"),
+            col("x_o.y", "m"),
+            col("x_o.theta", "rad"),
+        ]
+    }
+    fn write_object(&self, y: &[f64], out: &mut [f64]) {
+        let n = planar::Plant::n_q(self);
+        out[..3].copy_from_slice(&y[n..n + 3]);
+    }
+    fn joint_columns(&self) -> Vec<ColumnSpec> {
+        (0..planar::Plant::n_q(self))
+            .map(|k| col(format!("q{}", k + 1), "rad"))
+            .collect()
+    }
+    fn write_joints(&self, y: &[f64], out: &mut [f64]) {
+        let n = planar::Plant::n_q(self);
+        out[..n].copy_from_slice(&y[..n]);
+    }
+    fn torque_units(&self) -> Vec<String> {
+        vec!["N m".into(); planar::Plant::n_q(self)]
+    }
+    fn wrench_channels(&self) -> Vec<(&'static str, &'static str)> {
+        vec![("x", "N"), ("y", "N")]
+    }
+    fn drift_columns(&self) -> Vec<ColumnSpec> {
+        vec![col("drift", "m")]
     }
 }
 
-/// The reduced plant (14) on `(x_o, ẋ_o)` as an [`OdeSystem`](crate::integrate::OdeSystem)
-/// with a held input; writes NaN where the reduced form does not exist (IK out of reach,
-/// singular arm).
-pub struct ReducedOde<'a> {
-    /// The model.
-    pub plant: &'a Plant,
-    /// Scratch.
-    pub ws: &'a mut PlantWorkspace,
-    /// The held input.
-    pub input: &'a PlantInput,
+/// The reduced formulation's state `(x_o, ẋ_o)`: the object part of a planar flat state.
+fn reduced_state(p: &planar::Plant, y: &[f64]) -> [f64; 6] {
+    let n = planar::Plant::n_q(p);
+    [
+        y[n],
+        y[n + 1],
+        y[n + 2],
+        y[2 * n + 3],
+        y[2 * n + 4],
+        y[2 * n + 5],
+    ]
 }
 
-impl crate::integrate::OdeSystem for ReducedOde<'_> {
-    fn dim(&self) -> usize {
-        6
+impl ClosedChain for spatial::SpatialPlant {
+    type Workspace = spatial::SpatialWorkspace;
+    type Input = spatial::SpatialInput;
+    const WRENCH_DIM: usize = 6;
+
+    fn n_q(&self) -> usize {
+        spatial::SpatialPlant::n_q(self)
     }
-    fn deriv(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
-        if self
-            .plant
-            .reduced_derivative(y, self.input, self.ws, dy)
-            .is_err()
-        {
-            dy.fill(f64::NAN);
+    fn n_arms(&self) -> usize {
+        self.arms().len()
+    }
+    fn state_dim(&self) -> usize {
+        spatial::SpatialPlant::state_dim(self)
+    }
+    fn workspace(&self) -> Self::Workspace {
+        spatial::SpatialPlant::workspace(self)
+    }
+    fn zero_input(&self) -> Self::Input {
+        spatial::SpatialPlant::zero_input(self)
+    }
+    fn torques_mut(input: &mut Self::Input) -> &mut [f64] {
+        &mut input.tau
+    }
+    fn joints<'a>(&self, y: &'a [f64]) -> (&'a [f64], &'a [f64]) {
+        let n = spatial::SpatialPlant::n_q(self);
+        (&y[..n], &y[n + 7..2 * n + 7])
+    }
+    fn derivative(
+        &self,
+        y: &[f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        dy: &mut [f64],
+    ) -> bool {
+        spatial::SpatialPlant::derivative(self, y, input, ws, dy)
+    }
+    fn advance(
+        &self,
+        rk: &mut Rk4,
+        t: f64,
+        y: &mut [f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        h: f64,
+        n: usize,
+    ) -> bool {
+        self.step(rk, t, y, input, ws, h, n).is_ok()
+    }
+    fn sensor_wrenches(&self, ws: &Self::Workspace, out: &mut [f64]) {
+        for i in 0..ws.wrenches.len() {
+            let w = ws.tool_wrench(i);
+            out[6 * i..6 * i + 6].copy_from_slice(w.as_slice());
         }
+    }
+    fn constraint_residual(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64) {
+        spatial::SpatialPlant::constraint_residual(self, y, ws)
+    }
+    fn min_singular_value(&self, y: &[f64], ws: &mut Self::Workspace) -> f64 {
+        spatial::SpatialPlant::min_singular_value(self, y, ws)
+    }
+    fn energy(&self, y: &[f64], ws: &mut Self::Workspace) -> Energy {
+        spatial::SpatialPlant::energy(self, y, ws)
+    }
+
+    type Start = SpatialStart;
+    type Disturbance = SpatialDisturbance;
+
+    fn start_state(&self, start: &SpatialStart) -> Result<Vec<f64>, ModelError> {
+        self.initial_state(&start.x_wo, &Vector6::zeros(), &start.q_guess)
+    }
+    fn check_disturbance(&self, d: &Self::Disturbance) -> Result<(), ModelError> {
+        d.validate()
+    }
+    fn disturb(&self, d: &Self::Disturbance, t: f64, input: &mut Self::Input) -> Option<String> {
+        input.f_d = d.at(t);
+        input
+            .f_d
+            .iter()
+            .position(|v| !v.is_finite())
+            .map(|j| format!("the disturbance F_d.{}", AX6[j]))
+    }
+    /// Constrained only (welds or compliant grasps).
+    fn stepper(&self, formulation: Formulation) -> Result<Stepper, ModelError> {
+        if formulation != Formulation::Constrained {
+            return Err(ModelError::geometry(
+                "formulation",
+                "the reduced formulation is planar only (2-link arms); the spatial plant integrates the constrained one",
+            ));
+        }
+        let n = SpatialPlant::state_dim(self);
+        Ok(Stepper {
+            formulation,
+            rk: Rk4::new(n),
+            rk_red: Rk4::new(6),
+            dy: vec![0.0; n],
+        })
+    }
+    fn grasp_wrenches(
+        &self,
+        st: &mut Stepper,
+        y: &[f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        out: &mut [f64],
+    ) -> Result<(), ChainFault> {
+        let ok = SpatialPlant::derivative(self, y, input, ws, &mut st.dy);
+        world_wrenches(ws, out);
+        if ok {
+            Ok(())
+        } else {
+            Err(ChainFault::NonFinite)
+        }
+    }
+    fn step_with(
+        &self,
+        st: &mut Stepper,
+        t: f64,
+        y: &mut [f64],
+        input: &Self::Input,
+        ws: &mut Self::Workspace,
+        h: f64,
+        n: usize,
+    ) -> Result<(), ChainFault> {
+        self.step(&mut st.rk, t, y, input, ws, h, n)
+            .map_err(|_| ChainFault::NonFinite)
+    }
+    fn drift(&self, y: &[f64], ws: &mut Self::Workspace) -> (f64, f64) {
+        SpatialPlant::constraint_residual(self, y, ws)
+    }
+    fn regularised(ws: &Self::Workspace) -> u64 {
+        ws.regularised
+    }
+    fn object_pose(&self, y: &[f64]) -> Vec<f64> {
+        let n = SpatialPlant::n_q(self);
+        y[n..n + 7].to_vec()
+    }
+    /// SPEC-spatial S7 (the planar §5 columns on six outputs): `x_o.{x,y,z}` (m),
+    /// `x_o.{qw,qx,qy,qz}` (1), `v_o.*` (m/s), `w_o.*` (rad/s, world axes).
+    fn object_columns(&self) -> Vec<ColumnSpec> {
+        let mut c = Vec::with_capacity(13);
+        for a in ["x", "y", "z"] {
+            c.push(col(format!("x_o.{a}"), "m"));
+        }
+        for a in ["qw", "qx", "qy", "qz"] {
+            c.push(col(format!("x_o.{a}"), "1"));
+        }
+        for a in ["x", "y", "z"] {
+            c.push(col(format!("v_o.{a}"), "m/s"));
+        }
+        for a in ["x", "y", "z"] {
+            c.push(col(format!("w_o.{a}"), "rad/s"));
+        }
+        c
+    }
+    fn write_object(&self, y: &[f64], out: &mut [f64]) {
+        let n = SpatialPlant::n_q(self);
+        out[..7].copy_from_slice(&y[n..n + 7]);
+        out[7..13].copy_from_slice(&y[2 * n + 7..2 * n + 13]);
+    }
+    fn joint_columns(&self) -> Vec<ColumnSpec> {
+        let kinds = joint_kinds(self);
+        let mut c: Vec<ColumnSpec> = kinds
+            .iter()
+            .enumerate()
+            .map(|(k, p)| col(format!("q{}", k + 1), if *p { "m" } else { "rad" }))
+            .collect();
+        c.extend(
+            kinds
+                .iter()
+                .enumerate()
+                .map(|(k, p)| col(format!("qd{}", k + 1), if *p { "m/s" } else { "rad/s" })),
+        );
+        c
+    }
+    fn write_joints(&self, y: &[f64], out: &mut [f64]) {
+        let n = SpatialPlant::n_q(self);
+        out[..n].copy_from_slice(&y[..n]);
+        out[n..2 * n].copy_from_slice(&y[n + 7..2 * n + 7]);
+    }
+    fn torque_units(&self) -> Vec<String> {
+        joint_kinds(self)
+            .iter()
+            .map(|p| if *p { "N" } else { "N m" }.to_string())
+            .collect()
+    }
+    fn wrench_channels(&self) -> Vec<(&'static str, &'static str)> {
+        vec![
+            ("fx", "N"),
+            ("fy", "N"),
+            ("fz", "N"),
+            ("tx", "N m"),
+            ("ty", "N m"),
+            ("tz", "N m"),
+        ]
+    }
+    /// Both weld residuals (SPEC-spatial S4: drift < 1e-9 m and 1e-9 rad).
+    fn drift_columns(&self) -> Vec<ColumnSpec> {
+        vec![col("drift", "m"), col("drift_rot", "rad")]
+    }
+}
+
+/// Whether each joint (stacked) is prismatic.
+fn joint_kinds(p: &SpatialPlant) -> Vec<bool> {
+    p.arms()
+        .iter()
+        .flat_map(|a| a.chain.joints.iter())
+        .map(|j| j.kind == crate::model::spatial::JointKind::Prismatic)
+        .collect()
+}
+
+/// The grasp wrenches of the last evaluation in world axes, flat (6 per arm).
+fn world_wrenches(ws: &SpatialWorkspace, out: &mut [f64]) {
+    for (i, w) in ws.wrenches.iter().enumerate() {
+        out[6 * i..6 * i + 6].copy_from_slice(w.as_slice());
     }
 }

@@ -1,6 +1,6 @@
 //! The time series of a run (SPEC §5): preallocated columns with names and units.
 
-use super::drive::Record;
+use crate::drive::Record;
 use crate::plant::ClosedChain;
 
 /// One logged column: name, unit and samples (capacity reserved at start).

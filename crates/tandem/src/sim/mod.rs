@@ -1,7 +1,7 @@
 //! The simulation loop (SPEC §3 step order, §2.4 integration, §5 outputs), one loop for both
 //! plants: [`Simulation`] is generic over the plant ([`ClosedChain`]: the planar [`Plant`] or
 //! the spatial [`SpatialPlant`](crate::plant::spatial::SpatialPlant)) and its driver
-//! ([`Drive`]: tandem's [`Controller`](crate::control::Controller), a torque [`Replay`], or a
+//! ([`Drive`]: tandem's [`Controller`](crate::control::planar::Controller), a torque [`Replay`], or a
 //! user's own law).
 //!
 //! Per control tick `k` at `t_k = k h_c`:
@@ -22,24 +22,28 @@
 //!
 //! Deterministic: the only randomness is in the seeded sensors. A tick allocates nothing.
 
-pub mod drive;
+pub mod driver;
 pub mod fault;
+pub mod faults;
 pub mod log;
 pub mod replay;
+pub mod sensors;
 
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::control::ControlEvents;
-use crate::disturbance::Disturbance;
+use crate::drive::ControlEvents;
+use crate::drive::{Drive, Measurements, Record};
 use crate::error::{ModelError, positive};
-use crate::faults::{FaultState, Faults};
-use crate::plant::{ChainFault, ClosedChain, PlanarStart, Plant, PlantParams, Stepper};
-use crate::sensors::{SensorParams, Sensors};
+use crate::model::disturbance::Disturbance;
+use crate::plant::planar::{Plant, PlantParams};
+use crate::plant::{ChainFault, ClosedChain, PlanarStart, Stepper};
+use crate::sim::faults::{FaultState, Faults};
+use crate::sim::sensors::{SensorParams, Sensors};
 
 pub use crate::plant::{Formulation, SpatialDisturbance, SpatialStart};
-pub use drive::{Drive, Driver, Measurements, NoRecord, Record};
+pub use driver::Driver;
 pub use fault::{Fault, FaultKind};
 pub use log::{Column, Log};
 pub use replay::Replay;
@@ -282,7 +286,7 @@ fn chain_fault(f: ChainFault) -> FaultKind {
 
 impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
     /// Inject sensor and actuator faults between the plant and the driver (see
-    /// [`crate::faults`]); errors name the field (`faults.force_delay`, ...).
+    /// [`crate::sim::faults`]); errors name the field (`faults.force_delay`, ...).
     pub fn with_faults(mut self, f: &Faults) -> Result<Self, ModelError> {
         self.faults = if f.any() {
             let st = f.state(
@@ -543,7 +547,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             return Err(self.fault(t1, chain_fault(e)));
         }
         // 4. Health.
-        if !crate::linalg::finite_slice(&self.y) {
+        if !crate::math::linalg::finite_slice(&self.y) {
             return Err(self.fault(t1, FaultKind::NonFinite));
         }
         // The output bound on the true pose, every tick.
@@ -564,12 +568,12 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
     fn non_finite_signal(&mut self) -> Option<String> {
         // The common case, every value finite, in one pass over each buffer without early
         // exit; then only the record's own check. The search below names the first offender.
-        if crate::linalg::finite_slice(&self.wrenches)
-            & crate::linalg::finite_slice(&self.sensor_truth)
-            & crate::linalg::finite_slice(&self.meas)
-            & crate::linalg::finite_slice(self.sensors.q())
-            & crate::linalg::finite_slice(self.sensors.qd())
-            & crate::linalg::finite_slice(P::torques_mut(&mut self.input))
+        if crate::math::linalg::finite_slice(&self.wrenches)
+            & crate::math::linalg::finite_slice(&self.sensor_truth)
+            & crate::math::linalg::finite_slice(&self.meas)
+            & crate::math::linalg::finite_slice(self.sensors.q())
+            & crate::math::linalg::finite_slice(self.sensors.qd())
+            & crate::math::linalg::finite_slice(P::torques_mut(&mut self.input))
         {
             return self.rec.non_finite();
         }

@@ -1,6 +1,8 @@
 //! Joint torques replayed from a table (SPEC §5 outputs fed back in): a driver of any plant.
 
+use crate::drive::{Drive, Measurements, NoRecord};
 use crate::error::ModelError;
+use crate::plant::ClosedChain;
 
 /// Joint torques replayed from a table (`t` plus one column per joint), each row held until the
 /// next (zero-order hold); before the first row the first row applies.
@@ -78,5 +80,17 @@ impl Replay {
             return &self.scratch;
         }
         &self.rows[k]
+    }
+}
+
+/// The torque replay drives any plant; it logs nothing of its own.
+impl<P: ClosedChain> Drive<P> for Replay {
+    type Record = NoRecord;
+    fn new_record(&self) -> NoRecord {
+        NoRecord
+    }
+    fn start(&mut self, _t0: f64, _meas: &Measurements<'_>) {}
+    fn tick(&mut self, t: f64, _meas: &Measurements<'_>, tau: &mut [f64], _rec: &mut NoRecord) {
+        tau.copy_from_slice(self.at(t));
     }
 }

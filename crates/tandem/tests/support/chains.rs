@@ -4,7 +4,7 @@
 #![allow(dead_code)]
 
 use nalgebra::{Isometry3, Matrix3, Translation3, Unit, UnitQuaternion, Vector3};
-use tandem::model::{Chain, ChainJoint, JointKind, JointLimits, RigidBody};
+use tandem::model::spatial::{Chain, ChainJoint, JointKind, JointLimits, RigidBody};
 
 /// A movable joint without limits or damping.
 pub fn joint(

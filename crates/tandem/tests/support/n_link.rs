@@ -1,12 +1,12 @@
 //! Closed chains of 3- and 4-link arms for the n-link kernel tests: two or three arms of one
 //! link count holding the paper's box — two at `(∓0.38, 0)` on its ends (as
-//! `fixtures::redundant_pair`), a third at `(0, −0.4)` on its bottom face's midpoint (as
-//! `fixtures::three_arms`) — with a joint-angle guess for the numerical inverse kinematics
-//! at `fixtures::paper_start`.
+//! `presets::redundant_pair`), a third at `(0, −0.4)` on its bottom face's midpoint (as
+//! `presets::three_arms`) — with a joint-angle guess for the numerical inverse kinematics
+//! at `presets::paper_start`.
 #![allow(dead_code)]
 
-use tandem::arm::{ArmParams, Elbow, LinkParams};
-use tandem::plant::PlantParams;
+use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
+use tandem::plant::planar::PlantParams;
 
 /// `arms` arms (2 or 3; 2 for 5 links) of `links` links (3, 4 or 5) each, and the stacked IK
 /// guess. 3 links: 0.2 m each (masses 1.5, 1.0, 0.5 kg); 4 links: 0.15 m each (1.5, 1.0, 0.7,

@@ -1,12 +1,12 @@
 //! Per-row quantities derived from a spatial run's log and the plant's kinematics: the true pose
 //! in the output chart, the grasp wrenches in tool axes, the tool Jacobians' smallest singular
 //! values and the joints' distances to their limits (computed on the logged rows, with
-//! `tandem::dynamics::kinematics` on the logged joint positions).
+//! `tandem::dynamics::spatial::kinematics` on the logged joint positions).
 
 use nalgebra::{DMatrix, Quaternion, UnitQuaternion, Vector3};
 use tandem::control::spatial::{AXES, WRENCH_AXES};
-use tandem::dynamics::{ChainData, kinematics};
-use tandem::model::JointKind;
+use tandem::dynamics::spatial::{ChainData, kinematics};
+use tandem::model::spatial::JointKind;
 
 use super::{Finished, col, six};
 
@@ -108,7 +108,7 @@ impl Derived {
                 }
                 let s = f.path.sample(d.t[k]);
                 d.angle_to_desired
-                    .push(tandem::spatial::so3::log_quat(&(s.r.inverse() * q)).norm());
+                    .push(tandem::geometry::so3::log_quat(&(s.r.inverse() * q)).norm());
             }
             d.x1 = x1;
         }

@@ -10,7 +10,7 @@
 //! Metrics derived from the kinematics (the grasp wrenches in tool axes, the closest approach to
 //! a joint limit, the smallest singular value of each arm's tool Jacobian, the true pose in the
 //! output chart) are computed here on the **logged rows** (every log period, 10 ms for the
-//! presets), with `tandem::dynamics::kinematics` on the logged joint positions.
+//! presets), with `tandem::dynamics::spatial::kinematics` on the logged joint positions.
 //!
 //! The files of this folder: `derived.rs` (the kinematics on the logged rows), `summary.rs`
 //! (`summary.json`), `timeseries.rs` (the CSV columns), `viewer.rs` (`viewer.html` and the
@@ -36,9 +36,9 @@ use std::time::Instant;
 
 use anyhow::Result;
 use serde_json::Value;
+use tandem::control::spatial::chart::Chart;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::se3_path::Se3Path;
-use tandem::se3::Chart;
+use tandem::reference::spatial::path::Se3Path;
 use tandem::sim::{Log, Outcome};
 
 use crate::output::write_json_atomic;

@@ -2,7 +2,7 @@
 //! Assumption 5 and (39); SPEC-spatial S5), computed once at set-up.
 //!
 //! # What is bounded
-//! The controller works in the output chart ([`crate::se3::chart`]): with
+//! The controller works in the output chart ([`crate::control::spatial::chart`]): with
 //! `x_1 = (p_WO − c, φ)`, `x_2 = ẋ_1 = E V`, the object-level dynamics of [`super::model`]
 //! become `M_x ẍ_1 + h_x(x_1, x_2) + F_d,x = F_x`, `M_x = E⁻ᵀ 𝓜 E⁻¹`,
 //! `h_x = E⁻ᵀ(𝓱 − 𝓜 E⁻¹ Ė V)`, `F_x = E⁻ᵀ F`. At a fixed pose, with the joint rates of the
@@ -69,12 +69,12 @@
 use nalgebra::{DVector, Isometry3, Matrix6, MatrixXx6, Vector3, Vector6};
 
 use super::model::{ModelWorkspace, ObjectModel, jjt_sigma_min};
-use crate::adaptive::FuBound;
-use crate::dynamics;
+use crate::control::law::adaptive::FuBound;
+use crate::control::spatial::chart::Chart;
+use crate::dynamics::spatial;
 use crate::error::{ModelError, non_negative, positive};
-use crate::se3::chart::Chart;
-use crate::spatial::motion::{ang, lin, stack};
-use crate::spatial::so3::log_quat;
+use crate::geometry::motion::{ang, lin, stack};
+use crate::geometry::so3::log_quat;
 
 /// Smallest `σ_min(J_i)` (m/rad mixed units) of a pose used for the bound (as the planar
 /// [`FuBound::from_model`]).
@@ -222,7 +222,7 @@ pub fn usable(model: &ObjectModel, q: &[f64], ws: &mut ModelWorkspace) -> bool {
                 return false;
             }
         }
-        dynamics::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
+        spatial::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
         if !(jjt_sigma_min(&ws.data[i]) >= SIGMA_MIN) {
             return false;
         }
@@ -249,7 +249,7 @@ pub fn closed_chain_ik(
         let qi = &mut q[s..s + n];
         let mut converged = false;
         for it in 0..100 {
-            dynamics::kinematics(arm, qi, None, d);
+            spatial::kinematics(arm, qi, None, d);
             let dp = x_wg.translation.vector - d.X_WT.translation.vector;
             let dr = log_quat(&(x_wg.rotation * d.X_WT.rotation.inverse()));
             let (el, ea) = (dp.norm(), dr.norm());
@@ -299,7 +299,7 @@ pub fn closed_chain_ik(
         }
         if !converged {
             // Accept a converged task with an unfinished null-space pull.
-            dynamics::kinematics(arm, qi, None, d);
+            spatial::kinematics(arm, qi, None, d);
             let dp = x_wg.translation.vector - d.X_WT.translation.vector;
             let dr = log_quat(&(x_wg.rotation * d.X_WT.rotation.inverse()));
             if !(dp.norm() <= IK_TOL && dr.norm() <= IK_TOL) {
@@ -332,7 +332,7 @@ impl PoseEval {
     fn prepare(&mut self, model: &ObjectModel, q: &[f64], ws: &mut ModelWorkspace) -> bool {
         for (i, arm) in model.arms().iter().enumerate() {
             let (s, n) = (model.offset(i), arm.chain.dof());
-            dynamics::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
+            spatial::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
             let j = &ws.data[i].J;
             let jjt: Matrix6<f64> = Matrix6::from_fn(|a, b| j.row(a).dot(&j.row(b)));
             let Some(inv) = jjt.try_inverse() else {

@@ -65,8 +65,8 @@ use nalgebra::{Vector3, Vector6};
 
 use super::model::{ModelWorkspace, ObjectModel, RHS};
 use crate::error::{ModelError, positive};
-use crate::linalg::{Cholesky6, forward_rows};
-use crate::spatial::motion::{ang, lin, stack};
+use crate::geometry::motion::{ang, lin, stack};
+use crate::math::linalg::{Cholesky6, forward_rows};
 
 /// The distribution of an object wrench over `m` grasps (constant metric, no scratch that
 /// grows).
@@ -152,7 +152,7 @@ impl Distribution {
                 nalgebra::Matrix3::from_diagonal_element(ri.norm_squared()) - ri * ri.transpose();
         }
         // Lower triangle of A: [[m I, ·], [[Σr]×, lower]].
-        let c = crate::spatial::so3::hat(&sum);
+        let c = crate::geometry::so3::hat(&sum);
         let mut a = [[0.0; 6]; 6];
         for i in 0..3 {
             a[i][i] = m;
@@ -161,7 +161,7 @@ impl Distribution {
                 a[3 + i][3 + j] = lower[(i, j)];
             }
         }
-        if !crate::linalg::finite_slice(a.as_flattened()) {
+        if !crate::math::linalg::finite_slice(a.as_flattened()) {
             return false;
         }
         self.last.refactor(&a)

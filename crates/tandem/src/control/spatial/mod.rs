@@ -3,18 +3,18 @@
 //! Data flow of a tick (SPEC §3 steps 1–5, in the spatial form):
 //! 1. **Estimate** `(q, q̇) → (X̂_WO, V̂)`: forward kinematics of every arm
 //!    ([`model::ObjectModel::kinematics`]), each tool pose carried to an object-pose candidate
-//!    through its weld and fitted ([`crate::se3::fit()`]: quaternion mean, grasp-point least
-//!    squares); then the output chart ([`crate::se3::chart`]) gives `x_1 = (p − c, φ)` and
+//!    through its weld and fitted ([`crate::reference::spatial::fit()`]: quaternion mean, grasp-point least
+//!    squares); then the output chart ([`crate::control::spatial::chart`]) gives `x_1 = (p − c, φ)` and
 //!    `x_2 = ẋ_1 = E V̂`. The controller never reads the plant state, and needs no inverse
 //!    kinematics.
-//! 2. **Desired** `t → X_d, V_d, V̇_d` ([`crate::reference::se3_path`]).
-//! 3. **Reference** per arm: the 6-D admittance ([`crate::reference::admittance_se3`]) offsets
+//! 2. **Desired** `t → X_d, V_d, V̇_d` ([`crate::reference::spatial::path`]).
+//! 3. **Reference** per arm: the 6-D admittance ([`crate::reference::spatial::admittance`]) offsets
 //!    the desired tool pose `X_d X_OGi` by `e_i`, fed with the unexpected wrench
 //!    `LPF(F_i) − F_ref,i` (wrist readings turned into world axes with the measured tool
 //!    orientation); the object reference is the fit of the arms' reference tool poses, with exact
 //!    rates, and its chart coordinates give `x_r, ẋ_r, ẍ_r`. As planar, the reference of a tick
 //!    uses the generators' state *before* this tick's wrench is taken in (no direct feed-through).
-//! 4. **Law** on the chart: iBLF + adaptive RBF network with switching ([`crate::adaptive`] on six
+//! 4. **Law** on the chart: iBLF + adaptive RBF network with switching ([`crate::control::law::adaptive`] on six
 //!    outputs), PD, or computed torque; its chart-space force `τ_x` is the object wrench
 //!    `F = Eᵀ τ_x` (power-conjugate: `τ_x · ẋ_1 = F · V`).
 //! 5. **Distribution** ([`distribute`]): the minimum-norm share of `F` plus the commanded squeeze
@@ -29,6 +29,7 @@
 //! counted, a non-finite law output becomes zero torque and is counted.
 
 pub mod bound;
+pub mod chart;
 pub mod distribute;
 pub mod model;
 pub mod params;
@@ -40,20 +41,22 @@ pub use params::{
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 
-use crate::adaptive::{AdaptiveNn, FuBound, NnInternals};
-use crate::control::{ControlEvents, ControlWarning, Scheme};
+use crate::control::law::adaptive::{AdaptiveNn, FuBound, NnInternals};
+use crate::control::spatial::chart::Chart;
+use crate::control::{ControlWarning, Scheme};
+use crate::drive::ControlEvents;
+use crate::drive::{Drive, Measurements, Record};
 use crate::error::{ModelError, non_negative, positive};
-use crate::linalg::finite_slice;
-use crate::plant::spatial::object::RigidObject;
+use crate::geometry::motion::stack;
+use crate::geometry::so3::log_quat;
+use crate::math::linalg::finite_slice;
+use crate::model::spatial::object::RigidObject;
 use crate::plant::spatial::{SpatialPlant, SpatialPlantParams};
-use crate::reference::admittance_se3::{
+use crate::reference::spatial::PoseSample;
+use crate::reference::spatial::admittance::{
     AdmittanceSe3, AdmittanceSe3State, pose_sample, tool_from_object, wrench_tool_to_world,
 };
-use crate::reference::se3_path::Se3Path;
-use crate::se3::{Chart, PoseSample};
-use crate::sim::{Drive, Measurements, Record};
-use crate::spatial::motion::stack;
-use crate::spatial::so3::log_quat;
+use crate::reference::spatial::path::Se3Path;
 
 use distribute::{Distribution, PostureTask, joint_torques};
 use model::{ModelWorkspace, ObjectModel};
@@ -662,7 +665,7 @@ impl SpatialController {
                 twist_dot: Vector6::zeros(),
             };
         }
-        let fit = crate::se3::fit_sample(&self.x_og, &self.tools, &self.hint_hat)?;
+        let fit = crate::reference::spatial::fit_sample(&self.x_og, &self.tools, &self.hint_hat)?;
         self.hint_hat = fit.q;
         for (r, t) in self.r.iter_mut().zip(&self.tools) {
             *r = t.p - fit.p;
@@ -692,7 +695,9 @@ impl SpatialController {
                 rec.non_finite |= flags.state_held != 0;
             }
         }
-        let Some(fit) = crate::se3::fit_sample(&self.x_og, &self.ref_tools, &self.hint_r) else {
+        let Some(fit) =
+            crate::reference::spatial::fit_sample(&self.x_og, &self.ref_tools, &self.hint_r)
+        else {
             return *des;
         };
         if !finite_sample(&fit) {

@@ -35,7 +35,7 @@
 //!
 //! The weld (SPEC-spatial S3) at the acceleration level is `a_Ti = G_i V̇ + Ġ_i V` with
 //! `Ġ_i V = [ω × (ω × r_i); 0]` (`ṙ_i = ω × r_i`, so `d/dt(v + ω × r) = v̇ + ω̇ × r + ω × (ω × r)`).
-//! The object (the plant's [`crate::plant::spatial::object`]):
+//! The object (the plant's [`crate::model::spatial::object`]):
 //! `M_o V̇ + h_o(V) + F_d = −Σ_i G_iᵀ F_i`, `M_o = blkdiag(m I, R_WO I_O R_WOᵀ)`,
 //! `h_o = [−m g_W; ω × I_W ω] + C_o V`. Substituting `F_i`:
 //!
@@ -82,13 +82,15 @@
 
 use nalgebra::{Isometry3, Matrix3, Matrix6, Vector3, Vector6};
 
-use crate::dynamics::{self, ChainData};
+use crate::dynamics::spatial;
+use crate::dynamics::spatial::ChainData;
 use crate::error::ModelError;
-use crate::linalg::{cholesky_rows, forward_rows};
-use crate::model::SpatialArm;
-use crate::plant::spatial::{RigidObject, SpatialPlant, SpatialPlantParams};
-use crate::spatial::motion::{ang, lin, stack};
-use crate::spatial::so3::hat;
+use crate::geometry::motion::{ang, lin, stack};
+use crate::geometry::so3::hat;
+use crate::math::linalg::{cholesky_rows, forward_rows};
+use crate::model::spatial::RigidObject;
+use crate::model::spatial::SpatialArm;
+use crate::plant::spatial::{SpatialPlant, SpatialPlantParams};
 
 /// Smallest pivot of `Λ_i⁻¹ = J M⁻¹ Jᵀ`'s Cholesky relative to its largest diagonal entry for
 /// which [`ObjectModel::dynamics`] still forms `Λ_i` (below it the arm counts as singular).
@@ -239,7 +241,7 @@ impl ObjectModel {
     pub fn kinematics(&self, q: &[f64], qd: &[f64], ws: &mut ModelWorkspace) {
         for (i, arm) in self.arms.iter().enumerate() {
             let (s, n) = (self.offsets[i], arm.chain.dof());
-            dynamics::kinematics(arm, &q[s..s + n], Some(&qd[s..s + n]), &mut ws.data[i]);
+            spatial::kinematics(arm, &q[s..s + n], Some(&qd[s..s + n]), &mut ws.data[i]);
         }
     }
 
@@ -249,7 +251,7 @@ impl ObjectModel {
     pub fn poses(&self, q: &[f64], ws: &mut ModelWorkspace) {
         for (i, arm) in self.arms.iter().enumerate() {
             let (s, n) = (self.offsets[i], arm.chain.dof());
-            dynamics::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
+            spatial::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
         }
     }
 
@@ -374,9 +376,9 @@ fn arm_terms(
     let d = &mut ws.data[i];
     let grav = &mut ws.grav[i][..n];
     if extras {
-        dynamics::gravity(arm, q, g_W, grav, d);
+        spatial::gravity(arm, q, g_W, grav, d);
     }
-    dynamics::terms(arm, q, qd, g_W, d);
+    spatial::terms(arm, q, qd, g_W, d);
     let l = &mut ws.chol[i][..n * n];
     // M is symmetric: column-major storage = row-major storage.
     l.copy_from_slice(&d.M.as_slice()[..n * n]);
@@ -443,7 +445,7 @@ impl ObjectModel {
             }
             let d = &ws.data[i];
             let grav = &mut ws.grav[i][..6];
-            dynamics::gravity_at_placements(arm, &self.g_W, grav, d);
+            spatial::gravity_at_placements(arm, &self.g_W, grav, d);
             // Row k of Jᵀ is column k of J (contiguous: J is column-major, 6 rows).
             let js = &d.J.as_slice()[..36];
             let mut jt = [[0.0; 6]; 6];
@@ -452,10 +454,10 @@ impl ObjectModel {
             }
             let mut x = [0.0; 6];
             x.copy_from_slice(grav);
-            if !crate::linalg::lu_solve6_in_place(&mut jt, &mut x) {
+            if !crate::math::linalg::lu_solve6_in_place(&mut jt, &mut x) {
                 return false;
             }
-            if !crate::linalg::finite_slice(&x) {
+            if !crate::math::linalg::finite_slice(&x) {
                 return false;
             }
             ws.arms[i].g_x = Vector6::from(x);
@@ -493,7 +495,7 @@ pub(crate) fn jjt_sigma_min(d: &ChainData) -> f64 {
 
 /// The computed-torque baseline's nominal model (SPEC §3.5, spatial): every mass and inertia —
 /// each link body of each arm and the object — scaled by `1 + model_error` (centres of mass,
-/// kinematics, damping and gravity unchanged), as the planar [`crate::ctc::nominal_params`].
+/// kinematics, damping and gravity unchanged), as the planar [`crate::control::law::ctc::nominal_params`].
 pub fn nominal_params(truth: &SpatialPlantParams, model_error: f64) -> SpatialPlantParams {
     let s = 1.0 + model_error;
     let mut p = truth.clone();

@@ -12,10 +12,10 @@
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::adaptive::{NnAxes, NnGains};
 use crate::control::Scheme;
-use crate::rbf_structured::NetworkStructure;
-use crate::reference::admittance_se3::AdmittanceSe3Params;
+use crate::control::law::adaptive::{NnAxes, NnGains};
+use crate::control::rbf::structured::NetworkStructure;
+use crate::reference::spatial::admittance::AdmittanceSe3Params;
 
 /// Gains of the NN law on six outputs (plain data).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -55,7 +55,7 @@ pub struct SpatialNnGains {
 /// `‖S_j(0)‖²` of the default per-axis network (two levels ±1 on four inputs, `ϑ² = 50`):
 /// `(2 e^{−2/50})⁴ = 13.63`.
 fn per_axis_norm2() -> f64 {
-    crate::rbf_structured::grid_norm2_at_zero(&[-1.0, 1.0], 50.0, 4)
+    crate::control::rbf::structured::grid_norm2_at_zero(&[-1.0, 1.0], 50.0, 4)
 }
 
 impl SpatialNnGains {
@@ -87,7 +87,8 @@ impl SpatialNnGains {
     /// 186× the planar error (0.9 mm against a 110 N gravity load on the S6 set-up).
     pub fn from_design(m: [f64; 6], k1: f64, omega_n: f64, zeta: f64) -> Self {
         let s2 = per_axis_norm2();
-        let sigma = 0.001 * s2 / crate::rbf_structured::grid_norm2_at_zero(&[-1.0, 1.0], 50.0, 12);
+        let sigma = 0.001 * s2
+            / crate::control::rbf::structured::grid_norm2_at_zero(&[-1.0, 1.0], 50.0, 12);
         SpatialNnGains {
             k1: [k1; 6],
             k2: std::array::from_fn(|j| 2.0 * zeta * m[j] * omega_n),
@@ -117,7 +118,7 @@ impl SpatialNnGains {
     }
 
     /// The shared settings as planar gains (their per-output arrays are the first three of
-    /// these; [`crate::adaptive::AdaptiveNn::with_axes`] ignores them).
+    /// these; [`crate::control::law::adaptive::AdaptiveNn::with_axes`] ignores them).
     pub fn shared(&self) -> NnGains {
         NnGains {
             k1: [self.k1[0], self.k1[1], self.k1[2]],

@@ -15,8 +15,8 @@ use super::{
     GraspModel, K_REG, ObjectState, SpatialInput, SpatialPlant, SpatialWorkspace, log_quat, skew,
     v6,
 };
-use crate::dynamics;
-use crate::linalg::{backward_rows, cholesky_rows, forward_rows};
+use crate::dynamics::spatial;
+use crate::math::linalg::{backward_rows, cholesky_rows, forward_rows};
 
 /// Columns of the per-arm right-hand side `[τ − b | Jᵀ]`.
 const RHS: usize = 7;
@@ -62,7 +62,7 @@ pub(super) fn derivative(
             continue;
         }
         let d = &mut ws.data[i];
-        dynamics::terms(
+        spatial::terms(
             arm,
             &q[s..s + arm.chain.dof()],
             &qd[s..s + arm.chain.dof()],
@@ -157,11 +157,11 @@ pub(super) fn derivative(
 #[allow(clippy::too_many_arguments)]
 fn arm_factor(
     n: usize,
-    arm: &crate::model::SpatialArm,
+    arm: &crate::model::spatial::SpatialArm,
     s: usize,
     qd: &[f64],
     input: &SpatialInput,
-    d: &dynamics::ChainData,
+    d: &spatial::ChainData,
     l: &mut [f64],
     x: &mut [f64],
 ) -> bool {
@@ -344,7 +344,7 @@ fn weld_wrenches(
 
 /// The tool twist `J q̇` (world axes) from the arm's Jacobian in `d`.
 #[inline]
-pub(super) fn tool_twist(d: &dynamics::ChainData, qd: &[f64]) -> Vector6<f64> {
+pub(super) fn tool_twist(d: &spatial::ChainData, qd: &[f64]) -> Vector6<f64> {
     let jt = &d.J.as_slice()[..6 * qd.len()];
     let mut vt = Vector6::zeros();
     for (kk, q) in qd.iter().enumerate() {

@@ -23,7 +23,7 @@
 //!
 //! The grasp wrench `F_i` (the object on arm `i`'s tool frame, about its origin, world axes) is
 //! the multiplier: arm `i` obeys `M_i q̈_i + C_i q̇_i + g_i + D_i q̇_i = τ_i + J_iᵀ F_i` and the
-//! object obeys [`object`]'s equation with `F_o = −Σ G_iᵀ F_i`, `G_i = Ad_i`.
+//! object obeys [`object`](crate::model::spatial::object)'s equation with `F_o = −Σ G_iᵀ F_i`, `G_i = Ad_i`.
 //!
 //! # The KKT solve (Schur complement)
 //! With the unconstrained accelerations `q̈⁰_i = M_i⁻¹(τ_i − C_i q̇_i − g_i − D_i q̇_i)` and
@@ -59,8 +59,6 @@
 
 #![allow(non_snake_case)]
 
-pub mod object;
-
 #[allow(non_snake_case)]
 mod kkt;
 
@@ -69,14 +67,15 @@ use nalgebra::{
     Vector6,
 };
 
-use crate::dynamics::{self, ChainData};
+use crate::dynamics::spatial;
+use crate::dynamics::spatial::ChainData;
 use crate::error::{ModelError, non_negative};
-use crate::integrate::{OdeSystem, Rk4};
-use crate::model::SpatialArm;
+pub(crate) use crate::geometry::motion::stack as v6;
+pub(crate) use crate::geometry::so3::{hat as skew, log_quat};
+use crate::math::integrate::{OdeSystem, Rk4};
+use crate::model::spatial::SpatialArm;
+use crate::model::spatial::object::{RigidObject, SpatialObjectParams};
 use crate::plant::Energy;
-pub(crate) use crate::spatial::motion::stack as v6;
-pub(crate) use crate::spatial::so3::{hat as skew, log_quat};
-pub use object::{RigidObject, SpatialObjectParams};
 
 /// How the grasps hold the object.
 #[derive(Clone, Debug, PartialEq)]
@@ -489,7 +488,7 @@ impl SpatialPlant {
         for (i, arm) in self.arms.iter().enumerate() {
             let n = arm.chain.dof();
             let qi = &q[self.offsets[i]..self.offsets[i] + n];
-            dynamics::kinematics(arm, qi, None, &mut ws.data[i]);
+            spatial::kinematics(arm, qi, None, &mut ws.data[i]);
             let e = self.weld_error(i, &x_wo, &ws.data[i].X_WT);
             lin = lin.max(e.fixed_rows::<3>(0).norm());
             ang = ang.max(e.fixed_rows::<3>(3).norm());
@@ -506,7 +505,7 @@ impl SpatialPlant {
         for (i, arm) in self.arms.iter().enumerate() {
             let n = arm.chain.dof();
             let s = self.offsets[i];
-            dynamics::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
+            spatial::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
             let vt = kkt::tool_twist(&ws.data[i], &qd[s..s + n]);
             let r = r_wo * self.grasps[i].translation.vector;
             let vg = o.v + o.w.cross(&r);
@@ -525,7 +524,7 @@ impl SpatialPlant {
         for (i, arm) in self.arms.iter().enumerate() {
             let n = arm.chain.dof();
             let qi = &q[self.offsets[i]..self.offsets[i] + n];
-            dynamics::kinematics(arm, qi, None, &mut ws.data[i]);
+            spatial::kinematics(arm, qi, None, &mut ws.data[i]);
             s = s.min(sigma_min(&ws.data[i]));
         }
         s
@@ -542,7 +541,7 @@ impl SpatialPlant {
             let n = arm.chain.dof();
             let s = self.offsets[i];
             let d = &mut ws.data[i];
-            dynamics::terms(arm, &q[s..s + n], &qd[s..s + n], &self.g_W, d);
+            spatial::terms(arm, &q[s..s + n], &qd[s..s + n], &self.g_W, d);
             let qdi = &qd[s..s + n];
             for a in 0..n {
                 for b in 0..n {
@@ -690,8 +689,8 @@ impl SpatialPlant {
             let f = ads[i].transpose() * lam;
             ws.wrenches[i] = f;
             let d = &mut ws.data[i];
-            dynamics::kinematics(arm, &q[s..s + n], None, d);
-            dynamics::gravity(arm, &q[s..s + n], &self.g_W, &mut tau[s..s + n], d);
+            spatial::kinematics(arm, &q[s..s + n], None, d);
+            spatial::gravity(arm, &q[s..s + n], &self.g_W, &mut tau[s..s + n], d);
             for k in 0..n {
                 tau[s + k] -= d.J.column(k).dot(&f);
             }
@@ -757,7 +756,7 @@ impl SpatialPlant {
             }
             // Rates: J q̇ = Ad V_o, minimum norm q̇ = Jᵀ (J Jᵀ)⁻¹ V_T.
             let d = &mut ws.data[i];
-            dynamics::kinematics(arm, &q, None, d);
+            spatial::kinematics(arm, &q, None, d);
             let r = x_wo.rotation * self.grasps[i].translation.vector;
             let w = twist.fixed_rows::<3>(3).into_owned();
             let vt = v6(&(twist.fixed_rows::<3>(0) + w.cross(&r)), &w);
@@ -865,7 +864,7 @@ fn solve_ik(
     let n = q.len();
     let mut best = (f64::INFINITY, f64::INFINITY);
     for it in 0..200 {
-        dynamics::kinematics(arm, q, None, d);
+        spatial::kinematics(arm, q, None, d);
         let dp = x_wg.translation.vector - d.X_WT.translation.vector;
         let dr = log_quat(&(x_wg.rotation * d.X_WT.rotation.inverse()));
         let e = v6(&dp, &dr);

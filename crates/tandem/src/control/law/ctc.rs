@@ -1,0 +1,93 @@
+//! Computed-torque baseline on the object (SPEC §3.5): with a nominal model `(𝓜̂, 𝓒̂, 𝓖̂)` of
+//! (14),
+//!
+//! $$τ = 𝓜̂(\ddot x_r − K_D \dot z_1 − K_P z_1) + 𝓒̂ x_2 + 𝓖̂$$
+//!
+//! It shows what model knowledge buys; the nominal model's masses and inertias are the true
+//! ones times `1 + model_error` (arms and object alike), which makes its sensitivity visible.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ModelError, positive};
+use crate::plant::planar::PlantParams;
+
+/// Computed-torque gains (plain data).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CtcGains {
+    /// `K_P` diagonal, 1/s².
+    pub k_p: [f64; 3],
+    /// `K_D` diagonal, 1/s.
+    pub k_d: [f64; 3],
+    /// Relative error of the nominal model's masses and inertias (0 = exact model).
+    pub model_error: f64,
+}
+
+impl Default for CtcGains {
+    /// Critically damped at 20 rad/s on every axis, exact model.
+    fn default() -> Self {
+        CtcGains {
+            k_p: [400.0; 3],
+            k_d: [40.0; 3],
+            model_error: 0.0,
+        }
+    }
+}
+
+/// A validated computed-torque law (stateless; the nominal model lives in the controller).
+#[derive(Clone, Copy, Debug)]
+pub struct Ctc {
+    k_p: Vector3<f64>,
+    k_d: Vector3<f64>,
+}
+
+impl Ctc {
+    /// Validate (gains > 0, `model_error > −1`).
+    pub fn new(g: &CtcGains) -> Result<Self, ModelError> {
+        for j in 0..3 {
+            positive(&format!("gains.k_p[{j}]"), g.k_p[j])?;
+            positive(&format!("gains.k_d[{j}]"), g.k_d[j])?;
+        }
+        if !(g.model_error > -1.0) || !g.model_error.is_finite() {
+            return Err(ModelError::invalid(
+                "gains.model_error",
+                g.model_error,
+                "must be finite and > −1",
+            ));
+        }
+        Ok(Ctc {
+            k_p: Vector3::from(g.k_p),
+            k_d: Vector3::from(g.k_d),
+        })
+    }
+
+    /// Commanded acceleration `ẍ_r − K_D ż1 − K_P z1`.
+    #[inline]
+    pub fn acceleration(
+        &self,
+        xdd_r: &Vector3<f64>,
+        z1: &Vector3<f64>,
+        z1_dot: &Vector3<f64>,
+    ) -> Vector3<f64> {
+        xdd_r - self.k_d.component_mul(z1_dot) - self.k_p.component_mul(z1)
+    }
+}
+
+/// The nominal model a computed-torque controller believes: masses and inertias of arms and
+/// object scaled by `1 + model_error` (gravity wrench of the object too).
+pub fn nominal_params(truth: &PlantParams, model_error: f64) -> PlantParams {
+    let s = 1.0 + model_error;
+    let mut p = truth.clone();
+    for a in &mut p.arms {
+        for l in &mut a.links {
+            l.mass *= s;
+            l.inertia *= s;
+        }
+    }
+    for k in 0..3 {
+        p.object.inertia[k] *= s;
+        p.object.gravity[k] *= s;
+    }
+    p
+}

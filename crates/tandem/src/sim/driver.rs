@@ -1,0 +1,59 @@
+//! The planar CLI's driver: [`Driver`], one of tandem's planar drivers chosen at run time (the
+//! controller or a torque replay), logging the planar record columns either way.
+
+use crate::control::planar::{Controller, TickRecord, planar_margin};
+use crate::drive::{ControlEvents, Drive, Measurements};
+use crate::plant::planar::Plant;
+
+use super::Replay;
+
+/// What produces the joint torques of a planar run (the CLI's choice): one of tandem's drivers.
+pub enum Driver {
+    /// A cooperative controller (boxed: it owns sizeable buffers).
+    Controller(Box<Controller>),
+    /// A torque replay; its log shows the true pose as `x_hat`, `Q = 1`, `margin = 0`.
+    Replay(Replay),
+}
+
+/// The planar CLI's driver: delegates to the controller or the replay. Both log the planar
+/// [`TickRecord`] columns (SPEC §5); for a replay `x_hat` shows the true pose.
+impl Drive<Plant> for Driver {
+    type Record = TickRecord;
+    fn new_record(&self) -> TickRecord {
+        TickRecord::default()
+    }
+    fn start(&mut self, t0: f64, meas: &Measurements<'_>) {
+        if let Driver::Controller(c) = self {
+            c.start(t0, meas);
+        }
+    }
+    fn tick(&mut self, t: f64, meas: &Measurements<'_>, tau: &mut [f64], rec: &mut TickRecord) {
+        match self {
+            Driver::Controller(c) => c.tick(t, meas, tau, rec),
+            Driver::Replay(r) => tau.copy_from_slice(r.at(t)),
+        }
+    }
+    fn events(&self) -> ControlEvents {
+        match self {
+            Driver::Controller(c) => c.events(),
+            Driver::Replay(_) => ControlEvents::default(),
+        }
+    }
+    fn truth_margin(&self, plant: &Plant, y: &[f64]) -> Option<f64> {
+        match self {
+            Driver::Controller(c) => Some(planar_margin(plant, y, &c.k_c())),
+            Driver::Replay(_) => None,
+        }
+    }
+    fn record_truth(&self, plant: &Plant, y: &[f64], rec: &mut TickRecord) {
+        if let Driver::Replay(_) = self {
+            let (_, x, _, xd) = plant.split(y);
+            *rec = TickRecord {
+                x_o: x,
+                xd_o: xd,
+                q_switch: 1.0,
+                ..TickRecord::default()
+            };
+        }
+    }
+}
