@@ -532,7 +532,7 @@ fn fu_bound_bounds_the_model() {
             let x_wo = chart.pose(&x1);
             q.copy_from_slice(&q0);
             if !closed_chain_ik(&model, &x_wo, &mut q, &s.q_guess, &mut ws)
-                || !usable(&model, &q, &mut ws)
+                || !usable(&model, &mut q, &s.q_guess, &mut ws)
             {
                 continue;
             }

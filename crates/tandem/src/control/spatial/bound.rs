@@ -146,7 +146,7 @@ pub fn fu_bound(
             q.copy_from_slice(&q0);
             ok = closed_chain_ik(model, &x_wo, &mut q, q_guess, &mut ws);
         }
-        if !ok || !usable(model, &q, &mut ws) {
+        if !ok || !usable(model, &mut q, q_guess, &mut ws) {
             q.copy_from_slice(&q0);
             continue;
         }
@@ -213,13 +213,16 @@ fn radical_inverse(mut i: u64, base: u64) -> f64 {
 }
 
 /// Every arm within its joint limits and `σ_min(J_i) ≥` [`SIGMA_MIN`] at `q` (stacked); runs
-/// the kinematics into `ws.data`.
-pub fn usable(model: &ObjectModel, q: &[f64], ws: &mut ModelWorkspace) -> bool {
+/// the kinematics into `ws.data`. A revolute angle a whole turn outside its range is first
+/// wrapped into it ([`ChainJoint::wrap_into_limits`](crate::model::spatial::chain::ChainJoint::wrap_into_limits),
+/// nearest to `q_near`): the same pose.
+pub fn usable(model: &ObjectModel, q: &mut [f64], q_near: &[f64], ws: &mut ModelWorkspace) -> bool {
     for (i, arm) in model.arms().iter().enumerate() {
         let (s, n) = (model.offset(i), arm.chain.dof());
         for (k, j) in arm.chain.joints.iter().enumerate() {
-            if q[s + k] < j.limits.lower || q[s + k] > j.limits.upper {
-                return false;
+            match j.wrap_into_limits(q[s + k], q_near[s + k]) {
+                Some(v) => q[s + k] = v,
+                None => return false,
             }
         }
         spatial::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);

@@ -70,6 +70,36 @@ pub struct ChainJoint {
     pub damping: f64,
 }
 
+impl ChainJoint {
+    /// The joint position that puts the body where `q` does and lies inside the limits: `q`
+    /// itself when it is inside (the same bits), else, for a revolute joint, `q + 2πk` for the
+    /// whole number `k` that lands inside and is nearest to `near` (a revolute joint's angle is
+    /// only defined up to a turn, and an inverse kinematics result may come out a turn away from
+    /// a range such as a Jaco's `[0.82, 5.46]` rad). `None` when no turn brings it inside, for a
+    /// prismatic joint outside its limits, or for a non-finite `q`.
+    pub fn wrap_into_limits(&self, q: f64, near: f64) -> Option<f64> {
+        let (lo, hi) = (self.limits.lower, self.limits.upper);
+        if q >= lo && q <= hi {
+            return Some(q);
+        }
+        if self.kind != JointKind::Revolute || !q.is_finite() {
+            return None;
+        }
+        let tau = std::f64::consts::TAU;
+        // The turns k with lo <= q + 2πk <= hi, and of those the one nearest to `near`
+        // (checked again after rounding; the neighbours cover a rounding at the edge).
+        let (k_lo, k_hi) = (((lo - q) / tau).ceil(), ((hi - q) / tau).floor());
+        if !(k_lo <= k_hi) {
+            return None;
+        }
+        let k = ((near - q) / tau).round().clamp(k_lo, k_hi);
+        [k, k - 1.0, k + 1.0]
+            .into_iter()
+            .map(|k| q + tau * k)
+            .find(|v| *v >= lo && *v <= hi)
+    }
+}
+
 /// A rigid body in its own frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RigidBody {

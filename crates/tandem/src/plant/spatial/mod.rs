@@ -744,6 +744,10 @@ impl SpatialPlant {
                 )
             })?;
             for (k, j) in arm.chain.joints.iter().enumerate() {
+                // A revolute angle a whole turn outside its range is the same pose inside it.
+                if let Some(v) = j.wrap_into_limits(q[k], q_guess[s + k]) {
+                    q[k] = v;
+                }
                 if q[k] < j.limits.lower - 1e-9 || q[k] > j.limits.upper + 1e-9 {
                     return Err(ModelError::geometry(
                         format!("arms[{i}].joint {}", j.name),
