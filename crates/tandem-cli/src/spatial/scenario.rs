@@ -1168,6 +1168,8 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
     }
     object.damping = six(o.damping);
 
+    warnings.extend(plausibility(src, &arms, &grasps, o.size));
+
     let grasp_model = match &sc.plant.compliant_grasps {
         None => GraspModel::Weld,
         Some(c) => GraspModel::Compliant {
@@ -1351,6 +1353,111 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
         warnings,
         inputs,
     })
+}
+
+/// Farthest a grasp frame may sit from the box's surface before a warning, m (a gripper's pads
+/// are millimetres thick; a flange frame a gripper's length away is worth saying).
+pub const GRASP_SURFACE_TOL: f64 = 0.01;
+/// Smallest distance between two arms' bases before a warning, m (two bases closer than a base
+/// plate's radius are the same robot twice).
+pub const BASE_SEPARATION_MIN: f64 = 0.1;
+
+/// What validation warns about (issue 22, "refuse the impossible, warn about the
+/// implausible"): a grasp frame more than [`GRASP_SURFACE_TOL`] off the box's surface (with the
+/// distance, in or out), a tool whose approach axis (its z axis, the flange normal of URDF
+/// convention) does not point into the box at the face it holds (naming the tool axis that
+/// does), and two arms whose bases are less than [`BASE_SEPARATION_MIN`] apart.
+fn plausibility(
+    src: &Source,
+    arms: &[SpatialArm],
+    grasps: &[Isometry3<f64>],
+    size: [f64; 3],
+) -> Vec<String> {
+    let mut out = Vec::new();
+    let h = Vector3::new(0.5 * size[0], 0.5 * size[1], 0.5 * size[2]);
+    for (i, g) in grasps.iter().enumerate() {
+        let p = g.translation.vector;
+        let ex = p.abs() - h; // per axis: how far past the face (> 0) or inside it (< 0)
+        let face = ex.imax();
+        let outside = ex.map(|e| e.max(0.0)).norm();
+        let (dist, side) = if outside > 0.0 {
+            (outside, "outside")
+        } else {
+            (-ex[face], "inside")
+        };
+        let at = format!("arms[{i}].grasp");
+        if dist > GRASP_SURFACE_TOL {
+            out.push(src.warning_at(
+                &at,
+                &format!(
+                    "{at}: the tool frame sits {} m {side} the box ({} × {} × {} m), off its surface: if the tool link is the flange, that distance is the gripper (then set tool_link to the fingertip frame); otherwise check {at}.position",
+                    num_short(dist),
+                    num_short(size[0]),
+                    num_short(size[1]),
+                    num_short(size[2])
+                ),
+            ));
+        }
+        // Inward normal of the face held (the nearest face; the +face when the point is central).
+        let mut n_in = Vector3::zeros();
+        n_in[face] = if p[face] < 0.0 { 1.0 } else { -1.0 };
+        let r = g.rotation.to_rotation_matrix();
+        let z = r.matrix().column(2).dot(&n_in);
+        if z < (30f64).to_radians().cos() {
+            let (mut best, mut best_c) = (0, 0.0f64);
+            for a in 0..3 {
+                let c = r.matrix().column(a).dot(&n_in);
+                if c.abs() > best_c.abs() {
+                    (best, best_c) = (a, c);
+                }
+            }
+            let axis = format!(
+                "{}{}",
+                if best_c < 0.0 { "−" } else { "+" },
+                ["x", "y", "z"][best]
+            );
+            let face_name = format!(
+                "{}{}",
+                if n_in[face] > 0.0 { "−" } else { "+" },
+                ["x", "y", "z"][face]
+            );
+            out.push(src.warning_at(
+                &at,
+                &format!(
+                    "{at}: the tool's approach axis (+z) is {}° from the box's inward normal at its {face_name} face; the tool axis that points into the box is {axis} (check {at}'s orientation)",
+                    num_short(z.clamp(-1.0, 1.0).acos().to_degrees())
+                ),
+            ));
+        }
+    }
+    for i in 0..arms.len() {
+        for j in i + 1..arms.len() {
+            let d = (arms[i].base.translation.vector - arms[j].base.translation.vector).norm();
+            if d < BASE_SEPARATION_MIN {
+                let at = format!("arms[{j}].base");
+                out.push(src.warning_at(
+                    &at,
+                    &format!(
+                        "{at}: the base stands {} m from arms[{i}]'s: the two arms overlap",
+                        num_short(d)
+                    ),
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// To the thousandth (a millimetre, a thousandth of a degree), trailing zeros dropped, for
+/// messages.
+fn num_short(v: f64) -> String {
+    let s = format!("{v:.3}");
+    let t = s.trim_end_matches('0').trim_end_matches('.');
+    if t.is_empty() || t == "-" {
+        "0".into()
+    } else {
+        t.into()
+    }
 }
 
 fn serde_name(m: &RobotModel) -> &'static str {
