@@ -26,8 +26,8 @@ use serde::{Deserialize, Serialize};
 use tandem::sim::Replay;
 
 /// Largest distance of a time stamp from its tick that is snapped onto it, as a fraction of the
-/// control period (1 %).
-pub const SNAP: f64 = 0.01;
+/// control period (1 %): the library's, which snaps a replay's stamps in the loop too.
+pub use tandem::sim::replay::SNAP;
 
 /// How rows are turned into torques between their time stamps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -199,10 +199,7 @@ pub fn load(path: &Path, n_q: usize, timing: Timing, mode: Interpolation) -> Res
     }
     let snapped: Vec<Option<f64>> = times
         .iter()
-        .map(|&t| {
-            let k = (t / h).round();
-            ((t - k * h).abs() <= SNAP * h).then_some(k * h)
-        })
+        .map(|&t| tandem::sim::replay::snap_to_grid(t, h))
         .collect();
     let times = match mode {
         Interpolation::Hold => {

@@ -96,6 +96,12 @@ pub trait Drive<P: ClosedChain> {
     type Record: Record;
     /// A record with its buffers sized (called once at set-up).
     fn new_record(&self) -> Self::Record;
+    /// The loop's control period `h`, s: called once by the loop at set-up, before
+    /// [`start`](Self::start) (default: nothing). A driver that keeps time stamps snaps them onto
+    /// the control grid here (the torque [`Replay`](crate::sim::Replay) does).
+    fn set_control_period(&mut self, h: f64) {
+        let _ = h;
+    }
     /// Start (or restart) at `t0` with the first measurements.
     fn start(&mut self, t0: f64, meas: &Measurements<'_>);
     /// One tick: `(t, measurements) →` joint torques (`n_q`, written into `tau`) and the record.

@@ -22,6 +22,11 @@ impl Drive<Plant> for Driver {
     fn new_record(&self) -> TickRecord {
         TickRecord::default()
     }
+    fn set_control_period(&mut self, h: f64) {
+        if let Driver::Replay(r) = self {
+            <Replay as Drive<Plant>>::set_control_period(r, h);
+        }
+    }
     fn start(&mut self, t0: f64, meas: &Measurements<'_>) {
         if let Driver::Controller(c) = self {
             c.start(t0, meas);

@@ -411,6 +411,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             qd: sim.sensors.qd(),
             wrenches: &sim.sensor_truth,
         };
+        sim.driver.set_control_period(sim.params.control_period);
         sim.driver.start(0.0, &meas);
         Ok(sim)
     }

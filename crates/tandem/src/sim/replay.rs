@@ -1,8 +1,26 @@
 //! Joint torques replayed from a table (SPEC §5 outputs fed back in): a driver of any plant.
+//!
+//! Time stamps from a real log are rarely exact multiples of the control period: a simulator's
+//! accumulated 1 kHz clock writes `0.0010000000000000002`, one rounding unit above the tick, and
+//! compared exactly that row would apply one tick late (9.3 mm off after 1 s on the paper
+//! scenario). The loop therefore hands the replay its control period
+//! ([`Drive::set_control_period`]) and every stamp within [`SNAP`] of a tick is moved onto it
+//! ([`snap_to_grid`], the one implementation, which the CLI's file reader uses too).
 
 use crate::drive::{Drive, Measurements, NoRecord};
 use crate::error::ModelError;
 use crate::plant::ClosedChain;
+
+/// Largest distance of a time stamp from a control tick `k h` that is snapped onto the tick, as a
+/// fraction of the control period (1 %).
+pub const SNAP: f64 = 0.01;
+
+/// The tick `k h` that `t` lies within [`SNAP`]` h` of (computed as the loop computes its tick
+/// times, `k as f64 * h`, so the two compare equal), or `None` when `t` is off the grid.
+pub fn snap_to_grid(t: f64, h: f64) -> Option<f64> {
+    let k = (t / h).round();
+    ((t - k * h).abs() <= SNAP * h).then_some(k * h)
+}
 
 /// Joint torques replayed from a table (`t` plus one column per joint), each row held until the
 /// next (zero-order hold); before the first row the first row applies.
@@ -63,6 +81,26 @@ impl Replay {
         self.linear = true;
         self
     }
+    /// Moves every time stamp within [`SNAP`] of a tick of the control period `h` onto that
+    /// tick ([`snap_to_grid`]; stamps off the grid stay as they are). Stamps that land on one
+    /// tick keep their order, and the last of them is the row held from that tick on. The loop
+    /// calls this through [`Drive::set_control_period`]; a non-positive or non-finite `h`
+    /// changes nothing.
+    pub fn snap_to_grid(&mut self, h: f64) {
+        if !(h > 0.0 && h.is_finite()) {
+            return;
+        }
+        for t in &mut self.times {
+            if let Some(s) = snap_to_grid(*t, h) {
+                *t = s;
+            }
+        }
+        self.cursor = 0;
+    }
+    /// The row time stamps, s (after any [`snap_to_grid`](Self::snap_to_grid)).
+    pub fn times(&self) -> &[f64] {
+        &self.times
+    }
     /// The held row at `t` (monotone `t` is O(1) amortised).
     pub fn at(&mut self, t: f64) -> &[f64] {
         if self.cursor > 0 && t < self.times[self.cursor] {
@@ -88,6 +126,9 @@ impl<P: ClosedChain> Drive<P> for Replay {
     type Record = NoRecord;
     fn new_record(&self) -> NoRecord {
         NoRecord
+    }
+    fn set_control_period(&mut self, h: f64) {
+        self.snap_to_grid(h);
     }
     fn start(&mut self, _t0: f64, _meas: &Measurements<'_>) {}
     fn tick(&mut self, t: f64, _meas: &Measurements<'_>, tau: &mut [f64], _rec: &mut NoRecord) {
