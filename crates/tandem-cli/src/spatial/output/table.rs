@@ -137,7 +137,7 @@ pub fn rows(runs: &[(&str, &Value)]) -> Vec<(String, Vec<String>)> {
         },
     );
     if runs.iter().any(|(_, s)| s["controller"] == "nn") {
-        row("min Q / weight-norm settling (last)", &|s| {
+        row("min Q / all ‖Ŵ_j‖ within ±10 % of final from", &|s| {
             if s["controller"] != "nn" {
                 return "—".into();
             }
