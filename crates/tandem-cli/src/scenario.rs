@@ -183,6 +183,69 @@ pub fn read_limited(p: &FsPath, limit: u64) -> Result<String, String> {
     })
 }
 
+/// The inputs of a scenario's run, for [`crate::output::check_replaceable`]: the scenario file
+/// and every file the scenario names (any string field `urdf` or `replay`: `arms[0].urdf`,
+/// `controller.replay`), resolved as the loaders resolve them (relative to the scenario file's
+/// folder). `sc` is the scenario as run (with the command line's overrides); when it does not
+/// serialize, the file's own text is read instead.
+pub fn inputs<T: Serialize>(src: &Source, sc: &T) -> Vec<crate::output::Input> {
+    let doc = toml::Table::try_from(sc)
+        .ok()
+        .or_else(|| toml::from_str::<toml::Table>(&src.text).ok())
+        .unwrap_or_default();
+    let mut v: Vec<crate::output::Input> = src
+        .file
+        .iter()
+        .map(|f| crate::output::Input::new("the scenario", f))
+        .collect();
+    v.extend(named_files(src, &doc, ""));
+    v
+}
+
+/// The files a scenario document names (see [`inputs`]); `what` prefixes their field paths.
+pub fn named_files(src: &Source, doc: &toml::Table, what: &str) -> Vec<crate::output::Input> {
+    fn walk(v: &toml::Value, path: &str, out: &mut Vec<(String, String)>) {
+        match v {
+            toml::Value::Table(t) => {
+                for (k, x) in t {
+                    let p = if path.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{path}.{k}")
+                    };
+                    if let (true, toml::Value::String(f)) = (k == "urdf" || k == "replay", x) {
+                        out.push((p.clone(), f.clone()));
+                    }
+                    walk(x, &p, out);
+                }
+            }
+            toml::Value::Array(a) => {
+                for (i, x) in a.iter().enumerate() {
+                    walk(x, &format!("{path}[{i}]"), out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut found = Vec::new();
+    walk(&toml::Value::Table(doc.clone()), "", &mut found);
+    found
+        .into_iter()
+        .map(|(p, f)| crate::output::Input::new(format!("{what}{p}"), resolve_named(src, &f)))
+        .collect()
+}
+
+/// A file a scenario names, as its loaders resolve it: absolute, or relative to the
+/// scenario file's folder.
+pub fn resolve_named(src: &Source, f: &str) -> PathBuf {
+    let p = FsPath::new(f);
+    if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        src.dir.join(p)
+    }
+}
+
 /// The source of an embedded scenario.
 pub fn embedded_source(e: &Embedded) -> Source {
     Source {

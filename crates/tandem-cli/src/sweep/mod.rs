@@ -662,6 +662,38 @@ impl Sweep {
         })
     }
 
+    /// The inputs of the sweep, for [`crate::output::check_replaceable`]: the sweep file
+    /// (`file`), the base scenario file, every file the base (with `[set]`) names, and every
+    /// file a `[vary]` grid or choice names (`arms[0].urdf`, `controller.replay`).
+    pub fn inputs(&self, file: Option<&Path>) -> Vec<crate::output::Input> {
+        use crate::output::Input;
+        let mut v: Vec<Input> = file
+            .map(|f| Input::new("the sweep file", f))
+            .into_iter()
+            .collect();
+        v.extend(
+            self.base
+                .file
+                .iter()
+                .map(|f| Input::new("the sweep's base scenario", f)),
+        );
+        v.extend(scenario::named_files(&self.base, &self.doc, "the base's "));
+        for p in &self.params {
+            let last = p.path.rsplit(['.', ']']).next().unwrap_or("");
+            if let (true, Dist::Grid(vals) | Dist::Choice(vals)) =
+                (last == "urdf" || last == "replay", &p.dist)
+            {
+                for x in vals.iter().filter_map(Value::as_str) {
+                    v.push(Input::new(
+                        format!("vary.{}", p.path),
+                        scenario::resolve_named(&self.base, x),
+                    ));
+                }
+            }
+        }
+        v
+    }
+
     /// The seed of run `index`: from (sweep seed, index) only.
     pub fn run_seed(&self, index: u64) -> u64 {
         splitmix64(splitmix64(self.seed) ^ splitmix64(index.wrapping_add(0x5eed)))
