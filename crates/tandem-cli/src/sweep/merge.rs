@@ -69,6 +69,13 @@ pub fn write_folder(
     Ok(problems)
 }
 
+/// Largest shard `sweep.json` read, bytes (64 MiB: it holds the base scenario's text, at most
+/// 16 MiB, and the varied fields).
+pub const MAX_SWEEP_JSON_BYTES: u64 = 64 << 20;
+
+/// Largest shard `runs.csv` read, bytes (1 GiB: about two million runs).
+pub const MAX_RUNS_CSV_BYTES: u64 = 1 << 30;
+
 /// A shard folder read back.
 struct Part {
     dir: PathBuf,
@@ -82,10 +89,12 @@ struct Part {
 fn read_part(dir: &Path) -> Result<Part> {
     let bad = |why: String| BadInput::msg(format!("cannot merge {}: {why}", dir.display()));
     let sj = dir.join("sweep.json");
-    let text = std::fs::read_to_string(&sj).map_err(|e| {
-        bad(format!(
-            "no readable sweep.json ({e}); is it a sweep folder?"
-        ))
+    let text = crate::scenario::read_limited(&sj, MAX_SWEEP_JSON_BYTES).map_err(|e| {
+        bad(if std::fs::symlink_metadata(&sj).is_ok() {
+            format!("cannot read sweep.json: {e}")
+        } else {
+            format!("no readable sweep.json ({e}); is it a sweep folder?")
+        })
     })?;
     let meta: Json = serde_json::from_str(&text)
         .map_err(|e| bad(format!("sweep.json is not valid JSON ({e})")))?;
@@ -108,8 +117,9 @@ fn read_part(dir: &Path) -> Result<Part> {
         }
     };
     let csv_path = dir.join("runs.csv");
-    let mut rd = csv::Reader::from_path(&csv_path)
-        .map_err(|e| bad(format!("cannot read runs.csv ({e})")))?;
+    let file = crate::scenario::open_limited(&csv_path, MAX_RUNS_CSV_BYTES)
+        .map_err(|e| bad(format!("cannot read runs.csv: {e}")))?;
+    let mut rd = csv::Reader::from_reader(file);
     let header: Vec<String> = rd
         .headers()
         .map_err(|e| bad(format!("runs.csv has no header ({e})")))?
