@@ -776,6 +776,7 @@ fn cmd_robustness(a: RobustnessArgs) -> Result<ExitCode> {
 }
 
 fn cmd_sweep(a: SweepArgs) -> Result<ExitCode> {
+    let threads = tandem_cli::threads(a.threads, "--threads")?;
     let sw = sweep::Sweep::load(&a.file)?;
     let shard = match &a.shard {
         Some(s) => Some(sweep::Shard::parse(s, "--shard")?),
@@ -794,11 +795,6 @@ fn cmd_sweep(a: SweepArgs) -> Result<ExitCode> {
     });
     let protected = sw.inputs(Some(&a.file));
     check_out(&out_dir, a.force, &protected)?;
-    let threads = match a.threads {
-        Some(0) => return Err(BadInput::msg("--threads 0: give at least 1").into()),
-        Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-    };
     let out = OutputDir::create(&out_dir, a.force, &protected)?;
     let keep = a.keep_runs.then(|| out.tmp_dir().join("runs"));
     let idx = sweep::run::indices(&sw, shard);

@@ -1099,6 +1099,18 @@ pub fn clip_middle(s: &str, head: usize, tail: usize) -> String {
     format!("{a}…{b}")
 }
 
+/// A value echoed in a message: whole up to 200 characters, else its first 200 and its length
+/// (`xxxx… (10000000 chars)`), so that a message about a huge value is not itself huge.
+pub fn echo(s: &str) -> String {
+    let n = s.chars().count();
+    if n <= 200 {
+        s.to_string()
+    } else {
+        let head: String = s.chars().take(200).collect();
+        format!("{head}… ({n} chars)")
+    }
+}
+
 /// `s` cut to at most `n` characters (with `…`), for messages that echo the input.
 pub fn clip(s: &str, n: usize) -> String {
     if s.chars().count() <= n {

@@ -257,15 +257,29 @@ pub fn merge(dirs: &[PathBuf]) -> Result<Merged> {
             .into());
         }
     }
-    let missing: Vec<String> = (0..n)
-        .filter(|i| !seen.contains_key(i))
-        .map(|i| format!("{i}/{n}"))
-        .collect();
-    if !missing.is_empty() {
+    // The missing shards, counted without walking 0..N (N is read from a file): the first few
+    // named, the rest counted.
+    let n_missing = n - seen.len() as u64;
+    if n_missing > 0 {
+        const SHOWN: usize = 3;
+        let mut first_missing = Vec::with_capacity(SHOWN);
+        let mut i = 0u64;
+        while first_missing.len() < SHOWN && i < n {
+            if !seen.contains_key(&i) {
+                first_missing.push(format!("{i}/{n}"));
+            }
+            i += 1;
+        }
+        let rest = n_missing - first_missing.len() as u64;
         return Err(BadInput::msg(format!(
-            "shard{} {} missing (every shard 0/{n} … {}/{n} is needed)",
-            if missing.len() == 1 { " is" } else { "s are" },
-            missing.join(", "),
+            "{n_missing} shard{} missing: {}{} (every shard 0/{n} … {}/{n} is needed)",
+            if n_missing == 1 { " is" } else { "s are" },
+            first_missing.join(", "),
+            if rest > 0 {
+                format!(", … (and {rest} more)")
+            } else {
+                String::new()
+            },
             n - 1
         ))
         .into());
