@@ -103,6 +103,25 @@ fn read_part(dir: &Path) -> Result<Part> {
         .and_then(Json::as_str)
         .ok_or_else(|| bad("sweep.json has no hash".into()))?
         .to_string();
+    // The hash is recomputed from the `sweep` section (as `Sweep::hash` computes it when the
+    // shard is written), never trusted: an edited section is another sweep.
+    let computed = format!(
+        "{:016x}",
+        super::fnv1a(
+            meta.get("sweep")
+                .unwrap_or(&Json::Null)
+                .to_string()
+                .as_bytes()
+        )
+    );
+    if computed != hash {
+        return Err(bad(format!(
+            "sweep.json's hash {} does not match its `sweep` section (which hashes to {computed}): \
+             the file was edited after the sweep wrote it; refusing to merge",
+            crate::scenario::echo(&hash)
+        ))
+        .into());
+    }
     let shard = match meta.get("shard") {
         None | Some(Json::Null) => Shard { index: 0, count: 1 },
         Some(s) => {
