@@ -51,11 +51,20 @@ pub const MAX_THREADS: usize = 1024;
 /// to be from 1 to [`MAX_THREADS`], or every core when not given.
 pub fn threads(n: Option<usize>, option: &str) -> Result<usize, BadInput> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // `--threads 5`, `threads=5`.
+    let given = |n: usize| {
+        if option.ends_with('=') {
+            format!("{option}{n}")
+        } else {
+            format!("{option} {n}")
+        }
+    };
     match n {
         None => Ok(cores),
-        Some(0) => Err(BadInput::msg(format!("{option} 0: give at least 1"))),
+        Some(0) => Err(BadInput::msg(format!("{}: give at least 1", given(0)))),
         Some(n) if n > MAX_THREADS => Err(BadInput::msg(format!(
-            "{option} {n}: at most {MAX_THREADS} threads (this machine has {cores} core{})",
+            "{}: at most {MAX_THREADS} threads (this machine has {cores} core{})",
+            given(n),
             if cores == 1 { "" } else { "s" }
         ))),
         Some(n) => Ok(n),
