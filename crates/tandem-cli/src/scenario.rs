@@ -269,7 +269,7 @@ impl<R: std::io::Read> std::io::Read for Limited<R> {
 
 /// `limit` bytes in words (`16 MiB`).
 fn size_text(limit: u64) -> String {
-    if limit >= 1 << 30 && limit % (1 << 30) == 0 {
+    if limit >= 1 << 30 && limit.is_multiple_of(1 << 30) {
         format!("{} GiB", limit >> 30)
     } else if limit >= 1 << 20 {
         format!("{} MiB", limit >> 20)

@@ -147,11 +147,14 @@ fn args(v: &[&str]) -> Vec<String> {
     v.iter().map(|a| a.to_string()).collect()
 }
 
+/// A command line and the parts its refusal must hold.
+type Call = (Vec<String>, Vec<String>);
+
 /// One reader: `make(d, bad)` writes the inputs into `d`, places `bad` where the file under
 /// test goes, and returns the command line and what the refusal must name.
 struct Reader {
     name: &'static str,
-    make: fn(&Path, Bad) -> (Vec<String>, Vec<String>),
+    make: fn(&Path, Bad) -> Call,
 }
 
 fn readers() -> Vec<Reader> {
