@@ -206,30 +206,34 @@ fn pid_alive(pid: u32) -> bool {
     proc.join(pid.to_string()).exists()
 }
 
-/// The pid in a hidden name tandem gives a folder while it commits: `.<name>.tmp-<pid>-<n>`
-/// (being written) or `.<name>.old-<pid>-<n>` (the previous output, moved aside).
-fn leftover_pid(entry: &str) -> Option<u32> {
-    let rest = entry.strip_prefix('.')?;
-    let (_, tail) = rest
-        .rsplit_once(".tmp-")
-        .or_else(|| rest.rsplit_once(".old-"))?;
+/// The pid in a hidden name tandem gives the folder `name` while it commits:
+/// `.<name>.tmp-<pid>-<n>` (being written) or `.<name>.old-<pid>-<n>` (the previous output,
+/// moved aside).
+fn leftover_pid(entry: &str, name: &str) -> Option<u32> {
+    let rest = entry.strip_prefix('.')?.strip_prefix(name)?;
+    let tail = rest
+        .strip_prefix(".tmp-")
+        .or_else(|| rest.strip_prefix(".old-"))?;
     let (pid, n) = tail.split_once('-')?;
     let digits = |s: &str| !s.is_empty() && s.len() <= 20 && s.bytes().all(|b| b.is_ascii_digit());
     (digits(pid) && digits(n)).then(|| pid.parse().ok())?
 }
 
-/// Removes, in `parent`, what an interrupted commit of tandem left: hidden folders named as
-/// [`OutputDir`] names them (`.<name>.tmp-<pid>-<n>`, `.<name>.old-<pid>-<n>`) that are real
-/// folders (not symbolic links), hold tandem's [`MARKER`], and whose process is no longer
-/// alive. Nothing else is ever touched. Returns the folders removed.
-pub fn clean_leftovers(parent: &Path) -> Vec<PathBuf> {
+/// Removes, in `parent`, what an interrupted commit of the output folder `name` left: hidden
+/// folders named as [`OutputDir`] names them (`.<name>.tmp-<pid>-<n>`,
+/// `.<name>.old-<pid>-<n>`) that are real folders (not symbolic links), hold tandem's
+/// [`MARKER`], and whose process is no longer alive. Nothing else is ever touched: not another
+/// output's temporary folder (on a file system shared by several machines, as Slurm shards
+/// writing next to each other are, a pid that is not alive here may be alive on another
+/// node), not a link, a file, an unmarked folder. Returns the folders removed.
+pub fn clean_leftovers(parent: &Path, name: &str) -> Vec<PathBuf> {
     let mut removed = Vec::new();
     let Ok(entries) = fs::read_dir(parent) else {
         return removed;
     };
     for e in entries.flatten() {
-        let name = e.file_name();
-        let Some(pid) = name.to_str().and_then(leftover_pid) else {
+        let entry = e.file_name();
+        let Some(pid) = entry.to_str().and_then(|n| leftover_pid(n, name)) else {
             continue;
         };
         let p = e.path();
@@ -294,7 +298,7 @@ impl OutputDir {
         let (parent, name) = parent_and_name(final_dir)?;
         fs::create_dir_all(&parent)
             .with_context(|| format!("cannot create folder {}", parent.display()))?;
-        for p in clean_leftovers(&parent) {
+        for p in clean_leftovers(&parent, &name) {
             eprintln!(
                 "note: removed {}, left by an interrupted tandem run",
                 p.display()

@@ -446,8 +446,9 @@ fn merge_never_replaces_its_own_shards() {
 }
 
 /// A `--force` interrupted between moving the old folder aside and deleting it (or while
-/// writing) leaves `.NAME.old-PID-N` / `.NAME.tmp-PID-N`: the next run into the same parent
-/// removes those tandem left (its marker inside, its process gone) and nothing else.
+/// writing) leaves `.NAME.old-PID-N` / `.NAME.tmp-PID-N`: the next run to NAME removes those
+/// tandem left (its marker inside, its process gone) and nothing else (not another output's,
+/// whose pid may live on another machine sharing the folder).
 #[test]
 fn leftovers_of_an_interrupted_force_are_cleaned_up_and_nothing_else() {
     let d = scratch("leftovers");
@@ -467,13 +468,15 @@ fn leftovers_of_an_interrupted_force_are_cleaned_up_and_nothing_else() {
     // Tandem's leftovers: removed.
     make(&format!(".res.old-{dead}-0"), true);
     make(&format!(".res.tmp-{dead}-3"), true);
-    make(&format!(".other.tmp-{dead}-1"), true);
     // Not tandem's, or not left over: kept.
     make(&format!(".res.old-{dead}-1"), false); // no marker
     make(&format!(".res.tmp-{alive}-0"), true); // its process is running
     make(&format!(".res.old-{dead}"), true); // not tandem's pattern
     make(&format!("res.old-{dead}-0"), true); // not hidden
     make(&format!(".res.old-x{dead}-0"), true); // not a pid
+    // Another output's: on a shared file system its pid may be alive on another machine.
+    make(&format!(".other.tmp-{dead}-1"), true);
+    make(&format!(".res2.old-{dead}-0"), true);
     make("target", true);
     std::os::unix::fs::symlink(d.join("target"), d.join(format!(".res.old-{dead}-2")))
         .expect("symlink"); // a link is never followed
@@ -489,6 +492,8 @@ fn leftovers_of_an_interrupted_force_are_cleaned_up_and_nothing_else() {
         format!(".res.old-{dead}"),
         format!("res.old-{dead}-0"),
         format!(".res.old-x{dead}-0"),
+        format!(".other.tmp-{dead}-1"),
+        format!(".res2.old-{dead}-0"),
         "target".into(),
         format!(".res.old-{dead}-2"),
         format!(".res.tmp-{dead}-9"),
