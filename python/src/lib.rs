@@ -153,15 +153,37 @@ fn field_path_at(text: &str, offset: usize) -> Option<String> {
     None
 }
 
+/// `msg` with every line longer than 400 characters cut in the middle (a message that echoes a
+/// huge value keeps its start and end): no error message is megabytes long.
+fn bounded(msg: String) -> String {
+    if msg.lines().all(|l| l.len() <= 400) {
+        return msg;
+    }
+    msg.lines()
+        .map(|l| {
+            if l.chars().count() > 400 {
+                scenario::clip_middle(l, 300, 80)
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 impl Error {
     fn into_py(self, py: Python<'_>) -> PyErr {
         let (message, path, file) = match self {
             Error::Scenario(e) => {
                 let path = error_path(&e);
-                (e.to_string(), path, Some(e.file.clone()))
+                (bounded(e.to_string()), path, Some(e.file.clone()))
             }
-            Error::Field { path, message } => (message, path, None),
-            Error::Other(m) => return PyRuntimeError::new_err(m),
+            Error::Field { path, message } => (
+                bounded(message),
+                path.map(|p| scenario::clip_middle(&p, 150, 50)),
+                None,
+            ),
+            Error::Other(m) => return PyRuntimeError::new_err(bounded(m)),
         };
         let err = ScenarioError::new_err(message.clone());
         let v = err.value(py);
@@ -183,16 +205,37 @@ fn py_res<T>(py: Python<'_>, r: Res<T>) -> PyResult<T> {
 // ---------------------------------------------------------------------------------------------
 // Python values to TOML.
 
+/// Deepest nesting of a value given to `with_` or `sweep` (a scenario's deepest field is a
+/// handful of levels down): deeper is a recursive list or dict, or an object whose `tolist()`
+/// returns itself, and is refused instead of overflowing the stack.
+const MAX_VALUE_DEPTH: usize = 32;
+
 /// A Python value for a scenario field: bool, int, float, str, list/tuple/NumPy array, dict.
+/// `path` names it (the `with_` key); nested at most [`MAX_VALUE_DEPTH`] levels.
 fn to_toml(v: &Bound<'_, PyAny>, path: &str) -> PyResult<Value> {
+    to_toml_at(v, path, path, 0)
+}
+
+/// [`to_toml`] of the part `at` of the value given for `key`, `depth` levels down.
+fn to_toml_at(v: &Bound<'_, PyAny>, key: &str, at: &str, depth: usize) -> PyResult<Value> {
+    if depth > MAX_VALUE_DEPTH {
+        return Err(bad(
+            Some(key),
+            format!(
+                "{key}: the value is nested more than {MAX_VALUE_DEPTH} levels deep (at {}): a                  recursive list or dict, or an object whose tolist() returns itself?",
+                scenario::clip_middle(at, 60, 60)
+            ),
+        )
+        .into_py(v.py()));
+    }
     if v.is_instance_of::<PyBool>() {
         return Ok(Value::Boolean(v.extract()?));
     }
     if v.is_instance_of::<PyInt>() {
         return v.extract::<i64>().map(Value::Integer).map_err(|_| {
             PyValueError::new_err(format!(
-                "{path}: {} does not fit a TOML integer (64-bit signed)",
-                v.repr().map(|r| r.to_string()).unwrap_or_default()
+                "{at}: {} does not fit a TOML integer (64-bit signed)",
+                scenario::echo(&v.repr().map(|r| r.to_string()).unwrap_or_default())
             ))
         });
     }
@@ -207,25 +250,25 @@ fn to_toml(v: &Bound<'_, PyAny>, path: &str) -> PyResult<Value> {
         for (k, x) in d.iter() {
             let k: String = k
                 .extract()
-                .map_err(|_| PyTypeError::new_err(format!("{path}: table keys must be strings")))?;
-            let sub = format!("{path}.{k}");
-            t.insert(k, to_toml(&x, &sub)?);
+                .map_err(|_| PyTypeError::new_err(format!("{at}: table keys must be strings")))?;
+            let sub = format!("{at}.{k}");
+            t.insert(k, to_toml_at(&x, key, &sub, depth + 1)?);
         }
         return Ok(Value::Table(t));
     }
     // NumPy arrays and scalars (np.float64 is a float; np.int64, np.bool_ and arrays are not).
     if v.hasattr("tolist")? && !v.is_instance_of::<PyList>() {
-        return to_toml(&v.call_method0("tolist")?, path);
+        return to_toml_at(&v.call_method0("tolist")?, key, at, depth + 1);
     }
     if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
         let mut a = Vec::new();
         for (i, x) in v.try_iter()?.enumerate() {
-            a.push(to_toml(&x?, &format!("{path}[{i}]"))?);
+            a.push(to_toml_at(&x?, key, &format!("{at}[{i}]"), depth + 1)?);
         }
         return Ok(Value::Array(a));
     }
     Err(PyTypeError::new_err(format!(
-        "{path}: a {} cannot be a scenario value (give a bool, int, float, str, list, array or dict)",
+        "{at}: a {} cannot be a scenario value (give a bool, int, float, str, list, array or dict)",
         v.get_type().name()?
     )))
 }
@@ -391,6 +434,7 @@ impl Kind {
     }
     /// Prepare and simulate (no Python involved: called with the GIL released).
     fn execute(&self) -> Res<Fin> {
+        check_kernel()?;
         match self {
             Kind::Planar(p) => Ok(Fin::Planar(p.execute()?)),
             Kind::Spatial(p) => p.execute(),
@@ -490,6 +534,14 @@ impl Spatial {
         let p = spatial::prepare(self.sc.clone(), &self.src)?;
         spatial_fin(spatial::execute(p, |_| {}))
     }
+}
+
+/// A bad `TANDEM_KERNEL` is bad input for every run, planar or spatial, NN or not (as the
+/// command line refuses it before anything is read), not only for those that build a network.
+fn check_kernel() -> Res<()> {
+    tandem::rbf::Kernel::from_env()
+        .map(|_| ())
+        .map_err(|e| bad(None, format!("environment variable {e}")))
 }
 
 /// A finished spatial run with its derived quantities.
@@ -1067,6 +1119,11 @@ impl PyRun {
     /// deterministic; a re-run that differs is an error).
     #[pyo3(signature = (dir, force=false, figures=true))]
     fn write(&self, py: Python<'_>, dir: PathBuf, force: bool, figures: bool) -> PyResult<String> {
+        if dir.as_os_str().is_empty() {
+            return Err(PyValueError::new_err(
+                "write(\"\"): give the output folder's path",
+            ));
+        }
         if std::fs::symlink_metadata(&dir).is_ok() && !force {
             return Err(PyFileExistsError::new_err(format!(
                 "output folder {} exists (nothing was written); pass force=True to replace it \
@@ -1081,6 +1138,19 @@ impl PyRun {
             Data::Restored => None,
         };
         let r = py.detach(move || -> Res<(PathBuf, Vec<String>)> {
+            // The work's inputs are never replaced (the same decision as the command line's);
+            // checked before anything is simulated again.
+            let protected = match &*kind {
+                Kind::Planar(p) => scenario::inputs(&p.src, &p.sc),
+                Kind::Spatial(p) => scenario::inputs(&p.src, &p.sc),
+            };
+            let other = |e: anyhow::Error| match e.downcast_ref::<output::Refused>() {
+                Some(r) => bad(None, r.to_string().replacen("--force", "force=True", 1)),
+                None => Error::Other(format!("{e:#}")),
+            };
+            if force {
+                output::check_replaceable(&dir, &protected).map_err(other)?;
+            }
             let name = &kind.src().name;
             let fin = match live {
                 Some(f) => f,
@@ -1099,11 +1169,6 @@ impl PyRun {
                     }
                     Arc::new(f)
                 }
-            };
-            let protected: Vec<&Path> = kind.src().file.iter().map(PathBuf::as_path).collect();
-            let other = |e: anyhow::Error| match e.downcast_ref::<output::Refused>() {
-                Some(r) => bad(None, r.to_string()),
-                None => Error::Other(format!("{e:#}")),
             };
             let out = OutputDir::create(&dir, force, &protected).map_err(other)?;
             let problems = match (&*fin, &*kind) {
@@ -1200,12 +1265,14 @@ impl PyRun {
 // ---------------------------------------------------------------------------------------------
 // Batches and sweeps.
 
+/// The worker thread count of `threads=`: 1 to [`tandem_cli::MAX_THREADS`] (ValueError
+/// otherwise, before any work), every core by default.
+fn thread_count(threads: Option<usize>) -> PyResult<usize> {
+    tandem_cli::threads(threads, "threads=").map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
 fn pool(threads: Option<usize>) -> PyResult<rayon::ThreadPool> {
-    let n = match threads {
-        Some(0) => return Err(PyValueError::new_err("threads=0: give at least 1")),
-        Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-    };
+    let n = thread_count(threads)?;
     rayon::ThreadPoolBuilder::new()
         .num_threads(n)
         .build()
@@ -1262,6 +1329,8 @@ fn rollout(
             )));
         }
     }
+    let pool = pool(threads)?;
+    py_res(py, check_kernel())?;
     let mut jobs = Vec::with_capacity(list.len());
     for (i, k) in list.iter().enumerate() {
         let seed = seeds.as_ref().map(|s| s[i]);
@@ -1277,7 +1346,6 @@ fn rollout(
         })?;
         jobs.push(Arc::new(p));
     }
-    let pool = pool(threads)?;
     let work = jobs.clone();
     // Every run is prepared (validated) before any runs, so bad input fails fast.
     let results: Result<Vec<Fin>, (usize, Error)> = py.detach(move || {
@@ -1334,6 +1402,7 @@ fn _sweep_csv(
     shard: Option<&Bound<'_, PyAny>>,
     threads: Option<usize>,
 ) -> PyResult<(String, Vec<String>)> {
+    thread_count(threads)?;
     let sw = if let Ok(d) = spec.cast::<PyDict>() {
         let Value::Table(t) = to_toml(d.as_any(), "sweep")? else {
             unreachable!("a dict converts to a table")
@@ -1363,7 +1432,16 @@ fn _sweep_csv(
                     PyTypeError::new_err("shard: give \"I/N\", (I, N) or \"slurm\"")
                 })?;
                 if s == "slurm" {
-                    py_res(py, sweep::Shard::from_env().map_err(Error::from))?
+                    let from_env = py_res(py, sweep::Shard::from_env().map_err(Error::from))?;
+                    if from_env.is_none() {
+                        return Err(bad(
+                            None,
+                            "shard=\"slurm\": SLURM_ARRAY_TASK_ID and SLURM_ARRAY_TASK_COUNT are \
+                             not set (is this a Slurm job array task?); nothing was run",
+                        )
+                        .into_py(py));
+                    }
+                    from_env
                 } else {
                     Some(py_res(
                         py,
@@ -1373,11 +1451,7 @@ fn _sweep_csv(
             }
         }
     };
-    let pool_threads = match threads {
-        Some(0) => return Err(PyValueError::new_err("threads=0: give at least 1")),
-        Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-    };
+    let pool_threads = thread_count(threads)?;
     let r = py.detach(move || -> Result<(String, Vec<String>), String> {
         let idx = sweep::run::indices(&sw, shard);
         let results =

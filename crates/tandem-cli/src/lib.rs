@@ -41,3 +41,32 @@ impl fmt::Display for BadInput {
 }
 
 impl std::error::Error for BadInput {}
+
+/// Most worker threads a command (`sweep --threads`) or the Python package (`threads=`) starts:
+/// 1024, far above any machine's useful parallelism (the runs are CPU-bound) and far below
+/// the thread limits that would fail only after the pool has spent seconds starting.
+pub const MAX_THREADS: usize = 1024;
+
+/// The worker thread count for `option` (`--threads`, `threads=`): the given count, checked
+/// to be from 1 to [`MAX_THREADS`], or every core when not given.
+pub fn threads(n: Option<usize>, option: &str) -> Result<usize, BadInput> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // `--threads 5`, `threads=5`.
+    let given = |n: usize| {
+        if option.ends_with('=') {
+            format!("{option}{n}")
+        } else {
+            format!("{option} {n}")
+        }
+    };
+    match n {
+        None => Ok(cores),
+        Some(0) => Err(BadInput::msg(format!("{}: give at least 1", given(0)))),
+        Some(n) if n > MAX_THREADS => Err(BadInput::msg(format!(
+            "{}: at most {MAX_THREADS} threads (this machine has {cores} core{})",
+            given(n),
+            if cores == 1 { "" } else { "s" }
+        ))),
+        Some(n) => Ok(n),
+    }
+}

@@ -295,30 +295,14 @@ fn load(arg: Option<&str>, o: &Overrides) -> Result<(Source, Scenario)> {
     Ok((src, sc))
 }
 
-/// The input files of a run (scenario file, replay file): `--force` never replaces a folder
-/// that holds one.
-fn inputs(src: &Source, sc: &Scenario) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = src.file.iter().cloned().collect();
-    if let Some(r) = &sc.controller.replay {
-        let p = Path::new(r);
-        v.push(if p.is_absolute() {
-            p.to_path_buf()
-        } else {
-            src.dir.join(p)
-        });
-    }
-    v
-}
-
 /// Refuse an existing output folder without --force, with the command that would overwrite it;
 /// with --force, refuse anything tandem did not write (see [`output::check_replaceable`]).
-fn check_out(dir: &Path, force: bool, protected: &[PathBuf]) -> Result<()> {
+fn check_out(dir: &Path, force: bool, protected: &[output::Input]) -> Result<()> {
     if std::fs::symlink_metadata(dir).is_err() {
         return Ok(());
     }
     if force {
-        let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
-        return output::check_replaceable(dir, &p);
+        return output::check_replaceable(dir, protected);
     }
     let mut cmd = vec!["tandem".to_string()];
     cmd.extend(std::env::args().skip(1).map(|a| shell_quote(&a)));
@@ -377,13 +361,12 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
         }
         PathBuf::from("out").join(name)
     });
-    let protected = inputs(&src, &sc);
+    let protected = scenario::inputs(&src, &sc);
     check_out(&out_dir, a.common.force, &protected)?;
     let label = runner::label(&sc);
     let prepared = runner::prepare(sc, &src)?;
     print_warnings(&label, &prepared.ready.warnings);
-    let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
-    let out = OutputDir::create(&out_dir, a.common.force, &p)?;
+    let out = OutputDir::create(&out_dir, a.common.force, &protected)?;
 
     let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
     bar.set_style(bar_style());
@@ -481,12 +464,10 @@ fn cmd_run_spatial(a: RunArgs, src: Source) -> Result<ExitCode> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-{slug}", src.name)));
-    let prepared = spatial::prepare(sc, &src)?;
-    let mut protected: Vec<PathBuf> = src.file.iter().cloned().collect();
-    protected.extend(prepared.built.inputs.iter().cloned());
+    let protected = scenario::inputs(&src, &sc);
     check_out(&out_dir, a.common.force, &protected)?;
-    let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
-    let out = OutputDir::create(&out_dir, a.common.force, &p)?;
+    let prepared = spatial::prepare(sc, &src)?;
+    let out = OutputDir::create(&out_dir, a.common.force, &protected)?;
     let ok = spatial::cmd_run(prepared, out, !a.common.no_figures)?;
     Ok(if ok {
         ExitCode::SUCCESS
@@ -528,13 +509,9 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
             .out
             .clone()
             .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-compare", src.name)));
-        // Build once to learn the input files (URDFs) that --force must never replace.
-        let built = spatial::scenario::build(&sc, &src)?;
-        let mut protected: Vec<PathBuf> = src.file.iter().cloned().collect();
-        protected.extend(built.inputs.iter().cloned());
+        let protected = scenario::inputs(&src, &sc);
         check_out(&out_dir, a.common.force, &protected)?;
-        let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
-        let out = OutputDir::create(&out_dir, a.common.force, &p)?;
+        let out = OutputDir::create(&out_dir, a.common.force, &protected)?;
         let ok = spatial::cmd_compare(sc, &src, out, !a.common.no_figures)?;
         return Ok(if ok {
             ExitCode::SUCCESS
@@ -553,7 +530,7 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-compare", src.name)));
-    let protected = inputs(&src, &base);
+    let protected = scenario::inputs(&src, &base);
     check_out(&out_dir, a.common.force, &protected)?;
     let mut prepared = Vec::new();
     for (kind, gains, slug) in COMPARED {
@@ -569,8 +546,7 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
         print_warnings(&label, &p.ready.warnings);
         prepared.push((slug, label, p));
     }
-    let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
-    let out = OutputDir::create(&out_dir, a.common.force, &p)?;
+    let out = OutputDir::create(&out_dir, a.common.force, &protected)?;
 
     // All runs at once, one progress bar each.
     let multi = MultiProgress::with_draw_target(ProgressDrawTarget::stderr());
@@ -775,13 +751,12 @@ fn cmd_robustness(a: RobustnessArgs) -> Result<ExitCode> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-robustness", src.name)));
-    let protected = inputs(&src, &base);
+    let protected = scenario::inputs(&src, &base);
     check_out(&out_dir, a.force, &protected)?;
     let t0 = Instant::now();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let cells = robustness::run_grid(&base, &src, threads)?;
-    let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
-    let out = OutputDir::create(&out_dir, a.force, &p)?;
+    let out = OutputDir::create(&out_dir, a.force, &protected)?;
     let mut cmd = vec!["tandem".to_string()];
     cmd.extend(std::env::args().skip(1).map(|a| shell_quote(&a)));
     robustness::write(out.tmp_dir(), &cells, &base, &cmd.join(" "))?;
@@ -801,6 +776,7 @@ fn cmd_robustness(a: RobustnessArgs) -> Result<ExitCode> {
 }
 
 fn cmd_sweep(a: SweepArgs) -> Result<ExitCode> {
+    let threads = tandem_cli::threads(a.threads, "--threads")?;
     let sw = sweep::Sweep::load(&a.file)?;
     let shard = match &a.shard {
         Some(s) => Some(sweep::Shard::parse(s, "--shard")?),
@@ -817,16 +793,9 @@ fn cmd_sweep(a: SweepArgs) -> Result<ExitCode> {
         }
         PathBuf::from("out").join(name)
     });
-    let mut protected = vec![a.file.clone()];
-    protected.extend(sw.base.file.iter().cloned());
+    let protected = sw.inputs(Some(&a.file));
     check_out(&out_dir, a.force, &protected)?;
-    let threads = match a.threads {
-        Some(0) => return Err(BadInput::msg("--threads 0: give at least 1").into()),
-        Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-    };
-    let p: Vec<&Path> = protected.iter().map(PathBuf::as_path).collect();
-    let out = OutputDir::create(&out_dir, a.force, &p)?;
+    let out = OutputDir::create(&out_dir, a.force, &protected)?;
     let keep = a.keep_runs.then(|| out.tmp_dir().join("runs"));
     let idx = sweep::run::indices(&sw, shard);
     let t0 = Instant::now();
@@ -867,9 +836,14 @@ fn cmd_sweep(a: SweepArgs) -> Result<ExitCode> {
 }
 
 fn cmd_merge(a: MergeArgs) -> Result<ExitCode> {
-    check_out(&a.out, a.force, &[])?;
+    let protected: Vec<output::Input> = a
+        .dirs
+        .iter()
+        .map(|d| output::Input::new("a shard folder given to merge", d))
+        .collect();
+    check_out(&a.out, a.force, &protected)?;
     let m = sweep::merge::merge(&a.dirs)?;
-    let out = OutputDir::create(&a.out, a.force, &[])?;
+    let out = OutputDir::create(&a.out, a.force, &protected)?;
     let mut problems = sweep::merge::write_folder(
         out.tmp_dir(),
         &m.resolved,

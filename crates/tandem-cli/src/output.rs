@@ -75,10 +75,59 @@ impl std::fmt::Display for Refused {
 
 impl std::error::Error for Refused {}
 
-/// Why `--force` may not replace an existing path: it must be a real folder (not a file, not a
-/// symbolic link), hold the [`MARKER`] tandem writes, and be neither the current folder nor one
-/// of its parents, nor hold any of the `protected` input files (the scenario, a replay file).
-pub fn check_replaceable(dir: &Path, protected: &[&Path]) -> Result<()> {
+/// An input of the work (a file or a folder it reads), with how the user named it: the
+/// scenario file, `arms[0].urdf`, `controller.replay`, the sweep file, a shard folder. `--force`
+/// never replaces a folder that is or holds one.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Input {
+    /// Where it is (relative to the current folder, or absolute).
+    pub path: PathBuf,
+    /// What it is to the work, as the user named it (`the scenario`, `arms[0].urdf`).
+    pub what: String,
+}
+
+impl Input {
+    /// The input `what` at `path`.
+    pub fn new(what: impl Into<String>, path: impl Into<PathBuf>) -> Self {
+        Self {
+            path: path.into(),
+            what: what.into(),
+        }
+    }
+}
+
+/// The forms of `p` a folder may hold: its canonical path (symbolic links followed) and the
+/// path of its own directory entry (its parent canonical, its name kept: a symbolic link
+/// inside the folder is an input too, even when it points elsewhere).
+fn input_forms(p: &Path) -> Vec<PathBuf> {
+    let mut v = Vec::new();
+    if let Ok(c) = fs::canonicalize(p) {
+        v.push(c);
+    }
+    if let Ok((parent, name)) = parent_and_name(p)
+        && name != ".."
+        && name != "."
+        && let Ok(cp) = fs::canonicalize(&parent)
+    {
+        v.push(cp.join(name));
+    }
+    if v.is_empty() {
+        v.push(std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf()));
+    }
+    v
+}
+
+/// The one decision of what `--force` (and Python's `force=True`) may replace; every command
+/// that writes a folder (`run`, `compare`, `robustness`, `sweep`, `merge`) and `Run.write`
+/// asks it, before any work and again just before the old folder is moved aside.
+///
+/// An existing `dir` is replaced only when it is a real folder (not a file, not a symbolic
+/// link), holds the [`MARKER`] tandem writes, is neither the current folder nor one of its
+/// parents, and neither is nor holds any of the work's `inputs` (the scenario, every URDF, the
+/// replay file, the sweep file, the base scenario, the shard folders of a merge). A refusal
+/// ([`Refused`]) names the input and says that nothing was run or deleted. A missing `dir` is
+/// fine (nothing is replaced).
+pub fn check_replaceable(dir: &Path, inputs: &[Input]) -> Result<()> {
     let refuse = |why: String| -> Result<()> {
         Err(anyhow!(Refused(format!(
             "--force does not replace {}: {why} (nothing was run or deleted)",
@@ -89,6 +138,25 @@ pub fn check_replaceable(dir: &Path, protected: &[&Path]) -> Result<()> {
         Ok(m) => m,
         Err(_) => return Ok(()),
     };
+    // The input itself first: the message then names the file the user would have lost.
+    let forms = input_forms(dir);
+    let kind = |p: &Path| match fs::symlink_metadata(p) {
+        Ok(m) if m.is_dir() => "folder",
+        _ => "file",
+    };
+    let inputs: Vec<(&Input, Vec<PathBuf>)> =
+        inputs.iter().map(|i| (i, input_forms(&i.path))).collect();
+    if let Some((i, _)) = inputs
+        .iter()
+        .find(|(_, fs)| fs.iter().any(|f| forms.contains(f)))
+    {
+        return refuse(format!(
+            "it is the input {} {} ({}) itself",
+            kind(&i.path),
+            i.path.display(),
+            i.what
+        ));
+    }
     if meta.file_type().is_symlink() {
         return refuse("it is a symbolic link, not a folder tandem wrote".into());
     }
@@ -106,12 +174,16 @@ pub fn check_replaceable(dir: &Path, protected: &[&Path]) -> Result<()> {
             "it holds the current folder".into()
         });
     }
-    for p in protected {
-        let abs = fs::canonicalize(p)
-            .unwrap_or_else(|_| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf()));
-        if abs.starts_with(&canon) {
-            return refuse(format!("it holds the input file {}", p.display()));
-        }
+    if let Some((i, _)) = inputs
+        .iter()
+        .find(|(_, fs)| fs.iter().any(|f| forms.iter().any(|d| f.starts_with(d))))
+    {
+        return refuse(format!(
+            "it holds the input {} {} ({})",
+            kind(&i.path),
+            i.path.display(),
+            i.what
+        ));
     }
     match fs::symlink_metadata(canon.join(MARKER)) {
         Ok(m) if m.is_file() => Ok(()),
@@ -119,6 +191,59 @@ pub fn check_replaceable(dir: &Path, protected: &[&Path]) -> Result<()> {
             "it has no {MARKER} marker, so tandem did not write it (delete it yourself if it is an old tandem output)"
         )),
     }
+}
+
+/// Whether process `pid` is alive (on a system without `/proc`, every process is taken to
+/// be alive: then nothing is ever cleaned up).
+fn pid_alive(pid: u32) -> bool {
+    if pid == std::process::id() {
+        return true;
+    }
+    let proc = Path::new("/proc");
+    if !proc.join("self").exists() {
+        return true;
+    }
+    proc.join(pid.to_string()).exists()
+}
+
+/// The pid in a hidden name tandem gives the folder `name` while it commits:
+/// `.<name>.tmp-<pid>-<n>` (being written) or `.<name>.old-<pid>-<n>` (the previous output,
+/// moved aside).
+fn leftover_pid(entry: &str, name: &str) -> Option<u32> {
+    let rest = entry.strip_prefix('.')?.strip_prefix(name)?;
+    let tail = rest
+        .strip_prefix(".tmp-")
+        .or_else(|| rest.strip_prefix(".old-"))?;
+    let (pid, n) = tail.split_once('-')?;
+    let digits = |s: &str| !s.is_empty() && s.len() <= 20 && s.bytes().all(|b| b.is_ascii_digit());
+    (digits(pid) && digits(n)).then(|| pid.parse().ok())?
+}
+
+/// Removes, in `parent`, what an interrupted commit of the output folder `name` left: hidden
+/// folders named as [`OutputDir`] names them (`.<name>.tmp-<pid>-<n>`,
+/// `.<name>.old-<pid>-<n>`) that are real folders (not symbolic links), hold tandem's
+/// [`MARKER`], and whose process is no longer alive. Nothing else is ever touched: not another
+/// output's temporary folder (on a file system shared by several machines, as Slurm shards
+/// writing next to each other are, a pid that is not alive here may be alive on another
+/// node), not a link, a file, an unmarked folder. Returns the folders removed.
+pub fn clean_leftovers(parent: &Path, name: &str) -> Vec<PathBuf> {
+    let mut removed = Vec::new();
+    let Ok(entries) = fs::read_dir(parent) else {
+        return removed;
+    };
+    for e in entries.flatten() {
+        let entry = e.file_name();
+        let Some(pid) = entry.to_str().and_then(|n| leftover_pid(n, name)) else {
+            continue;
+        };
+        let p = e.path();
+        let is_dir = fs::symlink_metadata(&p).is_ok_and(|m| m.is_dir());
+        let marked = fs::symlink_metadata(p.join(MARKER)).is_ok_and(|m| m.is_file());
+        if is_dir && marked && !pid_alive(pid) && fs::remove_dir_all(&p).is_ok() {
+            removed.push(p);
+        }
+    }
+    removed
 }
 
 /// Creates `path` (which must not exist) with `bytes`.
@@ -146,8 +271,8 @@ pub struct OutputDir {
     tmp_dir: PathBuf,
     /// Whether an existing `final_dir` may be replaced.
     force: bool,
-    /// Input files whose folders must never be replaced.
-    protected: Vec<PathBuf>,
+    /// The work's inputs, which must never be replaced (see [`check_replaceable`]).
+    protected: Vec<Input>,
     /// Set by `commit`, so that `Drop` leaves the (renamed) folder alone.
     committed: bool,
 }
@@ -156,11 +281,11 @@ impl OutputDir {
     /// Checks that `final_dir` may be written and creates the temporary sibling folder.
     ///
     /// Fails, before any work is done, when `final_dir` exists and `force` is false, or when
-    /// `force` is set but [`check_replaceable`] refuses it (`protected` lists input files the
-    /// run reads, whose folders must never be replaced). The parent folder is created if
-    /// missing. The temporary folder gets the [`MARKER`] file, so the committed folder carries
-    /// it.
-    pub fn create(final_dir: &Path, force: bool, protected: &[&Path]) -> Result<Self> {
+    /// `force` is set but [`check_replaceable`] refuses it (`protected` lists the work's
+    /// inputs, which must never be replaced). The parent folder is created if missing, and what
+    /// an interrupted commit of tandem left in it is removed ([`clean_leftovers`]). The
+    /// temporary folder gets the [`MARKER`] file, so the committed folder carries it.
+    pub fn create(final_dir: &Path, force: bool, protected: &[Input]) -> Result<Self> {
         if fs::symlink_metadata(final_dir).is_ok() {
             if !force {
                 bail!(
@@ -173,6 +298,12 @@ impl OutputDir {
         let (parent, name) = parent_and_name(final_dir)?;
         fs::create_dir_all(&parent)
             .with_context(|| format!("cannot create folder {}", parent.display()))?;
+        for p in clean_leftovers(&parent, &name) {
+            eprintln!(
+                "note: removed {}, left by an interrupted tandem run",
+                p.display()
+            );
+        }
         // A fresh name: an existing entry (whoever made it) is never reused or removed.
         let mut tmp_dir = parent.join(format!(".{name}.tmp-{}", unique_suffix()));
         let mut tries = 0;
@@ -194,7 +325,7 @@ impl OutputDir {
             final_dir: final_dir.to_path_buf(),
             tmp_dir,
             force,
-            protected: protected.iter().map(|p| p.to_path_buf()).collect(),
+            protected: protected.to_vec(),
             committed: false,
         };
         write_new(&out.tmp_dir.join(MARKER), MARKER_TEXT.as_bytes())
@@ -253,8 +384,7 @@ impl OutputDir {
         }
 
         // Checked again: the folder may have changed while the run was going.
-        let protected: Vec<&Path> = self.protected.iter().map(PathBuf::as_path).collect();
-        check_replaceable(&self.final_dir, &protected)?;
+        check_replaceable(&self.final_dir, &self.protected)?;
         let (parent, name) = parent_and_name(&self.final_dir)?;
         let old = parent.join(format!(".{name}.old-{}", unique_suffix()));
         if fs::symlink_metadata(&old).is_ok() {

@@ -69,13 +69,19 @@ pub struct Timing {
     pub duration: f64,
 }
 
+/// Largest torque file read, bytes (256 MiB: about a million rows of twelve joints; rows after
+/// the end of the run are not read, so only the run's part counts). Only a regular file is
+/// read (a FIFO or `/dev/zero` is refused at once).
+pub const MAX_REPLAY_BYTES: u64 = 256 << 20;
+
 /// Read a torque file for a plant with `n_q` joints.
 pub fn load(path: &Path, n_q: usize, timing: Timing, mode: Interpolation) -> Result<Replay> {
+    let file = crate::scenario::open_limited(path, MAX_REPLAY_BYTES)
+        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .comment(Some(b'#'))
-        .from_path(path)
-        .with_context(|| format!("cannot open {}", path.display()))?;
+        .from_reader(file);
     let headers = rdr.headers().context("cannot read the header row")?.clone();
     let names: Vec<&str> = headers.iter().map(bare).collect();
     let show = |n: &str| crate::scenario::clip(n, 40);

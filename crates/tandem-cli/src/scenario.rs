@@ -157,20 +157,152 @@ pub const MAX_ARMS: usize = 16;
 /// See [`MAX_ARMS`].
 pub const MAX_LINKS: usize = 16;
 
-/// Read a UTF-8 file of at most `limit` bytes (a larger one is refused, never read whole). A
-/// leading UTF-8 byte-order mark (some editors write one) is dropped: it is not part of the
-/// TOML or the URDF. The scenario, sweep and URDF readers all read through here.
+/// `O_NONBLOCK` of `open(2)` (without the `libc` crate): opening a FIFO for reading with it
+/// returns at once instead of waiting for a writer. Zero (no flag) where the value is not
+/// known; the file type is checked on the opened handle all the same.
+#[cfg(all(
+    any(target_os = "linux", target_os = "android"),
+    not(any(
+        target_arch = "mips",
+        target_arch = "mips64",
+        target_arch = "sparc",
+        target_arch = "sparc64"
+    ))
+))]
+const O_NONBLOCK: i32 = 0o4000;
+#[cfg(any(
+    target_os = "macos",
+    target_os = "ios",
+    target_os = "freebsd",
+    target_os = "netbsd",
+    target_os = "openbsd",
+    target_os = "dragonfly"
+))]
+const O_NONBLOCK: i32 = 0x4;
+#[cfg(not(any(
+    all(
+        any(target_os = "linux", target_os = "android"),
+        not(any(
+            target_arch = "mips",
+            target_arch = "mips64",
+            target_arch = "sparc",
+            target_arch = "sparc64"
+        ))
+    ),
+    target_os = "macos",
+    target_os = "ios",
+    target_os = "freebsd",
+    target_os = "netbsd",
+    target_os = "openbsd",
+    target_os = "dragonfly"
+)))]
+const O_NONBLOCK: i32 = 0;
+
+/// Why a file that is not a regular file cannot be read (its type, in words).
+fn not_regular(t: &std::fs::FileType) -> String {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return "it is a named pipe (FIFO), not a regular file".into();
+        }
+        if t.is_char_device() {
+            return "it is a character device, not a regular file".into();
+        }
+        if t.is_block_device() {
+            return "it is a block device, not a regular file".into();
+        }
+        if t.is_socket() {
+            return "it is a socket, not a regular file".into();
+        }
+    }
+    if t.is_dir() {
+        "it is a folder, not a file".into()
+    } else {
+        "it is not a regular file".into()
+    }
+}
+
+/// Open `p` for reading if it is a regular file; a FIFO, a device (`/dev/zero`), a folder or
+/// a socket is refused at once. The file is opened with `O_NONBLOCK` (a FIFO does not wait
+/// for a writer) and its type checked on the opened handle (nothing can swap the path between
+/// the check and the read). Every file tandem reads is opened here: scenario, URDF, replay,
+/// sweep file, a shard's `sweep.json` and `runs.csv`.
+pub fn open_regular(p: &FsPath) -> Result<std::fs::File, String> {
+    let mut o = std::fs::OpenOptions::new();
+    o.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        o.custom_flags(O_NONBLOCK);
+    }
+    let f = o.open(p).map_err(|e| e.to_string())?;
+    let m = f.metadata().map_err(|e| e.to_string())?;
+    if !m.is_file() {
+        return Err(not_regular(&m.file_type()));
+    }
+    Ok(f)
+}
+
+/// A reader that fails (instead of ending) once more than its limit has been read: a file
+/// read as a stream (replay, `runs.csv`) is never read past the limit, and never cut short
+/// silently.
+pub struct Limited<R> {
+    inner: R,
+    left: u64,
+    limit: u64,
+}
+
+impl<R: std::io::Read> std::io::Read for Limited<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let max = (buf.len() as u64).min(self.left.saturating_add(1)) as usize;
+        let n = self.inner.read(&mut buf[..max])?;
+        if n as u64 > self.left {
+            return Err(std::io::Error::other(format!(
+                "the file is larger than {}",
+                size_text(self.limit)
+            )));
+        }
+        self.left -= n as u64;
+        Ok(n)
+    }
+}
+
+/// `limit` bytes in words (`16 MiB`).
+fn size_text(limit: u64) -> String {
+    if limit >= 1 << 30 && limit.is_multiple_of(1 << 30) {
+        format!("{} GiB", limit >> 30)
+    } else if limit >= 1 << 20 {
+        format!("{} MiB", limit >> 20)
+    } else {
+        format!("{limit} bytes")
+    }
+}
+
+/// [`open_regular`], read through a [`Limited`] reader of `limit` bytes.
+pub fn open_limited(p: &FsPath, limit: u64) -> Result<Limited<std::fs::File>, String> {
+    Ok(Limited {
+        inner: open_regular(p)?,
+        left: limit,
+        limit,
+    })
+}
+
+/// Read a UTF-8 regular file (see [`open_regular`]) of at most `limit` bytes (a larger one is
+/// refused, never read whole). A leading UTF-8 byte-order mark (some editors write one) is
+/// dropped: it is not part of the TOML or the URDF. The scenario, sweep, URDF and shard
+/// `sweep.json` readers all read through here.
 pub fn read_limited(p: &FsPath, limit: u64) -> Result<String, String> {
     use std::io::Read;
-    let f = std::fs::File::open(p).map_err(|e| e.to_string())?;
+    let f = open_regular(p)?;
     let mut buf = Vec::new();
     f.take(limit + 1)
         .read_to_end(&mut buf)
         .map_err(|e| e.to_string())?;
     if buf.len() as u64 > limit {
         return Err(format!(
-            "the file is larger than {} MiB (scenario, sweep and URDF files are far smaller)",
-            limit >> 20
+            "the file is larger than {} (scenario, sweep and URDF files are far smaller)",
+            size_text(limit)
         ));
     }
     let bom = if buf.starts_with(b"\xef\xbb\xbf") {
@@ -182,6 +314,69 @@ pub fn read_limited(p: &FsPath, limit: u64) -> Result<String, String> {
         let at = bom + e.utf8_error().valid_up_to();
         format!("the file is not UTF-8 text (invalid byte at offset {at})")
     })
+}
+
+/// The inputs of a scenario's run, for [`crate::output::check_replaceable`]: the scenario file
+/// and every file the scenario names (any string field `urdf` or `replay`: `arms[0].urdf`,
+/// `controller.replay`), resolved as the loaders resolve them (relative to the scenario file's
+/// folder). `sc` is the scenario as run (with the command line's overrides); when it does not
+/// serialize, the file's own text is read instead.
+pub fn inputs<T: Serialize>(src: &Source, sc: &T) -> Vec<crate::output::Input> {
+    let doc = toml::Table::try_from(sc)
+        .ok()
+        .or_else(|| toml::from_str::<toml::Table>(&src.text).ok())
+        .unwrap_or_default();
+    let mut v: Vec<crate::output::Input> = src
+        .file
+        .iter()
+        .map(|f| crate::output::Input::new("the scenario", f))
+        .collect();
+    v.extend(named_files(src, &doc, ""));
+    v
+}
+
+/// The files a scenario document names (see [`inputs`]); `what` prefixes their field paths.
+pub fn named_files(src: &Source, doc: &toml::Table, what: &str) -> Vec<crate::output::Input> {
+    fn walk(v: &toml::Value, path: &str, out: &mut Vec<(String, String)>) {
+        match v {
+            toml::Value::Table(t) => {
+                for (k, x) in t {
+                    let p = if path.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{path}.{k}")
+                    };
+                    if let (true, toml::Value::String(f)) = (k == "urdf" || k == "replay", x) {
+                        out.push((p.clone(), f.clone()));
+                    }
+                    walk(x, &p, out);
+                }
+            }
+            toml::Value::Array(a) => {
+                for (i, x) in a.iter().enumerate() {
+                    walk(x, &format!("{path}[{i}]"), out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut found = Vec::new();
+    walk(&toml::Value::Table(doc.clone()), "", &mut found);
+    found
+        .into_iter()
+        .map(|(p, f)| crate::output::Input::new(format!("{what}{p}"), resolve_named(src, &f)))
+        .collect()
+}
+
+/// A file a scenario names, as its loaders resolve it: absolute, or relative to the
+/// scenario file's folder.
+pub fn resolve_named(src: &Source, f: &str) -> PathBuf {
+    let p = FsPath::new(f);
+    if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        src.dir.join(p)
+    }
 }
 
 /// The source of an embedded scenario.
@@ -903,6 +1098,18 @@ pub fn clip_middle(s: &str, head: usize, tail: usize) -> String {
     let a: String = s.chars().take(head).collect();
     let b: String = s.chars().skip(n - tail).collect();
     format!("{a}…{b}")
+}
+
+/// A value echoed in a message: whole up to 200 characters, else its first 200 and its length
+/// (`xxxx… (10000000 chars)`), so that a message about a huge value is not itself huge.
+pub fn echo(s: &str) -> String {
+    let n = s.chars().count();
+    if n <= 200 {
+        s.to_string()
+    } else {
+        let head: String = s.chars().take(200).collect();
+        format!("{head}… ({n} chars)")
+    }
 }
 
 /// `s` cut to at most `n` characters (with `…`), for messages that echo the input.
@@ -2006,6 +2213,39 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn limited_reads_fail_past_their_limit_never_cut_short() {
+        use std::io::Read;
+        let d = std::env::temp_dir().join(format!("tandem-limited-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).expect("mkdir");
+        let f = d.join("x.csv");
+        std::fs::write(&f, "0123456789abcdefghij").expect("write");
+        let mut s = String::new();
+        let e = open_limited(&f, 10)
+            .expect("open")
+            .read_to_string(&mut s)
+            .expect_err("past the limit");
+        assert!(e.to_string().contains("larger than 10 bytes"), "{e}");
+        s.clear();
+        open_limited(&f, 20)
+            .expect("open")
+            .read_to_string(&mut s)
+            .expect("at the limit");
+        assert_eq!(s, "0123456789abcdefghij");
+        // Not a regular file: refused at open, naming the type.
+        assert_eq!(
+            open_regular(&d).map(|_| ()),
+            Err("it is a folder, not a file".to_string())
+        );
+        assert!(
+            read_limited(FsPath::new("/dev/zero"), 1 << 20)
+                .expect_err("a device")
+                .contains("character device")
+        );
+        let _ = std::fs::remove_dir_all(&d);
+    }
 
     #[test]
     fn read_limited_drops_a_byte_order_mark_and_counts_offsets_in_the_file() {

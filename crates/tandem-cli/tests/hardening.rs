@@ -40,7 +40,11 @@ fn force_never_deletes_the_scenario_file() {
     args.extend(SHORT);
     let o = tandem(&d, &args);
     exit(&o, 2);
-    assert!(stderr(&o).contains("is a file"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("is the input file my.toml"),
+        "{}",
+        stderr(&o)
+    );
     assert!(s.is_file());
     assert_eq!(tree(&d), before, "nothing changed");
     let _ = fs::remove_dir_all(&d);

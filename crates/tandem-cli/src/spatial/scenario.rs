@@ -1330,6 +1330,16 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             ));
         }
     }
+    // The summary's transient window: as the planar loader checks it.
+    if !(sc.metrics.transient.is_finite() && sc.metrics.transient >= 0.0) {
+        return Err(src.error_at(
+            "metrics.transient",
+            format!(
+                "metrics.transient = {}: must be finite and >= 0",
+                num(sc.metrics.transient)
+            ),
+        ));
+    }
     let d0 = path.sample(0.0);
     let dp = Vector3::new(r.start_offset[0], r.start_offset[1], r.start_offset[2]);
     let dr = Vector3::new(r.start_offset[3], r.start_offset[4], r.start_offset[5]);

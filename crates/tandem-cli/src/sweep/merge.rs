@@ -69,6 +69,13 @@ pub fn write_folder(
     Ok(problems)
 }
 
+/// Largest shard `sweep.json` read, bytes (64 MiB: it holds the base scenario's text, at most
+/// 16 MiB, and the varied fields).
+pub const MAX_SWEEP_JSON_BYTES: u64 = 64 << 20;
+
+/// Largest shard `runs.csv` read, bytes (1 GiB: about two million runs).
+pub const MAX_RUNS_CSV_BYTES: u64 = 1 << 30;
+
 /// A shard folder read back.
 struct Part {
     dir: PathBuf,
@@ -82,10 +89,12 @@ struct Part {
 fn read_part(dir: &Path) -> Result<Part> {
     let bad = |why: String| BadInput::msg(format!("cannot merge {}: {why}", dir.display()));
     let sj = dir.join("sweep.json");
-    let text = std::fs::read_to_string(&sj).map_err(|e| {
-        bad(format!(
-            "no readable sweep.json ({e}); is it a sweep folder?"
-        ))
+    let text = crate::scenario::read_limited(&sj, MAX_SWEEP_JSON_BYTES).map_err(|e| {
+        bad(if std::fs::symlink_metadata(&sj).is_ok() {
+            format!("cannot read sweep.json: {e}")
+        } else {
+            format!("no readable sweep.json ({e}); is it a sweep folder?")
+        })
     })?;
     let meta: Json = serde_json::from_str(&text)
         .map_err(|e| bad(format!("sweep.json is not valid JSON ({e})")))?;
@@ -94,6 +103,25 @@ fn read_part(dir: &Path) -> Result<Part> {
         .and_then(Json::as_str)
         .ok_or_else(|| bad("sweep.json has no hash".into()))?
         .to_string();
+    // The hash is recomputed from the `sweep` section (as `Sweep::hash` computes it when the
+    // shard is written), never trusted: an edited section is another sweep.
+    let computed = format!(
+        "{:016x}",
+        super::fnv1a(
+            meta.get("sweep")
+                .unwrap_or(&Json::Null)
+                .to_string()
+                .as_bytes()
+        )
+    );
+    if computed != hash {
+        return Err(bad(format!(
+            "sweep.json's hash {} does not match its `sweep` section (which hashes to {computed}): \
+             the file was edited after the sweep wrote it; refusing to merge",
+            crate::scenario::echo(&hash)
+        ))
+        .into());
+    }
     let shard = match meta.get("shard") {
         None | Some(Json::Null) => Shard { index: 0, count: 1 },
         Some(s) => {
@@ -108,8 +136,9 @@ fn read_part(dir: &Path) -> Result<Part> {
         }
     };
     let csv_path = dir.join("runs.csv");
-    let mut rd = csv::Reader::from_path(&csv_path)
-        .map_err(|e| bad(format!("cannot read runs.csv ({e})")))?;
+    let file = crate::scenario::open_limited(&csv_path, MAX_RUNS_CSV_BYTES)
+        .map_err(|e| bad(format!("cannot read runs.csv: {e}")))?;
+    let mut rd = csv::Reader::from_reader(file);
     let header: Vec<String> = rd
         .headers()
         .map_err(|e| bad(format!("runs.csv has no header ({e})")))?
@@ -247,15 +276,29 @@ pub fn merge(dirs: &[PathBuf]) -> Result<Merged> {
             .into());
         }
     }
-    let missing: Vec<String> = (0..n)
-        .filter(|i| !seen.contains_key(i))
-        .map(|i| format!("{i}/{n}"))
-        .collect();
-    if !missing.is_empty() {
+    // The missing shards, counted without walking 0..N (N is read from a file): the first few
+    // named, the rest counted.
+    let n_missing = n - seen.len() as u64;
+    if n_missing > 0 {
+        const SHOWN: usize = 3;
+        let mut first_missing = Vec::with_capacity(SHOWN);
+        let mut i = 0u64;
+        while first_missing.len() < SHOWN && i < n {
+            if !seen.contains_key(&i) {
+                first_missing.push(format!("{i}/{n}"));
+            }
+            i += 1;
+        }
+        let rest = n_missing - first_missing.len() as u64;
         return Err(BadInput::msg(format!(
-            "shard{} {} missing (every shard 0/{n} … {}/{n} is needed)",
-            if missing.len() == 1 { " is" } else { "s are" },
-            missing.join(", "),
+            "{n_missing} shard{} missing: {}{} (every shard 0/{n} … {}/{n} is needed)",
+            if n_missing == 1 { " is" } else { "s are" },
+            first_missing.join(", "),
+            if rest > 0 {
+                format!(", … (and {rest} more)")
+            } else {
+                String::new()
+            },
             n - 1
         ))
         .into());

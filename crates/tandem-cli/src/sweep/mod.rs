@@ -353,6 +353,15 @@ pub fn check_field(
     v: &Value,
     known: &[String],
 ) -> Result<Table, String> {
+    // A scenario's field paths are short; a huge one is refused before it is parsed or
+    // compared with every known path (which takes minutes for a 10 MB key).
+    const MAX_PATH_CHARS: usize = 256;
+    if path.chars().count() > MAX_PATH_CHARS {
+        return Err(format!(
+            "`{}` is not a field of the scenario (a field path has at most {MAX_PATH_CHARS} characters)",
+            scenario::echo(path)
+        ));
+    }
     let mut d = doc.clone();
     fields::set(&mut d, path, v.clone())?;
     check_doc(&d, base, display).map_err(|e| {
@@ -363,11 +372,86 @@ pub fn check_field(
             }
             m
         } else {
-            format!("the scenario rejects {path} = {}: {e}", cell(v))
+            format!(
+                "the scenario rejects {path} = {}: {e}",
+                scenario::echo(&cell(v))
+            )
         };
         m.replace("  ", " ")
     })?;
     Ok(d)
+}
+
+/// `n` runs in words: the exact count, and its power of ten when large (`1000000000 (10^9)`).
+fn count_text(n: u128) -> String {
+    if n >= 100_000 {
+        let e = n.ilog10();
+        if 10u128.pow(e) == n {
+            format!("{n} (10^{e})")
+        } else {
+            format!("{n} (about 10^{e})")
+        }
+    } else {
+        n.to_string()
+    }
+}
+
+/// Why a sweep file's run count is refused, from its `[vary]` and `runs` alone (the grid
+/// product times the random draws, overflow detected): `None` when it is at most
+/// [`MAX_RUNS`], or when the file is malformed (the full check reports that).
+fn count_refusal(top: &Table) -> Option<String> {
+    let vary = top.get("vary")?.as_table()?;
+    let mut grids: Vec<u64> = Vec::new();
+    let mut random = false;
+    for spec in vary.values() {
+        let Some((kind, arg)) = spec
+            .as_table()
+            .filter(|t| t.len() == 1)
+            .and_then(|t| t.iter().next())
+        else {
+            continue;
+        };
+        match (kind.as_str(), arg) {
+            ("grid", Value::Array(a)) => grids.push(a.len() as u64),
+            ("grid", _) => {}
+            _ => random = true,
+        }
+    }
+    let draws = match top.get("runs") {
+        Some(Value::Integer(i)) if random && *i >= 1 => *i as u64,
+        _ => 1,
+    };
+    let factors: Vec<u64> = grids
+        .iter()
+        .copied()
+        .chain((draws > 1).then_some(draws))
+        .collect();
+    let exact = factors
+        .iter()
+        .try_fold(1u128, |a, &n| a.checked_mul(u128::from(n)));
+    if exact.is_some_and(|n| n <= u128::from(MAX_RUNS)) {
+        return None;
+    }
+    let count = match exact {
+        Some(n) => count_text(n),
+        None => format!(
+            "about 10^{:.0}",
+            factors.iter().map(|&n| (n as f64).log10()).sum::<f64>()
+        ),
+    };
+    let product = factors
+        .iter()
+        .map(u64::to_string)
+        .collect::<Vec<_>>()
+        .join(" × ");
+    Some(format!(
+        "{count} runs ({product}{}): at most {MAX_RUNS} are supported (nothing was set up or run)",
+        if draws > 1 {
+            ", grid points × random draws"
+        } else {
+            ""
+        }
+    ))
 }
 
 impl Sweep {
@@ -425,6 +509,11 @@ impl Sweep {
                 }
                 return Err(cx.err(&[k], m));
             }
+        }
+        // The run count first, before any set-up (the base is read, every value checked):
+        // a grid of 10^9 runs is refused at once, with its true count.
+        if let Some(m) = count_refusal(&top) {
+            return Err(cx.err(&["vary"], m));
         }
         // The base scenario.
         let base_name = match top.get("base") {
@@ -662,6 +751,38 @@ impl Sweep {
         })
     }
 
+    /// The inputs of the sweep, for [`crate::output::check_replaceable`]: the sweep file
+    /// (`file`), the base scenario file, every file the base (with `[set]`) names, and every
+    /// file a `[vary]` grid or choice names (`arms[0].urdf`, `controller.replay`).
+    pub fn inputs(&self, file: Option<&Path>) -> Vec<crate::output::Input> {
+        use crate::output::Input;
+        let mut v: Vec<Input> = file
+            .map(|f| Input::new("the sweep file", f))
+            .into_iter()
+            .collect();
+        v.extend(
+            self.base
+                .file
+                .iter()
+                .map(|f| Input::new("the sweep's base scenario", f)),
+        );
+        v.extend(scenario::named_files(&self.base, &self.doc, "the base's "));
+        for p in &self.params {
+            let last = p.path.rsplit(['.', ']']).next().unwrap_or("");
+            if let (true, Dist::Grid(vals) | Dist::Choice(vals)) =
+                (last == "urdf" || last == "replay", &p.dist)
+            {
+                for x in vals.iter().filter_map(Value::as_str) {
+                    v.push(Input::new(
+                        format!("vary.{}", p.path),
+                        scenario::resolve_named(&self.base, x),
+                    ));
+                }
+            }
+        }
+        v
+    }
+
     /// The seed of run `index`: from (sweep seed, index) only.
     pub fn run_seed(&self, index: u64) -> u64 {
         splitmix64(splitmix64(self.seed) ^ splitmix64(index.wrapping_add(0x5eed)))
@@ -792,6 +913,11 @@ impl Shard {
     pub fn new(index: u64, count: u64) -> Result<Shard, String> {
         if count == 0 {
             return Err("N must be at least 1".into());
+        }
+        if count > MAX_RUNS {
+            return Err(format!(
+                "N = {count}: at most {MAX_RUNS} shards (a sweep has at most {MAX_RUNS} runs)"
+            ));
         }
         if index >= count {
             return Err(format!(

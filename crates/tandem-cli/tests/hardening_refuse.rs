@@ -1,0 +1,78 @@
+//! Issue 22, "Refuse what cannot be run" (the command line's part): a spatial file's
+//! `metrics.transient = -1` is refused as the planar loader refuses it, and `merge` recomputes a
+//! shard's hash from its `sweep` section instead of trusting the stored one.
+
+use std::fs;
+
+mod support;
+use support::*;
+
+#[test]
+fn a_negative_transient_is_refused_for_spatial_files_as_for_planar_ones() {
+    let d = scratch("transient");
+    for (preset, from) in [("dual-ur5", "transient = 2.0"), ("paper", "transient = ")] {
+        let o = tandem(&d, &["scenario", "show", preset]);
+        ok(&o);
+        let text = stdout(&o);
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(from))
+            .unwrap_or_else(|| panic!("{preset} has no `{from}`"))
+            .to_string();
+        fs::write(d.join("t.toml"), text.replacen(&line, "transient = -1", 1)).expect("write");
+        let o = tandem(&d, &["validate", "t.toml"]);
+        exit(&o, 2);
+        assert!(
+            stderr(&o).contains("metrics.transient = -1: must be finite and >= 0"),
+            "{preset}: {}",
+            stderr(&o)
+        );
+    }
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn merge_recomputes_the_hash_from_the_sweep_section() {
+    let d = scratch("hash");
+    fs::write(
+        d.join("sw.toml"),
+        "base = \"paper\"\nduration = 0.2\nseed = 5\n[set]\n\"controller.kind\" = \"pd\"\n[vary]\n\"object.mass\" = { grid = [1.0, 1.1] }\n",
+    )
+    .expect("write");
+    for (s, out) in [("0/2", "A"), ("1/2", "B")] {
+        ok(&tandem(
+            &d,
+            &[
+                "sweep",
+                "sw.toml",
+                "--shard",
+                s,
+                "--out",
+                out,
+                "--no-figures",
+            ],
+        ));
+    }
+    ok(&tandem(
+        &d,
+        &["merge", "A", "B", "--out", "m", "--no-figures"],
+    ));
+    // Both shards' `sweep` sections edited alike (their stored hashes still agree): another
+    // sweep than the one that ran, refused.
+    for s in ["A", "B"] {
+        let p = d.join(s).join("sweep.json");
+        let text = fs::read_to_string(&p).expect("read");
+        let edited = text.replacen("\"seed\": 5", "\"seed\": 6", 1);
+        assert_ne!(edited, text, "sweep.json records the seed");
+        fs::write(&p, edited).expect("write");
+    }
+    let o = tandem(&d, &["merge", "A", "B", "--out", "m2", "--no-figures"]);
+    exit(&o, 2);
+    assert!(
+        stderr(&o).contains("does not match its `sweep` section"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!d.join("m2").exists());
+    let _ = fs::remove_dir_all(&d);
+}
