@@ -539,7 +539,7 @@ impl Spatial {
 /// A bad `TANDEM_KERNEL` is bad input for every run, planar or spatial, NN or not (as the
 /// command line refuses it before anything is read), not only for those that build a network.
 fn check_kernel() -> Res<()> {
-    tandem::rbf::Kernel::from_env()
+    tandem::control::rbf::Kernel::from_env()
         .map(|_| ())
         .map_err(|e| bad(None, format!("environment variable {e}")))
 }

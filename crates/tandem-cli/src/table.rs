@@ -122,7 +122,7 @@ pub fn rows(runs: &[(&str, &Summary)]) -> Vec<(String, Vec<String>)> {
         )
     });
     if runs.iter().any(|(_, s)| s.controller == "nn") {
-        row("‖Ŵ_j‖ within ±10 % of its final value from (x, y, θ)", &|s| {
+        row("‖Ŵ_j‖ within ±10 % of final from (x, y, θ)", &|s| {
             if s.controller != "nn" {
                 return "—".into();
             }

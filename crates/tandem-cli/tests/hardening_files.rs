@@ -126,7 +126,7 @@ fn planar(p: &Path) {
 fn spatial(p: &Path, urdf_abs: &Path) {
     fs::create_dir_all(p.parent().expect("parent")).expect("mkdir");
     fs::create_dir_all(urdf_abs.parent().expect("parent")).expect("mkdir");
-    fs::write(urdf_abs, tandem::model::urdf::UR5_URDF).expect("write urdf");
+    fs::write(urdf_abs, tandem::model::spatial::urdf::UR5_URDF).expect("write urdf");
     let text = fixture().spatial.replace(
         "\nmodel = \"ur5\"",
         &format!(
