@@ -151,6 +151,11 @@ struct RunArgs {
     /// tick: a log at another rate). Overrides controller.replay_interpolation.
     #[arg(long, value_enum, value_name = "MODE")]
     replay_interpolation: Option<replay::Interpolation>,
+    /// Column names of a replayed log from another tool: the time column, then one torque
+    /// column per joint in the plant's order (e.g. `stamp,j1_effort,j2_effort,...`). Overrides
+    /// controller.replay_columns.
+    #[arg(long, value_name = "TIME,TAU1,...", value_delimiter = ',')]
+    replay_columns: Option<Vec<String>>,
     #[command(flatten)]
     common: Common,
 }
@@ -350,6 +355,7 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
         replay: a.replay.clone(),
         seed: a.common.seed,
         replay_interpolation: a.replay_interpolation,
+        replay_columns: a.replay_columns.clone(),
     };
     let (src, sc) = load(a.scenario.as_deref(), &o)?;
     let kind = sc.controller.kind;
@@ -413,6 +419,7 @@ fn spatial_overrides(
     common: &Common,
     replay: Option<PathBuf>,
     replay_interpolation: Option<replay::Interpolation>,
+    replay_columns: Option<Vec<String>>,
 ) -> Result<spatial::SpatialOverrides> {
     use spatial::scenario::SpatialKind;
     if gains.is_some() {
@@ -433,6 +440,7 @@ fn spatial_overrides(
         seed: common.seed,
         replay,
         replay_interpolation,
+        replay_columns,
     })
 }
 
@@ -456,6 +464,7 @@ fn cmd_run_spatial(a: RunArgs, src: Source) -> Result<ExitCode> {
         &a.common,
         a.replay.clone(),
         a.replay_interpolation,
+        a.replay_columns.clone(),
     )?;
     let (src, sc) = load_spatial(src, &o)?;
     let slug = spatial::slug(&spatial::label(&sc));
@@ -502,7 +511,7 @@ const COMPARED: [(ControllerKind, Option<GainPreset>, &str); 4] = [
 fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
     let first = scenario::resolve(a.scenario.as_deref())?;
     if spatial::scenario::is_spatial(&first.text) {
-        let o = spatial_overrides(None, None, &a.common, None, None)?;
+        let o = spatial_overrides(None, None, &a.common, None, None, None)?;
         let (src, sc) = load_spatial(first, &o)?;
         let out_dir = a
             .common

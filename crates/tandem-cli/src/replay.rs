@@ -8,6 +8,11 @@
 //!   `tau1`, `tau2`, …. A missing, duplicate or extra joint column is an error naming it.
 //!   Every other column is ignored.
 //!
+//! A log from another tool names its columns otherwise (`stamp`, `joint_3_effort`,
+//! `tau_arm1_q1`): a column map (`controller.replay_columns = ["stamp", "j1", …]`, or
+//! `--replay-columns stamp,j1,…`) names the time column first and then one torque column per
+//! joint, in the plant's joint order; a name the header lacks is an error that lists the header.
+//!
 //! Time stamps are snapped to the control grid `k h` when within [`SNAP`] of a tick (a log
 //! written by an accumulated clock, `0.0010000000000000002`, replays on its tick, not one tick
 //! late). Rows must be strictly increasing; a run's log (the `tau_q` layout) must also be evenly
@@ -74,18 +79,66 @@ pub struct Timing {
 /// read (a FIFO or `/dev/zero` is refused at once).
 pub const MAX_REPLAY_BYTES: u64 = 256 << 20;
 
-/// Read a torque file for a plant with `n_q` joints.
-pub fn load(path: &Path, n_q: usize, timing: Timing, mode: Interpolation) -> Result<Replay> {
-    let file = crate::scenario::open_limited(path, MAX_REPLAY_BYTES)
-        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(file);
-    let headers = rdr.headers().context("cannot read the header row")?.clone();
-    let names: Vec<&str> = headers.iter().map(bare).collect();
-    let show = |n: &str| crate::scenario::clip(n, 40);
+/// What a message about a header that tandem's names do not match suggests.
+const MAP_HINT: &str = "for a log with other names, map them with controller.replay_columns = \
+     [time, joint 1, joint 2, …] (or --replay-columns time,j1,j2,…)";
 
+/// The header, for messages: at most 24 cells, each clipped, with the count.
+fn header_list(names: &[&str]) -> String {
+    let mut s = names
+        .iter()
+        .take(24)
+        .map(|n| format!("`{}`", crate::scenario::clip(n, 40)))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if names.len() > 24 {
+        s.push_str(&format!(", … ({} columns)", names.len()));
+    }
+    s
+}
+
+/// The header cells of the column map `columns` (time first, then one per joint), or an error
+/// naming the entry the header lacks (or holds twice) and listing the header.
+fn mapped(names: &[&str], columns: &[String], n_q: usize) -> Result<(usize, Vec<usize>)> {
+    if columns.len() != n_q + 1 {
+        bail!(
+            "replay_columns has {} names; it needs {} (the time column, then one torque column per joint: the plant has {n_q} joints)",
+            columns.len(),
+            n_q + 1
+        );
+    }
+    let mut cells = Vec::with_capacity(columns.len());
+    for (k, want) in columns.iter().enumerate() {
+        let what = if k == 0 {
+            "the time column".to_string()
+        } else {
+            format!("joint {k}'s torque")
+        };
+        let hits: Vec<usize> = (0..names.len())
+            .filter(|&c| names[c] == bare(want))
+            .collect();
+        match hits.as_slice() {
+            [c] => cells.push(*c),
+            [] => bail!(
+                "replay_columns[{k}] = `{}` ({what}) is not in the file's header: {}",
+                crate::scenario::clip(want, 40),
+                header_list(names)
+            ),
+            [a, b, ..] => bail!(
+                "replay_columns[{k}] = `{}` ({what}) names header cells {} and {}",
+                crate::scenario::clip(want, 40),
+                a + 1,
+                b + 1
+            ),
+        }
+    }
+    Ok((cells[0], cells[1..].to_vec()))
+}
+
+/// The time and torque columns by tandem's names (`t`/`time`; `tau_q1…` of a run's log, or
+/// `tau1…`), and whether the file is a run's log (evenly spaced rows).
+fn by_name(names: &[&str], n_q: usize) -> Result<(usize, Vec<usize>, bool)> {
+    let show = |n: &str| crate::scenario::clip(n, 40);
     // The time column: exactly one.
     let t_cols: Vec<usize> = (0..names.len())
         .filter(|&c| names[c].eq_ignore_ascii_case("t") || names[c].eq_ignore_ascii_case("time"))
@@ -93,13 +146,8 @@ pub fn load(path: &Path, n_q: usize, timing: Timing, mode: Interpolation) -> Res
     let t_col = match t_cols.as_slice() {
         [c] => *c,
         [] => bail!(
-            "no time column: the header needs `t` (or `t [s]`), found {}",
-            names
-                .iter()
-                .take(12)
-                .map(|n| format!("`{}`", show(n)))
-                .collect::<Vec<_>>()
-                .join(", ")
+            "no time column: the header needs `t` (or `t [s]`), found {}; {MAP_HINT}",
+            header_list(names)
         ),
         [a, b, ..] => bail!(
             "duplicate time column: header cells {} and {} are both `{}`",
@@ -135,11 +183,41 @@ pub fn load(path: &Path, n_q: usize, timing: Timing, mode: Interpolation) -> Res
     if let Some(k) = (1..=n_q).find(|k| !by_joint.contains_key(k)) {
         bail!(
             "missing torque column `{prefix}{k}`: the plant has {n_q} joints, so the file needs \
-             {prefix}1..{prefix}{n_q} (found {} torque column(s))",
-            by_joint.len()
+             {prefix}1..{prefix}{n_q} (found {} torque column(s)); the file's header: {}; {MAP_HINT}",
+            by_joint.len(),
+            header_list(names)
         );
     }
     let cols: Vec<usize> = (1..=n_q).map(|k| by_joint[&k]).collect();
+    Ok((t_col, cols, log_layout))
+}
+
+/// Read a torque file for a plant with `n_q` joints; `columns` is the column map (time first,
+/// then one per joint), or `None` for tandem's own names.
+pub fn load(
+    path: &Path,
+    n_q: usize,
+    timing: Timing,
+    mode: Interpolation,
+    columns: Option<&[String]>,
+) -> Result<Replay> {
+    let file = crate::scenario::open_limited(path, MAX_REPLAY_BYTES)
+        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .comment(Some(b'#'))
+        .from_reader(file);
+    let headers = rdr.headers().context("cannot read the header row")?.clone();
+    let names: Vec<&str> = headers.iter().map(bare).collect();
+    let show = |n: &str| crate::scenario::clip(n, 40);
+
+    let (t_col, cols, log_layout) = match columns {
+        Some(map) => {
+            let (t, c) = mapped(&names, map, n_q)?;
+            (t, c, false)
+        }
+        None => by_name(&names, n_q)?,
+    };
 
     // Rows, up to the first one past the end of the run.
     let h = timing.control_period;
@@ -279,17 +357,17 @@ mod tests {
     #[test]
     fn reads_plain_and_timeseries_layouts() {
         let p = write("plain.csv", "t,tau2,tau1\n0,2,1\n0.5,4,3\n");
-        let mut r = load(&p, 2, MS, Interpolation::Hold).expect("plain");
+        let mut r = load(&p, 2, MS, Interpolation::Hold, None).expect("plain");
         assert_eq!(r.at(0.7), &[3.0, 4.0]);
         let p = write(
             "ts.csv",
             "t [s],x_o.x [m],tau_q2 [N m],tau_q1 [N m]\n0,9,2,1\n1,9,4,3\n",
         );
-        let mut r = load(&p, 2, MS, Interpolation::Hold).expect("timeseries");
+        let mut r = load(&p, 2, MS, Interpolation::Hold, None).expect("timeseries");
         assert_eq!(r.at(0.0), &[1.0, 2.0]);
         assert_eq!(r.at(1.5), &[3.0, 4.0]);
         let p = write("bom.csv", "\u{feff}t,tau1,tau2\n0,1,2\n");
-        assert!(load(&p, 2, MS, Interpolation::Hold).is_ok());
+        assert!(load(&p, 2, MS, Interpolation::Hold, None).is_ok());
     }
 
     #[test]
@@ -298,7 +376,7 @@ mod tests {
             let p = write("bad.csv", text);
             format!(
                 "{:#}",
-                load(&p, 2, MS, Interpolation::Hold).expect_err(text)
+                load(&p, 2, MS, Interpolation::Hold, None).expect_err(text)
             )
         };
         assert!(e("t,tau1\n0,1\n").contains("missing torque column `tau2`"));
@@ -330,6 +408,7 @@ mod tests {
                 duration: 3.0,
             },
             Interpolation::Hold,
+            None,
         )
         .expect("snapped");
         for k in [1usize, 7, 1000, 2999] {
@@ -340,14 +419,14 @@ mod tests {
     #[test]
     fn linear_interpolates_a_log_at_another_rate() {
         let p = write("coarse.csv", "t,tau1\n0,0\n0.01,1\n0.02,3\n");
-        let mut r = load(&p, 1, MS, Interpolation::Linear).expect("linear");
+        let mut r = load(&p, 1, MS, Interpolation::Linear, None).expect("linear");
         assert_eq!(r.at(0.0), &[0.0]);
         assert!((r.at(0.004)[0] - 0.4).abs() < 1e-12);
         assert!((r.at(0.015)[0] - 2.0).abs() < 1e-12);
         assert_eq!(r.at(0.5), &[3.0]);
         // Off-grid rows are fine when interpolating.
         let p = write("off.csv", "t,tau1\n0,0\n0.0005,1\n0.0025,3\n");
-        let mut r = load(&p, 1, MS, Interpolation::Linear).expect("linear");
+        let mut r = load(&p, 1, MS, Interpolation::Linear, None).expect("linear");
         assert!((r.at(0.001)[0] - 1.5).abs() < 1e-12);
     }
 }

@@ -858,6 +858,11 @@ pub struct ControllerConfig {
     /// the control grid) or `linear` (a log at another rate).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub replay_interpolation: Option<crate::replay::Interpolation>,
+    /// Column map of a replayed log from another tool: the time column's name, then one
+    /// torque column per joint in the plant's joint order (default: tandem's names, `t` and
+    /// `tau_q1…`/`tau1…`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replay_columns: Option<Vec<String>>,
 }
 
 /// A value given once for both axes, or as `[x, y]`.
@@ -1500,6 +1505,8 @@ pub struct Overrides {
     pub seed: Option<u64>,
     /// `--replay-interpolation`.
     pub replay_interpolation: Option<crate::replay::Interpolation>,
+    /// `--replay-columns`.
+    pub replay_columns: Option<Vec<String>>,
 }
 
 impl Scenario {
@@ -1549,6 +1556,15 @@ impl Scenario {
                 )));
             }
             self.controller.replay_interpolation = Some(i);
+        }
+        if let Some(c) = &o.replay_columns {
+            if self.controller.kind != ControllerKind::Replay {
+                return Err(crate::BadInput::msg(format!(
+                    "--replay-columns is for a replay (--replay FILE), not the {} controller",
+                    self.controller.kind.name()
+                )));
+            }
+            self.controller.replay_columns = Some(c.clone());
         }
         Ok(())
     }
@@ -1741,12 +1757,13 @@ pub(crate) fn load_replay(
     n_q: usize,
     sim: &SimParams,
     mode: Option<crate::replay::Interpolation>,
+    columns: Option<&[String]>,
 ) -> Result<Replay, ScenarioError> {
     let timing = crate::replay::Timing {
         control_period: sim.control_period,
         duration: sim.duration,
     };
-    crate::replay::load(file, n_q, timing, mode.unwrap_or_default()).map_err(|e| {
+    crate::replay::load(file, n_q, timing, mode.unwrap_or_default(), columns).map_err(|e| {
         let message = format!(
             "controller.replay (or --replay) = {}: {e:#}",
             file.display()
@@ -2150,7 +2167,8 @@ pub fn make_simulation(sc: &Scenario, b: &Built, src: &Source) -> Result<Ready, 
             let file = b.replay.as_deref().unwrap_or(FsPath::new(""));
             let n_q: usize = b.plant.arms.iter().map(|a| a.links.len()).sum();
             let mode = sc.controller.replay_interpolation;
-            let replay = load_replay(src, file, n_q, &b.sim, mode)?;
+            let columns = sc.controller.replay_columns.as_deref();
+            let replay = load_replay(src, file, n_q, &b.sim, mode, columns)?;
             Driver::Replay(replay)
         }
     };

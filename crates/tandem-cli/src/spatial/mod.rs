@@ -33,6 +33,8 @@ pub struct SpatialOverrides {
     pub replay: Option<PathBuf>,
     /// `--replay-interpolation`.
     pub replay_interpolation: Option<crate::replay::Interpolation>,
+    /// `--replay-columns`.
+    pub replay_columns: Option<Vec<String>>,
 }
 
 /// Parse a spatial scenario and apply the command line's overrides.
@@ -55,6 +57,9 @@ pub fn load(src: &Source, o: &SpatialOverrides) -> Result<SpatialScenario, Scena
     }
     if let Some(m) = o.replay_interpolation {
         sc.controller.replay_interpolation = Some(m);
+    }
+    if let Some(c) = &o.replay_columns {
+        sc.controller.replay_columns = Some(c.clone());
     }
     Ok(sc)
 }

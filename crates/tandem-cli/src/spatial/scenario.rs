@@ -508,6 +508,10 @@ pub struct ControllerConfig {
     /// `hold` (default) or `linear` between the replayed rows.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub replay_interpolation: Option<crate::replay::Interpolation>,
+    /// Column map of a replayed log from another tool (as planar: the time column, then one
+    /// torque column per joint).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replay_columns: Option<Vec<String>>,
 }
 
 fn default_squeeze() -> f64 {
@@ -1765,7 +1769,8 @@ pub fn make_simulation(
         Some(file) => {
             let n_q: usize = dofs.iter().sum();
             let mode = sc.controller.replay_interpolation;
-            let replay = load_replay(src, file, n_q, &b.sim, mode)?;
+            let columns = sc.controller.replay_columns.as_deref();
+            let replay = load_replay(src, file, n_q, &b.sim, mode, columns)?;
             path_inertia = None;
             let sim = simulation(plant, b, replay).map_err(start_error)?;
             (SpatialSim::Replay(sim), None)
