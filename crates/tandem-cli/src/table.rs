@@ -1,6 +1,6 @@
 //! Summary tables: one column per run, as aligned text for the terminal and as Markdown.
 
-use tandem::report::metrics::Summary;
+use tandem::report::planar::Summary;
 
 /// `v` with `sig` significant digits, plain notation for 1e-3 ≤ |v| < 1e6, else exponent form.
 pub fn num(v: f64, sig: usize) -> String {
