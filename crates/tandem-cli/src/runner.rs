@@ -6,7 +6,7 @@ use std::time::Instant;
 use anyhow::Result;
 use serde_json::{Value, json};
 use tandem::report;
-use tandem::report::metrics::Summary;
+use tandem::report::planar::Summary;
 use tandem::sim::{Log, Outcome};
 
 use crate::anim::{self, AnimOptions};
@@ -71,8 +71,9 @@ pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Finished {
     if sc.controller.kind == ControllerKind::Replay {
         fill_replay_columns(&mut outcome.log, &built, sc.k_c());
     }
-    let summary = report::metrics::summarize(
+    let summary = report::planar::summarize_with_path(
         &outcome,
+        &built.path,
         sc.controller.kind.name(),
         &sc.gains_label(),
         sc.k_c(),
@@ -213,6 +214,14 @@ pub fn unavailable(f: &Finished) -> Vec<(&'static str, String)> {
         "rms_z1_after",
         "max_z1_after",
         "max_z1_theta_after",
+        "rms_path_error",
+        "max_path_error",
+        "rms_path_error_after",
+        "max_path_error_after",
+        "rms_path_error_theta",
+        "max_path_error_theta",
+        "rms_path_error_theta_after",
+        "max_path_error_theta_after",
         "settling_time_1mm",
         "rms_wrench",
         "peak_wrench",
@@ -240,7 +249,15 @@ pub fn unavailable(f: &Finished) -> Vec<(&'static str, String)> {
             crate::table::num(last, 4),
             crate::table::num(s.transient, 4)
         );
-        for k in ["rms_z1_after", "max_z1_after", "max_z1_theta_after"] {
+        for k in [
+            "rms_z1_after",
+            "max_z1_after",
+            "max_z1_theta_after",
+            "rms_path_error_after",
+            "max_path_error_after",
+            "rms_path_error_theta_after",
+            "max_path_error_theta_after",
+        ] {
             v.push((k, why.clone()));
         }
     }

@@ -1,6 +1,6 @@
 //! Summary tables: one column per run, as aligned text for the terminal and as Markdown.
 
-use tandem::report::metrics::Summary;
+use tandem::report::planar::Summary;
 
 /// `v` with `sig` significant digits, plain notation for 1e-3 ≤ |v| < 1e6, else exponent form.
 pub fn num(v: f64, sig: usize) -> String {
@@ -83,6 +83,21 @@ pub fn rows(runs: &[(&str, &Summary)]) -> Vec<(String, Vec<String>)> {
         }
         format!("{} mrad", num(s.max_z1_theta_after * 1e3, 3))
     });
+    // The true pose against the desired path (every driver; z1 is against x_r).
+    row(
+        &format!("max ‖(x_o − x_d)_xy‖, {after}"),
+        &|s| match s.max_path_error_after {
+            Some(p) if after_ok(s) => format!("{} mm", num(p * 1e3, 3)),
+            _ => "—".into(),
+        },
+    );
+    row(
+        &format!("max |θ_o − θ_d|, {after}"),
+        &|s| match s.max_path_error_theta_after {
+            Some(t) if after_ok(s) => format!("{} mrad", num(t * 1e3, 3)),
+            _ => "—".into(),
+        },
+    );
     row("settling to ‖z1_xy‖ < 1 mm", &|s| {
         opt_s(s.settling_time_1mm)
     });

@@ -21,7 +21,7 @@
 //! | control laws (22)–(44) | [`control`] ([`control::Scheme`], [`control::ControlWarning`]) | [`control::law`]: [`control::law::iblf`] (22)–(35), [`control::law::switching`] (38)–(40), [`control::law::adaptive`] (36)–(44), [`control::law::pd`], [`control::law::ctc`] (both); [`control::planar`] (the planar controller) | [`control::spatial`]: [`control::spatial::chart`], [`control::spatial::model`], [`control::spatial::bound`], [`control::spatial::distribute`], [`control::spatial::params`] |
 //! | RBF network (36)–(37), weight update (44) | [`control::rbf`] | [`control::rbf::basis`], [`control::rbf::network`], `batched.rs`, `factors.rs`, [`control::rbf::structured`] (24 inputs); [`control::rbf::kernels`] (CPU detection, `avx2.rs`, `avx512.rs`) (both) | same |
 //! | simulation (SPEC §2.4, §2.5, §3, §5) | [`sim`] (one loop, [`sim::Simulation`]) | [`sim::driver`] (the CLI's planar [`sim::Driver`]) | the same loop; [`sim::sensors`], [`sim::faults`], [`sim::log`], [`sim::replay`] (both) |
-//! | run metrics (SPEC §5) | [`report`] | [`report::metrics`] | — (in the CLI for now) |
+//! | run metrics (SPEC §5), for any driver; the true pose to the desired path | [`report`] | [`report::planar`] | [`report::spatial`] |
 //! | ready-made set-ups | [`presets`] | [`presets::planar`] ([`presets::paper`], ...) | [`presets::spatial`] ([`presets::dual_ur5`], ...) |
 //!
 //! **Imports go one way.** The layers, bottom to top: [`math`] → [`geometry`] → [`model`] →
@@ -45,8 +45,9 @@
 //! * The sensor noise streams are in [`math::random`] (crate-internal), the sensor model in
 //!   [`sim::sensors`]; the planar [`sim::Driver`] enum wraps a controller or a replay, so it
 //!   sits in [`sim`] (`sim/driver.rs`), above [`control`].
-//! * [`report`] has only the planar metrics: the spatial summary is still computed in the CLI
-//!   (issue 26's "metrics for any run" is a later step).
+//! * [`report`] computes the summary of any run (tandem's laws, the replay, a user's own
+//!   [`drive::Drive`]) from the true pose, the desired path, the reference where the law logs
+//!   one, and the scenario's bounds; the CLI only turns it into `summary.json` and tables.
 //!
 //! **How planar and spatial share one loop: one trait, two implementations.** The two plants
 //! differ in more than a dimension: the spatial state lives on a manifold (a unit quaternion,

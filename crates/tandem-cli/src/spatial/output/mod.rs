@@ -7,27 +7,28 @@
 //! torque) are left out of the figures and written `null` in the summary, with the reason in its
 //! `unavailable` map.
 //!
-//! Metrics derived from the kinematics (the grasp wrenches in tool axes, the closest approach to
-//! a joint limit, the smallest singular value of each arm's tool Jacobian, the true pose in the
-//! output chart) are computed here on the **logged rows** (every log period, 10 ms for the
-//! presets), with `tandem::dynamics::spatial::kinematics` on the logged joint positions.
+//! The metrics are the library's ([`tandem::report::spatial`]: the summary, and the quantities
+//! derived from the kinematics on the **logged rows** — the grasp wrenches in tool axes, the
+//! closest approach to a joint limit, the smallest singular value of each arm's tool Jacobian,
+//! the true pose in the output chart and against the desired path); this folder turns them into
+//! files and tables.
 //!
-//! The files of this folder: `derived.rs` (the kinematics on the logged rows), `summary.rs`
-//! (`summary.json`), `timeseries.rs` (the CSV columns), `viewer.rs` (`viewer.html` and the
+//! The files of this folder: `summary.rs` (`summary.json` from the library's summary), `timeseries.rs` (the CSV columns), `viewer.rs` (`viewer.html` and the
 //! snapshots), `table.rs` (the terminal and Markdown tables) and `compare.rs` (the files of a
 //! comparison); [`write()`] writes one run's outputs.
 
 mod compare;
-mod derived;
 mod summary;
 mod table;
 mod timeseries;
 mod viewer;
 
 pub use compare::write_compare;
-pub use derived::{Closest, Derived, sigma_min};
-pub use summary::summary;
+pub use summary::{summary, summary_json};
 pub use table::{markdown, rows, text};
+pub use tandem::report::spatial::{
+    CLAIM_Z1_P, CLAIM_Z1_ROT, Closest, Derived, TRANSIENT, sigma_min,
+};
 pub use timeseries::write_timeseries;
 pub use viewer::VIEWER_FPS;
 
@@ -39,17 +40,10 @@ use serde_json::Value;
 use tandem::control::spatial::chart::Chart;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::reference::spatial::path::Se3Path;
-use tandem::sim::{Log, Outcome};
+use tandem::report::spatial::SpatialRun;
+use tandem::sim::Outcome;
 
 use crate::output::write_json_atomic;
-
-/// The SPEC-spatial S5 claims hold after this time, s (also the end of the zoomed transient in
-/// the figures).
-pub const TRANSIENT: f64 = 2.0;
-/// SPEC-spatial S5: `‖z1_p‖ < 1 mm` after the transient, m.
-pub const CLAIM_Z1_P: f64 = 1e-3;
-/// SPEC-spatial S5: `|z1_φ| < 1 mrad` after the transient, rad.
-pub const CLAIM_Z1_ROT: f64 = 1e-3;
 
 /// What a spatial run measured, and everything its outputs need.
 pub struct Finished {
@@ -83,21 +77,23 @@ impl Finished {
     }
 }
 
-pub(crate) use crate::figures::col;
-
-/// The six columns `group.{axes}`, if all exist with one value per row.
-pub(crate) fn six<'a>(log: &'a Log, group: &str, axes: &[&str; 6]) -> Option<[&'a [f64]; 6]> {
-    let n = log.len();
-    let mut out: [&[f64]; 6] = [&[]; 6];
-    for (o, a) in out.iter_mut().zip(axes) {
-        let c = log.get(&format!("{group}.{a}"))?;
-        if c.len() != n {
-            return None;
+/// What the library's summary is computed from: the run and the scenario's definitions (the
+/// spatial transient window is [`TRANSIENT`]).
+impl<'a> From<&'a Finished> for SpatialRun<'a> {
+    fn from(f: &'a Finished) -> Self {
+        SpatialRun {
+            outcome: &f.outcome,
+            plant: &f.plant,
+            path: &f.path,
+            chart: &f.chart,
+            k_c: f.k_c,
+            transient: TRANSIENT,
         }
-        *o = c;
     }
-    Some(out)
 }
+
+pub(crate) use crate::figures::col;
+pub(crate) use tandem::report::spatial::six;
 
 /// Times spent writing, s.
 #[derive(Clone, Copy, Debug, Default)]

@@ -63,6 +63,13 @@ pub fn rows(runs: &[(&str, &Value)]) -> Vec<(String, Vec<String>)> {
             _ => "—".into(),
         }
     });
+    // The true pose against the desired path (every driver; z1 is against x_r).
+    row("max ‖p_o − p_d‖ after 2 s", &|s| {
+        mm(&s["path_error_p_max_after_2s_m"])
+    });
+    row("max angle to R_d after 2 s", &|s| {
+        mrad(&s["path_error_rot_max_after_2s_rad"])
+    });
     row("min constraint margin", &|s| num(f(&s["min_margin"]), 3));
     row("bound violations (control ticks)", &|s| {
         s["violation_ticks"].to_string()

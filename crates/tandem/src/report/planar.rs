@@ -1,8 +1,20 @@
-//! Run metrics (SPEC §5) computed from a [`Log`]: no I/O here, the CLI writes them.
+//! The summary of a planar run (SPEC §5), computed from its [`Log`]: no I/O here, the CLI
+//! writes it (`summary.json`).
+//!
+//! Inputs: the true pose the plant logs (`x_o.*`), the law's tracking error `z1` where it logs
+//! one, the desired path, the scenario's bounds `k_c` and its transient. A driver whose record
+//! has no `z1` columns (a user's own [`crate::drive::Drive`]) is measured against the desired
+//! path: `z1 = x_o − x_d`, the same definition as the torque replay's.
+//!
+//! **Path error.** `z1 = x_1 − x_r` is measured against the admittance-shifted reference, so a
+//! wrong force-sensor convention (which moves `x_r` with the measured wrench) does not show in
+//! it. Every summary made with a path ([`summarize_with_path`]) also gives the distance of the
+//! true pose to the **desired** path, `‖(x_o − x_d)_xy‖` (m) and `|θ_o − θ_d|` (rad).
 
 use serde::Serialize;
 
 use crate::drive::ControlEvents;
+use crate::reference::planar::path::Path;
 use crate::sim::{Fault, Log, Outcome};
 
 /// The summary of one run (`summary.json`).
@@ -30,6 +42,24 @@ pub struct Summary {
     pub max_z1_after: f64,
     /// Max `|z1_θ|` after the transient, rad.
     pub max_z1_theta_after: f64,
+    /// RMS of `‖(x_o − x_d)_xy‖`, the true position to the desired path, over the whole run, m
+    /// (`None` without a path or logged rows; the `_after` ones also when no row is after the
+    /// transient).
+    pub rms_path_error: Option<f64>,
+    /// Max of `‖(x_o − x_d)_xy‖` over the whole run, m.
+    pub max_path_error: Option<f64>,
+    /// RMS of `‖(x_o − x_d)_xy‖` after the transient, m.
+    pub rms_path_error_after: Option<f64>,
+    /// Max of `‖(x_o − x_d)_xy‖` after the transient, m.
+    pub max_path_error_after: Option<f64>,
+    /// RMS of `|θ_o − θ_d|` over the whole run, rad.
+    pub rms_path_error_theta: Option<f64>,
+    /// Max of `|θ_o − θ_d|` over the whole run, rad.
+    pub max_path_error_theta: Option<f64>,
+    /// RMS of `|θ_o − θ_d|` after the transient, rad.
+    pub rms_path_error_theta_after: Option<f64>,
+    /// Max of `|θ_o − θ_d|` after the transient, rad.
+    pub max_path_error_theta_after: Option<f64>,
     /// First time after which `‖z1_xy‖ < 1 mm` for the rest of the run, s (`null` if never).
     pub settling_time_1mm: Option<f64>,
     /// Smallest constraint margin `1 − max_j |x_1j|/k_cj` of the true pose, over every control
@@ -68,10 +98,59 @@ fn col<'a>(log: &'a Log, name: &str) -> &'a [f64] {
     log.get(name).unwrap_or(&[])
 }
 
-/// Compute the summary of a run; `k_c` the output bounds, `transient` the start of the
-/// steady-state window (s).
+/// Compute the summary of a run without its desired path (no path-error metrics; the log must
+/// have `z1` columns for the tracking metrics, else they are NaN); `k_c` the output bounds,
+/// `transient` the start of the steady-state window (s).
 pub fn summarize(
     out: &Outcome,
+    controller: &str,
+    gains: &str,
+    k_c: [f64; 3],
+    transient: f64,
+    duration: f64,
+) -> Summary {
+    summarize_inner(out, None, controller, gains, k_c, transient, duration)
+}
+
+/// Compute the summary of a run against its desired `path`: everything [`summarize`] gives, the
+/// distance of the true pose to the path (`*_path_error*`), and, for a driver that logs no
+/// `z1` (a user's own `Drive`), the tracking metrics from `z1 = x_o − x_d`.
+pub fn summarize_with_path(
+    out: &Outcome,
+    path: &Path,
+    controller: &str,
+    gains: &str,
+    k_c: [f64; 3],
+    transient: f64,
+    duration: f64,
+) -> Summary {
+    summarize_inner(out, Some(path), controller, gains, k_c, transient, duration)
+}
+
+/// `(x_o − x_d)` per logged row, three columns (empty without the pose columns).
+fn to_path(log: &Log, t: &[f64], path: &Path) -> [Vec<f64>; 3] {
+    let n = t.len();
+    let xo = [col(log, "x_o.x"), col(log, "x_o.y"), col(log, "x_o.theta")];
+    if xo.iter().any(|c| c.len() != n) {
+        return [Vec::new(), Vec::new(), Vec::new()];
+    }
+    let mut e = [
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    ];
+    for (k, &tk) in t.iter().enumerate() {
+        let p = path.sample(tk).p;
+        for j in 0..3 {
+            e[j].push(xo[j][k] - p[j]);
+        }
+    }
+    e
+}
+
+fn summarize_inner(
+    out: &Outcome,
+    path: Option<&Path>,
     controller: &str,
     gains: &str,
     k_c: [f64; 3],
@@ -81,9 +160,17 @@ pub fn summarize(
     let log = &out.log;
     let t = col(log, "t");
     let n = t.len();
-    let zx = col(log, "z1.x");
-    let zy = col(log, "z1.y");
-    let zt = col(log, "z1.theta");
+    // The true pose against the desired path (empty without a path).
+    let ep = path.map(|p| to_path(log, t, p));
+    let has_z1 = ["z1.x", "z1.y", "z1.theta"]
+        .iter()
+        .all(|c| col(log, c).len() == n);
+    let nan = vec![f64::NAN; n];
+    let (zx, zy, zt) = match (&ep, has_z1) {
+        (_, true) => (col(log, "z1.x"), col(log, "z1.y"), col(log, "z1.theta")),
+        (Some(e), false) if e[0].len() == n => (&e[0][..], &e[1][..], &e[2][..]),
+        _ => (&nan[..], &nan[..], &nan[..]),
+    };
     let e: Vec<f64> = (0..n).map(|k| zx[k].hypot(zy[k])).collect();
     let rms = |v: &[f64]| {
         if v.is_empty() {
@@ -112,7 +199,20 @@ pub fn summarize(
         }
         min_margin = min_margin.min(m);
     }
-    let (wx, wy) = (col(log, "tau.x"), col(log, "tau.y"));
+    // Distance of the true pose to the desired path.
+    let (mut pe, mut pt) = (None, None);
+    if let Some(e) = ep.as_ref().filter(|e| e[0].len() == n) {
+        pe = Some((0..n).map(|k| e[0][k].hypot(e[1][k])).collect::<Vec<f64>>());
+        pt = Some(e[2].iter().map(|x| x.abs()).collect::<Vec<f64>>());
+    }
+    let stat = |v: &Option<Vec<f64>>, f: &dyn Fn(&[f64]) -> f64, from: usize| {
+        v.as_ref().filter(|v| from < v.len()).map(|v| f(&v[from..]))
+    };
+    // The commanded wrench (NaN, `null` in JSON, for a driver that logs none).
+    let (wx, wy) = match (col(log, "tau.x"), col(log, "tau.y")) {
+        (x, y) if x.len() == n && y.len() == n => (x, y),
+        _ => (&nan[..], &nan[..]),
+    };
     let w: Vec<f64> = (0..n).map(|k| wx[k].hypot(wy[k])).collect();
     let dw: Vec<f64> = (1..n)
         .map(|k| (wx[k] - wx[k - 1]).hypot(wy[k] - wy[k - 1]))
@@ -167,6 +267,14 @@ pub fn summarize(
         rms_z1_after: rms(&e[after..]),
         max_z1_after: maxabs(&e[after..]),
         max_z1_theta_after: maxabs(&zt[after.min(zt.len())..]),
+        rms_path_error: stat(&pe, &rms, 0),
+        max_path_error: stat(&pe, &maxabs, 0),
+        rms_path_error_after: stat(&pe, &rms, after),
+        max_path_error_after: stat(&pe, &maxabs, after),
+        rms_path_error_theta: stat(&pt, &rms, 0),
+        max_path_error_theta: stat(&pt, &maxabs, 0),
+        rms_path_error_theta_after: stat(&pt, &rms, after),
+        max_path_error_theta_after: stat(&pt, &maxabs, after),
         settling_time_1mm: if n == 0 { None } else { settling },
         min_margin: out.min_margin.map_or(min_margin, |m| m.min(min_margin)),
         violations: if out.min_margin.is_some() {
