@@ -613,7 +613,7 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
         }
     }
     let labels: Vec<String> = finished.iter().map(|(_, f)| f.label()).collect();
-    let cols: Vec<(&str, &tandem::report::metrics::Summary)> = finished
+    let cols: Vec<(&str, &tandem::report::planar::Summary)> = finished
         .iter()
         .zip(&labels)
         .map(|((_, f), l)| (l.as_str(), &f.summary))
@@ -663,7 +663,7 @@ fn report_md(
     src: &Source,
     base: &Scenario,
     finished: &[(&str, Finished)],
-    cols: &[(&str, &tandem::report::metrics::Summary)],
+    cols: &[(&str, &tandem::report::planar::Summary)],
     figures: &[String],
 ) -> String {
     let mut s = format!(

@@ -15,7 +15,7 @@ use tandem::control::rbf::NnUpdate;
 use tandem::control::rbf::structured::{NetworkStructure, StructuredNn, matched_theta};
 use tandem::model::disturbance::Disturbance;
 use tandem::presets;
-use tandem::report::metrics::summarize;
+use tandem::report::planar::summarize;
 use tandem::sim::SimParams;
 
 /// One row of the ablation.

@@ -40,9 +40,9 @@ fn main() {
         println!("warning: {w}");
     }
     let (out, _) = sim.run(|_| {});
-    let s = report::metrics::summarize(&out, &which, "", [0.35; 3], 5.0, dur);
+    let s = report::planar::summarize(&out, &which, "", [0.35; 3], 5.0, dur);
     println!("{}", serde_json_like(&s));
 }
-fn serde_json_like(s: &report::metrics::Summary) -> String {
+fn serde_json_like(s: &report::planar::Summary) -> String {
     format!("{s:#?}")
 }

@@ -10,7 +10,7 @@ use tandem::math::random::splitmix64;
 use tandem::model::disturbance::Disturbance;
 use tandem::presets;
 use tandem::reference::planar::path::Path;
-use tandem::report::metrics::{Summary, summarize};
+use tandem::report::planar::{Summary, summarize};
 use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, SimParams, Simulation};
 

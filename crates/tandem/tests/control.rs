@@ -11,7 +11,7 @@ use tandem::plant::planar::Plant;
 use tandem::presets;
 use tandem::reference::planar::admittance::AdmittanceParams;
 use tandem::reference::planar::path::Path;
-use tandem::report::metrics::{Summary, summarize};
+use tandem::report::planar::{Summary, summarize};
 use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Driver, Log, SimParams, Simulation};
 

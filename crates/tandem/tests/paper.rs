@@ -6,7 +6,7 @@ use tandem::control::law::pd::PdGains;
 use tandem::control::planar::{ControllerParams, LawParams};
 use tandem::model::disturbance::Disturbance;
 use tandem::presets;
-use tandem::report::metrics::{Summary, summarize};
+use tandem::report::planar::{Summary, summarize};
 use tandem::sim::{Log, SimParams};
 
 fn paper_run(law: LawParams) -> (Summary, Log) {

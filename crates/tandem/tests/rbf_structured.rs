@@ -18,7 +18,7 @@ use tandem::model::disturbance::Disturbance;
 use tandem::plant::planar::Plant;
 use tandem::presets;
 use tandem::reference::planar::path::Path;
-use tandem::report::metrics::{Summary, summarize};
+use tandem::report::planar::{Summary, summarize};
 use tandem::sim::SimParams;
 
 #[path = "support/counting.rs"]

@@ -6,7 +6,7 @@ use tandem::control::planar::{Controller, ControllerParams, LawParams};
 use tandem::model::disturbance::Disturbance;
 use tandem::presets;
 use tandem::reference::planar::path::Path;
-use tandem::report::metrics::summarize;
+use tandem::report::planar::summarize;
 use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, FaultKind, Formulation, Outcome, Replay, SimParams, Simulation};
 

@@ -13,6 +13,3 @@
 
 pub mod planar;
 pub mod spatial;
-
-/// The planar summary under its former name (`report::metrics::summarize`).
-pub use planar as metrics;
