@@ -1,6 +1,8 @@
 //! Issue 22, "Refuse what cannot be run" (the command line's part): a spatial file's
 //! `metrics.transient = -1` is refused as the planar loader refuses it, and `merge` recomputes a
-//! shard's hash from its `sweep` section instead of trusting the stored one.
+//! shard's hash from its `sweep` section instead of trusting the stored one; an object a million
+//! times heavier than its arms (a 1e308 kg box validated and then faulted at t = 0) is refused by
+//! its field and line, and a warning never prints a huge number as hundreds of digits.
 
 use std::fs;
 
@@ -74,5 +76,46 @@ fn merge_recomputes_the_hash_from_the_sweep_section() {
         stderr(&o)
     );
     assert!(!d.join("m2").exists());
+    let _ = fs::remove_dir_all(&d);
+}
+
+#[test]
+fn an_object_no_arm_can_carry_is_refused_by_its_field_and_line() {
+    let d = scratch("mass");
+    let o = tandem(&d, &["scenario", "show", "dual-ur5"]);
+    ok(&o);
+    let text = stdout(&o);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("mass = "))
+        .expect("dual-ur5 has an object mass")
+        .to_string();
+    let at = text.lines().position(|l| l == line).unwrap() + 1;
+    for (mass, refused) in [
+        ("1e308", true),
+        ("1e300", true),
+        ("5e7", true),
+        ("1e4", false),
+    ] {
+        fs::write(
+            d.join("m.toml"),
+            text.replacen(&line, &format!("mass = {mass}"), 1),
+        )
+        .unwrap();
+        let o = tandem(&d, &["validate", "m.toml"]);
+        let e = stderr(&o);
+        if refused {
+            exit(&o, 2);
+            assert!(
+                e.contains(&format!("object.mass = {mass}: must be at most 1e6 times the arms' total mass (33.988 kg)")),
+                "{mass}: {e}"
+            );
+            assert!(e.contains(&format!("(line {at}, column 8)")), "{mass}: {e}");
+        } else {
+            ok(&o);
+            // A heavy but carried box warns about the gains; no number in it runs to 300 digits.
+            assert!(e.lines().all(|l| l.len() < 600), "{e}");
+        }
+    }
     let _ = fs::remove_dir_all(&d);
 }

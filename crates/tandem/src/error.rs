@@ -66,3 +66,31 @@ pub fn non_negative(param: &str, value: f64) -> Result<f64, ModelError> {
         Err(ModelError::invalid(param, value, "must be finite and >= 0"))
     }
 }
+
+/// A number for a message with `decimals` places, switching to three significant digits with an
+/// exponent at and above 1e6 in size (`1.000e308`, never the hundreds of digits `{:.3}` prints
+/// for a huge value); non-finite values print as `inf`, `-inf`, `NaN`.
+pub fn fmt_fixed(v: f64, decimals: usize) -> String {
+    if v.is_finite() && v.abs() >= 1e6 {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.decimals$}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fmt_fixed;
+
+    #[test]
+    fn fmt_fixed_never_prints_hundreds_of_digits() {
+        assert_eq!(fmt_fixed(519.68, 0), "520");
+        assert_eq!(fmt_fixed(18.25, 3), "18.250");
+        assert_eq!(fmt_fixed(999_999.4, 1), "999999.4");
+        assert_eq!(fmt_fixed(1e308, 3), "1.000e308");
+        assert_eq!(fmt_fixed(-6.7e305, 2), "-6.700e305");
+        assert_eq!(fmt_fixed(f64::INFINITY, 3), "inf");
+        assert_eq!(fmt_fixed(f64::NAN, 0), "NaN");
+        assert!(fmt_fixed(f64::MAX, 3).len() < 12);
+    }
+}

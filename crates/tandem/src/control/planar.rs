@@ -471,8 +471,11 @@ impl Controller {
                         warnings.push(ControlWarning::Gain {
                             param: format!("gains.k2[{j}]"),
                             reason: format!(
-                                "K2 = {} is below 𝓜 K1 ≈ {:.0} (𝓜 up to {:.2} over the constraint box, K1 = {}): the linearised z2 loop needs roughly K2 > 𝓜 K1 (SPEC §3.4); expect a limit cycle (the paper's gains end in one)",
-                                g.k2[j], m_j * g.k1[j], m_j, g.k1[j]
+                                "K2 = {} is below 𝓜 K1 ≈ {} (𝓜 up to {} over the constraint box, K1 = {}): the linearised z2 loop needs roughly K2 > 𝓜 K1 (SPEC §3.4); expect a limit cycle (the paper's gains end in one)",
+                                g.k2[j],
+                                crate::error::fmt_fixed(m_j * g.k1[j], 0),
+                                crate::error::fmt_fixed(m_j, 2),
+                                g.k1[j]
                             ),
                         });
                     }

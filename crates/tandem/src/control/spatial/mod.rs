@@ -470,10 +470,10 @@ impl SpatialController {
                         warnings.push(ControlWarning::Gain {
                             param: format!("gains.k2[{j}]"),
                             reason: format!(
-                                "K2 = {} is below 𝓜 K1 ≈ {:.3} (𝓜_jj up to {:.3} along the path, K1 = {}): the linearised z2 loop needs roughly K2 > 𝓜 K1 (SPEC §3.4); expect a limit cycle",
+                                "K2 = {} is below 𝓜 K1 ≈ {} (𝓜_jj up to {} along the path, K1 = {}): the linearised z2 loop needs roughly K2 > 𝓜 K1 (SPEC §3.4); expect a limit cycle",
                                 g.k2[j],
-                                m_j * g.k1[j],
-                                m_j,
+                                crate::error::fmt_fixed(m_j * g.k1[j], 3),
+                                crate::error::fmt_fixed(m_j, 3),
                                 g.k1[j]
                             ),
                         });

@@ -91,6 +91,10 @@ pub enum GraspModel {
     },
 }
 
+/// Heaviest object the spatial plant accepts, as a multiple of the arms' total link mass (1e6:
+/// physically no arm carries that; numerically the closed chain still solves a 1e7 ratio).
+pub const MAX_OBJECT_TO_ARMS_MASS: f64 = 1e6;
+
 /// Parameters of the spatial closed chain (plain data), validated by [`SpatialPlant::new`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpatialPlantParams {
@@ -310,6 +314,24 @@ impl SpatialPlant {
             }
         }
         let object = RigidObject::new(&p.object)?;
+        // An object a million times heavier than the arms that carry it is no set-up (real arms
+        // carry about their own mass at most), and far beyond it the closed chain's solve has
+        // no digits left (a 1e300 kg box faults at t = 0): refused here, by its field.
+        let arms_mass: f64 = p
+            .arms
+            .iter()
+            .flat_map(|a| a.chain.bodies.iter().map(|b| b.mass))
+            .sum();
+        if arms_mass > 0.0 && !(p.object.mass <= MAX_OBJECT_TO_ARMS_MASS * arms_mass) {
+            return Err(ModelError::invalid(
+                "object.mass",
+                p.object.mass,
+                format!(
+                    "must be at most {MAX_OBJECT_TO_ARMS_MASS:e} times the arms' total mass ({} kg): no arm carries it, and the closed chain's solve loses its digits",
+                    crate::error::fmt_fixed(arms_mass, 3)
+                ),
+            ));
+        }
         if !p.gravity.iter().all(|v| v.is_finite()) || p.gravity.norm() > 1e3 {
             return Err(ModelError::geometry(
                 "gravity",
