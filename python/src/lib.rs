@@ -1362,6 +1362,10 @@ fn rollout(
                     }
                     .map_err(|e| (i, Error::from(e)))
                 })
+                .collect::<Vec<_>>()
+                // In index order: the error reported is the first scenario's, whichever thread
+                // finished first (rayon's own Result collect returns any of them).
+                .into_iter()
                 .collect::<Result<Vec<_>, _>>()?;
             prepared
                 .into_par_iter()
@@ -1372,6 +1376,8 @@ fn rollout(
                         spatial_fin(spatial::execute(p, |_| {})).map_err(|e| (i, e))
                     }
                 })
+                .collect::<Vec<_>>()
+                .into_iter()
                 .collect()
         })
     });
