@@ -5,37 +5,10 @@
 
 use std::fs;
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 mod support;
 use support::*;
-
-/// Run the binary in `cwd`; `None` if it had to be killed after `limit`.
-fn within(cwd: &Path, args: &[&str], limit: Duration) -> Option<Output> {
-    let mut child = Command::new(BIN)
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("SLURM_ARRAY_TASK_COUNT")
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn tandem");
-    let t0 = Instant::now();
-    loop {
-        if child.try_wait().expect("wait").is_some() {
-            return Some(child.wait_with_output().expect("output"));
-        }
-        if t0.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            return None;
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
-}
 
 /// Refused with exit 2 within `secs`, the message holding every one of `parts`; the message.
 fn refused_within(d: &Path, args: &[&str], secs: u64, parts: &[&str]) -> String {

@@ -7,7 +7,6 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::OnceLock;
 
 mod support;
 use support::*;
@@ -46,69 +45,6 @@ fn run_in(cwd: &Path, args: &[String]) -> Output {
         .env_remove("SLURM_ARRAY_TASK_COUNT")
         .output()
         .expect("run tandem")
-}
-
-/// The texts of the paper and dual-ur5 presets, and two real shard folders (a planar sweep of
-/// two 0.2 s runs, shards 0/2 and 1/2), made once.
-struct Fixture {
-    paper: String,
-    spatial: String,
-    shards: PathBuf,
-}
-
-fn fixture() -> &'static Fixture {
-    static F: OnceLock<Fixture> = OnceLock::new();
-    F.get_or_init(|| {
-        let d = scratch("fixture");
-        let show = |name: &str| {
-            let o = tandem(&d, &["scenario", "show", name]);
-            ok(&o);
-            stdout(&o)
-        };
-        let paper = show("paper");
-        let spatial = show("dual-ur5");
-        fs::write(d.join("sw.toml"), SHARD_SWEEP).expect("write");
-        for (s, out) in [("0/2", "A"), ("1/2", "B")] {
-            ok(&tandem(
-                &d,
-                &[
-                    "sweep",
-                    "sw.toml",
-                    "--shard",
-                    s,
-                    "--out",
-                    out,
-                    "--no-figures",
-                ],
-            ));
-        }
-        Fixture {
-            paper,
-            spatial,
-            shards: d,
-        }
-    })
-}
-
-const SHARD_SWEEP: &str = r#"
-base = "paper"
-duration = 0.2
-[set]
-"controller.kind" = "pd"
-[vary]
-"object.mass" = { grid = [1.0, 1.1] }
-"#;
-
-fn copy_dir(from: &Path, to: &Path) {
-    fs::create_dir_all(to).expect("mkdir");
-    for e in fs::read_dir(from).expect("read_dir").flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            copy_dir(&p, &to.join(e.file_name()));
-        } else {
-            fs::copy(&p, to.join(e.file_name())).expect("copy");
-        }
-    }
 }
 
 fn s(p: &Path) -> String {

@@ -5,9 +5,8 @@
 //! seconds, so a regression cannot hang the suite.
 
 use std::fs;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::sync::OnceLock;
+use std::path::Path;
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 mod support;
@@ -16,32 +15,6 @@ use support::*;
 /// The longest a refusal may take; a FIFO that blocks, or a `/dev/zero` read to the end, is
 /// killed there.
 const LIMIT: Duration = Duration::from_secs(15);
-
-/// Run the binary in `cwd`; `None` if it had to be killed after [`LIMIT`].
-fn within(cwd: &Path, args: &[String]) -> Option<Output> {
-    let mut child = Command::new(BIN)
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("SLURM_ARRAY_TASK_COUNT")
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn tandem");
-    let t0 = Instant::now();
-    loop {
-        if child.try_wait().expect("wait").is_some() {
-            return Some(child.wait_with_output().expect("output"));
-        }
-        if t0.elapsed() > LIMIT {
-            let _ = child.kill();
-            let _ = child.wait();
-            return None;
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
-}
 
 /// What stands where a file should be.
 #[derive(Clone, Copy, Debug)]
@@ -79,66 +52,6 @@ impl Bad {
             Bad::Fifo => "named pipe (FIFO), not a regular file",
             Bad::DevZero | Bad::DevNull => "character device, not a regular file",
             Bad::Folder => "folder, not a file",
-        }
-    }
-}
-
-struct Fixture {
-    paper: String,
-    spatial: String,
-    shards: PathBuf,
-}
-
-fn fixture() -> &'static Fixture {
-    static F: OnceLock<Fixture> = OnceLock::new();
-    F.get_or_init(|| {
-        let d = scratch("fixture");
-        let show = |name: &str| {
-            let o = tandem(&d, &["scenario", "show", name]);
-            ok(&o);
-            stdout(&o)
-        };
-        let (paper, spatial) = (show("paper"), show("dual-ur5"));
-        fs::write(d.join("sw.toml"), SWEEP).expect("write");
-        for (s, out) in [("0/2", "A"), ("1/2", "B")] {
-            ok(&tandem(
-                &d,
-                &[
-                    "sweep",
-                    "sw.toml",
-                    "--shard",
-                    s,
-                    "--out",
-                    out,
-                    "--no-figures",
-                ],
-            ));
-        }
-        Fixture {
-            paper,
-            spatial,
-            shards: d,
-        }
-    })
-}
-
-const SWEEP: &str = r#"
-base = "paper"
-duration = 0.2
-[set]
-"controller.kind" = "pd"
-[vary]
-"object.mass" = { grid = [1.0, 1.1] }
-"#;
-
-fn copy_dir(from: &Path, to: &Path) {
-    fs::create_dir_all(to).expect("mkdir");
-    for e in fs::read_dir(from).expect("read_dir").flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            copy_dir(&p, &to.join(e.file_name()));
-        } else {
-            fs::copy(&p, to.join(e.file_name())).expect("copy");
         }
     }
 }
@@ -268,7 +181,7 @@ fn readers() -> Vec<Reader> {
                 bad.place(&d.join("base.toml"));
                 fs::write(
                     d.join("sw.toml"),
-                    SWEEP.replace("base = \"paper\"", "base = \"base.toml\""),
+                    SHARD_SWEEP.replace("base = \"paper\"", "base = \"base.toml\""),
                 )
                 .expect("write");
                 (
@@ -316,7 +229,7 @@ fn only_regular_files_are_read_and_the_refusal_names_the_field() {
             let d = scratch("reads");
             let (argv, expect) = (r.make)(&d, bad);
             let t0 = Instant::now();
-            let Some(o) = within(&d, &argv) else {
+            let Some(o) = within(&d, &argv, LIMIT) else {
                 failures.push(format!(
                     "{} / {bad:?}: killed after {LIMIT:?} (hangs on the file)",
                     r.name

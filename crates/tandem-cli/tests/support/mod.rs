@@ -220,3 +220,98 @@ pub fn check_xml(text: &str) {
         "no non-finite numbers"
     );
 }
+
+/// Run the binary in `cwd` (outside any Slurm job array, no standard input); `None` if it had
+/// to be killed after `limit` (a regression that hangs fails its test instead of the suite).
+pub fn within<S: AsRef<std::ffi::OsStr>>(
+    cwd: &Path,
+    args: &[S],
+    limit: std::time::Duration,
+) -> Option<Output> {
+    use std::process::Stdio;
+    let mut child = Command::new(BIN)
+        .args(args)
+        .current_dir(cwd)
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("SLURM_ARRAY_TASK_COUNT")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn tandem");
+    let t0 = std::time::Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return Some(child.wait_with_output().expect("output"));
+        }
+        if t0.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            return None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+}
+
+/// Copy a folder tree (files and sub-folders).
+pub fn copy_dir(from: &Path, to: &Path) {
+    fs::create_dir_all(to).expect("mkdir");
+    for e in fs::read_dir(from).expect("read_dir").flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            copy_dir(&p, &to.join(e.file_name()));
+        } else {
+            fs::copy(&p, to.join(e.file_name())).expect("copy");
+        }
+    }
+}
+
+/// The hardening tests' inputs, made once per test binary: the `paper` and `dual-ur5` texts and
+/// a folder holding the two shards `A` and `B` of a small PD sweep (`sw.toml`).
+pub struct Fixture {
+    pub paper: String,
+    pub spatial: String,
+    pub shards: PathBuf,
+}
+
+pub const SHARD_SWEEP: &str = r#"
+base = "paper"
+duration = 0.2
+[set]
+"controller.kind" = "pd"
+[vary]
+"object.mass" = { grid = [1.0, 1.1] }
+"#;
+
+pub fn fixture() -> &'static Fixture {
+    static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
+    F.get_or_init(|| {
+        let d = scratch("fixture");
+        let show = |name: &str| {
+            let o = tandem(&d, &["scenario", "show", name]);
+            ok(&o);
+            stdout(&o)
+        };
+        let (paper, spatial) = (show("paper"), show("dual-ur5"));
+        fs::write(d.join("sw.toml"), SHARD_SWEEP).expect("write");
+        for (s, out) in [("0/2", "A"), ("1/2", "B")] {
+            ok(&tandem(
+                &d,
+                &[
+                    "sweep",
+                    "sw.toml",
+                    "--shard",
+                    s,
+                    "--out",
+                    out,
+                    "--no-figures",
+                ],
+            ));
+        }
+        Fixture {
+            paper,
+            spatial,
+            shards: d,
+        }
+    })
+}
