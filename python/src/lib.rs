@@ -18,12 +18,15 @@ use rayon::prelude::*;
 use serde_json::Value as Json;
 use toml::{Table, Value};
 
-use tandem_cli::output::OutputDir;
-use tandem_cli::runner::{self, Finished, Outputs};
-use tandem_cli::scenario::{self, Overrides, ScenarioError as CliScenarioError, Source};
-use tandem_cli::spatial::{self, scenario as sps};
+use tandem_cli::files::{self as output, OutputDir};
+use tandem_cli::run::planar::{self as runner, Finished, Outputs};
+use tandem_cli::run::spatial;
+use tandem_cli::scenario::{
+    self, Overrides, PlanarScenario, Scenario, ScenarioError as CliScenarioError, Source,
+    SpatialScenario,
+};
 use tandem_cli::sweep;
-use tandem_cli::{BadInput, output};
+use tandem_cli::BadInput;
 
 create_exception!(
     tandem,
@@ -316,7 +319,7 @@ struct Planar {
     /// The document `with_` sets fields on.
     doc: Table,
     /// The parsed scenario (`doc` through the loader).
-    sc: scenario::Scenario,
+    sc: PlanarScenario,
     /// The replay file, resolved (for `to_toml`).
     replay: Option<PathBuf>,
     /// Set-up warnings (the command line prints them before a run).
@@ -332,7 +335,7 @@ struct Spatial {
     /// The document `with_` sets fields on.
     doc: Table,
     /// The parsed scenario as `spatial::prepare` returns it (file references absolute).
-    sc: sps::SpatialScenario,
+    sc: SpatialScenario,
     /// Set-up warnings (the command line prints them before a run).
     warnings: Vec<String>,
 }
@@ -354,7 +357,7 @@ enum Fin {
     Planar(Finished),
     /// The spatial run and the quantities derived from its log (the summary's and the extra
     /// columns of `timeseries.csv`).
-    Spatial(spatial::Finished, spatial::output::Derived),
+    Spatial(spatial::Finished, tandem_cli::output::spatial::Derived),
 }
 
 impl Fin {
@@ -368,12 +371,12 @@ impl Fin {
     fn summary(&self, name: &str) -> Json {
         match self {
             Fin::Planar(f) => runner::summary_json(f, name, None),
-            Fin::Spatial(f, d) => spatial::output::summary(name, f, d, None),
+            Fin::Spatial(f, d) => tandem_cli::output::spatial::summary(name, f, d, None),
         }
     }
     /// The columns `timeseries.csv` has after the log's: (name, unit, values). Planar: none;
     /// spatial: the true pose in the output chart `x_1.*` and the grasp wrenches in tool axes
-    /// `F_tool{i}.*` (as `spatial::output::write_timeseries`).
+    /// `F_tool{i}.*` (as `tandem_cli::output::spatial::write_timeseries`).
     fn derived_columns(&self) -> Vec<(String, String, &[f64])> {
         let mut out = Vec::new();
         if let Fin::Spatial(_, d) = self {
@@ -461,22 +464,22 @@ impl Kind {
     }
 }
 
-/// Parse and validate a source of either kind (spatial when its arms name a robot model,
-/// `spatial::scenario::is_spatial`).
-fn kind_from_source(src: Source) -> Res<Kind> {
-    if sps::is_spatial(&src.text) {
-        Ok(Kind::Spatial(spatial_from_source(src)?))
-    } else {
-        Ok(Kind::Planar(planar_from_source(src)?))
+/// Parse and validate a source of either kind as the command line's `load` + `tandem validate`
+/// do: the kind is decided once, by [`scenario::parse`]; a file may name itself (a resolved
+/// `scenario.toml` keeps its run's name).
+fn kind_from_source(mut src: Source) -> Res<Kind> {
+    let sc = scenario::parse(&src)?;
+    if let Some(n) = sc.name() {
+        src.name = n.to_string();
+    }
+    match sc {
+        Scenario::Planar(sc) => Ok(Kind::Planar(planar_from(src, sc)?)),
+        Scenario::Spatial(sc) => Ok(Kind::Spatial(spatial_from(src, sc)?)),
     }
 }
 
-/// Parse and validate a spatial source as `tandem run` does before it simulates.
-fn spatial_from_source(mut src: Source) -> Res<Spatial> {
-    let sc = sps::parse(&src)?;
-    if let Some(n) = sc.name.as_ref().filter(|n| !n.trim().is_empty()) {
-        src.name = n.clone();
-    }
+/// Validate a parsed spatial scenario as `tandem run` does before it simulates.
+fn spatial_from(src: Source, sc: SpatialScenario) -> Res<Spatial> {
     let doc: Table = toml::from_str(&src.text).map_err(|e| bad(None, e.to_string()))?;
     let prepared = spatial::prepare(sc, &src)?;
     Ok(Spatial {
@@ -547,17 +550,12 @@ fn check_kernel() -> Res<()> {
 /// A finished spatial run with its derived quantities.
 fn spatial_fin(f: anyhow::Result<spatial::Finished>) -> Res<Fin> {
     let f = f.map_err(|e| Error::Other(format!("{e:#}")))?;
-    let d = spatial::output::Derived::new(&f);
+    let d = tandem_cli::output::spatial::Derived::new(&f);
     Ok(Fin::Spatial(f, d))
 }
 
-/// Parse and validate a source as the command line's `load` + `tandem validate` do.
-fn planar_from_source(mut src: Source) -> Res<Planar> {
-    let sc = scenario::parse(&src)?;
-    // A file may name itself (a resolved `scenario.toml` keeps its run's name).
-    if let Some(n) = sc.name.as_ref().filter(|n| !n.trim().is_empty()) {
-        src.name = n.clone();
-    }
+/// Validate a parsed planar scenario as `tandem validate` does.
+fn planar_from(src: Source, sc: PlanarScenario) -> Res<Planar> {
     let doc: Table = toml::from_str(&src.text).map_err(|e| bad(None, e.to_string()))?;
     let prepared = runner::prepare(sc.clone(), &src)?;
     Ok(Planar {
@@ -673,14 +671,7 @@ impl PyScenario {
     fn preset(py: Python<'_>, name: &str) -> PyResult<Self> {
         let r = (|| -> Res<Kind> {
             if let Some(e) = scenario::EMBEDDED.iter().find(|e| e.name == name) {
-                return Ok(Kind::Planar(planar_from_source(
-                    scenario::embedded_source(e),
-                )?));
-            }
-            if let Some(e) = sps::EMBEDDED.iter().find(|e| e.name == name) {
-                return Ok(Kind::Spatial(spatial_from_source(
-                    scenario::embedded_source(e),
-                )?));
+                return kind_from_source(scenario::embedded_source(e));
             }
             // Not embedded: the command line's message (with its suggestion), unless a file of
             // that name exists, which `preset` does not read.
@@ -886,7 +877,7 @@ impl PyScenario {
             self.kind(),
             arms,
             self.kind.label(),
-            tandem_cli::table::num(self.kind.duration(), 6),
+            tandem_cli::output::table::num(self.kind.duration(), 6),
             self.kind.seed()
         )
     }
@@ -900,14 +891,14 @@ impl PyScenario {
                 same_name
                     && match (&*self.kind, &*o.get().kind) {
                         (Kind::Planar(a), Kind::Planar(b)) => {
-                            let resolved = |p: &Planar| scenario::Scenario {
+                            let resolved = |p: &Planar| PlanarScenario {
                                 name: None,
                                 ..p.sc.resolved()
                             };
                             resolved(a) == resolved(b)
                         }
                         (Kind::Spatial(a), Kind::Spatial(b)) => {
-                            let unnamed = |p: &Spatial| sps::SpatialScenario {
+                            let unnamed = |p: &Spatial| SpatialScenario {
                                 name: None,
                                 ..p.sc.clone()
                             };
@@ -1101,7 +1092,7 @@ impl PyRun {
             "<tandem.Run {:?}: {}, {} s, seed {}, {} rows, {}>",
             k.src().name,
             k.label(),
-            tandem_cli::table::num(k.duration(), 6),
+            tandem_cli::output::table::num(k.duration(), 6),
             k.seed(),
             self.__len__(),
             match self.fault() {
@@ -1181,7 +1172,7 @@ impl PyRun {
                     // As `tandem run` (spatial::cmd_run): the outputs, then scenario.toml.
                     let text = spatial::scenario_toml(&p.sc, name).map_err(other)?;
                     let (_, _, problems) =
-                        spatial::output::write(out.tmp_dir(), name, f, figures).map_err(other)?;
+                        tandem_cli::output::spatial::write(out.tmp_dir(), name, f, figures).map_err(other)?;
                     output::write_text_atomic(&out.tmp_dir().join("scenario.toml"), &text)
                         .map_err(other)?;
                     problems
@@ -1474,11 +1465,7 @@ fn _sweep_csv(
 /// spatial ones (`dual-ur5`, `dual-franka`).
 #[pyfunction]
 fn presets() -> Vec<&'static str> {
-    scenario::EMBEDDED
-        .iter()
-        .chain(sps::EMBEDDED)
-        .map(|e| e.name)
-        .collect()
+    scenario::EMBEDDED.iter().map(|e| e.name).collect()
 }
 
 #[pymodule]

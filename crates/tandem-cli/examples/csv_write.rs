@@ -9,8 +9,8 @@ use tandem::control::planar::{ControllerParams, LawParams};
 use tandem::model::disturbance::Disturbance;
 use tandem::presets;
 use tandem::sim::{Log, SimParams};
-use tandem_cli::output::F64Text;
-use tandem_cli::runner::write_timeseries;
+use tandem_cli::files::F64Text;
+use tandem_cli::output::planar::write_timeseries;
 
 /// The numbers of the log as text into memory, the way `write_csv` does (no file, no sync).
 fn format_now(log: &Log, out: &mut Vec<u8>) {

@@ -10,16 +10,7 @@
 //! `OUT_DIR/franka/` (default OUT_DIR: a folder in the system's temporary folder; default 60 s
 //! at 30 frames per second).
 
-// The CLI crate is a binary: its self-contained modules are compiled in here directly.
-#[allow(dead_code)]
-#[path = "../src/output.rs"]
-mod output;
-#[allow(dead_code)]
-#[path = "../src/plot.rs"]
-mod plot;
-#[allow(dead_code)]
-#[path = "../src/viewer/mod.rs"]
-mod viewer;
+use tandem_cli::view::spatial as viewer;
 
 use std::path::PathBuf;
 

@@ -6,20 +6,15 @@
 //! The simulation itself (models, plants, control laws, the loop) is the `tandem` library crate,
 //! which has no I/O.
 
-pub mod anim;
 pub mod figures;
+pub mod files;
 pub mod output;
-pub mod plot;
-pub mod replay;
 pub mod robustness;
-pub mod runner;
+pub mod run;
 pub mod scenario;
-pub mod scene;
-pub mod spatial;
 pub mod suggest;
 pub mod sweep;
-pub mod table;
-pub mod viewer;
+pub mod view;
 
 use std::fmt;
 

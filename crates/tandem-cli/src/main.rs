@@ -15,14 +15,19 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use tandem_cli::output::OutputDir;
-use tandem_cli::runner::{Finished, Outputs};
+use tandem_cli::figures::planar as figures;
+use tandem_cli::files::{self as output, OutputDir};
+use tandem_cli::output::planar::{self as planar_output, Outputs};
+use tandem_cli::output::spatial as spatial_output;
+use tandem_cli::output::table;
+use tandem_cli::run::planar::{self as runner, Finished};
+use tandem_cli::run::spatial;
+use tandem_cli::scenario::planar::GainPreset;
 use tandem_cli::scenario::{
-    ControllerKind, GainPreset, Overrides, Scenario, ScenarioError, Source,
+    self, ControllerKind, Kind, Overrides, PlanarScenario, Scenario, ScenarioError, Source,
+    SpatialScenario, replay,
 };
-use tandem_cli::{
-    BadInput, figures, output, replay, robustness, runner, scenario, spatial, suggest, sweep, table,
-};
+use tandem_cli::{BadInput, robustness, suggest, sweep};
 
 #[derive(Parser)]
 #[command(
@@ -288,16 +293,17 @@ fn main() -> ExitCode {
     }
 }
 
-/// Resolve, parse and apply the command line's overrides.
-fn load(arg: Option<&str>, o: &Overrides) -> Result<(Source, Scenario)> {
-    let mut src = scenario::resolve(arg)?;
-    let mut sc = scenario::parse(&src)?;
-    // A file may name itself (a resolved `scenario.toml` keeps its run's name).
-    if let Some(n) = sc.name.as_ref().filter(|n| !n.trim().is_empty()) {
-        src.name = n.clone();
+/// Resolve, parse and apply the command line's overrides, for a command that takes a planar
+/// scenario only (`what` names the command in the error a spatial one gets).
+fn load_planar(arg: Option<&str>, o: &Overrides, what: &str) -> Result<(Source, PlanarScenario)> {
+    match scenario::load(arg, o)? {
+        (src, Scenario::Planar(sc)) => Ok((src, sc)),
+        (src, Scenario::Spatial(_)) => Err(BadInput::msg(format!(
+            "{what} takes a planar scenario; {} is spatial (its arms name a robot model)",
+            src.display
+        ))
+        .into()),
     }
-    sc.apply(o)?;
-    Ok((src, sc))
 }
 
 /// Refuse an existing output folder without --force, with the command that would overwrite it;
@@ -344,10 +350,6 @@ fn print_warnings(label: &str, w: &[String]) {
 }
 
 fn cmd_run(a: RunArgs) -> Result<ExitCode> {
-    let first = scenario::resolve(a.scenario.as_deref())?;
-    if spatial::scenario::is_spatial(&first.text) {
-        return cmd_run_spatial(a, first);
-    }
     let o = Overrides {
         controller: a.controller,
         gains: a.gains,
@@ -357,7 +359,14 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
         replay_interpolation: a.replay_interpolation,
         replay_columns: a.replay_columns.clone(),
     };
-    let (src, sc) = load(a.scenario.as_deref(), &o)?;
+    match scenario::load(a.scenario.as_deref(), &o)? {
+        (src, Scenario::Planar(sc)) => cmd_run_planar(a, src, sc),
+        (src, Scenario::Spatial(sc)) => cmd_run_spatial(a, src, sc),
+    }
+}
+
+/// `tandem run` on a planar scenario.
+fn cmd_run_planar(a: RunArgs, src: Source, sc: PlanarScenario) -> Result<ExitCode> {
     let kind = sc.controller.kind;
     let out_dir = a.common.out.clone().unwrap_or_else(|| {
         let mut name = format!("{}-{}", src.name, kind.name());
@@ -380,7 +389,7 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
     let fin = runner::execute(prepared, |f| bar.set_position((f * 1000.0) as u64));
     bar.finish_and_clear();
 
-    let (times, problems) = runner::write_run(
+    let (times, problems) = planar_output::write_run(
         out.tmp_dir(),
         &fin,
         &src.name,
@@ -412,61 +421,8 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
     Ok(fault_exit(&[&fin]))
 }
 
-/// The command line's overrides of a spatial scenario (`--gains` names planar presets only).
-fn spatial_overrides(
-    controller: Option<ControllerKind>,
-    gains: Option<GainPreset>,
-    common: &Common,
-    replay: Option<PathBuf>,
-    replay_interpolation: Option<replay::Interpolation>,
-    replay_columns: Option<Vec<String>>,
-) -> Result<spatial::SpatialOverrides> {
-    use spatial::scenario::SpatialKind;
-    if gains.is_some() {
-        return Err(BadInput::msg(
-            "--gains selects the planar NN presets (paper, tuned); a spatial scenario designs its \
-             NN gains in [controller.nn] (design = { inertia, k1, omega_n, zeta }, or explicit gains)",
-        )
-        .into());
-    }
-    Ok(spatial::SpatialOverrides {
-        controller: controller.map(|k| match k {
-            ControllerKind::Nn => SpatialKind::Nn,
-            ControllerKind::Pd => SpatialKind::Pd,
-            ControllerKind::Ctc => SpatialKind::Ctc,
-            ControllerKind::Replay => SpatialKind::Replay,
-        }),
-        duration: common.duration,
-        seed: common.seed,
-        replay,
-        replay_interpolation,
-        replay_columns,
-    })
-}
-
-/// Resolve, parse and apply the overrides of a spatial scenario; the name from the file.
-fn load_spatial(
-    mut src: Source,
-    o: &spatial::SpatialOverrides,
-) -> Result<(Source, spatial::scenario::SpatialScenario)> {
-    let sc = spatial::load(&src, o)?;
-    if let Some(n) = sc.name.as_ref().filter(|n| !n.trim().is_empty()) {
-        src.name = n.clone();
-    }
-    Ok((src, sc))
-}
-
 /// `tandem run` on a spatial scenario.
-fn cmd_run_spatial(a: RunArgs, src: Source) -> Result<ExitCode> {
-    let o = spatial_overrides(
-        a.controller,
-        a.gains,
-        &a.common,
-        a.replay.clone(),
-        a.replay_interpolation,
-        a.replay_columns.clone(),
-    )?;
-    let (src, sc) = load_spatial(src, &o)?;
+fn cmd_run_spatial(a: RunArgs, src: Source, sc: SpatialScenario) -> Result<ExitCode> {
     let slug = spatial::slug(&spatial::label(&sc));
     let out_dir = a
         .common
@@ -477,12 +433,106 @@ fn cmd_run_spatial(a: RunArgs, src: Source) -> Result<ExitCode> {
     check_out(&out_dir, a.common.force, &protected)?;
     let prepared = spatial::prepare(sc, &src)?;
     let out = OutputDir::create(&out_dir, a.common.force, &protected)?;
-    let ok = spatial::cmd_run(prepared, out, !a.common.no_figures)?;
+    let ok = spatial_run(prepared, out, !a.common.no_figures)?;
     Ok(if ok {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
     })
+}
+
+/// `tandem run SPATIAL-SCENARIO`: run, write the outputs into `out`, print the summary table.
+fn spatial_run(p: spatial::Prepared, out: OutputDir, figures: bool) -> Result<bool> {
+    let name = p.name.clone();
+    let label = spatial::label(&p.sc);
+    let duration = p.built.sim.duration;
+    for w in &p.ready.warnings {
+        eprintln!("warning ({name}, {label}): {w}");
+    }
+    let toml_text = spatial_output::scenario_toml(&p.sc, &name)?;
+    let bar = spatial_progress_bar(&label);
+    let f = spatial::execute(p, |x| bar.set_position((x * 1000.0) as u64))?;
+    bar.finish_and_clear();
+    let (s, times, problems) = spatial_output::write(out.tmp_dir(), &name, &f, figures)?;
+    output::write_text_atomic(&out.tmp_dir().join("scenario.toml"), &toml_text)?;
+    let dir = out.commit_with_warnings(&problems)?;
+    println!("{name} — {}, {duration} s", f.label);
+    print!("{}", spatial_output::text(&[(f.label.as_str(), &s)]));
+    println!(
+        "outputs in {} (simulated in {:.3} s, written in {:.3} s: kinematics {:.3}, CSV {:.3}, \
+         viewer {:.3}, figures {:.3}, in parallel)",
+        dir.display(),
+        f.outcome.wall_time,
+        times.total,
+        times.derive,
+        times.csv,
+        times.viewer,
+        times.figures
+    );
+    if let Some(e) = &f.outcome.fault {
+        eprintln!("error: the run stopped with a fault: {e}");
+    }
+    Ok(f.outcome.fault.is_none())
+}
+
+/// `tandem compare SPATIAL-SCENARIO`: every law of [`compare_variants`] from the same start
+/// (run in parallel), their outputs in sub-folders, `report.md`, `summary.json`, the overlays.
+fn spatial_compare(
+    sc: SpatialScenario,
+    src: &Source,
+    out: OutputDir,
+    figures: bool,
+) -> Result<bool> {
+    use rayon::prelude::*;
+    let name = sc.name.clone().unwrap_or_else(|| src.name.clone());
+    let mut prepared = Vec::new();
+    for v in spatial::compare_variants(&sc) {
+        let p = spatial::prepare(v, src)?;
+        for w in &p.ready.warnings {
+            eprintln!("warning ({name}, {}): {w}", spatial::label(&p.sc));
+        }
+        prepared.push(p);
+    }
+    let toml_text = spatial_output::scenario_toml(&sc, &name)?;
+    let t0 = std::time::Instant::now();
+    let finished: Vec<Result<spatial::Finished>> = prepared
+        .into_par_iter()
+        .map(|p| spatial::execute(p, |_| {}))
+        .collect();
+    let finished: Vec<spatial::Finished> = finished.into_iter().collect::<Result<_>>()?;
+    let sim_time = t0.elapsed().as_secs_f64();
+    let runs: Vec<(&str, &spatial::Finished)> =
+        finished.iter().map(|f| (f.label.as_str(), f)).collect();
+    let (summaries, problems) =
+        spatial_output::write_compare(out.tmp_dir(), &name, &runs, figures)?;
+    output::write_text_atomic(&out.tmp_dir().join("scenario.toml"), &toml_text)?;
+    let dir = out.commit_with_warnings(&problems)?;
+    println!("{name} — compare, {} s", finished[0].duration);
+    let cols: Vec<(&str, &serde_json::Value)> = finished
+        .iter()
+        .zip(&summaries)
+        .map(|(f, s)| (f.label.as_str(), s))
+        .collect();
+    print!("{}", spatial_output::text(&cols));
+    println!(
+        "outputs in {} (simulated in {sim_time:.3} s, in parallel)",
+        dir.display()
+    );
+    let mut ok = true;
+    for f in &finished {
+        if let Some(e) = &f.outcome.fault {
+            eprintln!("error: {} stopped with a fault: {e}", f.label);
+            ok = false;
+        }
+    }
+    Ok(ok)
+}
+
+fn spatial_progress_bar(label: &str) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
+    bar.set_style(bar_style());
+    bar.set_prefix(label.to_string());
+    bar
 }
 
 /// Exit code 1 (with a message) when a run faulted.
@@ -509,31 +559,30 @@ const COMPARED: [(ControllerKind, Option<GainPreset>, &str); 4] = [
 ];
 
 fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
-    let first = scenario::resolve(a.scenario.as_deref())?;
-    if spatial::scenario::is_spatial(&first.text) {
-        let o = spatial_overrides(None, None, &a.common, None, None, None)?;
-        let (src, sc) = load_spatial(first, &o)?;
-        let out_dir = a
-            .common
-            .out
-            .clone()
-            .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-compare", src.name)));
-        let protected = scenario::inputs(&src, &sc);
-        check_out(&out_dir, a.common.force, &protected)?;
-        let out = OutputDir::create(&out_dir, a.common.force, &protected)?;
-        let ok = spatial::cmd_compare(sc, &src, out, !a.common.no_figures)?;
-        return Ok(if ok {
-            ExitCode::SUCCESS
-        } else {
-            ExitCode::from(1)
-        });
-    }
     let o = Overrides {
         duration: a.common.duration,
         seed: a.common.seed,
         ..Overrides::default()
     };
-    let (src, base) = load(a.scenario.as_deref(), &o)?;
+    let (src, base) = match scenario::load(a.scenario.as_deref(), &o)? {
+        (src, Scenario::Planar(sc)) => (src, sc),
+        (src, Scenario::Spatial(sc)) => {
+            let out_dir = a
+                .common
+                .out
+                .clone()
+                .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-compare", src.name)));
+            let protected = scenario::inputs(&src, &sc);
+            check_out(&out_dir, a.common.force, &protected)?;
+            let out = OutputDir::create(&out_dir, a.common.force, &protected)?;
+            let ok = spatial_compare(sc, &src, out, !a.common.no_figures)?;
+            return Ok(if ok {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            });
+        }
+    };
     let out_dir = a
         .common
         .out
@@ -588,7 +637,7 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
     for (slug, f) in &finished {
         let sub = dir.join(slug);
         std::fs::create_dir_all(&sub)?;
-        let (_, p) = runner::write_run(
+        let (_, p) = planar_output::write_run(
             &sub,
             f,
             &src.name,
@@ -607,7 +656,13 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
                 log: &f.outcome.log,
             })
             .collect();
-        match figures::compare_figures(&dir, &runs, &src.name, base.k_c(), runner::zoom(&base)) {
+        match figures::compare_figures(
+            &dir,
+            &runs,
+            &src.name,
+            base.k_c(),
+            planar_output::zoom(&base),
+        ) {
             Ok(s) => figure_stems = s,
             Err(e) => problems.push(format!("comparison figures: {e:#}")),
         }
@@ -630,13 +685,16 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
     );
     let mut runs = serde_json::Map::new();
     for (slug, f) in &finished {
-        runs.insert(slug.to_string(), runner::summary_json(f, &src.name, None));
+        runs.insert(
+            slug.to_string(),
+            planar_output::summary_json(f, &src.name, None),
+        );
     }
     all.insert("runs".into(), serde_json::Value::Object(runs));
     output::write_json_atomic(&dir.join("summary.json"), &serde_json::Value::Object(all))?;
     output::write_text_atomic(
         &dir.join("scenario.toml"),
-        &runner::scenario_toml(&base, &src.name, None)?,
+        &planar_output::scenario_toml(&base, &src.name, None)?,
     )?;
     let final_dir = out.commit_with_warnings(&problems)?;
     println!(
@@ -661,7 +719,7 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
 
 fn report_md(
     src: &Source,
-    base: &Scenario,
+    base: &PlanarScenario,
     finished: &[(&str, Finished)],
     cols: &[(&str, &tandem::report::planar::Summary)],
     figures: &[String],
@@ -755,7 +813,7 @@ fn cmd_robustness(a: RobustnessArgs) -> Result<ExitCode> {
         duration: Some(a.duration),
         ..Overrides::default()
     };
-    let (src, base) = load(a.scenario.as_deref(), &o)?;
+    let (src, base) = load_planar(a.scenario.as_deref(), &o, "tandem robustness")?;
     let out_dir = a
         .out
         .clone()
@@ -881,68 +939,68 @@ fn cmd_merge(a: MergeArgs) -> Result<ExitCode> {
 }
 
 fn cmd_validate(arg: &str) -> Result<ExitCode> {
-    let first = scenario::resolve(Some(arg))?;
-    if spatial::scenario::is_spatial(&first.text) {
-        let (src, sc) = load_spatial(first, &spatial::SpatialOverrides::default())?;
-        let label = spatial::label(&sc);
-        let p = spatial::prepare(sc, &src)?;
-        let b = &p.built;
-        let dofs = spatial::scenario::dofs(b);
-        let ticks = (b.sim.duration / b.sim.control_period).round() as u64;
-        let per_log = (b.sim.log_period / b.sim.control_period).round().max(1.0) as u64;
-        println!("ok: {}", src.display);
-        if !p.sc.description.is_empty() {
-            println!("  {}", p.sc.description);
-        }
-        let arms: Vec<String> = b
-            .plant
-            .arms
-            .iter()
-            .map(|a| {
-                format!(
-                    "{} ({} → {}, {} joints)",
-                    a.chain.name,
-                    a.chain.base_link,
-                    a.chain.tool_link,
-                    a.chain.joints.len()
-                )
-            })
-            .collect();
-        println!("  spatial: {} arms: {}", dofs.len(), arms.join(", "));
-        println!(
-            "  path {:?}, controller {label}{}",
-            p.sc.path.kind,
-            if p.sc.admittance.enabled && p.built.replay.is_none() {
-                ", admittance on"
-            } else {
-                ""
+    let (src, sc) = match scenario::load(Some(arg), &Overrides::default())? {
+        (src, Scenario::Planar(sc)) => (src, sc),
+        (src, Scenario::Spatial(sc)) => {
+            let label = spatial::label(&sc);
+            let p = spatial::prepare(sc, &src)?;
+            let b = &p.built;
+            let dofs = scenario::spatial::dofs(b);
+            let ticks = (b.sim.duration / b.sim.control_period).round() as u64;
+            let per_log = (b.sim.log_period / b.sim.control_period).round().max(1.0) as u64;
+            println!("ok: {}", src.display);
+            if !p.sc.description.is_empty() {
+                println!("  {}", p.sc.description);
             }
-        );
-        if let Some(m) = p.ready.path_inertia {
+            let arms: Vec<String> = b
+                .plant
+                .arms
+                .iter()
+                .map(|a| {
+                    format!(
+                        "{} ({} → {}, {} joints)",
+                        a.chain.name,
+                        a.chain.base_link,
+                        a.chain.tool_link,
+                        a.chain.joints.len()
+                    )
+                })
+                .collect();
+            println!("  spatial: {} arms: {}", dofs.len(), arms.join(", "));
             println!(
-                "  chart-space inertia along the path (largest): {} kg, {} kg m²",
-                m[..3]
-                    .iter()
-                    .map(|v| table::num(*v, 3))
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                m[3..]
-                    .iter()
-                    .map(|v| table::num(*v, 3))
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                "  path {:?}, controller {label}{}",
+                p.sc.path.kind,
+                if p.sc.admittance.enabled && p.built.replay.is_none() {
+                    ", admittance on"
+                } else {
+                    ""
+                }
             );
+            if let Some(m) = p.ready.path_inertia {
+                println!(
+                    "  chart-space inertia along the path (largest): {} kg, {} kg m²",
+                    m[..3]
+                        .iter()
+                        .map(|v| table::num(*v, 3))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    m[3..]
+                        .iter()
+                        .map(|v| table::num(*v, 3))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+            }
+            println!(
+                "  {} s: {} control ticks, {} log rows",
+                table::num(b.sim.duration, 6),
+                ticks,
+                ticks.div_ceil(per_log)
+            );
+            print_warnings(&label, &p.ready.warnings);
+            return Ok(ExitCode::SUCCESS);
         }
-        println!(
-            "  {} s: {} control ticks, {} log rows",
-            table::num(b.sim.duration, 6),
-            ticks,
-            ticks.div_ceil(per_log)
-        );
-        print_warnings(&label, &p.ready.warnings);
-        return Ok(ExitCode::SUCCESS);
-    }
-    let (src, sc) = load(Some(arg), &Overrides::default())?;
+    };
     let label = runner::label(&sc);
     let p = runner::prepare(sc, &src)?;
     let b = &p.built;
@@ -984,11 +1042,10 @@ fn cmd_scenario(c: ScenarioCommand) -> Result<ExitCode> {
         ScenarioCommand::List => {
             let w = scenario::EMBEDDED
                 .iter()
-                .chain(spatial::scenario::EMBEDDED.iter())
                 .map(|e| e.name.len())
                 .max()
                 .unwrap_or(0);
-            for e in scenario::EMBEDDED {
+            for e in scenario::EMBEDDED.iter().filter(|e| e.kind == Kind::Planar) {
                 println!(
                     "{:w$}  {}{}",
                     e.name,
@@ -1000,17 +1057,16 @@ fn cmd_scenario(c: ScenarioCommand) -> Result<ExitCode> {
                     }
                 );
             }
-            for e in spatial::scenario::EMBEDDED {
+            for e in scenario::EMBEDDED
+                .iter()
+                .filter(|e| e.kind == Kind::Spatial)
+            {
                 println!("{:w$}  {} (spatial)", e.name, e.summary);
             }
             println!("\nShow one with `tandem scenario show NAME`; copy it to start your own.");
         }
         ScenarioCommand::Show { name } => {
-            let all = || {
-                scenario::EMBEDDED
-                    .iter()
-                    .chain(spatial::scenario::EMBEDDED.iter())
-            };
+            let all = || scenario::EMBEDDED.iter();
             let Some(e) = all().find(|e| e.name == name) else {
                 let names: Vec<&str> = all().map(|e| e.name).collect();
                 let mut msg = format!("no embedded scenario `{name}`");

@@ -25,10 +25,12 @@ use tandem::control::spatial::{
 use tandem::plant::spatial::GraspModel;
 use tandem::reference::spatial::path::Se3Path;
 
-use crate::plot::{self, Panel, Series, Style};
-use crate::runner::{self, Finished, Prepared};
-use crate::scenario::{ControllerKind, FaultsConfig, GainPreset, Scenario, Source};
-use crate::table::num;
+use crate::figures::plot::{self, Panel, Series, Style};
+use crate::output::table::num;
+use crate::run::planar::{self as runner, Finished, Prepared};
+use crate::scenario::ControllerKind;
+use crate::scenario::Source;
+use crate::scenario::planar::{FaultsConfig, GainPreset, PlanarScenario};
 
 /// Largest tracking error after the transient of a run that stays "inside", mm.
 pub const TRACK_MM: f64 = 10.0;
@@ -212,8 +214,8 @@ enum Job {
 
 /// Run the grid from `base` (duration overridden by the caller) on `threads` threads, and the
 /// grasp-slip family ([`slip_run`], [`SLIP_DURATION`] s each, whatever `base`'s duration).
-pub fn run_grid(base: &Scenario, src: &Source, threads: usize) -> Result<Vec<Cell>> {
-    let mut jobs: Vec<(Option<usize>, usize, usize, Scenario)> = Vec::new();
+pub fn run_grid(base: &PlanarScenario, src: &Source, threads: usize) -> Result<Vec<Cell>> {
+    let mut jobs: Vec<(Option<usize>, usize, usize, PlanarScenario)> = Vec::new();
     for (l, (kind, gains, _)) in LAWS.iter().enumerate() {
         let mut sc = base.clone();
         sc.controller.kind = *kind;
@@ -651,7 +653,12 @@ pub fn slip_run_with(level: Option<usize>, law: usize, factor: usize) -> Result<
 }
 
 /// The report, the figure and `results.json` into `dir`.
-pub fn write(dir: &std::path::Path, cells: &[Cell], base: &Scenario, cmd: &str) -> Result<()> {
+pub fn write(
+    dir: &std::path::Path,
+    cells: &[Cell],
+    base: &PlanarScenario,
+    cmd: &str,
+) -> Result<()> {
     let find = |f: Option<usize>, lv: usize, law: usize| {
         cells
             .iter()
@@ -727,7 +734,7 @@ pub fn write(dir: &std::path::Path, cells: &[Cell], base: &Scenario, cmd: &str) 
         md.push('\n');
     }
     slip_section(&mut md, &find_slip, halved);
-    crate::output::write_text_atomic(&dir.join("robustness.md"), &md)?;
+    crate::files::write_text_atomic(&dir.join("robustness.md"), &md)?;
 
     // Figures: one panel per family, the metric against the level, one series per law; a
     // faulted run ends its law's line.
@@ -820,7 +827,7 @@ pub fn write(dir: &std::path::Path, cells: &[Cell], base: &Scenario, cmd: &str) 
             })
         })
         .collect();
-    crate::output::write_json_atomic(&dir.join("results.json"), &json!({ "runs": rows }))?;
+    crate::files::write_json_atomic(&dir.join("results.json"), &json!({ "runs": rows }))?;
     Ok(())
 }
 

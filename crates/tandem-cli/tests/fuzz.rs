@@ -10,7 +10,8 @@
 use std::time::Instant;
 
 use proptest::prelude::*;
-use tandem_cli::{runner, scenario, spatial};
+use tandem_cli::run::{planar as runner, spatial};
+use tandem_cli::scenario::{self, Kind, Scenario};
 
 /// Values that break naive code.
 const NASTY: &[&str] = &[
@@ -197,7 +198,7 @@ fn all_finite(log: &tandem::sim::Log) -> Result<(), TestCaseError> {
 /// Parse, validate and run 50 ms; check what a run writes.
 fn check(text: &str) -> Result<(), TestCaseError> {
     let src = fuzz_source(text);
-    let Ok(mut sc) = scenario::parse(&src) else {
+    let Ok(Scenario::Planar(mut sc)) = scenario::parse(&src) else {
         reached(0);
         return Ok(());
     };
@@ -216,7 +217,7 @@ fn check(text: &str) -> Result<(), TestCaseError> {
     let f = runner::execute(p, |_| {});
     reached(if f.outcome.fault.is_some() { 3 } else { 2 });
     all_finite(&f.outcome.log)?;
-    let s = runner::summary_json(&f, "fuzz", None);
+    let s = tandem_cli::output::planar::summary_json(&f, "fuzz", None);
     let reasons = &s["unavailable"];
     for (k, v) in s.as_object().into_iter().flatten() {
         if v.is_null() && k != "fault" && k != "fault_message" && reasons.get(k).is_none() {
@@ -232,15 +233,19 @@ fn check(text: &str) -> Result<(), TestCaseError> {
 /// NN law without its `f^U` sampling); check what a run writes.
 fn check_spatial(text: &str) -> Result<(), TestCaseError> {
     let src = fuzz_source(text);
-    let o = spatial::SpatialOverrides {
+    let o = scenario::Overrides {
         duration: Some(0.05),
-        controller: Some(spatial::scenario::SpatialKind::Pd),
+        controller: Some(scenario::ControllerKind::Pd),
         ..Default::default()
     };
-    let Ok(sc) = spatial::load(&src, &o) else {
+    let Ok(Scenario::Spatial(mut sc)) = scenario::parse(&src) else {
         reached(0);
         return Ok(());
     };
+    if sc.apply(&o).is_err() {
+        reached(0);
+        return Ok(());
+    }
     let Ok(p) = spatial::prepare(sc, &src) else {
         reached(1);
         return Ok(());
@@ -287,10 +292,10 @@ proptest! {
 
     #[test]
     fn mutated_scenarios_never_panic_hang_or_write_non_finite_values(
-        which in 0..scenario::EMBEDDED.len(),
+        which in 0..scenario::embedded(Kind::Planar).count(),
         edits in proptest::collection::vec(mutation(), 1..4),
     ) {
-        let mut text = scenario::EMBEDDED[which].text.to_string();
+        let mut text = scenario::embedded(Kind::Planar).nth(which).unwrap().text.to_string();
         for m in &edits {
             text = apply(&text, m);
         }
@@ -320,10 +325,10 @@ proptest! {
     })]
     #[test]
     fn mutated_spatial_scenarios_never_panic_hang_or_write_nan(
-        which in 0..spatial::scenario::EMBEDDED.len(),
+        which in 0..scenario::embedded(Kind::Spatial).count(),
         edits in proptest::collection::vec(mutation(), 1..4),
     ) {
-        let mut text = spatial::scenario::EMBEDDED[which].text.to_string();
+        let mut text = scenario::embedded(Kind::Spatial).nth(which).unwrap().text.to_string();
         for m in &edits {
             text = apply(&text, m);
         }
@@ -346,14 +351,17 @@ fn the_mutator_finds_the_numbers() {
 #[test]
 fn the_unmutated_spatial_presets_reach_the_run() {
     // The spatial fuzz cases start from texts that run: a mutation, not the base, is what fails.
-    for e in spatial::scenario::EMBEDDED {
+    for e in scenario::embedded(Kind::Spatial) {
         let src = scenario::embedded_source(e);
-        let o = spatial::SpatialOverrides {
+        let o = scenario::Overrides {
             duration: Some(0.05),
-            controller: Some(spatial::scenario::SpatialKind::Pd),
+            controller: Some(scenario::ControllerKind::Pd),
             ..Default::default()
         };
-        let p = spatial::prepare(spatial::load(&src, &o).unwrap(), &src).unwrap();
+        let Ok((_, Scenario::Spatial(sc))) = scenario::load_source(src.clone(), &o) else {
+            panic!("{} is spatial", e.name)
+        };
+        let p = spatial::prepare(sc, &src).unwrap();
         let f = spatial::execute(p, |_| {}).unwrap();
         assert!(
             f.outcome.fault.is_none() && f.outcome.log.len() == 5,

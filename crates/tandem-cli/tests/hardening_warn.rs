@@ -3,8 +3,9 @@
 //! arms stand on the same spot validates with a warning that names the field, its line and the
 //! distance or angle; the presets validate without a word.
 
+use tandem_cli::scenario::spatial as sp;
+use tandem_cli::scenario::{EMBEDDED, Kind};
 use tandem_cli::scenario::{Source, embedded_source};
-use tandem_cli::spatial::scenario::{self as sp, EMBEDDED};
 
 /// The dual-UR5 preset with `from` replaced by `to` (which must occur), built.
 fn warnings_of(edits: &[(&str, &str)]) -> Vec<String> {
@@ -22,7 +23,7 @@ const ARM0_GRASP: &str = "grasp = { position = [-0.2, 0.0, 0.0], axes = [[0.0, 0
 
 #[test]
 fn the_presets_validate_without_a_warning() {
-    for e in EMBEDDED {
+    for e in tandem_cli::scenario::embedded(Kind::Spatial) {
         let src = embedded_source(e);
         let sc = sp::parse(&src).unwrap();
         let b = sp::build(&sc, &src).unwrap();

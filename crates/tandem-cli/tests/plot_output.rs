@@ -1,17 +1,10 @@
 //! Figures, animations and all-or-nothing outputs of the CLI.
 //!
-//! The CLI crate is a binary, so its modules are compiled into this test crate directly; they are
-//! self-contained (they only use external crates and each other).
+//! The modules are the CLI library's (`tandem_cli::figures::plot`, `files`, `view::planar::anim`).
 
-#[allow(dead_code)]
-#[path = "../src/anim.rs"]
-mod anim;
-#[allow(dead_code)]
-#[path = "../src/output.rs"]
-mod output;
-#[allow(dead_code)]
-#[path = "../src/plot.rs"]
-mod plot;
+use tandem_cli::figures::plot;
+use tandem_cli::files as output;
+use tandem_cli::view::planar::anim;
 
 use std::fs;
 

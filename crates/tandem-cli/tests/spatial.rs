@@ -8,7 +8,7 @@ use std::process::Command;
 use nalgebra::DMatrix;
 use serde_json::Value;
 use tandem::control::spatial::{SpatialCtcGains, SpatialLaw, SpatialPdGains};
-use tandem_cli::spatial::output::{self, Derived, Finished};
+use tandem_cli::output::spatial::{self as output, Derived, Finished};
 
 mod support;
 use support::*;
@@ -235,8 +235,8 @@ fn finished(franka: bool, law: SpatialLaw, duration: f64) -> Finished {
 #[test]
 fn sigma_min_and_joint_limit_match_an_independent_computation() {
     for franka in [false, true] {
-        let f =
-            tandem_cli::spatial::run(if franka { "dual-franka" } else { "dual-ur5" }, 1.0).unwrap();
+        let f = tandem_cli::run::spatial::run(if franka { "dual-franka" } else { "dual-ur5" }, 1.0)
+            .unwrap();
         let d = Derived::new(&f);
         let s = output::summary("test", &f, &d, None);
         let log = &f.outcome.log;
@@ -287,7 +287,7 @@ fn sigma_min_and_joint_limit_match_an_independent_computation() {
 #[test]
 fn compare_writes_report_summary_and_overlays() {
     let runs = [
-        tandem_cli::spatial::run("dual-ur5", 1.0).unwrap(),
+        tandem_cli::run::spatial::run("dual-ur5", 1.0).unwrap(),
         finished(false, SpatialLaw::Pd(SpatialPdGains::paper()), 1.0),
         finished(false, SpatialLaw::Ctc(SpatialCtcGains::default()), 1.0),
     ];
@@ -334,7 +334,7 @@ fn compare_writes_report_summary_and_overlays() {
 /// writes `null` with a reason, never 0 or NaN, and the other outputs are still written.
 #[test]
 fn absent_columns_are_null_with_a_reason() {
-    let mut f = tandem_cli::spatial::run("dual-ur5", 2.5).unwrap();
+    let mut f = tandem_cli::run::spatial::run("dual-ur5", 2.5).unwrap();
     f.outcome.log.columns.retain(|c| {
         !(c.name.starts_with("z1.")
             || c.name.starts_with("w_int")

@@ -8,8 +8,9 @@ use std::process::{Command, Output};
 
 use tandem::control::spatial::{SpatialControllerParams, SpatialLaw, SpatialNnGains};
 use tandem::reference::spatial::path::Se3Path;
+use tandem_cli::scenario::spatial as sp;
+use tandem_cli::scenario::{EMBEDDED, Kind};
 use tandem_cli::scenario::{Source, embedded_source};
-use tandem_cli::spatial::scenario::{self as sp, EMBEDDED};
 
 fn tandem(args: &[&str], cwd: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_tandem"))
@@ -52,7 +53,7 @@ fn presets_are_the_library_s6_setups_exactly() {
         ),
     ] {
         let (sc, b) = built(name);
-        assert!(sp::is_spatial(&preset(name).text));
+        assert_eq!(tandem_cli::scenario::kind_of(&preset(name)), Kind::Spatial);
         // Plant: arms (chains, base placements), grasp frames, object, gravity, Baumgarte — bit
         // for bit (the files write the same numbers the fixtures compute).
         assert_eq!(b.plant, setup.params, "{name}: plant");

@@ -7,17 +7,8 @@
 //! `npm ci` in `tests/browser`, so a plain `cargo test` lists it as ignored (with what it needs);
 //! `.ci/run` installs them and runs it with `--ignored`, where anything missing fails it.
 //!
-//! The CLI crate is a binary, so its self-contained modules are compiled in here directly.
 
-#[allow(dead_code)]
-#[path = "../src/output.rs"]
-mod output;
-#[allow(dead_code)]
-#[path = "../src/plot.rs"]
-mod plot;
-#[allow(dead_code)]
-#[path = "../src/viewer/mod.rs"]
-mod viewer;
+use tandem_cli::view::spatial as viewer;
 
 use std::fs;
 use std::path::{Path, PathBuf};

@@ -131,7 +131,7 @@ pub fn set(doc: &mut Table, path: &str, value: Value) -> Result<(), String> {
 }
 
 /// Whether a scenario document is spatial: an arm names a robot model (`model` or `urdf`), as
-/// [`crate::spatial::scenario::is_spatial`] decides for a text.
+/// [`crate::scenario::spatial::is_spatial`] decides for a text.
 pub fn is_spatial_doc(doc: &Table) -> bool {
     doc.get("arms").and_then(Value::as_array).is_some_and(|a| {
         a.iter().any(|arm| {

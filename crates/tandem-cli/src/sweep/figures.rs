@@ -13,7 +13,7 @@ use anyhow::Result;
 use serde_json::Value as Json;
 
 use super::run::Row;
-use crate::plot::{self, Panel, Series, Style};
+use crate::figures::plot::{self, Panel, Series, Style};
 
 /// The plotted metric: (column, scale, axis label), the first one the table has with a number
 /// in a completed run: the whole-run RMS when the runs are shorter than the transient window;

@@ -15,7 +15,7 @@ use serde_json::{Value as Json, json};
 use super::Shard;
 use super::run::{Row, csv_text};
 use crate::BadInput;
-use crate::output;
+use crate::files;
 
 /// The content of `sweep.json`. `kernels` are the RBF weight-pass kernels the runs used (one
 /// for a sweep; the shards' for a merge): recorded as a name, or a list if they differ, outside
@@ -54,8 +54,8 @@ pub fn write_folder(
     kernels: &[String],
     figures: bool,
 ) -> Result<Vec<String>> {
-    output::write_text_atomic(&dir.join("runs.csv"), &csv_text(header, rows)?)?;
-    output::write_json_atomic(
+    files::write_text_atomic(&dir.join("runs.csv"), &csv_text(header, rows)?)?;
+    files::write_json_atomic(
         &dir.join("sweep.json"),
         &sweep_json(resolved, hash, shard, header, rows.len(), kernels),
     )?;

@@ -4,8 +4,8 @@
 //!
 //! Every run is the base scenario's TOML document with the run's values set at their field paths
 //! ([`fields::set`]), parsed by the normal scenario loader: validation and its messages are the
-//! scenario's own. The base may be planar or spatial ([`BaseKind`]): a spatial base's runs go
-//! through the spatial loader ([`crate::spatial::prepare`], [`crate::spatial::execute`]) and
+//! scenario's own. The base may be planar or spatial ([`Kind`]): a spatial base's runs go
+//! through the spatial loader ([`crate::run::spatial::prepare`], [`crate::run::spatial::execute`]) and
 //! their table has the spatial metrics ([`run::SPATIAL_METRICS`]).
 
 pub mod fields;
@@ -20,31 +20,11 @@ use serde_json::{Value as Json, json};
 use tandem::math::random::splitmix64;
 use toml::{Table, Value};
 
-use crate::scenario::{self, ScenarioError, Source};
+use crate::scenario::{self, Kind, Scenario, ScenarioError, Source};
 use crate::suggest;
 
 /// Largest number of runs a sweep may have.
 pub const MAX_RUNS: u64 = 10_000_000;
-
-/// The kind of a sweep's base scenario: it decides the loader and the metric columns.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BaseKind {
-    /// A planar scenario (`crate::scenario`).
-    Planar,
-    /// A spatial scenario (`crate::spatial::scenario`): its arms name a robot model.
-    Spatial,
-}
-
-impl BaseKind {
-    /// The kind of a scenario source, from its text ([`crate::spatial::scenario::is_spatial`]).
-    pub fn of(src: &Source) -> BaseKind {
-        if crate::spatial::scenario::is_spatial(&src.text) {
-            BaseKind::Spatial
-        } else {
-            BaseKind::Planar
-        }
-    }
-}
 
 /// How one field varies.
 #[derive(Clone, Debug, PartialEq)]
@@ -115,7 +95,7 @@ pub struct Sweep {
     /// The base as the sweep file names it.
     pub base_name: String,
     /// Planar or spatial (from the base).
-    pub kind: BaseKind,
+    pub kind: Kind,
 }
 
 /// The value of one run's varied field.
@@ -244,7 +224,7 @@ const TOP_KEYS: [&str; 6] = ["base", "runs", "seed", "duration", "set", "vary"];
 const DISTS: [&str; 5] = ["grid", "uniform", "normal", "log_uniform", "choice"];
 
 /// Parse the text of a scenario document (the base with values set) through the loader.
-pub fn load_doc(doc: &Table, base: &Source, label: &str) -> Result<scenario::Scenario, String> {
+pub fn load_doc(doc: &Table, base: &Source, label: &str) -> Result<Scenario, String> {
     let text = toml::to_string(doc).map_err(|e| e.to_string())?;
     let src = Source {
         name: base.name.clone(),
@@ -267,33 +247,17 @@ pub fn doc_source(doc: &Table, base: &Source, label: &str) -> Result<Source, Str
     })
 }
 
-/// Parse a spatial scenario document (the base with values set) through the spatial loader.
-pub fn load_spatial_doc(
-    doc: &Table,
-    base: &Source,
-    label: &str,
-) -> Result<crate::spatial::scenario::SpatialScenario, String> {
-    let src = doc_source(doc, base, label)?;
-    crate::spatial::scenario::parse(&src).map_err(|e| loader_message(&e))
-}
-
 /// Parse a scenario document and run every validation of a run (nothing is simulated); the
-/// loader is the base's kind's ([`BaseKind::of`]).
+/// loader is the document's kind's ([`scenario::parse`]).
 pub fn check_doc(doc: &Table, base: &Source, label: &str) -> Result<(), String> {
     let src = doc_source(doc, base, label)?;
-    match BaseKind::of(base) {
-        BaseKind::Planar => {
-            let sc = load_doc(doc, base, label)?;
-            crate::runner::prepare(sc, &src)
-                .map(|_| ())
-                .map_err(|e| loader_message(&e))
-        }
-        BaseKind::Spatial => {
-            let sc = load_spatial_doc(doc, base, label)?;
-            crate::spatial::prepare(sc, &src)
-                .map(|_| ())
-                .map_err(|e| loader_message(&e))
-        }
+    match load_doc(doc, base, label)? {
+        Scenario::Planar(sc) => crate::run::planar::prepare(sc, &src)
+            .map(|_| ())
+            .map_err(|e| loader_message(&e)),
+        Scenario::Spatial(sc) => crate::run::spatial::prepare(sc, &src)
+            .map(|_| ())
+            .map_err(|e| loader_message(&e)),
     }
 }
 
@@ -303,17 +267,19 @@ pub fn check_doc(doc: &Table, base: &Source, label: &str) -> Result<(), String> 
 /// those of its resolved form.
 pub fn known_paths(doc: &Table, base: &Source) -> Vec<String> {
     let mut known = fields::all_paths(doc);
-    if BaseKind::of(base) == BaseKind::Spatial {
-        if let Ok(sc) = crate::spatial::scenario::parse(base)
-            && let Ok(toml::Value::Table(t)) = toml::Value::try_from(sc)
-        {
-            known.extend(fields::all_paths(&t));
+    let sc = match scenario::parse(base) {
+        Ok(Scenario::Spatial(sc)) => {
+            if let Ok(toml::Value::Table(t)) = toml::Value::try_from(sc) {
+                known.extend(fields::all_paths(&t));
+            }
+            known.sort();
+            known.dedup();
+            return known;
         }
-        known.sort();
-        known.dedup();
-        return known;
-    }
-    if let Ok(sc) = scenario::parse(base)
+        Ok(Scenario::Planar(sc)) => Some(sc),
+        Err(_) => None,
+    };
+    if let Some(sc) = sc
         && let Ok(toml::Value::Table(t)) = toml::Value::try_from(sc.resolved())
     {
         known.extend(fields::all_paths(&t));
@@ -539,13 +505,8 @@ impl Sweep {
             rel.display().to_string()
         };
         let base = scenario::resolve(Some(&arg)).map_err(|e| cx.err(&["base"], e.to_string()))?;
-        let kind = BaseKind::of(&base);
-        // The base must itself be valid.
-        let parsed = match kind {
-            BaseKind::Planar => scenario::parse(&base).map(|_| ()),
-            BaseKind::Spatial => crate::spatial::scenario::parse(&base).map(|_| ()),
-        };
-        parsed.map_err(|e| {
+        // The base must itself be valid; its kind decides the metric columns.
+        let kind = scenario::parse(&base).map(|sc| sc.kind()).map_err(|e| {
             cx.err(
                 &["base"],
                 format!("the base scenario is invalid: {}", e.to_string().trim()),
@@ -751,11 +712,11 @@ impl Sweep {
         })
     }
 
-    /// The inputs of the sweep, for [`crate::output::check_replaceable`]: the sweep file
+    /// The inputs of the sweep, for [`crate::files::check_replaceable`]: the sweep file
     /// (`file`), the base scenario file, every file the base (with `[set]`) names, and every
     /// file a `[vary]` grid or choice names (`arms[0].urdf`, `controller.replay`).
-    pub fn inputs(&self, file: Option<&Path>) -> Vec<crate::output::Input> {
-        use crate::output::Input;
+    pub fn inputs(&self, file: Option<&Path>) -> Vec<crate::files::Input> {
+        use crate::files::Input;
         let mut v: Vec<Input> = file
             .map(|f| Input::new("the sweep file", f))
             .into_iter()

@@ -16,9 +16,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 use serde_json::Value as Json;
 
-use super::{BaseKind, Shard, Sweep, cell, fmt_f64, load_doc, load_spatial_doc};
-use crate::runner::{self, Outputs};
-use crate::scenario::Source;
+use super::{Shard, Sweep, cell, fmt_f64, load_doc};
+use crate::output::planar::{self as planar_output, Outputs};
+use crate::run::planar as runner;
+use crate::scenario::{Kind, Scenario, Source};
 
 /// The metric columns: (column, JSON pointer into `summary.json`).
 pub const METRICS: &[(&str, &str)] = &[
@@ -66,7 +67,7 @@ pub enum Pick {
 }
 
 /// The metric columns of a spatial base: (column, where in the spatial `summary.json`,
-/// [`crate::spatial::output::summary`]). Units are in the names as in `summary.json`; the
+/// [`crate::output::spatial::summary`]). Units are in the names as in `summary.json`; the
 /// per-arm metrics are reduced over the arms (any number of arms gives the same columns).
 pub const SPATIAL_METRICS: &[(&str, Pick)] = &[
     ("t_end_s", Pick::At("/t_end_s")),
@@ -179,10 +180,10 @@ fn pick_cell(summary: &Json, p: Pick) -> String {
 }
 
 /// The metric column names of a base kind.
-pub fn metric_columns(kind: BaseKind) -> Vec<&'static str> {
+pub fn metric_columns(kind: Kind) -> Vec<&'static str> {
     match kind {
-        BaseKind::Planar => METRICS.iter().map(|(c, _)| *c).collect(),
-        BaseKind::Spatial => SPATIAL_METRICS.iter().map(|(c, _)| *c).collect(),
+        Kind::Planar => METRICS.iter().map(|(c, _)| *c).collect(),
+        Kind::Spatial => SPATIAL_METRICS.iter().map(|(c, _)| *c).collect(),
     }
 }
 
@@ -245,19 +246,19 @@ pub fn one(sw: &Sweep, index: u64, keep: Option<&Path>) -> RunResult {
         Ok(d) => d,
         Err(e) => return invalid(cells, e),
     };
-    if sw.kind == BaseKind::Spatial {
-        return match one_spatial(sw, index, keep, &doc, &label) {
-            Ok(metrics) => {
-                cells.extend(metrics);
-                RunResult {
-                    row: Row { index, cells },
-                }
-            }
-            Err(e) => invalid(cells, e),
-        };
-    }
     let sc = match load_doc(&doc, &sw.base, &label) {
-        Ok(s) => s,
+        Ok(Scenario::Planar(s)) => s,
+        Ok(Scenario::Spatial(sc)) => {
+            return match one_spatial(sw, index, keep, sc, &doc, &label) {
+                Ok(metrics) => {
+                    cells.extend(metrics);
+                    RunResult {
+                        row: Row { index, cells },
+                    }
+                }
+                Err(e) => invalid(cells, e),
+            };
+        }
         Err(e) => return invalid(cells, e),
     };
     let src = Source {
@@ -272,12 +273,14 @@ pub fn one(sw: &Sweep, index: u64, keep: Option<&Path>) -> RunResult {
         Err(e) => return invalid(cells, super::loader_message(&e)),
     };
     let fin = runner::execute(prepared, |_| {});
-    let summary = runner::summary_json(&fin, &sw.base.name, None);
+    let summary = planar_output::summary_json(&fin, &sw.base.name, None);
     if let Some(dir) = keep {
         let d = dir.join(index.to_string());
         let res = std::fs::create_dir_all(&d)
             .map_err(anyhow::Error::from)
-            .and_then(|_| runner::write_run(&d, &fin, &sw.base.name, Outputs { figures: false }));
+            .and_then(|_| {
+                planar_output::write_run(&d, &fin, &sw.base.name, Outputs { figures: false })
+            });
         if let Err(e) = res {
             eprintln!("warning: run {index}: its outputs were not written: {e:#}");
         }
@@ -310,24 +313,24 @@ fn one_spatial(
     sw: &Sweep,
     index: u64,
     keep: Option<&Path>,
+    sc: crate::scenario::SpatialScenario,
     doc: &toml::Table,
     label: &str,
 ) -> Result<Vec<String>, String> {
-    use crate::spatial;
-    let sc = load_spatial_doc(doc, &sw.base, label)?;
+    use crate::run::spatial;
     let src = super::doc_source(doc, &sw.base, label)?;
     let prepared = spatial::prepare(sc, &src).map_err(|e| super::loader_message(&e))?;
-    let toml_text = spatial::scenario_toml(&prepared.sc, &sw.base.name);
+    let toml_text = crate::output::spatial::scenario_toml(&prepared.sc, &sw.base.name);
     let fin = spatial::execute(prepared, |_| {}).map_err(|e| format!("{e:#}"))?;
-    let derived = spatial::output::Derived::new(&fin);
-    let summary = spatial::output::summary(&sw.base.name, &fin, &derived, None);
+    let derived = crate::output::spatial::Derived::new(&fin);
+    let summary = crate::output::spatial::summary(&sw.base.name, &fin, &derived, None);
     if let Some(dir) = keep {
         let d = dir.join(index.to_string());
         let res = std::fs::create_dir_all(&d)
             .map_err(anyhow::Error::from)
-            .and_then(|_| spatial::output::write(&d, &sw.base.name, &fin, false))
+            .and_then(|_| crate::output::spatial::write(&d, &sw.base.name, &fin, false))
             .and(toml_text)
-            .and_then(|t| crate::output::write_text_atomic(&d.join("scenario.toml"), &t));
+            .and_then(|t| crate::files::write_text_atomic(&d.join("scenario.toml"), &t));
         if let Err(e) = res {
             eprintln!("warning: run {index}: its outputs were not written: {e:#}");
         }

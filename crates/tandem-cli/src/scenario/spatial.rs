@@ -47,49 +47,9 @@ use tandem::reference::spatial::path::{AxisFrame, CircleParams, Se3Path, Se3Wayp
 use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
 
-use crate::scenario::{
-    Embedded, MAX_ARMS, MAX_LINKS, MetricsConfig, ScenarioError, Source, control_warning,
-    load_replay, num, read_limited,
-};
-
-// ---------------------------------------------------------------------------------------------
-// Embedded spatial scenarios.
-
-/// The spatial scenarios compiled into the binary.
-pub const EMBEDDED: &[Embedded] = &[
-    Embedded {
-        name: "dual-ur5",
-        summary: "SPEC-spatial S6: two UR5-class arms facing each other carry a 3 kg box on a circle while it pitches (NN law)",
-        text: include_str!("../../scenarios/dual-ur5.toml"),
-    },
-    Embedded {
-        name: "dual-franka",
-        summary: "two 7-DOF Franka-class arms grasp the box from above and carry it on the S6 path (NN law)",
-        text: include_str!("../../scenarios/dual-franka.toml"),
-    },
-];
-
-/// Whether a scenario text is spatial: its first arm names a robot model (`model` or `urdf`).
-/// Text that is not TOML is not spatial (the planar parser then reports the syntax error).
-pub fn is_spatial(text: &str) -> bool {
-    use toml::de::DeTable;
-    let Ok(root) = DeTable::parse(text) else {
-        return false;
-    };
-    let top = root.get_ref();
-    let Some((_, arms)) = top.iter().find(|(k, _)| k.get_ref().as_ref() == "arms") else {
-        return false;
-    };
-    let Some(a) = arms.get_ref().as_array() else {
-        return false;
-    };
-    a.iter().any(|arm| {
-        arm.get_ref().as_table().is_some_and(|t| {
-            t.iter()
-                .any(|(k, _)| matches!(k.get_ref().as_ref(), "model" | "urdf"))
-        })
-    })
-}
+use super::planar::{MetricsConfig, control_warning, load_replay};
+use super::source::{MAX_ARMS, MAX_LINKS, ScenarioError, Source, num, read_limited};
+use super::tables::ControllerKind;
 
 // ---------------------------------------------------------------------------------------------
 // The file's structs.
@@ -423,32 +383,6 @@ pub struct SensorsConfig {
     pub torque: ChannelNoise,
 }
 
-/// Which law drives the joints.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum SpatialKind {
-    /// iBLF backstepping + adaptive RBF network on six outputs.
-    Nn,
-    /// PD on six outputs (the paper's baseline; `pd.gravity_compensation` adds the model's 𝓖).
-    Pd,
-    /// Computed torque with a nominal model.
-    Ctc,
-    /// Joint torques replayed from a CSV file (`controller.replay`).
-    Replay,
-}
-
-impl SpatialKind {
-    /// `nn`, `pd`, `ctc`, `replay`.
-    pub fn name(self) -> &'static str {
-        match self {
-            SpatialKind::Nn => "nn",
-            SpatialKind::Pd => "pd",
-            SpatialKind::Ctc => "ctc",
-            SpatialKind::Replay => "replay",
-        }
-    }
-}
-
 /// `object` or `per_arm`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -465,7 +399,7 @@ pub enum SchemeConfig {
 #[serde(deny_unknown_fields)]
 pub struct ControllerConfig {
     /// `nn`, `pd`, `ctc` or `replay`.
-    pub kind: SpatialKind,
+    pub kind: ControllerKind,
     /// `object` (default) or `per_arm`.
     #[serde(default)]
     pub scheme: SchemeConfig,
@@ -507,7 +441,7 @@ pub struct ControllerConfig {
     pub replay: Option<String>,
     /// `hold` (default) or `linear` between the replayed rows.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub replay_interpolation: Option<crate::replay::Interpolation>,
+    pub replay_interpolation: Option<crate::scenario::replay::Interpolation>,
     /// Column map of a replayed log from another tool (as planar: the time column, then one
     /// torque column per joint).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -1197,7 +1131,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
     // The NN design's inputs (SPEC §3.4's per-axis design): checked here, by their own names,
     // before the gains designed from them are (a NaN `k1` would otherwise surface as the
     // designed `controller.nn.k1[0]`, a field the file does not set).
-    if c.kind == SpatialKind::Nn {
+    if c.kind == ControllerKind::Nn {
         let d = &c.nn.design;
         let mut fields: Vec<(String, f64)> = vec![
             ("controller.nn.design.k1".into(), d.k1),
@@ -1218,8 +1152,8 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
     }
     let controller = {
         let law = match c.kind {
-            SpatialKind::Nn => SpatialLaw::Nn(nn_gains(&c.nn, None)),
-            SpatialKind::Pd | SpatialKind::Replay => {
+            ControllerKind::Nn => SpatialLaw::Nn(nn_gains(&c.nn, None)),
+            ControllerKind::Pd | ControllerKind::Replay => {
                 let mut g = SpatialPdGains::paper();
                 if let Some(v) = c.pd.k_p {
                     g.k_p = v;
@@ -1230,7 +1164,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
                 g.gravity_compensation = c.pd.gravity_compensation;
                 SpatialLaw::Pd(g)
             }
-            SpatialKind::Ctc => {
+            ControllerKind::Ctc => {
                 let mut g = SpatialCtcGains::default();
                 if let Some(v) = c.ctc.k_p {
                     g.k_p = v;
@@ -1281,7 +1215,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             posture,
         }
     };
-    let replay = if c.kind == SpatialKind::Replay {
+    let replay = if c.kind == ControllerKind::Replay {
         match &c.replay {
             None => {
                 return Err(src.error_at(
@@ -1729,7 +1663,7 @@ pub fn make_simulation(
     };
     let mut cp = b.controller.clone();
     let mut path_inertia = None;
-    if let (SpatialKind::Nn, None) = (sc.controller.kind, sc.controller.nn.design.inertia) {
+    if let (ControllerKind::Nn, None) = (sc.controller.kind, sc.controller.nn.design.inertia) {
         let mut probe = cp.clone();
         probe.law = SpatialLaw::Pd(SpatialPdGains::paper());
         let (c, _) = SpatialController::new(
@@ -1784,4 +1718,38 @@ pub fn make_simulation(
         k_c,
         chart,
     })
+}
+
+impl SpatialScenario {
+    /// Apply the command line's overrides (`--gains` names planar presets only).
+    pub fn apply(&mut self, o: &super::Overrides) -> Result<(), crate::BadInput> {
+        if o.gains.is_some() {
+            return Err(crate::BadInput::msg(
+                "--gains selects the planar NN presets (paper, tuned); a spatial scenario designs its \
+                 NN gains in [controller.nn] (design = { inertia, k1, omega_n, zeta }, or explicit gains)",
+            ));
+        }
+        if let Some(d) = o.duration {
+            self.run.duration = d;
+        }
+        if let Some(s) = o.seed {
+            self.run.seed = s;
+        }
+        if let Some(k) = o.controller {
+            self.controller.kind = k;
+        }
+        if let Some(r) = &o.replay {
+            self.controller.kind = ControllerKind::Replay;
+            // The command line's path is relative to the working folder, the file's to the file.
+            let abs = std::path::absolute(r).unwrap_or_else(|_| r.clone());
+            self.controller.replay = Some(abs.display().to_string());
+        }
+        if let Some(m) = o.replay_interpolation {
+            self.controller.replay_interpolation = Some(m);
+        }
+        if let Some(c) = &o.replay_columns {
+            self.controller.replay_columns = Some(c.clone());
+        }
+        Ok(())
+    }
 }

@@ -11,7 +11,7 @@ use tandem::plant::planar::{Plant, PlantParams};
 use tandem::reference::planar::path::Path;
 use tandem::sim::Log;
 
-use crate::anim::{AnimFrames, Frame};
+use crate::view::planar::anim::{AnimFrames, Frame};
 
 fn col<'a>(log: &'a Log, name: &str) -> &'a [f64] {
     log.get(name).unwrap_or(&[])

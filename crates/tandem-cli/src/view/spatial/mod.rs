@@ -15,7 +15,7 @@
 //! point of an arm or the object is marked invalid, the page shows the last valid frame and a
 //! note in the HUD; non-finite scalars and wrenches are shown as "n/a" / not drawn.
 //!
-//! The module is self-contained (external crates, [`crate::output`] and [`crate::plot`]), so
+//! The module is self-contained (external crates, [`crate::files`] and [`crate::figures::plot`]), so
 //! tests and examples can compile it with `#[path]`.
 
 pub mod demo;
@@ -327,7 +327,7 @@ pub fn write_viewer(scene: &Scene3d) -> String {
 /// Writes `viewer.html` into `dir` atomically (whole or not at all); returns its path.
 pub fn write_viewer_file(scene: &Scene3d, dir: &Path) -> Result<std::path::PathBuf> {
     let path = dir.join("viewer.html");
-    crate::output::write_text_atomic(&path, &write_viewer(scene))?;
+    crate::files::write_text_atomic(&path, &write_viewer(scene))?;
     Ok(path)
 }
 

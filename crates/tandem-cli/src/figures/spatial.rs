@@ -1,4 +1,4 @@
-//! The figures of a spatial run (PNG + SVG, the planar style of [`crate::plot`]) and of a
+//! The figures of a spatial run (PNG + SVG, the planar style of [`crate::figures::plot`]) and of a
 //! spatial comparison.
 //!
 //! | file | content |
@@ -15,7 +15,7 @@
 //! | `weights` | switching value `Q` and weight norms `‖Ŵ_j‖` (NN only) |
 //! | `margins` | constraint margin, closest joint-limit distance and the tool Jacobians' σ_min |
 //!
-//! Figures are drawn in parallel (`crate::figures::run_jobs`); the plot module min/max
+//! Figures are drawn in parallel (`crate::figures::planar::run_jobs`); the plot module min/max
 //! decimates long series, so a 60 s run is drawn as fast as a short one.
 
 use std::path::Path;
@@ -23,9 +23,11 @@ use std::path::Path;
 use anyhow::Result;
 use tandem::control::spatial::{AXES, WRENCH_AXES};
 
-use super::output::{Derived, Finished, TRANSIENT, col, six};
-use crate::figures::{Job, joint_torque_panels, margin_panel, run_jobs};
-use crate::plot::{self, Panel, Series, Style};
+use crate::figures::planar::col;
+use crate::figures::planar::{Job, joint_torque_panels, margin_panel, run_jobs};
+use crate::figures::plot::{self, Panel, Series, Style};
+use crate::run::spatial::Finished;
+use tandem::report::spatial::{Derived, TRANSIENT, six};
 
 /// Axis symbols of the six outputs in titles.
 const SYM: [&str; 6] = ["x", "y", "z", "φx", "φy", "φz"];

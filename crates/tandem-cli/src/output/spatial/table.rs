@@ -3,7 +3,7 @@
 
 use serde_json::{Value, json};
 
-use crate::table::num;
+use crate::output::table::num;
 
 /// The table rows of one or more runs' summaries: `(metric, one cell per run)`.
 pub fn rows(runs: &[(&str, &Value)]) -> Vec<(String, Vec<String>)> {
@@ -182,11 +182,11 @@ pub fn rows(runs: &[(&str, &Value)]) -> Vec<(String, Vec<String>)> {
 /// The table as aligned text (one column per run; a header line when there are several).
 pub fn text(runs: &[(&str, &Value)]) -> String {
     let names: Vec<&str> = runs.iter().map(|(n, _)| *n).collect();
-    crate::table::render_text(&names, &rows(runs))
+    crate::output::table::render_text(&names, &rows(runs))
 }
 
 /// The table in Markdown.
 pub fn markdown(runs: &[(&str, &Value)]) -> String {
     let names: Vec<&str> = runs.iter().map(|(n, _)| *n).collect();
-    crate::table::render_markdown(&names, &rows(runs))
+    crate::output::table::render_markdown(&names, &rows(runs))
 }

@@ -41,10 +41,10 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{FontStyle, FontTransform, register_font};
 
-use crate::output;
+use crate::files;
 
 /// The embedded font (DejaVu Sans, see `assets/DejaVu-LICENSE.txt`).
-static FONT_BYTES: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+static FONT_BYTES: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 
 /// The font family every text of a figure uses.
 pub const FONT: &str = "sans-serif";
@@ -331,7 +331,7 @@ pub fn panels_sized(
 ) -> Result<()> {
     let write = || -> Result<()> {
         let png = with_ext(path_stem, "png");
-        let tmp = output::temp_sibling(&png)?;
+        let tmp = files::temp_sibling(&png)?;
         let drawn = (|| -> Result<()> {
             let root = BitMapBackend::new(&tmp, size).into_drawing_area();
             draw_figure(&root, title, panels, columns, Target::Bitmap)?;
@@ -341,9 +341,9 @@ pub fn panels_sized(
             let _ = std::fs::remove_file(&tmp);
             return Err(e);
         }
-        output::rename_into_place(&tmp, &png)?;
+        files::rename_into_place(&tmp, &png)?;
         let svg = render_svg(title, panels, columns, size)?;
-        output::write_text_atomic(&with_ext(path_stem, "svg"), &svg)
+        files::write_text_atomic(&with_ext(path_stem, "svg"), &svg)
     };
     write().with_context(|| format!("cannot draw figure {}", path_stem.display()))
 }

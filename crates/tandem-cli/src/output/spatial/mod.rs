@@ -35,64 +35,14 @@ pub use viewer::VIEWER_FPS;
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::Result;
+use crate::scenario::SpatialScenario;
+use anyhow::{Context, Result};
 use serde_json::Value;
-use tandem::control::spatial::chart::Chart;
-use tandem::plant::spatial::SpatialPlant;
-use tandem::reference::spatial::path::Se3Path;
-use tandem::report::spatial::SpatialRun;
-use tandem::sim::Outcome;
 
-use crate::output::write_json_atomic;
+use crate::files::write_json_atomic;
+pub use crate::run::spatial::Finished;
 
-/// What a spatial run measured, and everything its outputs need.
-pub struct Finished {
-    /// The simulation outcome (log, fault, drift, margins).
-    pub outcome: Outcome,
-    /// The plant (kinematics of the logged states, the arms' joint limits).
-    pub plant: SpatialPlant,
-    /// Box edge lengths, m.
-    pub box_size: [f64; 3],
-    /// The desired path.
-    pub path: Se3Path,
-    /// Simulated duration asked for, s.
-    pub duration: f64,
-    /// The law's short name, the [`super::slug`] of its label: `nn`, `pd`, `pd-gravity`, `ctc`,
-    /// `per-arm-pd`, `replay`.
-    pub controller: String,
-    /// A human label for tables and legends, e.g. `NN`.
-    pub label: String,
-    /// Output bounds `k_c` on `x_1 = (p − c, φ)`, (m ×3, rad ×3).
-    pub k_c: [f64; 6],
-    /// The output chart (centre `c`, `R_ref`) the controller used.
-    pub chart: Chart,
-    /// Set-up warnings.
-    pub warnings: Vec<String>,
-}
-
-impl Finished {
-    /// The run used the NN law (weights, `α`, `Q` exist).
-    pub fn nn(&self) -> bool {
-        self.controller == "nn"
-    }
-}
-
-/// What the library's summary is computed from: the run and the scenario's definitions (the
-/// spatial transient window is [`TRANSIENT`]).
-impl<'a> From<&'a Finished> for SpatialRun<'a> {
-    fn from(f: &'a Finished) -> Self {
-        SpatialRun {
-            outcome: &f.outcome,
-            plant: &f.plant,
-            path: &f.path,
-            chart: &f.chart,
-            k_c: f.k_c,
-            transient: TRANSIENT,
-        }
-    }
-}
-
-pub(crate) use crate::figures::col;
+pub(crate) use crate::figures::planar::col;
 pub(crate) use tandem::report::spatial::six;
 
 /// Times spent writing, s.
@@ -110,7 +60,7 @@ pub struct WriteTimes {
     pub total: f64,
 }
 
-/// Writes every output of `f` into `dir` (the temporary folder of an [`crate::output::OutputDir`]):
+/// Writes every output of `f` into `dir` (the temporary folder of an [`crate::files::OutputDir`]):
 /// `timeseries.csv`, `viewer.html` and the snapshots, the figures (if `figures`), then
 /// `summary.json` (last, with the write time). The three writers run on their own threads. A
 /// figure error is returned as a warning, so that a faulted run still writes what it has.
@@ -140,7 +90,8 @@ pub fn write(
         let figs = spawn("tandem-figures").spawn_scoped(s, || {
             let t = Instant::now();
             if figures && !f.outcome.log.is_empty() {
-                super::figures::run_figures(dir, scenario, f, &d).map(|_| t.elapsed().as_secs_f64())
+                crate::figures::spatial::run_figures(dir, scenario, f, &d)
+                    .map(|_| t.elapsed().as_secs_f64())
             } else {
                 Ok(0.0)
             }
@@ -165,4 +116,14 @@ pub fn write(
     let s = summary(scenario, f, &d, Some(times.total));
     write_json_atomic(&dir.join("summary.json"), &s)?;
     Ok((s, times, problems))
+}
+
+/// The scenario as run, re-runnable: the resolved TOML with a header.
+pub fn scenario_toml(sc: &SpatialScenario, name: &str) -> Result<String> {
+    let mut sc = sc.clone();
+    sc.name = Some(name.to_string());
+    let body = toml::to_string(&sc).context("writing scenario.toml")?;
+    Ok(format!(
+        "# The scenario of this run as tandem read it (defaults and command-line overrides\n# applied). Re-run it with `tandem run scenario.toml`.\n\n{body}"
+    ))
 }

@@ -7,8 +7,9 @@ use anyhow::{Context, Result};
 use serde_json::{Map, Value, json};
 
 use super::{Finished, markdown, write};
-use crate::output::{write_json_atomic, write_text_atomic};
-use crate::spatial::{figures, slug};
+use crate::figures::spatial as figures;
+use crate::files::{write_json_atomic, write_text_atomic};
+use crate::run::spatial::slug;
 
 /// Writes a spatial comparison into `dir` (a temporary folder): one sub-folder per run with its
 /// own outputs ([`write()`]), the overlay figures ([`figures::compare_figures`]),

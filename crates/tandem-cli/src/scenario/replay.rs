@@ -88,7 +88,7 @@ fn header_list(names: &[&str]) -> String {
     let mut s = names
         .iter()
         .take(24)
-        .map(|n| format!("`{}`", crate::scenario::clip(n, 40)))
+        .map(|n| format!("`{}`", super::source::clip(n, 40)))
         .collect::<Vec<_>>()
         .join(", ");
     if names.len() > 24 {
@@ -138,7 +138,7 @@ fn mapped(names: &[&str], columns: &[String], n_q: usize) -> Result<(usize, Vec<
 /// The time and torque columns by tandem's names (`t`/`time`; `tau_q1…` of a run's log, or
 /// `tau1…`), and whether the file is a run's log (evenly spaced rows).
 fn by_name(names: &[&str], n_q: usize) -> Result<(usize, Vec<usize>, bool)> {
-    let show = |n: &str| crate::scenario::clip(n, 40);
+    let show = |n: &str| super::source::clip(n, 40);
     // The time column: exactly one.
     let t_cols: Vec<usize> = (0..names.len())
         .filter(|&c| names[c].eq_ignore_ascii_case("t") || names[c].eq_ignore_ascii_case("time"))
@@ -209,7 +209,7 @@ pub fn load(
         .from_reader(file);
     let headers = rdr.headers().context("cannot read the header row")?.clone();
     let names: Vec<&str> = headers.iter().map(bare).collect();
-    let show = |n: &str| crate::scenario::clip(n, 40);
+    let show = |n: &str| super::source::clip(n, 40);
 
     let (t_col, cols, log_layout) = match columns {
         Some(map) => {

@@ -1,137 +1,20 @@
-//! One run: prepare (every validation), simulate, post-process, summarize, write the outputs.
+//! What a planar run writes: `timeseries.csv`, `summary.json` (the library's summary with the
+//! run's name, version, kernel, warnings and timing), `scenario.toml`, the figures and the
+//! animation ([`write_run`]).
 
 use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Result;
 use serde_json::{Value, json};
-use tandem::report;
-use tandem::report::planar::Summary;
-use tandem::sim::{Log, Outcome};
+use tandem::sim::Log;
 
-use crate::anim::{self, AnimOptions};
-use crate::figures::{self, FigureInfo};
-use crate::output;
-use crate::scenario::{self, Built, ControllerKind, Scenario, ScenarioError, Source};
-
-/// A scenario that passed every validation, ready to run.
-pub struct Prepared {
-    /// The scenario (command-line overrides applied).
-    pub sc: Scenario,
-    /// Its library parameters.
-    pub built: Built,
-    /// The simulation and its set-up warnings.
-    pub ready: scenario::Ready,
-}
-
-/// Build and validate everything a run needs (nothing is simulated).
-pub fn prepare(sc: Scenario, src: &Source) -> Result<Prepared, ScenarioError> {
-    let built = scenario::build(&sc, src)?;
-    let ready = scenario::make_simulation(&sc, &built, src)?;
-    // Last: a NaN or infinity the run's own checks did not meet (another law's section).
-    scenario::check_finite(src, &sc)?;
-    Ok(Prepared { sc, built, ready })
-}
-
-/// A finished run.
-pub struct Finished {
-    /// The scenario that ran.
-    pub sc: Scenario,
-    /// Its library parameters.
-    pub built: Built,
-    /// The log and how the run ended.
-    pub outcome: Outcome,
-    /// The metrics.
-    pub summary: Summary,
-    /// Set-up warnings.
-    pub warnings: Vec<String>,
-}
-
-impl Finished {
-    /// A human label, e.g. `NN (tuned)`.
-    pub fn label(&self) -> String {
-        label(&self.sc)
-    }
-}
-
-/// A human label of a scenario's controller, e.g. `NN (tuned)`, `PD`.
-pub fn label(sc: &Scenario) -> String {
-    match sc.controller.kind {
-        ControllerKind::Nn => format!("NN ({})", sc.gains_label()),
-        ControllerKind::Pd => "PD".into(),
-        ControllerKind::Ctc => "CTC".into(),
-        ControllerKind::Replay => format!("replay ({})", sc.gains_label()),
-    }
-}
-
-/// Simulate; `progress(fraction)` is called about 200 times.
-pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Finished {
-    let Prepared { sc, built, ready } = p;
-    let (mut outcome, _sim) = ready.sim.run(progress);
-    if sc.controller.kind == ControllerKind::Replay {
-        fill_replay_columns(&mut outcome.log, &built, sc.k_c());
-    }
-    let summary = report::planar::summarize_with_path(
-        &outcome,
-        &built.path,
-        sc.controller.kind.name(),
-        &sc.gains_label(),
-        sc.k_c(),
-        sc.metrics.transient,
-        built.sim.duration,
-    );
-    Finished {
-        sc,
-        built,
-        outcome,
-        summary,
-        warnings: ready.warnings,
-    }
-}
-
-/// A replay has no controller, so the library logs zeros for its internals. Fill in what the
-/// scenario defines: `x_d` (and `x_r = x_d`, no admittance) from the path, `z1 = x_o − x_d`,
-/// and the constraint margin from the true pose.
-fn fill_replay_columns(log: &mut Log, built: &Built, k_c: [f64; 3]) {
-    let t: Vec<f64> = log.get("t").unwrap_or(&[]).to_vec();
-    let x_o: Vec<Vec<f64>> = ["x_o.x", "x_o.y", "x_o.theta"]
-        .iter()
-        .map(|n| log.get(n).unwrap_or(&[]).to_vec())
-        .collect();
-    let samples: Vec<_> = t.iter().map(|&t| built.path.sample(t)).collect();
-    for c in &mut log.columns {
-        let axis = |s: &str| match s {
-            "x" => Some(0),
-            "y" => Some(1),
-            "theta" => Some(2),
-            _ => None,
-        };
-        let Some((group, a)) = c.name.split_once('.') else {
-            if c.name == "margin" {
-                for (k, v) in c.data.iter_mut().enumerate() {
-                    *v = (0..3)
-                        .map(|j| 1.0 - x_o[j][k].abs() / k_c[j])
-                        .fold(f64::INFINITY, f64::min);
-                }
-            }
-            continue;
-        };
-        let Some(j) = axis(a) else { continue };
-        match group {
-            "x_d" | "x_r" => {
-                for (v, s) in c.data.iter_mut().zip(&samples) {
-                    *v = s.p[j];
-                }
-            }
-            "z1" => {
-                for (k, v) in c.data.iter_mut().enumerate() {
-                    *v = x_o[j][k] - samples[k].p[j];
-                }
-            }
-            _ => {}
-        }
-    }
-}
+use crate::figures::planar::{self as figures, FigureInfo};
+use crate::files;
+use crate::run::planar::{Finished, label};
+use crate::scenario::ControllerKind;
+use crate::scenario::PlanarScenario;
+use crate::view::planar::anim::{self, AnimOptions};
 
 /// The content of `summary.json`: the library's summary, the scenario's name and seed, the
 /// tandem version, the RBF kernel, warnings, and (in `timing`, excluded from determinism checks) wall times.
@@ -235,7 +118,7 @@ pub fn unavailable(f: &Finished) -> Vec<(&'static str, String)> {
     let Some(&last) = t.last() else {
         let why = format!(
             "no logged rows: the run stopped at t = {} s, before its first row",
-            crate::table::num(s.t_end, 4)
+            crate::output::table::num(s.t_end, 4)
         );
         v.extend(from_log.iter().map(|k| (*k, why.clone())));
         if !s.min_margin.is_finite() {
@@ -246,8 +129,8 @@ pub fn unavailable(f: &Finished) -> Vec<(&'static str, String)> {
     if last < s.transient {
         let why = format!(
             "run too short: the log ends at {} s, before the transient window (from {} s)",
-            crate::table::num(last, 4),
-            crate::table::num(s.transient, 4)
+            crate::output::table::num(last, 4),
+            crate::output::table::num(s.transient, 4)
         );
         for k in [
             "rms_z1_after",
@@ -295,7 +178,7 @@ pub fn unavailable(f: &Finished) -> Vec<(&'static str, String)> {
 }
 
 /// The resolved scenario as TOML, with a header saying what it is.
-pub fn scenario_toml(sc: &Scenario, name: &str, replay: Option<&Path>) -> Result<String> {
+pub fn scenario_toml(sc: &PlanarScenario, name: &str, replay: Option<&Path>) -> Result<String> {
     let mut resolved = sc.resolved();
     resolved.name = Some(name.to_string());
     if let Some(r) = replay {
@@ -317,7 +200,7 @@ pub fn scenario_toml(sc: &Scenario, name: &str, replay: Option<&Path>) -> Result
 pub fn write_timeseries(path: &Path, log: &Log) -> Result<()> {
     let header = log.names();
     let cols: Vec<&[f64]> = log.columns.iter().map(|c| c.data.as_slice()).collect();
-    output::write_csv(path, &header, &cols)
+    files::write_csv(path, &header, &cols)
 }
 
 /// Which outputs to write.
@@ -359,7 +242,7 @@ pub fn write_run(
     let t0 = Instant::now();
     write_timeseries(&dir.join("timeseries.csv"), &f.outcome.log)?;
     times.csv = t0.elapsed().as_secs_f64();
-    output::write_text_atomic(
+    files::write_text_atomic(
         &dir.join("scenario.toml"),
         &scenario_toml(&f.sc, scenario, f.built.replay.as_deref())?,
     )?;
@@ -384,7 +267,7 @@ pub fn write_run(
         }
         times.animation = t2.elapsed().as_secs_f64();
     }
-    output::write_json_atomic(
+    files::write_json_atomic(
         &dir.join("summary.json"),
         &summary_json(f, scenario, Some(times.total())),
     )?;
@@ -392,12 +275,12 @@ pub fn write_run(
 }
 
 /// The zoomed transient window of the figures: the metrics' transient, at least 2 s.
-pub fn zoom(sc: &Scenario) -> Option<f64> {
+pub fn zoom(sc: &PlanarScenario) -> Option<f64> {
     Some(sc.metrics.transient.max(2.0))
 }
 
 fn write_animation(dir: &Path, f: &Finished, scenario: &str) -> Result<()> {
-    let frames = crate::scene::frames(
+    let frames = crate::view::planar::scene::frames(
         &f.built.plant,
         &f.outcome.log,
         &f.built.path,
@@ -418,7 +301,7 @@ fn write_animation(dir: &Path, f: &Finished, scenario: &str) -> Result<()> {
             title: format!(
                 "{scenario} — {} ({}× speed)",
                 f.label(),
-                crate::table::num(speed, 3)
+                crate::output::table::num(speed, 3)
             ),
             ..AnimOptions::default()
         },

@@ -30,7 +30,7 @@ use std::path::Path;
 
 use anyhow::{Result, bail};
 
-use crate::output;
+use crate::files;
 
 /// One instant of the animation.
 #[derive(Clone, Debug, Default)]
@@ -86,7 +86,7 @@ impl Default for AnimOptions {
 /// Writes the animation to `path` (atomically; see [`render_animated_svg`]).
 pub fn animated_svg(path: &Path, frames: &AnimFrames, opts: &AnimOptions) -> Result<()> {
     let svg = render_animated_svg(frames, opts)?;
-    output::write_text_atomic(path, &svg)
+    files::write_text_atomic(path, &svg)
 }
 
 // Colours: matplotlib tab10, as in the figures.
@@ -319,7 +319,7 @@ pub fn render_animated_svg(a: &AnimFrames, opts: &AnimOptions) -> Result<String>
     }
     // Lay the legend out in rows that fit the width (text measured with the embedded DejaVu Sans,
     // which the SVG names first).
-    let item_w = |label: &str| 30.0 + crate::plot::text_width_px(label, 13.0);
+    let item_w = |label: &str| 30.0 + crate::figures::plot::text_width_px(label, 13.0);
     let mut legend_rows = 1usize;
     let mut x = MARGIN_PX;
     let mut legend_pos = Vec::with_capacity(items.len());

@@ -7,7 +7,7 @@ use anyhow::Result;
 use tandem::control::spatial::WRENCH_AXES;
 
 use super::{Derived, Finished, col, six};
-use crate::viewer::{ScalarTrack, scene_from_states, write_snapshots, write_viewer_file};
+use crate::view::spatial::{ScalarTrack, scene_from_states, write_snapshots, write_viewer_file};
 
 /// The flat plant states of the logged rows `rows` (`[q; X_WO (p, quaternion w x y z); qd;
 /// twist]`, the twist left zero: the viewer draws poses only).

@@ -50,5 +50,5 @@ pub fn write_timeseries(path: &Path, f: &Finished, d: &Derived) -> Result<()> {
         );
     }
     // The shared writer: shortest round-trip numbers, no allocation per row or number.
-    crate::output::write_csv(path, &header, &cols)
+    crate::files::write_csv(path, &header, &cols)
 }

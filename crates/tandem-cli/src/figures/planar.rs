@@ -23,7 +23,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use anyhow::Result;
 use tandem::sim::Log;
 
-use crate::plot::{self, Panel, Series, Style};
+use crate::figures::plot::{self, Panel, Series, Style};
 
 /// What the figures need besides the log.
 #[derive(Clone, Debug)]

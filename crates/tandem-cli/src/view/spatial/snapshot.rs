@@ -1,6 +1,6 @@
 //! Static snapshots of a [`Scene3d`]: three orthographic views (front, side, top) of the start
 //! pose (faded) and the end pose (solid), with the object box, the desired and traced object
-//! paths, the table line and metre axes, in the house style of [`crate::plot`] (PNG + SVG,
+//! paths, the table line and metre axes, in the house style of [`crate::figures::plot`] (PNG + SVG,
 //! each written atomically).
 //!
 //! Views (world frame, z up): **front** looks along +y (x to the right, z up), **side** looks
@@ -11,7 +11,7 @@ use std::path::Path;
 use anyhow::{Result, bail};
 
 use super::{Scene3d, frame_valid};
-use crate::plot::{self, Colour, PALETTE, Panel, Series, Style};
+use crate::figures::plot::{self, Colour, PALETTE, Panel, Series, Style};
 
 /// One orthographic view: file stem, title, the two world axes shown (index, label).
 struct View {
