@@ -113,7 +113,7 @@ pub fn label(sc: &SpatialScenario) -> String {
     let c = &sc.controller;
     let l = match c.kind {
         ControllerKind::Nn => "NN",
-        ControllerKind::Pd if c.pd.gravity_compensation => "PD + gravity",
+        ControllerKind::Pd if c.pd.gravity_compensation == Some(true) => "PD + gravity",
         ControllerKind::Pd => "PD",
         ControllerKind::Ctc => "CTC",
         ControllerKind::Replay => "replay",
@@ -184,7 +184,7 @@ pub fn compare_variants(sc: &SpatialScenario) -> Vec<SpatialScenario> {
         let mut v = sc.clone();
         v.controller.kind = kind;
         v.controller.scheme = scenario::SchemeConfig::Object;
-        v.controller.pd.gravity_compensation = g;
+        v.controller.pd.gravity_compensation = Some(g);
         out.push(v);
     }
     out

@@ -32,18 +32,21 @@ use tandem::control::law::ctc::CtcGains;
 use tandem::control::law::pd::PdGains;
 use tandem::control::planar::{Controller, ControllerParams, LawParams};
 use tandem::control::{ControlWarning, Scheme};
-use tandem::model::disturbance::{Disturbance, Push};
+use tandem::model::disturbance::Disturbance;
 use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
 use tandem::model::planar::object::ObjectParams;
 use tandem::plant::planar::PlantParams;
 use tandem::reference::planar::admittance::AdmittanceParams;
 use tandem::reference::planar::path::Path;
-use tandem::sim::sensors::{ChannelNoise, SensorParams};
+use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Driver, Formulation, Replay, SimParams, Simulation};
 
 use super::Overrides;
 use super::source::*;
-use super::tables::ControllerKind;
+use super::tables::{
+    AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig, PdConfig,
+    SensorsConfig,
+};
 
 // ---------------------------------------------------------------------------------------------
 // The file's structs.
@@ -69,7 +72,7 @@ pub struct PlanarScenario {
     pub path: PathConfig,
     /// Environment disturbance on the object (default: none).
     #[serde(default)]
-    pub disturbance: DisturbanceConfig,
+    pub disturbance: DisturbanceConfig<3>,
     /// Sensor imperfections (default: ideal).
     #[serde(default)]
     pub sensors: SensorsConfig,
@@ -77,7 +80,7 @@ pub struct PlanarScenario {
     pub controller: ControllerConfig,
     /// The admittance reference generator (default: on, SPEC §3.1 values).
     #[serde(default)]
-    pub admittance: AdmittanceConfig,
+    pub admittance: AdmittanceConfig<2>,
     /// Timing, start pose, formulation, seed.
     pub run: RunConfig,
     /// Summary metrics.
@@ -306,39 +309,6 @@ pub struct PathConfig {
     pub waypoints: Option<Vec<Waypoint>>,
 }
 
-/// `F_d(t) = a ∘ sin(ω t + φ) − Σ pushes`; everything defaults to zero.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DisturbanceConfig {
-    /// Sinusoid amplitudes, (N, N, N m).
-    #[serde(default)]
-    pub amplitude: [f64; 3],
-    /// Angular frequencies, rad/s.
-    #[serde(default)]
-    pub frequency: [f64; 3],
-    /// Phases, rad.
-    #[serde(default)]
-    pub phase: [f64; 3],
-    /// Timed pushes (`t0`, `duration`, `wrench` on the object).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub pushes: Vec<Push>,
-}
-
-/// Sensor imperfections per channel group (the seed is `run.seed`).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SensorsConfig {
-    /// Joint-angle encoders, rad.
-    #[serde(default)]
-    pub encoder_q: ChannelNoise,
-    /// Joint-rate channels, rad/s.
-    #[serde(default)]
-    pub encoder_qd: ChannelNoise,
-    /// End-effector force sensors, N.
-    #[serde(default)]
-    pub force: ChannelNoise,
-}
-
 /// Gain preset of the NN law.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
@@ -422,33 +392,6 @@ impl NnOverrides {
     }
 }
 
-/// PD gains (absent = the paper's).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PdConfig {
-    /// `K_P` diagonal, (N/m, N/m, N m/rad).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k_p: Option<[f64; 3]>,
-    /// `K_D` diagonal, (N s/m, N s/m, N m s/rad).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k_d: Option<[f64; 3]>,
-}
-
-/// Computed-torque gains (absent = the library's defaults).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CtcConfig {
-    /// `K_P` diagonal, 1/s².
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k_p: Option<[f64; 3]>,
-    /// `K_D` diagonal, 1/s.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k_d: Option<[f64; 3]>,
-    /// Relative error of the nominal model's masses and inertias.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub model_error: Option<f64>,
-}
-
 /// The controller section.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -476,10 +419,10 @@ pub struct ControllerConfig {
     pub nn: NnOverrides,
     /// PD gains.
     #[serde(default)]
-    pub pd: PdConfig,
+    pub pd: PdConfig<3>,
     /// Computed-torque gains.
     #[serde(default)]
-    pub ctc: CtcConfig,
+    pub ctc: CtcConfig<3>,
     /// Torque file of `kind = "replay"` (relative to the scenario file's folder).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub replay: Option<String>,
@@ -492,74 +435,6 @@ pub struct ControllerConfig {
     /// `tau_q1…`/`tau1…`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub replay_columns: Option<Vec<String>>,
-}
-
-/// A value given once for both axes, or as `[x, y]`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(untagged, expecting = "a number or an array [x, y] of two numbers")]
-pub enum PerAxis {
-    /// The same value on both axes.
-    Both(f64),
-    /// `[x, y]`.
-    Each([f64; 2]),
-}
-
-impl PerAxis {
-    fn vector(self) -> Vector2<f64> {
-        match self {
-            PerAxis::Both(v) => Vector2::repeat(v),
-            PerAxis::Each([x, y]) => Vector2::new(x, y),
-        }
-    }
-}
-
-/// The admittance generator (SPEC §3.1).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct AdmittanceConfig {
-    /// `false` bypasses the generator (`x_r = x_d`).
-    #[serde(default = "yes")]
-    pub enabled: bool,
-    /// Virtual mass `M_e`, kg (0: the paper's first-order form, warned).
-    #[serde(default = "default_m_e")]
-    pub m_e: PerAxis,
-    /// Virtual damping `C_e`, N s/m.
-    #[serde(default = "default_c_e")]
-    pub c_e: PerAxis,
-    /// Virtual stiffness `K_e`, N/m.
-    #[serde(default = "default_k_e")]
-    pub k_e: PerAxis,
-    /// Force low-pass time constant `τ_f`, s.
-    #[serde(default = "default_tau_f")]
-    pub tau_f: PerAxis,
-}
-
-fn yes() -> bool {
-    true
-}
-fn default_m_e() -> PerAxis {
-    PerAxis::Both(200.0)
-}
-fn default_c_e() -> PerAxis {
-    PerAxis::Both(626.0)
-}
-fn default_k_e() -> PerAxis {
-    PerAxis::Both(1000.0)
-}
-fn default_tau_f() -> PerAxis {
-    PerAxis::Both(0.01)
-}
-
-impl Default for AdmittanceConfig {
-    fn default() -> Self {
-        AdmittanceConfig {
-            enabled: true,
-            m_e: default_m_e(),
-            c_e: default_c_e(),
-            k_e: default_k_e(),
-            tau_f: default_tau_f(),
-        }
-    }
 }
 
 /// Timing, start and determinism.
@@ -588,27 +463,6 @@ pub struct RunConfig {
     /// Smallest arm-Jacobian singular value before the run stops, m/rad.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_sigma: Option<f64>,
-}
-
-/// Summary metrics.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MetricsConfig {
-    /// Start of the "after the transient" window, s.
-    #[serde(default = "default_transient")]
-    pub transient: f64,
-}
-
-fn default_transient() -> f64 {
-    5.0
-}
-
-impl Default for MetricsConfig {
-    fn default() -> Self {
-        MetricsConfig {
-            transient: default_transient(),
-        }
-    }
 }
 
 /// Parse a scenario's text.
@@ -755,6 +609,7 @@ impl PlanarScenario {
         c.pd = PdConfig {
             k_p: Some(pd.k_p),
             k_d: Some(pd.k_d),
+            gravity_compensation: c.pd.gravity_compensation,
         };
         let ctc = self.ctc_gains();
         c.ctc = CtcConfig {
@@ -763,7 +618,7 @@ impl PlanarScenario {
             model_error: Some(ctc.model_error),
         };
         if c.disturbance_bound.is_none() {
-            c.disturbance_bound = Some(disturbance(&self.disturbance).bound());
+            c.disturbance_bound = Some(self.disturbance.disturbance().bound());
         }
         let d = SimParams::paper();
         s.run.max_drift = Some(self.run.max_drift.unwrap_or(d.max_drift));
@@ -802,15 +657,6 @@ pub struct Built {
     /// The true plant when it differs from `plant` (the controller's nominal model): a payload
     /// mismatch of `[faults]`.
     pub truth: Option<PlantParams>,
-}
-
-fn disturbance(d: &DisturbanceConfig) -> Disturbance {
-    Disturbance {
-        amplitude: d.amplitude,
-        frequency: d.frequency,
-        phase: d.phase,
-        pushes: d.pushes.clone(),
-    }
 }
 
 /// Map a library parameter path of the plant to the file's.
@@ -1034,17 +880,26 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
     let path = build_path(&sc.path, src)?;
 
     // Disturbance and sensors.
-    let disturbance = disturbance(&sc.disturbance);
+    let disturbance = sc.disturbance.disturbance();
     disturbance
         .validate()
         .map_err(|e| src.model_error(e, |p| p.to_string()))?;
-    let sensors = SensorParams {
-        encoder_q: sc.sensors.encoder_q,
-        encoder_qd: sc.sensors.encoder_qd,
-        force: sc.sensors.force,
-        torque: Default::default(),
-        seed: sc.run.seed,
-    };
+    // The tables shared with spatial scenarios have fields a planar set-up does not.
+    if sc.sensors.torque.is_some() {
+        return Err(src.error_at(
+            "sensors.torque",
+            "sensors.torque: a planar arm has no wrist torque channel (its force sensor reads the \
+             end effector's force in the plane, `sensors.force`)",
+        ));
+    }
+    if sc.controller.pd.gravity_compensation == Some(true) {
+        return Err(src.error_at(
+            "controller.pd.gravity_compensation",
+            "controller.pd.gravity_compensation: PD with the model's gravity is a spatial law; \
+             on planar arms use computed torque (`kind = \"ctc\"`), which compensates the model",
+        ));
+    }
+    let sensors = sc.sensors.params(sc.run.seed);
     sensors
         .validate()
         .map_err(|e| src.model_error(e, |p| format!("sensors.{p}")))?;
@@ -1144,12 +999,13 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
     })
 }
 
-fn c_admittance(a: &AdmittanceConfig) -> Option<AdmittanceParams> {
+fn c_admittance(a: &AdmittanceConfig<2>) -> Option<AdmittanceParams> {
+    let v = |p: super::tables::PerAxis<2>| Vector2::from(p.array());
     a.enabled.then(|| AdmittanceParams {
-        m_e: a.m_e.vector(),
-        c_e: a.c_e.vector(),
-        k_e: a.k_e.vector(),
-        tau_f: a.tau_f.vector(),
+        m_e: v(a.m_e),
+        c_e: v(a.c_e),
+        k_e: v(a.k_e),
+        tau_f: v(a.tau_f),
     })
 }
 

@@ -36,7 +36,7 @@ use tandem::control::spatial::{
     SpatialPdGains,
 };
 use tandem::drive::Drive;
-use tandem::model::disturbance::{Push, SpatialDisturbance};
+use tandem::model::disturbance::SpatialDisturbance;
 use tandem::model::spatial::SpatialArm;
 use tandem::model::spatial::SpatialObjectParams;
 use tandem::model::spatial::urdf;
@@ -44,12 +44,15 @@ use tandem::plant::spatial::SpatialPlant;
 use tandem::plant::spatial::{GraspModel, SpatialPlantParams};
 use tandem::reference::spatial::admittance::AdmittanceSe3Params;
 use tandem::reference::spatial::path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};
-use tandem::sim::sensors::{ChannelNoise, SensorParams};
+use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
 
-use super::planar::{MetricsConfig, control_warning, load_replay};
+use super::planar::{control_warning, load_replay};
 use super::source::{MAX_ARMS, MAX_LINKS, ScenarioError, Source, num, read_limited};
-use super::tables::ControllerKind;
+use super::tables::{
+    AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig, PdConfig,
+    SensorsConfig,
+};
 
 // ---------------------------------------------------------------------------------------------
 // The file's structs.
@@ -75,7 +78,7 @@ pub struct SpatialScenario {
     pub path: PathConfig,
     /// Environment wrench on the object (default: none).
     #[serde(default)]
-    pub disturbance: DisturbanceConfig,
+    pub disturbance: DisturbanceConfig<6>,
     /// Sensor imperfections (default: ideal).
     #[serde(default)]
     pub sensors: SensorsConfig,
@@ -83,7 +86,7 @@ pub struct SpatialScenario {
     pub controller: ControllerConfig,
     /// The per-arm 6-D admittance generator (default: on, SPEC §3.1 values).
     #[serde(default)]
-    pub admittance: AdmittanceConfig,
+    pub admittance: AdmittanceConfig<6>,
     /// Timing, start, seed.
     pub run: RunConfig,
     /// Summary metrics.
@@ -92,8 +95,7 @@ pub struct SpatialScenario {
 }
 
 fn spatial_metrics() -> MetricsConfig {
-    // SPEC-spatial S5's claims are stated "within 2 s".
-    MetricsConfig { transient: 2.0 }
+    MetricsConfig::spatial()
 }
 
 /// An embedded robot model.
@@ -347,42 +349,6 @@ pub struct WaypointConfig {
     pub axes: Option<[[f64; 3]; 3]>,
 }
 
-/// `F_d(t) = a ∘ sin(ω t + φ) − Σ pushes`, `[f; τ]` in world axes; zero by default.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DisturbanceConfig {
-    /// Amplitudes, (N ×3, N m ×3).
-    #[serde(default)]
-    pub amplitude: [f64; 6],
-    /// Angular frequencies, rad/s.
-    #[serde(default)]
-    pub frequency: [f64; 6],
-    /// Phases, rad.
-    #[serde(default)]
-    pub phase: [f64; 6],
-    /// Timed pushes (`t0`, `duration`, `wrench = [f; τ]`).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub pushes: Vec<Push<6>>,
-}
-
-/// Sensor imperfections (the seed is `run.seed`).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SensorsConfig {
-    /// Joint-angle encoders, rad.
-    #[serde(default)]
-    pub encoder_q: ChannelNoise,
-    /// Joint-rate channels, rad/s.
-    #[serde(default)]
-    pub encoder_qd: ChannelNoise,
-    /// Wrist force channels, N.
-    #[serde(default)]
-    pub force: ChannelNoise,
-    /// Wrist torque channels, N m.
-    #[serde(default)]
-    pub torque: ChannelNoise,
-}
-
 /// `object` or `per_arm`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -429,10 +395,10 @@ pub struct ControllerConfig {
     pub nn: NnConfig,
     /// PD gains.
     #[serde(default)]
-    pub pd: PdConfig,
+    pub pd: PdConfig<6>,
     /// Computed-torque gains.
     #[serde(default)]
-    pub ctc: CtcConfig,
+    pub ctc: CtcConfig<6>,
     /// The null-space posture task of redundant arms.
     #[serde(default)]
     pub posture: PostureConfig,
@@ -545,36 +511,6 @@ impl Default for DesignConfig {
     }
 }
 
-/// PD gains (default: the paper's 5000 N/m, 450 N s/m, scaled to rotation at 0.2 m).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PdConfig {
-    /// `K_P` diagonal, (N/m ×3, N m/rad ×3).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k_p: Option<[f64; 6]>,
-    /// `K_D` diagonal, (N s/m ×3, N m s/rad ×3).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k_d: Option<[f64; 6]>,
-    /// Add the model's gravity `𝓖` (off in the paper's baseline).
-    #[serde(default)]
-    pub gravity_compensation: bool,
-}
-
-/// Computed-torque gains (default: ω_n = 20 rad/s, ζ = 1, exact model).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CtcConfig {
-    /// `K_P` diagonal, 1/s².
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k_p: Option<[f64; 6]>,
-    /// `K_D` diagonal, 1/s.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k_d: Option<[f64; 6]>,
-    /// Relative error of every mass and inertia of the nominal model.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub model_error: Option<f64>,
-}
-
 /// The posture task of redundant arms (default `K_p = 20`, `K_d = 4`, rest = the start).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -588,55 +524,6 @@ pub struct PostureConfig {
     /// Rest posture, all joints stacked over the arms, rad.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub q_rest: Option<Vec<f64>>,
-}
-
-/// The 6-D admittance per arm (SPEC §3.1 on each tool pose's six components).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct AdmittanceConfig {
-    /// `false` bypasses the generator (`x_r = x_d`).
-    #[serde(default = "yes")]
-    pub enabled: bool,
-    /// Virtual mass / inertia, (kg ×3, kg m² ×3).
-    #[serde(default = "adm_m_e")]
-    pub m_e: [f64; 6],
-    /// Virtual damping, (N s/m ×3, N m s/rad ×3).
-    #[serde(default = "adm_c_e")]
-    pub c_e: [f64; 6],
-    /// Virtual stiffness, (N/m ×3, N m/rad ×3).
-    #[serde(default = "adm_k_e")]
-    pub k_e: [f64; 6],
-    /// Wrench low-pass time constant per axis, s.
-    #[serde(default = "adm_tau_f")]
-    pub tau_f: [f64; 6],
-}
-
-fn yes() -> bool {
-    true
-}
-fn adm_m_e() -> [f64; 6] {
-    AdmittanceSe3Params::default().m_e.into()
-}
-fn adm_c_e() -> [f64; 6] {
-    AdmittanceSe3Params::default().c_e.into()
-}
-fn adm_k_e() -> [f64; 6] {
-    AdmittanceSe3Params::default().k_e.into()
-}
-fn adm_tau_f() -> [f64; 6] {
-    AdmittanceSe3Params::default().tau_f.into()
-}
-
-impl Default for AdmittanceConfig {
-    fn default() -> Self {
-        AdmittanceConfig {
-            enabled: true,
-            m_e: adm_m_e(),
-            c_e: adm_c_e(),
-            k_e: adm_k_e(),
-            tau_f: adm_tau_f(),
-        }
-    }
 }
 
 /// Timing, start and determinism.
@@ -681,7 +568,11 @@ fn default_log_period() -> f64 {
 
 /// Parse a spatial scenario's text (syntax, fields, strict lengths, the name).
 pub fn parse(src: &Source) -> Result<SpatialScenario, ScenarioError> {
-    let sc: SpatialScenario = crate::scenario::parse_as(src)?;
+    let mut sc: SpatialScenario = crate::scenario::parse_as(src)?;
+    // What a spatial scenario always has (the shared tables leave them optional for planar):
+    // the wrist torque channels and the PD law's gravity switch, written out in `scenario.toml`.
+    sc.sensors.torque.get_or_insert_default();
+    sc.controller.pd.gravity_compensation.get_or_insert(false);
     if let Some(n) = &sc.name {
         crate::scenario::check_name(src, n)?;
     }
@@ -1161,7 +1052,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
                 if let Some(v) = c.pd.k_d {
                     g.k_d = v;
                 }
-                g.gravity_compensation = c.pd.gravity_compensation;
+                g.gravity_compensation = c.pd.gravity_compensation.unwrap_or(false);
                 SpatialLaw::Pd(g)
             }
             ControllerKind::Ctc => {
@@ -1202,10 +1093,10 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             centre: c.centre.map(Vector3::from),
             r_ref,
             admittance: a.enabled.then(|| AdmittanceSe3Params {
-                m_e: six(a.m_e),
-                c_e: six(a.c_e),
-                k_e: six(a.k_e),
-                tau_f: six(a.tau_f),
+                m_e: six(a.m_e.array()),
+                c_e: six(a.c_e.array()),
+                k_e: six(a.k_e.array()),
+                tau_f: six(a.tau_f.array()),
             }),
             squeeze: c.squeeze,
             metric_length: c.metric_length,
@@ -1233,21 +1124,8 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
         None
     };
 
-    let s = &sc.sensors;
-    let sensors = SensorParams {
-        encoder_q: s.encoder_q,
-        encoder_qd: s.encoder_qd,
-        force: s.force,
-        torque: s.torque,
-        seed: sc.run.seed,
-    };
-    let d = &sc.disturbance;
-    let disturbance = SpatialDisturbance {
-        amplitude: d.amplitude,
-        frequency: d.frequency,
-        phase: d.phase,
-        pushes: d.pushes.clone(),
-    };
+    let sensors = sc.sensors.params(sc.run.seed);
+    let disturbance = sc.disturbance.disturbance();
     let r = &sc.run;
     let sim = SimParams {
         duration: r.duration,

@@ -29,3 +29,346 @@ impl ControllerKind {
         }
     }
 }
+
+use tandem::model::disturbance::{Disturbance, Push};
+use tandem::sim::sensors::{ChannelNoise, SensorParams};
+
+/// `F_d(t) = a ∘ sin(ω t + φ) − Σ pushes` on the object, on its `N` outputs (planar: `(N, N,
+/// N m)` in the plane; spatial: `[f; τ]` in world axes); everything defaults to zero.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    bound(
+        serialize = "[f64; N]: Serialize",
+        deserialize = "[f64; N]: Deserialize<'de>"
+    )
+)]
+pub struct DisturbanceConfig<const N: usize> {
+    /// Sinusoid amplitudes, (N, N, N m) / (N ×3, N m ×3).
+    #[serde(default = "zeros")]
+    pub amplitude: [f64; N],
+    /// Angular frequencies, rad/s.
+    #[serde(default = "zeros")]
+    pub frequency: [f64; N],
+    /// Phases, rad.
+    #[serde(default = "zeros")]
+    pub phase: [f64; N],
+    /// Timed pushes (`t0`, `duration`, `wrench` on the object).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pushes: Vec<Push<N>>,
+}
+
+fn zeros<const N: usize>() -> [f64; N] {
+    [0.0; N]
+}
+
+impl<const N: usize> Default for DisturbanceConfig<N> {
+    fn default() -> Self {
+        DisturbanceConfig {
+            amplitude: [0.0; N],
+            frequency: [0.0; N],
+            phase: [0.0; N],
+            pushes: Vec::new(),
+        }
+    }
+}
+
+impl<const N: usize> DisturbanceConfig<N> {
+    /// The library's disturbance (validated by the plant).
+    pub fn disturbance(&self) -> Disturbance<N> {
+        Disturbance {
+            amplitude: self.amplitude,
+            frequency: self.frequency,
+            phase: self.phase,
+            pushes: self.pushes.clone(),
+        }
+    }
+}
+
+/// Sensor imperfections per channel group (the seed is `run.seed`). The wrist torque channels
+/// are spatial only: a planar arm's force sensor reads the end-effector force in the plane.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorsConfig {
+    /// Joint-angle encoders, rad.
+    #[serde(default)]
+    pub encoder_q: ChannelNoise,
+    /// Joint-rate channels, rad/s.
+    #[serde(default)]
+    pub encoder_qd: ChannelNoise,
+    /// End-effector (wrist) force channels, N.
+    #[serde(default)]
+    pub force: ChannelNoise,
+    /// Wrist torque channels, N m (spatial; a spatial scenario always has it, ideal by default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub torque: Option<ChannelNoise>,
+}
+
+impl SensorsConfig {
+    /// The library's sensor models with the run's seed (an absent torque group is ideal).
+    pub fn params(&self, seed: u64) -> SensorParams {
+        SensorParams {
+            encoder_q: self.encoder_q,
+            encoder_qd: self.encoder_qd,
+            force: self.force,
+            torque: self.torque.unwrap_or_default(),
+            seed,
+        }
+    }
+}
+
+/// PD gains on the `N` outputs (absent = the law's defaults: the paper's, SPEC §3.5).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    bound(
+        serialize = "[f64; N]: Serialize",
+        deserialize = "[f64; N]: Deserialize<'de>"
+    )
+)]
+pub struct PdConfig<const N: usize> {
+    /// `K_P` diagonal, (N/m, N/m, N m/rad) / (N/m ×3, N m/rad ×3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_p: Option<[f64; N]>,
+    /// `K_D` diagonal, (N s/m, N s/m, N m s/rad) / (N s/m ×3, N m s/rad ×3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_d: Option<[f64; N]>,
+    /// Add the model's gravity `𝓖` (off in the paper's baseline). A spatial scenario always
+    /// says it (`false` by default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gravity_compensation: Option<bool>,
+}
+
+impl<const N: usize> Default for PdConfig<N> {
+    fn default() -> Self {
+        PdConfig {
+            k_p: None,
+            k_d: None,
+            gravity_compensation: None,
+        }
+    }
+}
+
+/// Computed-torque gains on the `N` outputs (absent = the library's defaults: `ω_n = 20`
+/// rad/s, `ζ = 1`, exact model).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    bound(
+        serialize = "[f64; N]: Serialize",
+        deserialize = "[f64; N]: Deserialize<'de>"
+    )
+)]
+pub struct CtcConfig<const N: usize> {
+    /// `K_P` diagonal, 1/s².
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_p: Option<[f64; N]>,
+    /// `K_D` diagonal, 1/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_d: Option<[f64; N]>,
+    /// Relative error of every mass and inertia of the nominal model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_error: Option<f64>,
+}
+
+impl<const N: usize> Default for CtcConfig<N> {
+    fn default() -> Self {
+        CtcConfig {
+            k_p: None,
+            k_d: None,
+            model_error: None,
+        }
+    }
+}
+
+/// Summary metrics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MetricsConfig {
+    /// Start of the "after the transient" window, s (planar default 5 s; spatial 2 s, the
+    /// window of SPEC-spatial S5's claims).
+    #[serde(default = "MetricsConfig::planar_transient")]
+    pub transient: f64,
+}
+
+impl MetricsConfig {
+    fn planar_transient() -> f64 {
+        5.0
+    }
+    /// The spatial default: SPEC-spatial S5's claims are stated "within 2 s".
+    pub fn spatial() -> Self {
+        MetricsConfig { transient: 2.0 }
+    }
+}
+
+impl Default for MetricsConfig {
+    fn default() -> Self {
+        MetricsConfig {
+            transient: MetricsConfig::planar_transient(),
+        }
+    }
+}
+
+/// A value per axis of the admittance, given once for every axis or as an array of `A`
+/// (planar: `[x, y]` of the end effector; spatial: `[x, y, z, rx, ry, rz]` of the tool pose).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PerAxis<const A: usize> {
+    /// The same value on every axis.
+    Both(f64),
+    /// One value per axis.
+    Each([f64; A]),
+}
+
+impl<const A: usize> PerAxis<A> {
+    /// The value on each axis.
+    pub fn array(self) -> [f64; A] {
+        match self {
+            PerAxis::Both(v) => [v; A],
+            PerAxis::Each(a) => a,
+        }
+    }
+
+    /// What a file may write (the text of the error for anything else).
+    fn expecting() -> &'static str {
+        match A {
+            2 => "a number or an array [x, y] of two numbers",
+            6 => "a number or an array [x, y, z, rx, ry, rz] of six numbers",
+            _ => "a number or an array with one number per axis",
+        }
+    }
+}
+
+impl<const A: usize> Serialize for PerAxis<A> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeTuple;
+        match self {
+            PerAxis::Both(v) => s.serialize_f64(*v),
+            PerAxis::Each(a) => {
+                let mut t = s.serialize_tuple(A)?;
+                for v in a {
+                    t.serialize_element(v)?;
+                }
+                t.end()
+            }
+        }
+    }
+}
+
+impl<'de, const A: usize> Deserialize<'de> for PerAxis<A> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V<const A: usize>;
+        impl<'de, const A: usize> serde::de::Visitor<'de> for V<A> {
+            type Value = PerAxis<A>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str(PerAxis::<A>::expecting())
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Self::Value, E> {
+                Ok(PerAxis::Both(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Self::Value, E> {
+                Ok(PerAxis::Both(v as f64))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Self::Value, E> {
+                Ok(PerAxis::Both(v as f64))
+            }
+            fn visit_seq<S: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: S,
+            ) -> Result<Self::Value, S::Error> {
+                let wrong = || serde::de::Error::custom(PerAxis::<A>::expecting());
+                let mut out = [0.0; A];
+                for o in out.iter_mut() {
+                    *o = seq
+                        .next_element::<f64>()
+                        .map_err(|_| wrong())?
+                        .ok_or_else(wrong)?;
+                }
+                if seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+                    return Err(wrong());
+                }
+                Ok(PerAxis::Each(out))
+            }
+        }
+        // Anything that is neither a number nor a sequence gets the same one-line message.
+        d.deserialize_any(V::<A>).map_err(|e: D::Error| {
+            let m = e.to_string();
+            if m.starts_with("invalid type") {
+                serde::de::Error::custom(PerAxis::<A>::expecting())
+            } else {
+                e
+            }
+        })
+    }
+}
+
+/// The admittance generator (SPEC §3.1), per arm: on the end effector's `[x, y]` (planar,
+/// `A = 2`) or on the tool pose's six components (spatial, `A = 6`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdmittanceConfig<const A: usize> {
+    /// `false` bypasses the generator (`x_r = x_d`).
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Virtual mass `M_e`, kg (spatial: kg ×3, kg m² ×3; planar 0: the paper's first-order
+    /// form, warned).
+    #[serde(default = "AdmittanceConfig::<A>::default_m_e")]
+    pub m_e: PerAxis<A>,
+    /// Virtual damping `C_e`, N s/m (spatial: N s/m ×3, N m s/rad ×3).
+    #[serde(default = "AdmittanceConfig::<A>::default_c_e")]
+    pub c_e: PerAxis<A>,
+    /// Virtual stiffness `K_e`, N/m (spatial: N/m ×3, N m/rad ×3).
+    #[serde(default = "AdmittanceConfig::<A>::default_k_e")]
+    pub k_e: PerAxis<A>,
+    /// Force (wrench) low-pass time constant `τ_f`, s.
+    #[serde(default = "AdmittanceConfig::<A>::default_tau_f")]
+    pub tau_f: PerAxis<A>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl<const A: usize> AdmittanceConfig<A> {
+    /// The defaults of SPEC §3.1: on the plane, one value for both axes (`M_e = 200` kg, `C_e =
+    /// 626` N s/m, `K_e = 1000` N/m, `τ_f = 0.01` s); in space, the library's per-axis values
+    /// ([`tandem::reference::spatial::admittance::AdmittanceSe3Params::default`]).
+    fn defaults() -> [PerAxis<A>; 4] {
+        if A == 6 {
+            let d = tandem::reference::spatial::admittance::AdmittanceSe3Params::default();
+            let each = |v: nalgebra::Vector6<f64>| PerAxis::Each(std::array::from_fn(|i| v[i]));
+            [each(d.m_e), each(d.c_e), each(d.k_e), each(d.tau_f)]
+        } else {
+            [
+                PerAxis::Both(200.0),
+                PerAxis::Both(626.0),
+                PerAxis::Both(1000.0),
+                PerAxis::Both(0.01),
+            ]
+        }
+    }
+    fn default_m_e() -> PerAxis<A> {
+        Self::defaults()[0]
+    }
+    fn default_c_e() -> PerAxis<A> {
+        Self::defaults()[1]
+    }
+    fn default_k_e() -> PerAxis<A> {
+        Self::defaults()[2]
+    }
+    fn default_tau_f() -> PerAxis<A> {
+        Self::defaults()[3]
+    }
+}
+
+impl<const A: usize> Default for AdmittanceConfig<A> {
+    fn default() -> Self {
+        let [m_e, c_e, k_e, tau_f] = Self::defaults();
+        AdmittanceConfig {
+            enabled: true,
+            m_e,
+            c_e,
+            k_e,
+            tau_f,
+        }
+    }
+}

@@ -8,11 +8,13 @@
 //! so every quantity that depends on the mass changes together (the controller's model is built
 //! from the same object, so it changes too).
 //!
-//! On a spatial document (its arms name a robot model, [`is_spatial_doc`]) `object.mass` is the
+//! On a spatial document ([`Kind::of`]: its arms name a robot model) `object.mass` is the
 //! file's own plain field: the rotational inertia follows it (the uniform box) unless the file
 //! gives `object.inertia`, and gravity is the plant's, so nothing is derived.
 
 use toml::{Table, Value};
+
+use crate::scenario::Kind;
 
 /// Fields computed from others; see the module documentation.
 pub const DERIVED: &[(&str, &str)] = &[(
@@ -68,7 +70,7 @@ pub fn segments(path: &str) -> Result<Vec<Seg>, String> {
 /// Set `value` at `path` in `doc`, creating missing tables on the way (the loader then rejects
 /// keys the scenario does not have). Array elements must exist.
 pub fn set(doc: &mut Table, path: &str, value: Value) -> Result<(), String> {
-    if path == "object.mass" && !is_spatial_doc(doc) {
+    if path == "object.mass" && Kind::of(doc) == Kind::Planar {
         return set_mass(doc, value);
     }
     let segs = segments(path)?;
@@ -128,17 +130,6 @@ pub fn set(doc: &mut Table, path: &str, value: Value) -> Result<(), String> {
         }
     }
     Ok(())
-}
-
-/// Whether a scenario document is spatial: an arm names a robot model (`model` or `urdf`), as
-/// [`crate::scenario::spatial::is_spatial`] decides for a text.
-pub fn is_spatial_doc(doc: &Table) -> bool {
-    doc.get("arms").and_then(Value::as_array).is_some_and(|a| {
-        a.iter().any(|arm| {
-            arm.as_table()
-                .is_some_and(|t| t.contains_key("model") || t.contains_key("urdf"))
-        })
-    })
 }
 
 fn as_f64(v: &Value) -> Option<f64> {
@@ -255,7 +246,7 @@ mod tests {
             "[[arms]]\nmodel = \"ur5\"\n[object]\nsize = [0.4, 0.2, 0.2]\nmass = 3.0\n",
         )
         .unwrap();
-        assert!(is_spatial_doc(&doc));
+        assert_eq!(Kind::of(&doc), Kind::Spatial);
         set(&mut doc, "object.mass", Value::Float(4.5)).unwrap();
         assert_eq!(doc["object"]["mass"].as_float(), Some(4.5));
         assert!(doc["object"].get("inertia").is_none());
