@@ -10,6 +10,10 @@
 //! * [`planar`]: the planar [`Controller`](planar::Controller) (SPEC §3) and its record.
 //! * [`spatial`]: the controller in SE(3) (SPEC-spatial S5): output chart, object-level model,
 //!   `f^U` bound, wrench distribution.
+//! * [`actuator`]: the actuator stage after the law and before the plant (output filter,
+//!   torque-rate and effort limits, with counts), the same for planar and spatial arms. It is
+//!   control-level, not a simulation fault ([`crate::sim::faults`]), because the law must know
+//!   what was applied (issue 24); not wired into the controllers yet.
 //!
 //! Shared by both: [`Scheme`], [`ControlWarning`] and the event counters [`ControlEvents`]
 //! (defined with the loop contract in [`crate::drive`], re-exported here).
@@ -18,6 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::reference::planar::admittance::AdmittanceWarning;
 
+pub mod actuator;
 pub mod law;
 pub mod planar;
 pub mod rbf;

@@ -15,6 +15,7 @@ use serde::Serialize;
 
 use crate::drive::ControlEvents;
 use crate::reference::planar::path::Path;
+use crate::sim::torque_rate::TorqueRate;
 use crate::sim::{Fault, Log, Outcome};
 
 /// The summary of one run (`summary.json`).
@@ -92,6 +93,11 @@ pub struct Summary {
     pub wall_time: f64,
     /// Simulated seconds per wall second.
     pub real_time_factor: f64,
+    /// Torque rate and chattering of the applied joint torques, from every control tick
+    /// ([`Outcome::torque_rate`]). Not serialized yet: `summary.json` is unchanged until the CLI
+    /// adds its keys.
+    #[serde(skip)]
+    pub torque_rate: TorqueRate,
 }
 
 fn col<'a>(log: &'a Log, name: &str) -> &'a [f64] {
@@ -302,5 +308,6 @@ fn summarize_inner(
         } else {
             f64::INFINITY
         },
+        torque_rate: out.torque_rate.clone(),
     }
 }

@@ -25,6 +25,7 @@ use crate::dynamics::spatial::{ChainData, kinematics};
 use crate::model::spatial::JointKind;
 use crate::plant::spatial::SpatialPlant;
 use crate::reference::spatial::path::Se3Path;
+use crate::sim::torque_rate::TorqueRate;
 use crate::sim::{Log, Outcome};
 
 /// The SPEC-spatial S5 claims hold after this time, s (the CLI's transient window).
@@ -475,6 +476,9 @@ pub struct SpatialSummary {
     pub closest_joint_limit: Option<Closest>,
     /// Per arm, the smallest σ of the tool Jacobian.
     pub jacobian_sigma_min: Option<Vec<SigmaMin>>,
+    /// Torque rate and chattering of the applied joint torques, from every control tick
+    /// ([`Outcome::torque_rate`]).
+    pub torque_rate: TorqueRate,
 }
 
 /// The summary of a spatial run from its log and the per-row quantities `d` (see
@@ -687,6 +691,7 @@ pub fn summarize<'a>(run: impl Into<SpatialRun<'a>>, d: &Derived) -> SpatialSumm
         weight_settling_time,
         closest_joint_limit: d.closest.clone(),
         jacobian_sigma_min,
+        torque_rate: o.torque_rate.clone(),
     }
 }
 

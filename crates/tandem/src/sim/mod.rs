@@ -15,6 +15,10 @@
 //!    run cleanly with the time and the state;
 //! 5. every `log_period`, one row into the preallocated [`Log`] ([`log::layout`]).
 //!
+//! Every tick's applied torque `u_k` (after the driver and any injected actuator fault) also
+//! goes to the [`TorqueRateMonitor`] (peak `|Δτ|/Δt` and chattering per joint,
+//! [`torque_rate`]), which only reads it; its result is [`Outcome::torque_rate`].
+//!
 //! Formulations: the planar plant integrates the constrained form or the reduced one (14)
 //! ([`Formulation`], SPEC §2.4); the choice lives in the plant's [`Stepper`], which keeps
 //! the reduced 6-state in the object part of the flat state (bit for bit), so the loop has
@@ -28,6 +32,7 @@ pub mod faults;
 pub mod log;
 pub mod replay;
 pub mod sensors;
+pub mod torque_rate;
 
 use std::time::Instant;
 
@@ -47,6 +52,7 @@ pub use driver::Driver;
 pub use fault::{Fault, FaultKind};
 pub use log::{Column, Log};
 pub use replay::Replay;
+pub use torque_rate::{TorqueRate, TorqueRateMonitor, TorqueRateParams};
 
 use fault::short;
 
@@ -205,6 +211,9 @@ pub struct Outcome {
     pub min_margin: Option<f64>,
     /// Control ticks that ended with the true pose on or outside the bound.
     pub violation_ticks: u64,
+    /// Torque rate and chattering of the applied joint torques, from every control tick (not
+    /// only logged rows); see [`torque_rate`].
+    pub torque_rate: TorqueRate,
 }
 
 /// Lengths of the log row's segments (see [`log::layout`]).
@@ -253,6 +262,8 @@ pub struct Simulation<P: ClosedChain = Plant, D: Drive<P> = Driver> {
     violation_ticks: u64,
     /// Injected sensor and actuator faults ([`Simulation::with_faults`]).
     faults: Option<Box<FaultState>>,
+    /// Torque rate and chattering of the applied torques, fed every tick (reads only).
+    torque_rate: TorqueRateMonitor,
 }
 
 impl<D: Drive<Plant>> Simulation<Plant, D> {
@@ -299,6 +310,14 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
         } else {
             None
         };
+        Ok(self)
+    }
+
+    /// Count chattering with other settings than the default (0.5 N m after 10 ms, see
+    /// [`torque_rate`]); errors name the field (`torque_rate.threshold`, ...). Changes no
+    /// torque and no state of the run.
+    pub fn with_torque_rate(mut self, p: TorqueRateParams) -> Result<Self, ModelError> {
+        self.torque_rate = TorqueRateMonitor::new(self.plant.n_q(), self.params.control_period, p)?;
         Ok(self)
     }
 
@@ -360,6 +379,8 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             drift: plant.drift_columns().len(),
         };
         let has_bounds = driver.truth_margin(&plant, &y).is_some();
+        let torque_rate =
+            TorqueRateMonitor::new(n_q, params.control_period, TorqueRateParams::default())?;
         let mut sim = Simulation {
             input: plant.zero_input(),
             wrenches: vec![0.0; w * n_arms],
@@ -386,6 +407,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             min_margin: f64::INFINITY,
             violation_ticks: 0,
             faults: None,
+            torque_rate,
         };
         // Initial wrenches with zero torque held (the object hanging in the arms' grasp).
         let _ = sim.eval_wrenches();
@@ -431,6 +453,10 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
     /// The driver (to inspect a controller after a run).
     pub fn driver(&self) -> &D {
         &self.driver
+    }
+    /// The torque-rate monitor (what it has seen of the applied torques so far).
+    pub fn torque_rate(&self) -> &TorqueRateMonitor {
+        &self.torque_rate
     }
     /// The sensors (parameters and the latest readings).
     pub fn sensors(&self) -> &Sensors {
@@ -530,6 +556,8 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
         if let Some(signal) = self.non_finite_signal().or(disturbance) {
             return Err(self.fault(t, FaultKind::NonFiniteSignal { signal }));
         }
+        // The applied torque of the tick, to the rate monitor (reads only).
+        self.torque_rate.observe(t, P::torques_mut(&mut self.input));
         // 5 (before advancing): log the state at t_k with the torque chosen at t_k.
         if k.is_multiple_of(self.per_log) {
             self.log_row(t);
@@ -688,6 +716,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             regularised: P::regularised(&self.ws),
             min_margin: self.has_bounds.then_some(self.min_margin),
             violation_ticks: self.violation_ticks,
+            torque_rate: self.torque_rate.result(),
         };
         (out, self)
     }

@@ -1,0 +1,360 @@
+//! The actuator stage (issue 24): what a real drive does to the torque a law commands, after the
+//! law and before the plant, the same for planar and spatial arms and for every law.
+//!
+//! Per control tick `k` (period `h`) and joint `j`, from the commanded torque `u_k`:
+//!
+//! 1. **output filter** (optional, time constant `T ≥ h`): the first-order low-pass
+//!    `T ẏ = u − y` discretised exactly for an input held over the tick (zero-order hold),
+//!    ```text
+//!    y_k = y_{k−1} + α (u_k − y_{k−1}),   α = 1 − e^{−h/T};
+//!    ```
+//!    its step response from rest is `y_k = 1 − e^{−(k+1) h/T}` (the value the continuous filter
+//!    reaches at the end of the tick, so the output of tick `k` already answers `u_k`; no extra
+//!    tick of delay);
+//! 2. **rate limit** `r` (N m/s): `v_k = clamp(y_k, τ_{k−1} − r h, τ_{k−1} + r h)`, measured from
+//!    the torque applied on the previous tick `τ_{k−1}`;
+//! 3. **effort limit** `E_j` (N m): `τ_k = clamp(v_k, −E_j, E_j)`.
+//!
+//! Clamping to the effort after the rate limit keeps both: `τ_{k−1}` lies in `[−E_j, E_j]`, so
+//! the clamp moves `v_k` towards `τ_{k−1}`, never away from it; `|τ_k − τ_{k−1}| ≤ r h` and
+//! `|τ_k| ≤ E_j` hold together on every tick.
+//!
+//! **The first tick.** A real drive starts from the torque it is holding (brakes released with
+//! its gravity compensation on), and the loop holds zero torque before tick 0 only because
+//! the simulation has to start somewhere; so by default the stage starts from the first
+//! command: on the first [`Actuator::apply`] after construction or [`Actuator::reset`] the
+//! filter state is set to the command (the filter passes it through) and the rate limit has
+//! nothing to measure from; only the effort clamp acts. [`Actuator::start`] starts it from a known
+//! torque instead (zero: the first ticks then ramp up at the rate limit through the filter).
+//! The torque-rate monitor ([`crate::sim::torque_rate`]) measures rates from the first tick
+//! on in the same way.
+//!
+//! **Counts.** Each limit counts the ticks on which it changed the torque of at least one joint
+//! (the value it received lay strictly outside its window), and per joint the ticks on which it
+//! changed that joint's torque. The filter acts on every tick and is not counted.
+//!
+//! The law should adapt on what was applied, not on what it asked for (the NN update must not
+//! wind up against a saturated actuator): the applied torque is the `applied` output, the
+//! saturation deficit `applied − commanded`.
+//!
+//! The stage is preallocated for its joints; [`Actuator::apply`] allocates nothing.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ModelError, positive};
+
+/// The actuator limits (plain data; every limit off by default: the stage then passes the
+/// command through).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActuatorParams {
+    /// Per-joint effort limits `E_j` (symmetric, `|τ_j| ≤ E_j`), N m, all arms stacked in joint
+    /// order; `+∞` for a joint without one (a URDF joint without `effort`); `None`: no effort
+    /// limit.
+    #[serde(default)]
+    pub effort: Option<Vec<f64>>,
+    /// Torque-rate limit `r`, every joint, N m/s (Franka: 1000 N m/s); `None`: no rate limit.
+    #[serde(default)]
+    pub rate_limit: Option<f64>,
+    /// Time constant `T` of the first-order output filter, s (at least the control period);
+    /// `None`: no filter.
+    #[serde(default)]
+    pub filter_time_constant: Option<f64>,
+}
+
+impl ActuatorParams {
+    /// Validate for `n` joints at control period `h`; errors name the field
+    /// (`actuator.effort[3]`, `actuator.rate_limit`, `actuator.filter_time_constant`).
+    pub fn validate(&self, n: usize, h: f64) -> Result<(), ModelError> {
+        positive("control_period", h)?;
+        if let Some(e) = &self.effort {
+            if e.len() != n {
+                return Err(ModelError::geometry(
+                    "actuator.effort",
+                    format!("has {} limits for {n} joints", e.len()),
+                ));
+            }
+            for (j, &v) in e.iter().enumerate() {
+                // +∞ (no limit on that joint) is allowed, NaN, zero and negative are not.
+                if v.is_nan() || v <= 0.0 {
+                    return Err(ModelError::invalid(
+                        format!("actuator.effort[{j}]"),
+                        v,
+                        "must be > 0 (+inf for no limit on this joint)",
+                    ));
+                }
+            }
+        }
+        if let Some(r) = self.rate_limit {
+            positive("actuator.rate_limit", r)?;
+        }
+        if let Some(tf) = self.filter_time_constant {
+            positive("actuator.filter_time_constant", tf)?;
+            if tf < h {
+                return Err(ModelError::invalid(
+                    "actuator.filter_time_constant",
+                    tf,
+                    format!("must be at least the control period ({h} s)"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Ticks on which each limit acted.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct ActuatorCounts {
+    /// Ticks applied.
+    pub ticks: u64,
+    /// Ticks on which the rate limit changed at least one joint's torque.
+    pub rate: u64,
+    /// Ticks on which the effort limit changed at least one joint's torque.
+    pub effort: u64,
+    /// Per joint, ticks on which the rate limit changed its torque.
+    pub rate_per_joint: Vec<u64>,
+    /// Per joint, ticks on which the effort limit changed its torque.
+    pub effort_per_joint: Vec<u64>,
+}
+
+/// The actuator stage: validated limits and their state (last applied torque, filter state,
+/// counts), preallocated for `n` joints.
+#[derive(Clone, Debug)]
+pub struct Actuator {
+    params: ActuatorParams,
+    /// Control period `h`, s.
+    h: f64,
+    /// `E_j`, N m (`+∞` without an effort limit).
+    effort: Vec<f64>,
+    /// `r h`, N m per tick (`+∞` without a rate limit).
+    step: f64,
+    /// `α = 1 − e^{−h/T}` (`None` without a filter).
+    alpha: Option<f64>,
+    /// Filter state `y_{k−1}`, N m.
+    y: Vec<f64>,
+    /// Applied torque `τ_{k−1}`, N m.
+    last: Vec<f64>,
+    /// Whether `y` and `last` hold a previous tick (or a [`Actuator::start`]).
+    started: bool,
+    counts: ActuatorCounts,
+}
+
+impl Actuator {
+    /// The stage for `n` joints at control period `h` (s); errors name the field (see
+    /// [`ActuatorParams::validate`]).
+    pub fn new(p: &ActuatorParams, n: usize, h: f64) -> Result<Self, ModelError> {
+        p.validate(n, h)?;
+        Ok(Actuator {
+            params: p.clone(),
+            h,
+            effort: p.effort.clone().unwrap_or_else(|| vec![f64::INFINITY; n]),
+            step: p.rate_limit.map_or(f64::INFINITY, |r| r * h),
+            alpha: p.filter_time_constant.map(|tf| -(-h / tf).exp_m1()),
+            y: vec![0.0; n],
+            last: vec![0.0; n],
+            started: false,
+            counts: ActuatorCounts {
+                rate_per_joint: vec![0; n],
+                effort_per_joint: vec![0; n],
+                ..ActuatorCounts::default()
+            },
+        })
+    }
+
+    /// The limits.
+    pub fn params(&self) -> &ActuatorParams {
+        &self.params
+    }
+    /// The control period the stage was built for, s.
+    pub fn control_period(&self) -> f64 {
+        self.h
+    }
+    /// Number of joints.
+    pub fn n(&self) -> usize {
+        self.last.len()
+    }
+    /// The torque applied on the last tick (or given to [`Actuator::start`]), N m.
+    pub fn last(&self) -> &[f64] {
+        &self.last
+    }
+    /// The ticks on which each limit acted.
+    pub fn counts(&self) -> &ActuatorCounts {
+        &self.counts
+    }
+
+    /// Start from a known torque `tau0` (N m): the filter state and the last applied torque
+    /// become `tau0` clamped to the effort limits (the clamp is not counted). No allocation.
+    pub fn start(&mut self, tau0: &[f64]) {
+        assert_eq!(tau0.len(), self.n(), "one torque per joint");
+        for (((y, l), &t), &e) in self
+            .y
+            .iter_mut()
+            .zip(&mut self.last)
+            .zip(tau0)
+            .zip(&self.effort)
+        {
+            *l = t.clamp(-e, e);
+            *y = *l;
+        }
+        self.started = true;
+    }
+
+    /// Forget the last torque, the filter state and the counts: the next [`Actuator::apply`]
+    /// starts from its command. No allocation.
+    pub fn reset(&mut self) {
+        self.started = false;
+        self.y.fill(0.0);
+        self.last.fill(0.0);
+        let c = &mut self.counts;
+        c.ticks = 0;
+        c.rate = 0;
+        c.effort = 0;
+        c.rate_per_joint.fill(0);
+        c.effort_per_joint.fill(0);
+    }
+
+    /// One tick: the `commanded` torques (N m, one per joint) → the `applied` ones (filter,
+    /// then rate limit, then effort clamp; see the module doc). No allocation. A non-finite
+    /// command gives a non-finite torque (the loop stops on it) and is not counted.
+    pub fn apply(&mut self, commanded: &[f64], applied: &mut [f64]) {
+        let n = self.n();
+        assert!(
+            commanded.len() == n && applied.len() == n,
+            "one torque per joint"
+        );
+        let first = !self.started;
+        self.started = true;
+        let (mut rate_any, mut effort_any) = (false, false);
+        for j in 0..n {
+            let u = commanded[j];
+            // 1. Filter (the first tick without a start passes the command through).
+            let y = match self.alpha {
+                Some(a) if !first => self.y[j] + a * (u - self.y[j]),
+                _ => u,
+            };
+            self.y[j] = y;
+            // 2. Rate limit from the last applied torque.
+            let mut v = y;
+            if !first {
+                let p = self.last[j];
+                let (lo, hi) = (p - self.step, p + self.step);
+                if v < lo || v > hi {
+                    v = v.clamp(lo, hi);
+                    self.counts.rate_per_joint[j] += 1;
+                    rate_any = true;
+                }
+            }
+            // 3. Effort clamp.
+            let e = self.effort[j];
+            if v.abs() > e {
+                v = v.clamp(-e, e);
+                self.counts.effort_per_joint[j] += 1;
+                effort_any = true;
+            }
+            self.last[j] = v;
+            applied[j] = v;
+        }
+        self.counts.ticks += 1;
+        self.counts.rate += u64::from(rate_any);
+        self.counts.effort += u64::from(effort_any);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn err(p: ActuatorParams) -> String {
+        Actuator::new(&p, 2, 1e-3).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn bad_limits_name_the_field() {
+        for (p, want) in [
+            (
+                ActuatorParams {
+                    rate_limit: Some(0.0),
+                    ..Default::default()
+                },
+                "actuator.rate_limit",
+            ),
+            (
+                ActuatorParams {
+                    rate_limit: Some(f64::NAN),
+                    ..Default::default()
+                },
+                "actuator.rate_limit",
+            ),
+            (
+                ActuatorParams {
+                    effort: Some(vec![10.0, -1.0]),
+                    ..Default::default()
+                },
+                "actuator.effort[1]",
+            ),
+            (
+                ActuatorParams {
+                    effort: Some(vec![f64::NAN, 1.0]),
+                    ..Default::default()
+                },
+                "actuator.effort[0]",
+            ),
+            (
+                ActuatorParams {
+                    effort: Some(vec![0.0, 1.0]),
+                    ..Default::default()
+                },
+                "actuator.effort[0]",
+            ),
+            (
+                ActuatorParams {
+                    effort: Some(vec![1.0]),
+                    ..Default::default()
+                },
+                "actuator.effort",
+            ),
+            (
+                ActuatorParams {
+                    filter_time_constant: Some(5e-4),
+                    ..Default::default()
+                },
+                "actuator.filter_time_constant",
+            ),
+            (
+                ActuatorParams {
+                    filter_time_constant: Some(-1.0),
+                    ..Default::default()
+                },
+                "actuator.filter_time_constant",
+            ),
+        ] {
+            let e = err(p);
+            assert!(e.starts_with(want), "{e} should name {want}");
+        }
+        // +∞ effort on a joint (a URDF joint without one) and T = h are allowed.
+        Actuator::new(
+            &ActuatorParams {
+                effort: Some(vec![f64::INFINITY, 1.0]),
+                filter_time_constant: Some(1e-3),
+                rate_limit: Some(1000.0),
+            },
+            2,
+            1e-3,
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn off_passes_through() {
+        let mut a = Actuator::new(&ActuatorParams::default(), 2, 1e-3).unwrap();
+        let mut out = [0.0; 2];
+        for u in [[1.0, -3.0], [1e6, -1e6], [0.0, 5.0]] {
+            a.apply(&u, &mut out);
+            assert_eq!(out, u);
+        }
+        assert_eq!(
+            (a.counts().rate, a.counts().effort, a.counts().ticks),
+            (0, 0, 3)
+        );
+    }
+}
