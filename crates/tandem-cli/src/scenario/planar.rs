@@ -12,7 +12,7 @@
 //! |---|---|
 //! | `description` | free text |
 //! | `[[arms]]`, `[[arms.links]]` | [`ArmParams`], [`LinkParams`], grasp point `r_i` |
-//! | `[object]` | [`ObjectParams`] |
+//! | `[object]` | [`ObjectParams`] (from a mass, or explicit: [`ObjectConfig`]) |
 //! | `[plant]` | gravity, Baumgarte drift control |
 //! | `[path]` | [`Path`] (`kind` = circle, point_to_point, lemniscate, spline) |
 //! | `[disturbance]`, `[[disturbance.pushes]]` | [`Disturbance`], [`Push`] |
@@ -64,7 +64,7 @@ pub struct PlanarScenario {
     /// The arms, in order (arm 1 first).
     pub arms: Vec<ArmConfig>,
     /// The carried object.
-    pub object: ObjectParams,
+    pub object: ObjectConfig,
     /// Plant-wide constants.
     #[serde(default)]
     pub plant: PlantConfig,
@@ -89,6 +89,109 @@ pub struct PlanarScenario {
     /// Injected faults for robustness studies (default: none).
     #[serde(default, skip_serializing_if = "FaultsConfig::is_off")]
     pub faults: FaultsConfig,
+}
+
+/// The carried object, paper (10): `M_o ẍ_o + C_o ẋ_o + G_o = F_o − F_d`. Two forms:
+///
+/// - with a mass (as spatial objects): `mass` (kg) and `inertia` the rotational inertia about
+///   the centre (kg m²); `M_o = diag(m, m, I)` and `G_o = (0, m g, 0)` with `g = plant.gravity`
+///   follow from them;
+/// - explicit (the paper's matrices, SPEC §4): `inertia = [m, m, I]` and `gravity = [0, m g,
+///   0]` (SPEC §1 sign: gravity on the left of (10)).
+///
+/// Payload faults (`faults.payload_mass`) and sweeps of `object.mass` change the mass and
+/// everything that follows from it together ([`ObjectConfig::params`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectConfig {
+    /// Mass, kg (the form with a mass).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass: Option<f64>,
+    /// The rotational inertia about the centre, kg m² (with `mass`), or the diagonal of `M_o`,
+    /// `[m, m, I]` (kg, kg, kg m²; the explicit form).
+    pub inertia: ObjectInertia,
+    /// Diagonal of the viscous damping `C_o`, (N s/m, N s/m, N m s/rad).
+    pub damping: [f64; 3],
+    /// Gravity wrench `G_o`, (N, N, N m) (the explicit form; with `mass` it follows from
+    /// `plant.gravity`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<[f64; 3]>,
+    /// Box size (length along the grasp axis, height), m.
+    pub size: [f64; 2],
+}
+
+/// `object.inertia`: the rotational inertia alone (with `object.mass`) or `[m, m, I]`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(
+    untagged,
+    expecting = "a number (the rotational inertia, kg m², with object.mass) or an array [m, m, I] of three numbers"
+)]
+pub enum ObjectInertia {
+    /// The rotational inertia about the centre, kg m².
+    Rotational(f64),
+    /// The diagonal of `M_o`: (mass, mass, rotational inertia).
+    Diagonal([f64; 3]),
+}
+
+impl ObjectConfig {
+    /// The object's model on a plant with gravity `g` (m/s²), its mass and rotational inertia
+    /// scaled by `payload = (mass ratio, inertia ratio)` (a payload fault; `(1, 1)` is the
+    /// nominal object). Errors name the field: a form that mixes the two.
+    pub fn params(&self, g: f64, payload: (f64, f64)) -> Result<ObjectParams, (String, String)> {
+        let (pm, pi) = payload;
+        let err = |f: &str, m: &str| Err((f.to_string(), format!("{f}: {m}")));
+        let mut p = match (self.mass, self.inertia, self.gravity) {
+            (Some(m), ObjectInertia::Rotational(i), None) => {
+                let m = m * pm;
+                return Ok(ObjectParams {
+                    inertia: [m, m, i * pi],
+                    damping: self.damping,
+                    gravity: [0.0, m * g, 0.0],
+                    size: self.size,
+                });
+            }
+            (Some(_), ObjectInertia::Diagonal(_), _) => {
+                return err(
+                    "object.inertia",
+                    "with object.mass give the rotational inertia alone (kg m², e.g. `inertia = 1.0`); \
+                     [m, m, I] is the explicit form, without mass",
+                );
+            }
+            (Some(_), _, Some(_)) => {
+                return err(
+                    "object.gravity",
+                    "follows from object.mass and plant.gravity; give object.mass or object.gravity, not both",
+                );
+            }
+            (None, ObjectInertia::Rotational(_), _) => {
+                return err(
+                    "object.mass",
+                    "missing: `inertia = I` is the rotational inertia and needs the mass (`mass = 1.0`), \
+                     or give the explicit form `inertia = [m, m, I]` with `gravity`",
+                );
+            }
+            (None, ObjectInertia::Diagonal(_), None) => {
+                return err(
+                    "object.gravity",
+                    "missing: the explicit form `inertia = [m, m, I]` needs `gravity = [0, m g, 0]` \
+                     (or give `mass` and the rotational inertia alone)",
+                );
+            }
+            (None, ObjectInertia::Diagonal(d), Some(gr)) => ObjectParams {
+                inertia: d,
+                damping: self.damping,
+                gravity: gr,
+                size: self.size,
+            },
+        };
+        if payload != (1.0, 1.0) {
+            p.inertia[0] *= pm;
+            p.inertia[1] *= pm;
+            p.inertia[2] *= pi;
+            p.gravity = p.gravity.map(|x| x * pm);
+        }
+        Ok(p)
+    }
 }
 
 /// Injected faults (see `tandem::sim::faults`); everything off by default.
@@ -659,6 +762,37 @@ pub struct Built {
     pub truth: Option<PlantParams>,
 }
 
+/// The object's model ([`ObjectConfig::params`]) with the payload `(mass, inertia)` ratios,
+/// validated; with a mass, an error in a derived quantity names the field it comes from
+/// (`object.mass` for the masses and gravity of `M_o`, `G_o`; `object.inertia` for `I`).
+fn object(
+    sc: &PlanarScenario,
+    src: &Source,
+    payload: (f64, f64),
+) -> Result<ObjectParams, ScenarioError> {
+    let p = sc
+        .object
+        .params(sc.plant.gravity, payload)
+        .map_err(|(f, m)| src.error_at(&f, m))?;
+    if sc.object.mass.is_some() {
+        tandem::model::planar::object::Object::new(&p).map_err(|e| {
+            src.model_error(e, |q| {
+                if q.starts_with("object.gravity")
+                    || q == "object.inertia[0]"
+                    || q == "object.inertia[1]"
+                {
+                    "object.mass".to_string()
+                } else if q == "object.inertia[2]" {
+                    "object.inertia".to_string()
+                } else {
+                    q.to_string()
+                }
+            })
+        })?;
+    }
+    Ok(p)
+}
+
 /// Map a library parameter path of the plant to the file's.
 fn plant_path(p: &str) -> String {
     if let Some(rest) = p.strip_prefix("grasps[") {
@@ -854,7 +988,7 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
             })
             .collect(),
         grasps: sc.arms.iter().map(|a| a.grasp).collect(),
-        object: sc.object.clone(),
+        object: object(sc, src, (1.0, 1.0))?,
         gravity: sc.plant.gravity,
         baumgarte: sc.plant.baumgarte,
     };
@@ -973,14 +1107,14 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
             return Err(src.error_at(name, format!("{name} = {}: must be finite and > 0", num(v))));
         }
     }
-    let truth = (fc.payload_mass != 1.0 || fc.payload_inertia != 1.0).then(|| {
+    let payload = (fc.payload_mass, fc.payload_inertia);
+    let truth = if payload != (1.0, 1.0) {
         let mut t = plant.clone();
-        t.object.inertia[0] *= fc.payload_mass;
-        t.object.inertia[1] *= fc.payload_mass;
-        t.object.inertia[2] *= fc.payload_inertia;
-        t.object.gravity = t.object.gravity.map(|g| g * fc.payload_mass);
-        t
-    });
+        t.object = object(sc, src, payload)?;
+        Some(t)
+    } else {
+        None
+    };
     if let Some(t) = &truth {
         tandem::plant::planar::Plant::new(t).map_err(|e| {
             src.model_error(e, |p| format!("faults (true plant): {}", plant_path(p)))

@@ -2,15 +2,13 @@
 //! `arms[0].links[1].mass`, `sensors.force.std_dev`), before the document goes through the normal
 //! scenario loader (so validation and messages are the scenario's own).
 //!
-//! One derived field exists for physical consistency: `object.mass` is not a key of the scenario
-//! file (the object has `inertia = [m, m, I]` and a gravity wrench `gravity = (0, m g, 0)`);
-//! setting it writes both translational inertias and scales the gravity wrench by the mass ratio,
-//! so every quantity that depends on the mass changes together (the controller's model is built
-//! from the same object, so it changes too).
-//!
-//! On a spatial document ([`Kind::of`]: its arms name a robot model) `object.mass` is the
-//! file's own plain field: the rotational inertia follows it (the uniform box) unless the file
-//! gives `object.inertia`, and gravity is the plant's, so nothing is derived.
+//! `object.mass` is the object's mass on every document. A spatial object and a planar object in
+//! the form with a mass (`mass`, rotational `inertia`) have it as a field, and the loader derives
+//! the rest (the uniform box's inertia unless given, the gravity wrench from the plant's gravity).
+//! A planar object in the explicit form (`inertia = [m, m, I]` and `gravity = (0, m g, 0)`, the
+//! paper's matrices) has no `mass` key: setting it writes both translational inertias and scales
+//! the gravity wrench by the mass ratio, so every quantity that depends on the mass changes
+//! together (the controller's model is built from the same object, so it changes too).
 
 use toml::{Table, Value};
 
@@ -19,7 +17,8 @@ use crate::scenario::Kind;
 /// Fields computed from others; see the module documentation.
 pub const DERIVED: &[(&str, &str)] = &[(
     "object.mass",
-    "sets object.inertia[0] and [1] and scales object.gravity by the mass ratio",
+    "the object's mass: on an explicit planar object (inertia = [m, m, I], gravity) it sets \
+     object.inertia[0] and [1] and scales object.gravity by the mass ratio",
 )];
 
 /// A path segment: a key or an array index.
@@ -147,6 +146,11 @@ fn set_mass(doc: &mut Table, value: Value) -> Result<(), String> {
         .get_mut("object")
         .and_then(Value::as_table_mut)
         .ok_or("the base scenario has no [object] table")?;
+    if obj.contains_key("mass") {
+        // The form with a mass: the loader derives M_o and G_o from it.
+        obj.insert("mass".into(), Value::Float(m));
+        return Ok(());
+    }
     let inertia = obj
         .get("inertia")
         .and_then(Value::as_array)
@@ -250,5 +254,17 @@ mod tests {
         set(&mut doc, "object.mass", Value::Float(4.5)).unwrap();
         assert_eq!(doc["object"]["mass"].as_float(), Some(4.5));
         assert!(doc["object"].get("inertia").is_none());
+    }
+
+    #[test]
+    fn object_mass_is_a_plain_field_of_a_planar_object_with_a_mass() {
+        let mut doc: Table = toml::from_str(
+            "[[arms]]\nbase = [0.0, 0.0]\n[object]\nmass = 1.0\ninertia = 0.5\ndamping = [1.0, 1.0, 1.0]\n",
+        )
+        .unwrap();
+        set(&mut doc, "object.mass", Value::Float(2.5)).unwrap();
+        assert_eq!(doc["object"]["mass"].as_float(), Some(2.5));
+        assert_eq!(doc["object"]["inertia"].as_float(), Some(0.5));
+        assert!(doc["object"].get("gravity").is_none());
     }
 }
