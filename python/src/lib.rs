@@ -19,7 +19,9 @@ use serde_json::Value as Json;
 use toml::{Table, Value};
 
 use tandem_cli::files::{self as output, OutputDir};
-use tandem_cli::run::planar::{self as runner, Finished, Outputs};
+use tandem_cli::output::planar::{self as planar_output, Outputs};
+use tandem_cli::output::spatial as spatial_output;
+use tandem_cli::run::planar::{self as runner, Finished};
 use tandem_cli::run::spatial;
 use tandem_cli::scenario::{
     self, Overrides, PlanarScenario, Scenario, ScenarioError as CliScenarioError, Source,
@@ -370,7 +372,7 @@ impl Fin {
     /// `summary.json` without write times.
     fn summary(&self, name: &str) -> Json {
         match self {
-            Fin::Planar(f) => runner::summary_json(f, name, None),
+            Fin::Planar(f) => planar_output::summary_json(f, name, None),
             Fin::Spatial(f, d) => tandem_cli::output::spatial::summary(name, f, d, None),
         }
     }
@@ -431,7 +433,7 @@ impl Kind {
     fn to_toml(&self) -> Res<String> {
         match self {
             Kind::Planar(p) => p.to_toml(),
-            Kind::Spatial(p) => spatial::scenario_toml(&p.sc, &p.src.name)
+            Kind::Spatial(p) => spatial_output::scenario_toml(&p.sc, &p.src.name)
                 .map_err(|e| Error::Other(format!("{e:#}"))),
         }
     }
@@ -591,7 +593,7 @@ impl Planar {
 
     /// The resolved scenario as TOML (the run folder's `scenario.toml`).
     fn to_toml(&self) -> Res<String> {
-        runner::scenario_toml(&self.sc, &self.src.name, self.replay.as_deref())
+        planar_output::scenario_toml(&self.sc, &self.src.name, self.replay.as_deref())
             .map_err(|e| Error::Other(format!("{e:#}")))
     }
 
@@ -1164,13 +1166,13 @@ impl PyRun {
             let out = OutputDir::create(&dir, force, &protected).map_err(other)?;
             let problems = match (&*fin, &*kind) {
                 (Fin::Planar(f), _) => {
-                    runner::write_run(out.tmp_dir(), f, name, Outputs { figures })
+                    planar_output::write_run(out.tmp_dir(), f, name, Outputs { figures })
                         .map_err(other)?
                         .1
                 }
                 (Fin::Spatial(f, _), Kind::Spatial(p)) => {
                     // As `tandem run` (spatial::cmd_run): the outputs, then scenario.toml.
-                    let text = spatial::scenario_toml(&p.sc, name).map_err(other)?;
+                    let text = spatial_output::scenario_toml(&p.sc, name).map_err(other)?;
                     let (_, _, problems) =
                         tandem_cli::output::spatial::write(out.tmp_dir(), name, f, figures).map_err(other)?;
                     output::write_text_atomic(&out.tmp_dir().join("scenario.toml"), &text)
