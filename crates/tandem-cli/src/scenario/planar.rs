@@ -39,13 +39,13 @@ use tandem::plant::planar::PlantParams;
 use tandem::reference::planar::admittance::AdmittanceParams;
 use tandem::reference::planar::path::Path;
 use tandem::sim::sensors::SensorParams;
-use tandem::sim::{Driver, Formulation, Replay, SimParams, Simulation};
+use tandem::sim::{Driver, Replay, SimParams, Simulation};
 
 use super::Overrides;
 use super::source::*;
 use super::tables::{
     AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig, PdConfig,
-    SensorsConfig,
+    PlantConfig, RunConfig, SensorsConfig,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -67,7 +67,7 @@ pub struct PlanarScenario {
     pub object: ObjectConfig,
     /// Plant-wide constants.
     #[serde(default)]
-    pub plant: PlantConfig,
+    pub plant: PlantConfig<f64>,
     /// The desired object path.
     pub path: PathConfig,
     /// Environment disturbance on the object (default: none).
@@ -298,34 +298,6 @@ fn default_elbow() -> Elbow {
     Elbow::Positive
 }
 
-/// Plant-wide constants.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PlantConfig {
-    /// Gravity along −y, m/s².
-    #[serde(default = "default_gravity")]
-    pub gravity: f64,
-    /// Baumgarte drift-control natural frequency, rad/s (0 disables).
-    #[serde(default = "default_baumgarte")]
-    pub baumgarte: f64,
-}
-
-fn default_gravity() -> f64 {
-    tandem::model::planar::arm::GRAVITY
-}
-fn default_baumgarte() -> f64 {
-    20.0
-}
-
-impl Default for PlantConfig {
-    fn default() -> Self {
-        PlantConfig {
-            gravity: default_gravity(),
-            baumgarte: default_baumgarte(),
-        }
-    }
-}
-
 /// Shape of the desired path.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -540,37 +512,12 @@ pub struct ControllerConfig {
     pub replay_columns: Option<Vec<String>>,
 }
 
-/// Timing, start and determinism.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RunConfig {
-    /// Simulated time, s.
-    pub duration: f64,
-    /// Plant RK4 step, s.
-    pub plant_step: f64,
-    /// Control period, s (a whole multiple of `plant_step`).
-    pub control_period: f64,
-    /// Logging period, s (a whole multiple of `control_period`).
-    pub log_period: f64,
-    /// Object start pose at rest, (m, m, rad).
-    pub start: [f64; 3],
-    /// `constrained` (default) or `reduced`.
-    #[serde(default)]
-    pub formulation: Formulation,
-    /// Seed of every random stream (sensor noise and dropout).
-    #[serde(default)]
-    pub seed: u64,
-    /// Largest grasp-constraint drift before the run stops, m.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_drift: Option<f64>,
-    /// Smallest arm-Jacobian singular value before the run stops, m/rad.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub min_sigma: Option<f64>,
-}
-
 /// Parse a scenario's text.
 pub fn parse(src: &Source) -> Result<PlanarScenario, ScenarioError> {
-    let sc: PlanarScenario = parse_as(src)?;
+    let mut sc: PlanarScenario = parse_as(src)?;
+    sc.run
+        .complete(super::Kind::Planar)
+        .map_err(|(f, m)| src.error_at(&f, m))?;
     if let Some(n) = &sc.name {
         check_name(src, n)?;
     }
@@ -1026,6 +973,13 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
              end effector's force in the plane, `sensors.force`)",
         ));
     }
+    if sc.plant.compliant_grasps.is_some() {
+        return Err(src.error_at(
+            "plant.compliant_grasps",
+            "plant.compliant_grasps: planar grasps are welds (compliant grasps are a spatial \
+             plant's, SPEC-spatial)",
+        ));
+    }
     if sc.controller.pd.gravity_compensation == Some(true) {
         return Err(src.error_at(
             "controller.pd.gravity_compensation",
@@ -1042,11 +996,11 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
     let d = SimParams::paper();
     let sim = SimParams {
         duration: sc.run.duration,
-        plant_step: sc.run.plant_step,
-        control_period: sc.run.control_period,
-        log_period: sc.run.log_period,
-        start: sc.run.start,
-        formulation: sc.run.formulation,
+        plant_step: sc.run.plant_step(),
+        control_period: sc.run.control_period(),
+        log_period: sc.run.log_period(),
+        start: sc.run.start(),
+        formulation: sc.run.formulation(),
         max_drift: sc.run.max_drift.unwrap_or(d.max_drift),
         min_sigma: sc.run.min_sigma.unwrap_or(d.min_sigma),
     };
@@ -1076,7 +1030,7 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
         k_c: c.k_c,
         admittance,
         delta: c.delta,
-        control_period: sc.run.control_period,
+        control_period: sc.run.control_period(),
         torque_limit: c.torque_limit,
         disturbance_bound: c.disturbance_bound.unwrap_or(disturbance.bound()),
     });
@@ -1253,7 +1207,7 @@ pub fn make_simulation(
             if sc.controller.kind != ControllerKind::Replay {
                 let unit = ["m", "m", "rad"];
                 for j in 0..3 {
-                    let (x, k) = (sc.run.start[j], sc.controller.k_c[j]);
+                    let (x, k) = (sc.run.start()[j], sc.controller.k_c[j]);
                     if k > 0.0 && !(x.abs() < k) {
                         return Err(src.error_at(
                             &format!("run.start[{j}]"),

@@ -51,7 +51,7 @@ use super::planar::{control_warning, load_replay};
 use super::source::{MAX_ARMS, MAX_LINKS, ScenarioError, Source, num, read_limited};
 use super::tables::{
     AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig, PdConfig,
-    SensorsConfig,
+    PlantConfig, RunConfig, SensorsConfig,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -73,7 +73,7 @@ pub struct SpatialScenario {
     pub object: ObjectConfig,
     /// Gravity, drift control, grasp model.
     #[serde(default)]
-    pub plant: PlantConfig,
+    pub plant: PlantConfig<[f64; 3]>,
     /// The desired object pose over time.
     pub path: PathConfig,
     /// Environment wrench on the object (default: none).
@@ -204,48 +204,6 @@ pub struct ObjectConfig {
     pub inertia: Option<[[f64; 3]; 3]>,
     /// Viscous damping on `[v; ω]`, (N s/m ×3, N m s/rad ×3).
     #[serde(default)]
-    pub damping: [f64; 6],
-}
-
-/// Plant-wide constants.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PlantConfig {
-    /// Gravity in world axes, m/s².
-    #[serde(default = "default_gravity")]
-    pub gravity: [f64; 3],
-    /// Baumgarte natural frequency of the weld drift control, rad/s (0 disables).
-    #[serde(default = "default_baumgarte")]
-    pub baumgarte: f64,
-    /// Compliant grasps (a 6-D spring–damper per grasp, in grasp axes) instead of welds.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub compliant_grasps: Option<ComplianceConfig>,
-}
-
-fn default_gravity() -> [f64; 3] {
-    [0.0, 0.0, -9.81]
-}
-fn default_baumgarte() -> f64 {
-    20.0
-}
-
-impl Default for PlantConfig {
-    fn default() -> Self {
-        PlantConfig {
-            gravity: default_gravity(),
-            baumgarte: default_baumgarte(),
-            compliant_grasps: None,
-        }
-    }
-}
-
-/// A compliant grasp (every grasp the same).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ComplianceConfig {
-    /// Stiffness, (N/m ×3, N m/rad ×3).
-    pub stiffness: [f64; 6],
-    /// Damping, (N s/m ×3, N m s/rad ×3).
     pub damping: [f64; 6],
 }
 
@@ -526,43 +484,6 @@ pub struct PostureConfig {
     pub q_rest: Option<Vec<f64>>,
 }
 
-/// Timing, start and determinism.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RunConfig {
-    /// Simulated time, s.
-    pub duration: f64,
-    /// Plant RK4 step, s.
-    #[serde(default = "default_step")]
-    pub plant_step: f64,
-    /// Control period, s (a whole multiple of `plant_step`).
-    #[serde(default = "default_step")]
-    pub control_period: f64,
-    /// Logging period, s (a whole multiple of `control_period`).
-    #[serde(default = "default_log_period")]
-    pub log_period: f64,
-    /// Start pose at rest relative to the desired pose at t = 0: position offset (m, world
-    /// axes) and rotation vector (rad, world axes), `[dx, dy, dz, rx, ry, rz]`.
-    #[serde(default)]
-    pub start_offset: [f64; 6],
-    /// Seed of every random stream.
-    #[serde(default)]
-    pub seed: u64,
-    /// Largest grasp drift before the run stops, m (default 1e-6).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_drift: Option<f64>,
-    /// Smallest arm-Jacobian singular value before the run stops (default 1e-3).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub min_sigma: Option<f64>,
-}
-
-fn default_step() -> f64 {
-    1e-3
-}
-fn default_log_period() -> f64 {
-    0.01
-}
-
 // ---------------------------------------------------------------------------------------------
 // Parsing.
 
@@ -573,6 +494,9 @@ pub fn parse(src: &Source) -> Result<SpatialScenario, ScenarioError> {
     // the wrist torque channels and the PD law's gravity switch, written out in `scenario.toml`.
     sc.sensors.torque.get_or_insert_default();
     sc.controller.pd.gravity_compensation.get_or_insert(false);
+    sc.run
+        .complete(super::Kind::Spatial)
+        .map_err(|(f, m)| src.error_at(&f, m))?;
     if let Some(n) = &sc.name {
         crate::scenario::check_name(src, n)?;
     }
@@ -1100,7 +1024,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             }),
             squeeze: c.squeeze,
             metric_length: c.metric_length,
-            control_period: sc.run.control_period,
+            control_period: sc.run.control_period(),
             torque_limit: c.torque_limit,
             disturbance_bound: c.disturbance_bound,
             posture,
@@ -1129,16 +1053,17 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
     let r = &sc.run;
     let sim = SimParams {
         duration: r.duration,
-        plant_step: r.plant_step,
-        control_period: r.control_period,
-        log_period: r.log_period,
+        plant_step: r.plant_step(),
+        control_period: r.control_period(),
+        log_period: r.log_period(),
         start: [0.0; 3],
         formulation: Formulation::Constrained,
         max_drift: r.max_drift.unwrap_or(1e-6),
         min_sigma: r.min_sigma.unwrap_or(1e-3),
     };
     // Start: the desired pose at t = 0, offset (world axes).
-    for (j, v) in r.start_offset.iter().enumerate() {
+    let start_offset = r.start_offset();
+    for (j, v) in start_offset.iter().enumerate() {
         if !v.is_finite() {
             return Err(src.error_at(
                 &format!("run.start_offset[{j}]"),
@@ -1157,8 +1082,8 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
         ));
     }
     let d0 = path.sample(0.0);
-    let dp = Vector3::new(r.start_offset[0], r.start_offset[1], r.start_offset[2]);
-    let dr = Vector3::new(r.start_offset[3], r.start_offset[4], r.start_offset[5]);
+    let dp = Vector3::new(start_offset[0], start_offset[1], start_offset[2]);
+    let dr = Vector3::new(start_offset[3], start_offset[4], start_offset[5]);
     let start = SpatialStart {
         x_wo: Isometry3::from_parts(
             Translation3::from(d0.p + dp),
@@ -1517,7 +1442,7 @@ pub fn make_simulation(
     // cannot hold the start pose fails on the file's start offset when it gives one: the error
     // names and points at `run.start_offset` (else at the arm).
     let start_error = |e: ModelError| {
-        let o = sc.run.start_offset;
+        let o = sc.run.start_offset();
         match &e {
             ModelError::Geometry { what, .. } if what.starts_with("arms") => {
                 let offset = format!("[{}]", o.map(num).join(", "));

@@ -372,3 +372,182 @@ impl<const A: usize> Default for AdmittanceConfig<A> {
         }
     }
 }
+
+/// The plant's gravity as a scenario writes it: along −y in the plane (m/s², `f64`), or a
+/// vector in world axes in space (`[f64; 3]`).
+pub trait Gravity: Copy {
+    /// The default: the paper's 9.8 m/s² along −y (planar), `[0, 0, −9.81]` (spatial).
+    fn standard() -> Self;
+}
+
+impl Gravity for f64 {
+    fn standard() -> f64 {
+        tandem::model::planar::arm::GRAVITY
+    }
+}
+
+impl Gravity for [f64; 3] {
+    fn standard() -> [f64; 3] {
+        [0.0, 0.0, -9.81]
+    }
+}
+
+/// Plant-wide constants.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlantConfig<G: Gravity> {
+    /// Gravity: along −y, m/s² (planar), or in world axes, m/s² (spatial).
+    #[serde(default = "G::standard")]
+    pub gravity: G,
+    /// Baumgarte natural frequency of the grasp-constraint drift control, rad/s (0 disables).
+    #[serde(default = "default_baumgarte")]
+    pub baumgarte: f64,
+    /// Compliant grasps (a 6-D spring–damper per grasp, in grasp axes) instead of welds
+    /// (spatial; planar grasps are welds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compliant_grasps: Option<ComplianceConfig>,
+}
+
+fn default_baumgarte() -> f64 {
+    20.0
+}
+
+impl<G: Gravity> Default for PlantConfig<G> {
+    fn default() -> Self {
+        PlantConfig {
+            gravity: G::standard(),
+            baumgarte: default_baumgarte(),
+            compliant_grasps: None,
+        }
+    }
+}
+
+/// A compliant grasp (every grasp the same).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ComplianceConfig {
+    /// Stiffness, (N/m ×3, N m/rad ×3).
+    pub stiffness: [f64; 6],
+    /// Damping, (N s/m ×3, N m s/rad ×3).
+    pub damping: [f64; 6],
+}
+
+/// Timing, start and determinism. The start is said per kind: a planar object's start pose at
+/// rest (`start`, required) or a spatial object's offset from the desired pose at `t = 0`
+/// (`start_offset`, default zero); the timing is required in planar files and defaults to a 1 ms
+/// step and a 10 ms log in spatial ones ([`RunConfig::complete`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// Simulated time, s.
+    pub duration: f64,
+    /// Plant RK4 step, s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plant_step: Option<f64>,
+    /// Control period, s (a whole multiple of `plant_step`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub control_period: Option<f64>,
+    /// Logging period, s (a whole multiple of `control_period`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub log_period: Option<f64>,
+    /// Planar: the object's start pose at rest, (m, m, rad).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<[f64; 3]>,
+    /// Spatial: the start pose at rest relative to the desired pose at `t = 0`: position offset
+    /// (m, world axes) and rotation vector (rad, world axes), `[dx, dy, dz, rx, ry, rz]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_offset: Option<[f64; 6]>,
+    /// Planar: `constrained` (default) or `reduced`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub formulation: Option<tandem::sim::Formulation>,
+    /// Seed of every random stream (sensor noise, dropout).
+    #[serde(default)]
+    pub seed: u64,
+    /// Largest grasp-constraint drift before the run stops, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_drift: Option<f64>,
+    /// Smallest arm-Jacobian singular value before the run stops.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_sigma: Option<f64>,
+}
+
+/// The spatial plant step and control period when a file does not give them, s.
+pub const SPATIAL_STEP: f64 = 1e-3;
+/// The spatial log period when a file does not give it, s.
+pub const SPATIAL_LOG_PERIOD: f64 = 0.01;
+
+impl RunConfig {
+    /// Check the fields of the other kind are absent and fill the defaults of this one, so
+    /// that every field the kind uses is set (and written to `scenario.toml`). `Err((field,
+    /// message))` names a field.
+    pub fn complete(&mut self, kind: crate::scenario::Kind) -> Result<(), (String, String)> {
+        use crate::scenario::Kind;
+        let other = |f: &str, m: &str| Err((format!("run.{f}"), format!("run.{f}: {m}")));
+        match kind {
+            Kind::Planar => {
+                if self.start_offset.is_some() {
+                    return other(
+                        "start_offset",
+                        "a planar scenario gives the object's start pose, `run.start = [x, y, θ]`",
+                    );
+                }
+                for (f, v) in [
+                    ("plant_step", self.plant_step.is_some()),
+                    ("control_period", self.control_period.is_some()),
+                    ("log_period", self.log_period.is_some()),
+                    ("start", self.start.is_some()),
+                ] {
+                    if !v {
+                        return Err(("run".into(), format!("missing field `{f}` in run")));
+                    }
+                }
+                self.formulation.get_or_insert_default();
+            }
+            Kind::Spatial => {
+                if self.start.is_some() {
+                    return other(
+                        "start",
+                        "a spatial scenario starts at the desired pose plus `run.start_offset = \
+                         [dx, dy, dz, rx, ry, rz]`",
+                    );
+                }
+                if self.formulation.is_some() {
+                    return other(
+                        "formulation",
+                        "spatial plants have one formulation (the KKT system of the closed chain)",
+                    );
+                }
+                self.plant_step.get_or_insert(SPATIAL_STEP);
+                self.control_period.get_or_insert(SPATIAL_STEP);
+                self.log_period.get_or_insert(SPATIAL_LOG_PERIOD);
+                self.start_offset.get_or_insert([0.0; 6]);
+            }
+        }
+        Ok(())
+    }
+
+    /// The plant step, s (set by [`RunConfig::complete`]).
+    pub fn plant_step(&self) -> f64 {
+        self.plant_step.unwrap_or(SPATIAL_STEP)
+    }
+    /// The control period, s.
+    pub fn control_period(&self) -> f64 {
+        self.control_period.unwrap_or(SPATIAL_STEP)
+    }
+    /// The log period, s.
+    pub fn log_period(&self) -> f64 {
+        self.log_period.unwrap_or(SPATIAL_LOG_PERIOD)
+    }
+    /// The planar start pose (required in a planar file), (m, m, rad).
+    pub fn start(&self) -> [f64; 3] {
+        self.start.unwrap_or([0.0; 3])
+    }
+    /// The spatial start offset, `[dx, dy, dz, rx, ry, rz]`.
+    pub fn start_offset(&self) -> [f64; 6] {
+        self.start_offset.unwrap_or([0.0; 6])
+    }
+    /// The planar formulation.
+    pub fn formulation(&self) -> tandem::sim::Formulation {
+        self.formulation.unwrap_or_default()
+    }
+}
