@@ -112,6 +112,11 @@ fn controller_ticks_allocate_nothing() {
     for law in [
         Law::Nn(NnGains::tuned()),
         Law::Pd(PdGains::<3>::paper()),
+        // PD with the model's gravity 𝓖 of (14) (object scheme only).
+        Law::Pd(PdGains {
+            gravity_compensation: true,
+            ..PdGains::<3>::paper()
+        }),
         Law::Ctc(Default::default()),
     ] {
         let name = law.name();

@@ -546,3 +546,105 @@ fn the_papers_nn_gains_are_allowed_but_warned() {
     .unwrap();
     assert!(w.is_empty(), "{w:?}");
 }
+
+#[test]
+fn pd_gravity_compensation_holds_the_arms_and_object_still() {
+    // PD with gravity compensation (SPEC §3.5 plus the model's 𝓖 of (14)): at rest on the
+    // desired pose with zero error, the controller's model equal to the plant, it commands 𝓖
+    // (distributed, with the arms' internal gravity part), so every acceleration of the constrained plant
+    // (joints and object) vanishes to round-off; the paper's plain PD commands no gravity and
+    // the object falls at about g. Then 1 s closed loop from there: compensated, the object
+    // stays put (measured 5e-16 m); plain PD sags by about 𝓖/K_P (6.8 mm). Without the
+    // admittance (and so without squeeze): its force filter would take in the first tick's
+    // grasp forces (those of the torques before the first command) and move the reference.
+    use tandem::control::planar::TickRecord;
+    use tandem::drive::Measurements;
+    use tandem::plant::planar::{PlantInput, PlantParams};
+    let model = PlantParams::paper();
+    let plant = Plant::new(&model).unwrap();
+    let p0 = presets::paper_start();
+    let path = Path::point_to_point(p0, p0, 0.0, 1.0).unwrap();
+    let y = plant.initial_state(p0, Vector3::zeros(), None).unwrap();
+    let n = plant.n_q();
+    let forces = vec![0.0; 2 * plant.arms().len()];
+    let meas = Measurements {
+        q: &y[..n],
+        qd: &y[n + 3..2 * n + 3],
+        wrenches: &forces,
+    };
+    for compensate in [false, true] {
+        let mut cp = params(Law::Pd(PdGains {
+            gravity_compensation: compensate,
+            ..PdGains::<3>::paper()
+        }));
+        cp.disturbance_bound = [0.0; 3];
+        cp.admittance = None;
+        let (mut c, _) = Controller::new(&cp, &model, path.clone(), 1.0).unwrap();
+        c.start(0.0, &meas);
+        let (mut tau, mut rec) = (vec![0.0; n], TickRecord::default());
+        c.tick(0.0, &meas, &mut tau, &mut rec);
+        assert!(rec.z1.norm() < 1e-12, "z1 = {}", rec.z1);
+        let mut ws = plant.workspace();
+        let mut dy = vec![0.0; y.len()];
+        let input = PlantInput {
+            tau: tau.clone(),
+            f_d: Vector3::zeros(),
+        };
+        assert!(plant.derivative(&y, &input, &mut ws, &mut dy));
+        // dy = [q̇, ẋ_o, q̈, ẍ_o]: the accelerations.
+        let acc = dy[n + 3..].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        // Closed loop, 1 s, no disturbance, ideal sensors.
+        let sp = SimParams {
+            duration: 1.0,
+            log_period: 0.01,
+            start: [p0.x, p0.y, p0.z],
+            ..SimParams::paper()
+        };
+        let sim = Simulation::new(
+            &model,
+            &SensorParams::default(),
+            Driver::Controller(Box::new(c)),
+            Disturbance::none(),
+            sp,
+            None,
+        )
+        .unwrap();
+        let (out, _) = sim.run(|_| {});
+        let sag = ["x_o.x", "x_o.y", "x_o.theta"]
+            .iter()
+            .enumerate()
+            .flat_map(|(j, c)| {
+                out.log
+                    .get(c)
+                    .unwrap()
+                    .iter()
+                    .map(move |v| (v - p0[j]).abs())
+            })
+            .fold(0.0_f64, f64::max);
+        println!(
+            "gravity compensation {compensate}: torques {tau:.4?} N m, largest acceleration {acc:.3e}, largest pose error over 1 s {sag:.3e}"
+        );
+        if compensate {
+            assert!(acc < 1e-10, "accelerations up to {acc:e}");
+            assert!(sag < 1e-12, "moved by {sag:e}");
+        } else {
+            assert!(acc > 1.0, "plain PD: accelerations up to {acc:e}");
+            assert!(sag > 1e-3, "plain PD: sagged by {sag:e} only");
+        }
+    }
+    // Where the reduced model (14) does not apply, it is refused by name.
+    let gc = Law::Pd(PdGains {
+        gravity_compensation: true,
+        ..PdGains::<3>::paper()
+    });
+    let mut cp = params(gc.clone());
+    cp.scheme = tandem::control::Scheme::PerArm;
+    let e = err_of(cp);
+    assert!(e.contains("gains.gravity_compensation"), "{e}");
+    let (redundant, _) = presets::redundant_pair();
+    let e = Controller::new(&params(gc), &redundant, Path::paper(), 1.0)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("arms[0]") && e.contains("2-link"), "{e}");
+}

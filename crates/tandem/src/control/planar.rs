@@ -10,9 +10,9 @@
 //!    unexpected force `LPF(F_i) − F_ref,i`; the object-level reference is their least-squares
 //!    fit, with its exact rates ([`crate::model::planar::grasp::GraspSet::fit_pose_rates`]).
 //! 4. `(x̂_o, ẋ̂_o, x_r, ẋ_r, ẍ_r) → τ`: the tracking law on the object (iBLF + adaptive NN
-//!    ([`crate::control::law::adaptive`]), PD ([`crate::control::law::pd`]) or computed torque
-//!    ([`crate::control::law::ctc`])), selected by [`ControllerParams::law`]
-//!    ([`Law<3>`](crate::control::law::Law)).
+//!    ([`crate::control::law::adaptive`]), PD ([`crate::control::law::pd`], optionally plus the
+//!    model's gravity `𝓖` of (14)) or computed torque ([`crate::control::law::ctc`])), selected
+//!    by [`ControllerParams::law`] ([`Law<3>`](crate::control::law::Law)).
 //! 5. `τ → τ_x,i → τ_joint,i = J_e,iᵀ τ_x,i`: wrench distribution with the internal squeeze
 //!    ([`crate::model::planar::grasp::GraspSet::distribute`]) plus the internal part of the arms' own gravity
 //!    (`P_N Ĝ_x`, so the squeeze is the commanded one); for redundant arms, damping and gravity
@@ -32,6 +32,7 @@ use crate::dynamics::planar::{Arm, FixedKinematics, FixedLinkArm, TwoLinkArm};
 use crate::error::{ModelError, non_negative, positive};
 use crate::math::linalg::finite_slice;
 use crate::model::planar::grasp::{Grasp, GraspSet};
+use crate::plant::planar::reduced::ObjectSpace;
 use crate::plant::planar::{Plant, PlantParams, PlantWorkspace};
 use crate::reference::planar::admittance::{Admittance, AdmittanceParams, AdmittanceState};
 use crate::reference::planar::path::Path;
@@ -163,13 +164,35 @@ impl TickRecord {
     }
 }
 
-/// The law a controller runs, validated, with its state (computed torque: its nominal model).
+/// The law a controller runs, validated, with its state: PD with the workspace of its gravity
+/// term when it compensates gravity, computed torque with its nominal model.
 enum Active {
     Nn(Box<AdaptiveNn>),
-    Pd(Pd),
+    Pd(Pd, Option<Box<PlantWorkspace>>),
     Ctc(Ctc, Box<Plant>, Box<PlantWorkspace>),
     PerArmPd(Pd),
     PerArmNn(Vec<AdaptiveNn<2>>),
+}
+
+/// The object-space terms `(𝓜, 𝓒, 𝓖)` of (14) of a controller's model at the estimated state
+/// `(x_1, x_2)`: the nominal model's for computed torque, the controller's model's gravity
+/// `𝓖` for PD with gravity compensation. `None`, counted as a degenerate tick, where the
+/// reduced model cannot be evaluated (a grasp out of reach, a singular arm).
+#[inline]
+fn model_terms(
+    model: &Plant,
+    x1: &Vector3<f64>,
+    x2: &Vector3<f64>,
+    ws: &mut PlantWorkspace,
+    events: &mut ControlEvents,
+) -> Option<ObjectSpace> {
+    match model.object_space(x1, x2, ws) {
+        Ok(os) => Some(os),
+        Err(_) => {
+            events.degenerate += 1;
+            None
+        }
+    }
 }
 
 /// One arm's kinematics kernel for the tick, selected once by [`Controller::new`] from its link
@@ -414,14 +437,31 @@ impl Controller {
             None => (None, 0.0),
         };
         let law = match (&p.law, p.scheme) {
-            (Law::Pd(g), _) if g.gravity_compensation => {
-                return Err(ModelError::geometry(
-                    "gains.gravity_compensation",
-                    "PD gravity compensation is not implemented for the planar controller",
-                ));
+            (Law::Pd(g), Scheme::Object) => {
+                let pd = Pd::new(g)?;
+                let gravity = if g.gravity_compensation {
+                    if let Some(i) = kin.arms().iter().position(|a| a.dof() != 2) {
+                        return Err(ModelError::geometry(
+                            format!("arms[{i}]"),
+                            "PD gravity compensation adds 𝓖 of the reduced model (14), which needs 2-link arms",
+                        ));
+                    }
+                    Some(Box::new(kin.workspace()))
+                } else {
+                    None
+                };
+                Active::Pd(pd, gravity)
             }
-            (Law::Pd(g), Scheme::Object) => Active::Pd(Pd::new(g)?),
-            (Law::Pd(g), Scheme::PerArm) => Active::PerArmPd(Pd::new(g)?),
+            (Law::Pd(g), Scheme::PerArm) => {
+                let pd = Pd::new(g)?;
+                if g.gravity_compensation {
+                    return Err(ModelError::geometry(
+                        "gains.gravity_compensation",
+                        "PD gravity compensation is implemented for the object scheme only",
+                    ));
+                }
+                Active::PerArmPd(pd)
+            }
             (Law::Ctc(g), Scheme::Object) => {
                 let ctc = Ctc::new(g)?;
                 let nominal = Plant::new(&nominal_params(model, g.model_error))?;
@@ -680,19 +720,25 @@ impl Controller {
         let z1_dot = x2 - xd_r;
         let per_arm = matches!(self.law, Active::PerArmPd(_) | Active::PerArmNn(_));
         let mut w = match &mut self.law {
-            Active::Pd(pd) => {
+            Active::Pd(pd, gravity) => {
                 rec.z2 = z1_dot;
-                pd.wrench(&z1, &z1_dot)
+                let w = pd.wrench(&z1, &z1_dot);
+                // With gravity compensation, + 𝓖 of the controller's model (14); where that
+                // model fails, plain PD (counted as degenerate).
+                match gravity {
+                    None => w,
+                    Some(ws) => match model_terms(&self.kin, &x1, &x2, ws, &mut self.events) {
+                        Some(os) => w + os.G,
+                        None => w,
+                    },
+                }
             }
             Active::Ctc(ctc, nominal, ws) => {
                 rec.z2 = z1_dot;
                 let a = ctc.acceleration(&xdd_r, &z1, &z1_dot);
-                match nominal.object_space(&x1, &x2, ws) {
-                    Ok(os) => os.M * a + os.C * x2 + os.G,
-                    Err(_) => {
-                        self.events.degenerate += 1;
-                        Vector3::zeros()
-                    }
+                match model_terms(nominal, &x1, &x2, ws, &mut self.events) {
+                    Some(os) => os.M * a + os.C * x2 + os.G,
+                    None => Vector3::zeros(),
                 }
             }
             Active::Nn(nn) => {

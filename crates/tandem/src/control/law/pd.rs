@@ -37,7 +37,8 @@ pub struct PdGains<const N: usize> {
     /// the paper's baseline (SPEC §3.5: no gravity compensation), which then sags by about
     /// `𝓖/K_P` (about 2 cm under the S6 arms' and box's 110 N); on, it is the model-based PD a
     /// practitioner would run, and on a path as slow as S6 it tracks about as well as the NN
-    /// law (`docs/spatial-control.md`). Spatial only for now.
+    /// law (`docs/spatial-control.md`). Planar: object scheme with 2-link arms (the reduced
+    /// model (14)).
     #[serde(default, skip_serializing_if = "gravity_compensation_is_skipped::<N>")]
     pub gravity_compensation: bool,
 }
