@@ -29,10 +29,11 @@ use std::path::{Path as FsPath, PathBuf};
 use nalgebra::{Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 use tandem::ModelError;
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::ctc::CtcGains;
 use tandem::control::law::pd::PdGains;
-use tandem::control::planar::{Controller, ControllerParams, LawParams};
+use tandem::control::planar::{Controller, ControllerParams};
 use tandem::control::{ControlWarning, Scheme};
 use tandem::model::disturbance::{Disturbance, Push};
 use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
@@ -728,7 +729,7 @@ impl GainPreset {
             GainPreset::Tuned => "tuned",
         }
     }
-    fn gains(self) -> NnGains {
+    fn gains(self) -> NnGains<3> {
         match self {
             GainPreset::Paper => NnGains::paper(),
             GainPreset::Tuned => NnGains::tuned(),
@@ -782,7 +783,7 @@ impl NnOverrides {
     fn is_empty(&self) -> bool {
         *self == NnOverrides::default()
     }
-    fn apply(&self, mut g: NnGains) -> NnGains {
+    fn apply(&self, mut g: NnGains<3>) -> NnGains<3> {
         macro_rules! set {
             ($($f:ident),*) => { $( if let Some(v) = &self.$f { g.$f = v.clone(); } )* };
         }
@@ -1570,7 +1571,7 @@ impl Scenario {
     }
 
     /// The NN gains this scenario runs (preset plus overrides).
-    pub fn nn_gains(&self) -> NnGains {
+    pub fn nn_gains(&self) -> NnGains<3> {
         self.controller
             .nn
             .apply(self.controller.gains.unwrap_or(GainPreset::Tuned).gains())
@@ -1591,7 +1592,7 @@ impl Scenario {
                 }
             }
             ControllerKind::Pd => {
-                if self.pd_gains() == PdGains::paper() {
+                if self.pd_gains() == PdGains::<3>::paper() {
                     "paper".into()
                 } else {
                     "custom".into()
@@ -1612,15 +1613,16 @@ impl Scenario {
         }
     }
 
-    fn pd_gains(&self) -> PdGains {
-        let d = PdGains::paper();
+    fn pd_gains(&self) -> PdGains<3> {
+        let d = PdGains::<3>::paper();
         PdGains {
             k_p: self.controller.pd.k_p.unwrap_or(d.k_p),
             k_d: self.controller.pd.k_d.unwrap_or(d.k_d),
+            ..d
         }
     }
 
-    fn ctc_gains(&self) -> CtcGains {
+    fn ctc_gains(&self) -> CtcGains<3> {
         let d = CtcGains::default();
         let c = &self.controller.ctc;
         CtcGains {
@@ -1963,9 +1965,9 @@ pub fn build(sc: &Scenario, src: &Source) -> Result<Built, ScenarioError> {
     let c = &sc.controller;
     let admittance = c_admittance(&sc.admittance);
     let law = match c.kind {
-        ControllerKind::Nn => Some(LawParams::Nn(sc.nn_gains())),
-        ControllerKind::Pd => Some(LawParams::Pd(sc.pd_gains())),
-        ControllerKind::Ctc => Some(LawParams::Ctc(sc.ctc_gains())),
+        ControllerKind::Nn => Some(Law::Nn(sc.nn_gains())),
+        ControllerKind::Pd => Some(Law::Pd(sc.pd_gains())),
+        ControllerKind::Ctc => Some(Law::Ctc(sc.ctc_gains())),
         ControllerKind::Replay => None,
     };
     let controller = law.map(|law| ControllerParams {
