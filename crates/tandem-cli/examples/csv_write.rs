@@ -5,7 +5,8 @@
 //! medians over the repeats.
 use std::time::Instant;
 
-use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::control::law::Law;
+use tandem::control::planar::ControllerParams;
 use tandem::model::disturbance::Disturbance;
 use tandem::presets;
 use tandem::sim::{Log, SimParams};
@@ -78,9 +79,7 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(5);
-    let cp = ControllerParams::paper(LawParams::Nn(
-        tandem::control::law::adaptive::NnGains::tuned(),
-    ));
+    let cp = ControllerParams::paper(Law::Nn(tandem::control::law::adaptive::NnGains::tuned()));
     let mut sim_times = Vec::new();
     let mut log = None;
     for _ in 0..repeats.min(3) {

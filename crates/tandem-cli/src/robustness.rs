@@ -19,9 +19,10 @@ use anyhow::Result;
 use serde_json::json;
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3, Vector6};
-use tandem::control::spatial::{
-    SpatialControllerParams, SpatialLaw, SpatialNnGains, SpatialPdGains,
-};
+use tandem::control::law::Law;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::spatial::SpatialControllerParams;
 use tandem::plant::spatial::GraspModel;
 use tandem::reference::spatial::path::Se3Path;
 
@@ -347,7 +348,7 @@ pub struct SlipLaw {
     /// Label.
     pub name: &'static str,
     /// The law.
-    pub law: fn() -> SpatialLaw,
+    pub law: fn() -> Law<6>,
     /// The default 6-D admittance on (off: `x_r = x_d`).
     pub admittance: bool,
     /// The whole ladder (else the diagnostic levels only).
@@ -361,16 +362,16 @@ pub struct SlipLaw {
 pub const SLIP_LAWS: [SlipLaw; 8] = [
     SlipLaw {
         name: "PD (paper)",
-        law: || SpatialLaw::Pd(SpatialPdGains::paper()),
+        law: || Law::Pd(PdGains::<6>::paper()),
         admittance: true,
         ladder: true,
     },
     SlipLaw {
         name: "PD + model gravity",
         law: || {
-            SpatialLaw::Pd(SpatialPdGains {
+            Law::Pd(PdGains {
                 gravity_compensation: true,
-                ..SpatialPdGains::paper()
+                ..PdGains::<6>::paper()
             })
         },
         admittance: true,
@@ -378,16 +379,16 @@ pub const SLIP_LAWS: [SlipLaw; 8] = [
     },
     SlipLaw {
         name: "NN",
-        law: || SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
+        law: || Law::Nn(NnGains::dual_ur5()),
         admittance: true,
         ladder: true,
     },
     SlipLaw {
         name: "NN, ϖ = 20",
         law: || {
-            SpatialLaw::Nn(SpatialNnGains {
+            Law::Nn(NnGains {
                 varpi: PROPOSED_VARPI,
-                ..SpatialNnGains::dual_ur5()
+                ..NnGains::dual_ur5()
             })
         },
         admittance: true,
@@ -395,16 +396,16 @@ pub const SLIP_LAWS: [SlipLaw; 8] = [
     },
     SlipLaw {
         name: "NN, no admittance",
-        law: || SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
+        law: || Law::Nn(NnGains::dual_ur5()),
         admittance: false,
         ladder: false,
     },
     SlipLaw {
         name: "NN, ϖ = 3",
         law: || {
-            SpatialLaw::Nn(SpatialNnGains {
+            Law::Nn(NnGains {
                 varpi: 3.0,
-                ..SpatialNnGains::dual_ur5()
+                ..NnGains::dual_ur5()
             })
         },
         admittance: true,
@@ -413,9 +414,9 @@ pub const SLIP_LAWS: [SlipLaw; 8] = [
     SlipLaw {
         name: "NN, ϖ = 10",
         law: || {
-            SpatialLaw::Nn(SpatialNnGains {
+            Law::Nn(NnGains {
                 varpi: 10.0,
-                ..SpatialNnGains::dual_ur5()
+                ..NnGains::dual_ur5()
             })
         },
         admittance: true,
@@ -424,10 +425,10 @@ pub const SLIP_LAWS: [SlipLaw; 8] = [
     SlipLaw {
         name: "NN, d1 = 2, d2 = 3",
         law: || {
-            SpatialLaw::Nn(SpatialNnGains {
+            Law::Nn(NnGains {
                 d1: 2.0,
                 d2: 3.0,
-                ..SpatialNnGains::dual_ur5()
+                ..NnGains::dual_ur5()
             })
         },
         admittance: true,
@@ -504,7 +505,7 @@ pub fn slip_run_with(level: Option<usize>, law: usize, factor: usize) -> Result<
     substeps *= factor.max(1);
     let spatial_law = (l.law)();
     let varpi = match &spatial_law {
-        SpatialLaw::Nn(g) => g.varpi,
+        Law::Nn(g) => g.varpi,
         _ => f64::NAN,
     };
     let mut p = SpatialControllerParams::spec_s6(spatial_law);

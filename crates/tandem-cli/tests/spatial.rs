@@ -7,7 +7,9 @@ use std::process::Command;
 
 use nalgebra::DMatrix;
 use serde_json::Value;
-use tandem::control::spatial::{SpatialCtcGains, SpatialLaw, SpatialPdGains};
+use tandem::control::law::Law;
+use tandem::control::law::ctc::CtcGains;
+use tandem::control::law::pd::PdGains;
 use tandem_cli::output::spatial::{self as output, Derived, Finished};
 
 mod support;
@@ -204,7 +206,7 @@ fn presets_are_listed() {
 }
 
 /// A finished run of the S6 set-up `setup` with `law` (for the laws no preset runs yet).
-fn finished(franka: bool, law: SpatialLaw, duration: f64) -> Finished {
+fn finished(franka: bool, law: Law<6>, duration: f64) -> Finished {
     let s = if franka {
         tandem::presets::dual_franka()
     } else {
@@ -288,8 +290,8 @@ fn sigma_min_and_joint_limit_match_an_independent_computation() {
 fn compare_writes_report_summary_and_overlays() {
     let runs = [
         tandem_cli::run::spatial::run("dual-ur5", 1.0).unwrap(),
-        finished(false, SpatialLaw::Pd(SpatialPdGains::paper()), 1.0),
-        finished(false, SpatialLaw::Ctc(SpatialCtcGains::default()), 1.0),
+        finished(false, Law::Pd(PdGains::<6>::paper()), 1.0),
+        finished(false, Law::Ctc(CtcGains::<6>::default()), 1.0),
     ];
     let labels = ["NN", "PD", "CTC"];
     let pairs: Vec<(&str, &Finished)> = labels.iter().copied().zip(runs.iter()).collect();

@@ -6,7 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use tandem::control::spatial::{SpatialControllerParams, SpatialLaw, SpatialNnGains};
+use tandem::control::law::Law;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::spatial::SpatialControllerParams;
 use tandem::reference::spatial::path::Se3Path;
 use tandem_cli::scenario::spatial as sp;
 use tandem_cli::scenario::{EMBEDDED, Kind};
@@ -41,15 +43,11 @@ fn built(name: &str) -> (sp::SpatialScenario, sp::SpatialBuilt) {
 #[test]
 fn presets_are_the_library_s6_setups_exactly() {
     for (name, setup, gains) in [
-        (
-            "dual-ur5",
-            tandem::presets::dual_ur5(),
-            SpatialNnGains::dual_ur5(),
-        ),
+        ("dual-ur5", tandem::presets::dual_ur5(), NnGains::dual_ur5()),
         (
             "dual-franka",
             tandem::presets::dual_franka(),
-            SpatialNnGains::dual_franka(),
+            NnGains::dual_franka(),
         ),
     ] {
         let (sc, b) = built(name);
@@ -59,7 +57,7 @@ fn presets_are_the_library_s6_setups_exactly() {
         assert_eq!(b.plant, setup.params, "{name}: plant");
         assert_eq!(b.start.q_guess, setup.q_guess, "{name}: IK guess");
         assert_eq!(b.path, Se3Path::spec_s6(), "{name}: path");
-        let want = SpatialControllerParams::spec_s6(SpatialLaw::Nn(gains));
+        let want = SpatialControllerParams::spec_s6(Law::Nn(gains));
         assert_eq!(b.controller, want, "{name}: controller");
         assert_eq!(
             b.disturbance,
@@ -90,7 +88,7 @@ fn the_default_design_is_measured_on_the_path() {
     let r = sp::make_simulation(&sc, &b, &src).unwrap();
     let m = r.path_inertia.unwrap();
     let preset_m = [20.0, 15.0, 12.0, 0.03, 0.8, 0.9];
-    let Some(SpatialLaw::Nn(g)) = r.controller.as_ref().map(|c| c.law.clone()) else {
+    let Some(Law::Nn(g)) = r.controller.as_ref().map(|c| c.law.clone()) else {
         panic!("nn law")
     };
     for j in 0..6 {

@@ -3,9 +3,10 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use tandem::control::Scheme;
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::pd::PdGains;
-use tandem::control::planar::{Controller, ControllerParams, LawParams, TickRecord};
+use tandem::control::planar::{Controller, ControllerParams, TickRecord};
 use tandem::control::rbf::{NnUpdate, Rbf, RbfNetwork};
 use tandem::drive::Measurements;
 use tandem::nalgebra::Vector3;
@@ -28,22 +29,22 @@ fn bench(c: &mut Criterion) {
     for (name, law, scheme) in [
         (
             "control/tick_pd",
-            LawParams::Pd(PdGains::paper()),
+            Law::Pd(PdGains::<3>::paper()),
             Scheme::Object,
         ),
         (
             "control/tick_ctc",
-            LawParams::Ctc(Default::default()),
+            Law::Ctc(Default::default()),
             Scheme::Object,
         ),
         (
             "control/tick_nn_tuned",
-            LawParams::Nn(NnGains::tuned()),
+            Law::Nn(NnGains::tuned()),
             Scheme::Object,
         ),
         (
             "control/tick_nn_per_arm",
-            LawParams::Nn(NnGains::tuned()),
+            Law::Nn(NnGains::tuned()),
             Scheme::PerArm,
         ),
     ] {

@@ -23,8 +23,9 @@
 use criterion::{Criterion, criterion_group};
 use nalgebra::Vector3;
 use std::hint::black_box;
+use tandem::control::law::Law;
 use tandem::control::law::pd::PdGains;
-use tandem::control::planar::{Controller, ControllerParams, LawParams};
+use tandem::control::planar::{Controller, ControllerParams};
 use tandem::math::integrate::Rk4;
 use tandem::model::disturbance::Disturbance;
 use tandem::plant::planar::{ConstrainedOde, Plant, PlantParams};
@@ -53,7 +54,7 @@ fn tick_configs() -> Vec<(&'static str, PlantParams, Option<Vec<f64>>, usize)> {
 fn tick_sim(plant: &PlantParams, guess: Option<&[f64]>) -> Simulation {
     let duration = 1.0e4;
     let (c, _) = Controller::new(
-        &ControllerParams::paper(LawParams::Pd(PdGains::paper())),
+        &ControllerParams::paper(Law::Pd(PdGains::<3>::paper())),
         plant,
         Path::paper(),
         duration,

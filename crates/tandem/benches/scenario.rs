@@ -1,14 +1,15 @@
 //! The whole 90 s paper scenario (SPEC §4), outputs excluded: NN (tuned) at 1 kHz control on the
 //! constrained plant (the default) and on the reduced plant, and PD for comparison.
 use criterion::{Criterion, criterion_group, criterion_main};
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::pd::PdGains;
-use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::control::planar::ControllerParams;
 use tandem::model::disturbance::Disturbance;
 use tandem::presets;
 use tandem::sim::{Formulation, SimParams, Simulation};
 
-fn build(law: LawParams, formulation: Formulation) -> Simulation {
+fn build(law: Law<3>, formulation: Formulation) -> Simulation {
     let sp = SimParams {
         formulation,
         ..SimParams::paper()
@@ -24,17 +25,17 @@ fn bench(c: &mut Criterion) {
     for (name, law, f) in [
         (
             "nn_tuned_constrained",
-            LawParams::Nn(NnGains::tuned()),
+            Law::Nn(NnGains::tuned()),
             Formulation::Constrained,
         ),
         (
             "nn_tuned_reduced",
-            LawParams::Nn(NnGains::tuned()),
+            Law::Nn(NnGains::tuned()),
             Formulation::Reduced,
         ),
         (
             "pd_constrained",
-            LawParams::Pd(PdGains::paper()),
+            Law::Pd(PdGains::<3>::paper()),
             Formulation::Constrained,
         ),
     ] {

@@ -5,10 +5,11 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Isometry3, Translation3, Vector3};
 use std::hint::black_box;
-use tandem::control::spatial::{
-    SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
-    SpatialPdGains, SpatialTickRecord,
-};
+use tandem::control::law::Law;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::ctc::CtcGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::spatial::{SpatialController, SpatialControllerParams, SpatialTickRecord};
 use tandem::drive::Measurements;
 use tandem::model::disturbance::SpatialDisturbance;
 use tandem::plant::spatial::SpatialPlant;
@@ -17,11 +18,7 @@ use tandem::reference::spatial::path::Se3Path;
 use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Formulation, SimParams, Simulation, SpatialStart};
 
-fn sim(
-    franka: bool,
-    law: SpatialLaw,
-    duration: f64,
-) -> Simulation<SpatialPlant, SpatialController> {
+fn sim(franka: bool, law: Law<6>, duration: f64) -> Simulation<SpatialPlant, SpatialController> {
     let s = if franka {
         presets::dual_franka()
     } else {
@@ -62,26 +59,10 @@ fn bench(c: &mut Criterion) {
     // Controller ticks alone, replaying the measurements of 2 s of the closed loop (so the
     // controller sees a consistent trajectory; one jump back per 2000 ticks).
     for (name, franka, law) in [
-        (
-            "nn_dual_ur5",
-            false,
-            SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
-        ),
-        (
-            "pd_dual_ur5",
-            false,
-            SpatialLaw::Pd(SpatialPdGains::paper()),
-        ),
-        (
-            "ctc_dual_ur5",
-            false,
-            SpatialLaw::Ctc(SpatialCtcGains::default()),
-        ),
-        (
-            "nn_dual_franka",
-            true,
-            SpatialLaw::Nn(SpatialNnGains::dual_franka()),
-        ),
+        ("nn_dual_ur5", false, Law::Nn(NnGains::dual_ur5())),
+        ("pd_dual_ur5", false, Law::Pd(PdGains::<6>::paper())),
+        ("ctc_dual_ur5", false, Law::Ctc(CtcGains::<6>::default())),
+        ("nn_dual_franka", true, Law::Nn(NnGains::dual_franka())),
     ] {
         let law2 = law.clone();
         let mut s = sim(franka, law, 3.0);
@@ -134,16 +115,8 @@ fn bench(c: &mut Criterion) {
     }
     // Closed-loop ticks (the real-time factor of a run).
     for (name, franka, law) in [
-        (
-            "nn_dual_ur5",
-            false,
-            SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
-        ),
-        (
-            "nn_dual_franka",
-            true,
-            SpatialLaw::Nn(SpatialNnGains::dual_franka()),
-        ),
+        ("nn_dual_ur5", false, Law::Nn(NnGains::dual_ur5())),
+        ("nn_dual_franka", true, Law::Nn(NnGains::dual_franka())),
     ] {
         let mut s = sim(franka, law, 120.0);
         let mut k = 0;

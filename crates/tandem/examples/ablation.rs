@@ -9,8 +9,9 @@
 use std::time::Instant;
 
 use nalgebra::{SVector, Vector3};
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
-use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::control::planar::ControllerParams;
 use tandem::control::rbf::NnUpdate;
 use tandem::control::rbf::structured::{NetworkStructure, StructuredNn, matched_theta};
 use tandem::model::disturbance::Disturbance;
@@ -159,7 +160,7 @@ fn main() {
             g.theta = matched_theta(&g.theta, &[-1.0, 1.0], g.width2, &n2);
         }
         let theta = g.theta;
-        let cp = ControllerParams::paper(LawParams::Nn(g));
+        let cp = ControllerParams::paper(Law::Nn(g));
         let sp = SimParams {
             duration,
             ..SimParams::paper()

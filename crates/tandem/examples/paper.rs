@@ -1,8 +1,9 @@
 //! The paper scenario with one law, summary printed: `cargo run --release -p tandem --example paper -- [nn|paper|pd|ctc] [seconds]`
 //! (`SCHEME=arm` for the per-arm scheme).
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::pd::PdGains;
-use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::control::planar::ControllerParams;
 use tandem::model::disturbance::Disturbance;
 use tandem::sim::SimParams;
 use tandem::{presets, report};
@@ -14,10 +15,10 @@ fn main() {
         .map(|s| s.parse().unwrap())
         .unwrap_or(10.0);
     let law = match which.as_str() {
-        "pd" => LawParams::Pd(PdGains::paper()),
-        "paper" => LawParams::Nn(NnGains::paper()),
-        "ctc" => LawParams::Ctc(Default::default()),
-        _ => LawParams::Nn(NnGains::tuned()),
+        "pd" => Law::Pd(PdGains::<3>::paper()),
+        "paper" => Law::Nn(NnGains::paper()),
+        "ctc" => Law::Ctc(Default::default()),
+        _ => Law::Nn(NnGains::tuned()),
     };
     let cp = ControllerParams {
         scheme: std::env::var("SCHEME")

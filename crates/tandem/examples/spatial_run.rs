@@ -4,7 +4,10 @@
 //! (also the target of `valgrind --tool=callgrind` for instruction counts).
 
 use nalgebra::Vector3;
-use tandem::control::spatial::{SpatialCtcGains, SpatialLaw, SpatialNnGains, SpatialPdGains};
+use tandem::control::law::Law;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::ctc::CtcGains;
+use tandem::control::law::pd::PdGains;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -17,10 +20,10 @@ fn main() {
         tandem::presets::dual_ur5()
     };
     let law = match law {
-        "pd" => SpatialLaw::Pd(SpatialPdGains::paper()),
-        "ctc" => SpatialLaw::Ctc(SpatialCtcGains::default()),
-        _ if franka => SpatialLaw::Nn(SpatialNnGains::dual_franka()),
-        _ => SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
+        "pd" => Law::Pd(PdGains::<6>::paper()),
+        "ctc" => Law::Ctc(CtcGains::<6>::default()),
+        _ if franka => Law::Nn(NnGains::dual_franka()),
+        _ => Law::Nn(NnGains::dual_ur5()),
     };
     let t0 = std::time::Instant::now();
     let (sim, warnings) =

@@ -14,10 +14,11 @@
 //! per tick (`docs/performance.md`). `log LAW SECONDS` runs the S6 loop (1 ms plant step) and
 //! prints its whole log, tab-separated, every value in Rust's shortest round-trip form.
 //! Laws: `nn` (default), `pd`, `ctc`.
-use tandem::control::spatial::{
-    SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
-    SpatialPdGains, SpatialTickRecord,
-};
+use tandem::control::law::Law;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::ctc::CtcGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::spatial::{SpatialController, SpatialControllerParams, SpatialTickRecord};
 use tandem::drive::Measurements;
 use tandem::reference::spatial::path::Se3Path;
 
@@ -25,9 +26,9 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let mode = args.get(1).map_or("ticks", String::as_str);
     let law = || match args.get(2).map_or("nn", String::as_str) {
-        "pd" => SpatialLaw::Pd(SpatialPdGains::paper()),
-        "ctc" => SpatialLaw::Ctc(SpatialCtcGains::default()),
-        _ => SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
+        "pd" => Law::Pd(PdGains::<6>::paper()),
+        "ctc" => Law::Ctc(CtcGains::<6>::default()),
+        _ => Law::Nn(NnGains::dual_ur5()),
     };
     let setup = tandem::presets::dual_ur5();
     if mode == "log" {

@@ -4,8 +4,9 @@
 //!
 //! `cargo run --release -p tandem --example sweep -- [runs] [seconds] [threads]`
 
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
-use tandem::control::planar::{Controller, ControllerParams, LawParams};
+use tandem::control::planar::{Controller, ControllerParams};
 use tandem::math::random::splitmix64;
 use tandem::model::disturbance::Disturbance;
 use tandem::presets;
@@ -26,7 +27,7 @@ fn one(run: u64, duration: f64) -> Summary {
         plant.object.inertia[k] *= s;
         plant.object.gravity[k] *= s;
     }
-    let cp = ControllerParams::paper(LawParams::Nn(NnGains::tuned()));
+    let cp = ControllerParams::paper(Law::Nn(NnGains::tuned()));
     let (c, _) = Controller::new(&cp, &presets::paper(), Path::paper(), duration).unwrap();
     let noise = ChannelNoise {
         std_dev: 1e-5,

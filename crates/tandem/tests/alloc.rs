@@ -3,9 +3,10 @@
 
 use nalgebra::Vector3;
 use tandem::control::Scheme;
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::pd::PdGains;
-use tandem::control::planar::{Controller, ControllerParams, LawParams, TickRecord};
+use tandem::control::planar::{Controller, ControllerParams, TickRecord};
 use tandem::drive::Measurements;
 use tandem::math::integrate::Rk4;
 use tandem::model::disturbance::Disturbance;
@@ -34,7 +35,7 @@ fn the_counter_counts() {
     assert_eq!(n, 1);
 }
 
-fn params(law: LawParams) -> ControllerParams {
+fn params(law: Law<3>) -> ControllerParams {
     // With a torque limit, so the clamp path runs too.
     ControllerParams {
         torque_limit: Some(50.0),
@@ -109,9 +110,14 @@ fn controller_ticks_allocate_nothing() {
     let (q, _, qd, _) = plant.split(&y);
     let forces = [1.0, -5.0, -1.0, -5.0];
     for law in [
-        LawParams::Nn(NnGains::tuned()),
-        LawParams::Pd(PdGains::paper()),
-        LawParams::Ctc(Default::default()),
+        Law::Nn(NnGains::tuned()),
+        Law::Pd(PdGains::<3>::paper()),
+        // PD with the model's gravity 𝓖 of (14) (object scheme only).
+        Law::Pd(PdGains {
+            gravity_compensation: true,
+            ..PdGains::<3>::paper()
+        }),
+        Law::Ctc(Default::default()),
     ] {
         let name = law.name();
         let (mut c, _) =
@@ -134,8 +140,8 @@ fn controller_ticks_allocate_nothing() {
         // The per-arm scheme (PD and NN).
         if name != "ctc" {
             let mut p = params(match name {
-                "nn" => LawParams::Nn(NnGains::tuned()),
-                _ => LawParams::Pd(PdGains::paper()),
+                "nn" => Law::Nn(NnGains::tuned()),
+                _ => Law::Pd(PdGains::<3>::paper()),
             });
             p.scheme = tandem::control::Scheme::PerArm;
             let (mut c, _) = Controller::new(&p, &presets::paper(), Path::paper(), 10.0).unwrap();
@@ -171,7 +177,7 @@ fn n_link_controller_ticks_and_plant_steps_allocate_nothing() {
         let mut tau = vec![0.0; plant.n_q()];
         let mut rec = TickRecord::default();
         for scheme in [Scheme::Object, Scheme::PerArm] {
-            let mut cp = params(LawParams::Pd(PdGains::paper()));
+            let mut cp = params(Law::Pd(PdGains::<3>::paper()));
             cp.scheme = scheme;
             let (mut c, _) = Controller::new(&cp, &p, Path::paper(), 10.0).unwrap();
             let (q, _, qd, _) = plant.split(&y);
@@ -202,7 +208,7 @@ fn n_link_controller_ticks_and_plant_steps_allocate_nothing() {
 fn simulation_ticks_allocate_nothing() {
     let plant = presets::paper();
     let (c, _) = Controller::new(
-        &params(LawParams::Nn(NnGains::tuned())),
+        &params(Law::Nn(NnGains::tuned())),
         &plant,
         Path::paper(),
         1.0,
@@ -336,7 +342,7 @@ fn generic_loop_ticks_allocate_nothing() {
     sp.duration = 1.0;
     // The planar controller as the driver itself (not through the Driver enum), with faults.
     let (c, _) = Controller::new(
-        &params(LawParams::Pd(PdGains::paper())),
+        &params(Law::Pd(PdGains::<3>::paper())),
         &plant,
         Path::paper(),
         1.0,
@@ -451,7 +457,7 @@ fn fault_injected_driver_ticks_allocate_nothing() {
     let plant = presets::paper();
     let build = |f: Option<tandem::sim::faults::Faults>| {
         let (c, _) = Controller::new(
-            &ControllerParams::paper(LawParams::Nn(NnGains::tuned())),
+            &ControllerParams::paper(Law::Nn(NnGains::tuned())),
             &plant,
             Path::paper(),
             1.0,

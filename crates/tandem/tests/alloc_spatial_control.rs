@@ -3,10 +3,11 @@
 
 use nalgebra::{Isometry3, Translation3, Vector3};
 use tandem::control::Scheme;
-use tandem::control::spatial::{
-    SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
-    SpatialPdGains,
-};
+use tandem::control::law::Law;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::ctc::CtcGains;
+use tandem::control::law::pd::PdGains;
+use tandem::control::spatial::{SpatialController, SpatialControllerParams};
 use tandem::model::disturbance::{Push, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
 use tandem::presets;
@@ -52,42 +53,42 @@ fn every_spatial_law_and_scheme_ticks_without_allocating() {
         (
             "nn ur5",
             false,
-            SpatialLaw::Nn(SpatialNnGains::dual_ur5()),
+            Law::Nn(NnGains::dual_ur5()),
             Scheme::Object,
             None,
         ),
         (
             "pd ur5",
             false,
-            SpatialLaw::Pd(SpatialPdGains::paper()),
+            Law::Pd(PdGains::<6>::paper()),
             Scheme::Object,
             Some(20.0),
         ),
         (
             "ctc ur5",
             false,
-            SpatialLaw::Ctc(SpatialCtcGains::default()),
+            Law::Ctc(CtcGains::<6>::default()),
             Scheme::Object,
             None,
         ),
         (
             "pd per-arm ur5",
             false,
-            SpatialLaw::Pd(SpatialPdGains::paper()),
+            Law::Pd(PdGains::<6>::paper()),
             Scheme::PerArm,
             None,
         ),
         (
             "nn franka",
             true,
-            SpatialLaw::Nn(SpatialNnGains::dual_franka()),
+            Law::Nn(NnGains::dual_franka()),
             Scheme::Object,
             None,
         ),
         (
             "ctc franka",
             true,
-            SpatialLaw::Ctc(SpatialCtcGains::default()),
+            Law::Ctc(CtcGains::<6>::default()),
             Scheme::Object,
             None,
         ),

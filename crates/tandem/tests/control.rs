@@ -1,10 +1,11 @@
 //! Closed-loop behaviour of the control laws on the constrained plant (issue: control laws).
 
 use nalgebra::Vector3;
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::iblf;
 use tandem::control::law::pd::PdGains;
-use tandem::control::planar::{Controller, ControllerParams, LawParams};
+use tandem::control::planar::{Controller, ControllerParams};
 use tandem::error::ModelError;
 use tandem::model::disturbance::{Disturbance, Push};
 use tandem::plant::planar::Plant;
@@ -15,7 +16,7 @@ use tandem::report::planar::{Summary, summarize};
 use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Driver, Log, SimParams, Simulation};
 
-fn params(law: LawParams) -> ControllerParams {
+fn params(law: Law<3>) -> ControllerParams {
     ControllerParams::paper(law)
 }
 
@@ -36,7 +37,7 @@ fn run(cp: ControllerParams, dist: Disturbance, duration: f64, log_period: f64) 
 #[test]
 fn nn_tuned_respects_the_bound_and_settles_within_2_s() {
     let (s, _) = run(
-        params(LawParams::Nn(NnGains::tuned())),
+        params(Law::Nn(NnGains::tuned())),
         Disturbance::paper(),
         6.0,
         0.01,
@@ -61,7 +62,7 @@ fn run_ticks(ticks: usize, mut each: impl FnMut(usize, &[f64])) -> Log {
     let plant = presets::paper();
     let duration = ticks as f64 * 1e-3;
     let (c, _) = Controller::new(
-        &params(LawParams::Nn(NnGains::tuned())),
+        &params(Law::Nn(NnGains::tuned())),
         &plant,
         Path::paper(),
         duration,
@@ -185,10 +186,7 @@ fn a_push_makes_the_reference_comply_and_return() {
         duration: 2.0,
         wrench: [2.0, 0.0, 0.0],
     });
-    for law in [
-        LawParams::Nn(NnGains::tuned()),
-        LawParams::Pd(PdGains::paper()),
-    ] {
+    for law in [Law::Nn(NnGains::tuned()), Law::Pd(PdGains::<3>::paper())] {
         let name = law.name();
         let (_, log) = run(params(law), d.clone(), 12.0, 0.01);
         let t = log.get("t").unwrap();
@@ -227,13 +225,13 @@ fn a_push_makes_the_reference_comply_and_return() {
 #[test]
 fn pd_tracks_with_more_vibration_and_a_larger_wrench() {
     let (nn, _) = run(
-        params(LawParams::Nn(NnGains::tuned())),
+        params(Law::Nn(NnGains::tuned())),
         Disturbance::paper(),
         6.0,
         0.03,
     );
     let (pd, _) = run(
-        params(LawParams::Pd(PdGains::paper())),
+        params(Law::Pd(PdGains::<3>::paper())),
         Disturbance::paper(),
         6.0,
         0.03,
@@ -258,13 +256,13 @@ fn paper_gains_stay_bounded_but_chatter() {
     // SPEC §3.4: with the paper's gains z1 is small and the bound holds, but z2 chatters in a
     // limit cycle and the wrench is larger than PD's.
     let (paper, log) = run(
-        params(LawParams::Nn(NnGains::paper())),
+        params(Law::Nn(NnGains::paper())),
         Disturbance::paper(),
         4.0,
         0.001,
     );
     let (tuned, _) = run(
-        params(LawParams::Nn(NnGains::tuned())),
+        params(Law::Nn(NnGains::tuned())),
         Disturbance::paper(),
         4.0,
         0.001,
@@ -298,10 +296,10 @@ fn err_of(cp: ControllerParams) -> String {
 
 #[test]
 fn gains_that_break_the_theory_are_named() {
-    let nn = |f: &dyn Fn(&mut NnGains)| {
+    let nn = |f: &dyn Fn(&mut NnGains<3>)| {
         let mut g = NnGains::tuned();
         f(&mut g);
-        params(LawParams::Nn(g))
+        params(Law::Nn(g))
     };
     let e = err_of(nn(&|g| g.k1[0] = 0.0));
     assert!(e.contains("gains.k1[0]"), "{e}");
@@ -316,7 +314,7 @@ fn gains_that_break_the_theory_are_named() {
     let e = err_of(nn(&|g| g.d1 = 2.0));
     assert!(e.contains("d1"), "{e}");
     // k_c not above the path's reach (the circle reaches 0.2 m).
-    let mut cp = params(LawParams::Pd(PdGains::paper()));
+    let mut cp = params(Law::Pd(PdGains::<3>::paper()));
     cp.k_c = [0.15, 0.35, 0.35];
     let e = err_of(cp);
     assert!(
@@ -326,7 +324,7 @@ fn gains_that_break_the_theory_are_named() {
     // A path the arms cannot follow: a 0.25 m circle centred at (0.1, 0) passes 0.6 m from the
     // left arm's base at (−0.38, 0).
     let wide = Path::circle(nalgebra::Vector2::new(0.1, 0.0), 0.25, 0.1, 0.0, 0.0).unwrap();
-    let mut cp = params(LawParams::Pd(PdGains::paper()));
+    let mut cp = params(Law::Pd(PdGains::<3>::paper()));
     cp.k_c = [0.36, 0.36, 0.35];
     let e = Controller::new(&cp, &presets::paper(), wide, 90.0)
         .err()
@@ -347,7 +345,7 @@ fn gains_that_break_the_theory_are_named() {
     )
     .unwrap();
     let e = Controller::new(
-        &params(LawParams::Pd(PdGains::paper())),
+        &params(Law::Pd(PdGains::<3>::paper())),
         &presets::paper(),
         path,
         10.0,
@@ -362,7 +360,7 @@ fn gains_that_break_the_theory_are_named() {
 
 #[test]
 fn the_papers_first_order_admittance_is_allowed_but_warned() {
-    let mut cp = params(LawParams::Pd(PdGains::paper()));
+    let mut cp = params(Law::Pd(PdGains::<3>::paper()));
     cp.admittance = Some(AdmittanceParams::paper_first_order(626.0, 1000.0));
     let (_, w) = Controller::new(&cp, &presets::paper(), Path::paper(), 10.0).unwrap();
     assert!(!w.is_empty());
@@ -378,9 +376,9 @@ fn the_papers_first_order_admittance_is_allowed_but_warned() {
 fn both_laws_are_stable_with_and_without_the_admittance() {
     for adm in [true, false] {
         for law in [
-            LawParams::Nn(NnGains::tuned()),
-            LawParams::Pd(PdGains::paper()),
-            LawParams::Ctc(Default::default()),
+            Law::Nn(NnGains::tuned()),
+            Law::Pd(PdGains::<3>::paper()),
+            Law::Ctc(Default::default()),
         ] {
             let name = law.name();
             let mut cp = params(law);
@@ -402,10 +400,7 @@ fn both_laws_are_stable_with_and_without_the_admittance() {
 fn per_arm_scheme_tracks_with_both_laws() {
     use tandem::control::Scheme;
     let mut results = Vec::new();
-    for law in [
-        LawParams::Nn(NnGains::tuned()),
-        LawParams::Pd(PdGains::paper()),
-    ] {
+    for law in [Law::Nn(NnGains::tuned()), Law::Pd(PdGains::<3>::paper())] {
         let name = law.name();
         let mut cp = params(law);
         cp.scheme = Scheme::PerArm;
@@ -425,7 +420,7 @@ fn per_arm_scheme_tracks_with_both_laws() {
     // The adaptive law learns what PD leaves as a steady error (gravity, internal force).
     assert!(results[0].rms_z1_after < 0.5 * results[1].rms_z1_after);
     // Computed torque is object-scheme only: a clear error.
-    let mut cp = params(LawParams::Ctc(Default::default()));
+    let mut cp = params(Law::Ctc(Default::default()));
     cp.scheme = Scheme::PerArm;
     assert!(err_of(cp).contains("object scheme"));
 }
@@ -440,9 +435,9 @@ fn the_internal_force_is_the_commanded_squeeze() {
     // internal gravity (measured 4.5–5.0 N; before the fix it squeezed twice, 9.7 N).
     use tandem::control::Scheme;
     for (law, scheme, lo, hi) in [
-        (LawParams::Nn(NnGains::tuned()), Scheme::Object, 4.9, 5.1),
-        (LawParams::Pd(PdGains::paper()), Scheme::Object, 4.9, 5.1),
-        (LawParams::Pd(PdGains::paper()), Scheme::PerArm, 3.5, 5.5),
+        (Law::Nn(NnGains::tuned()), Scheme::Object, 4.9, 5.1),
+        (Law::Pd(PdGains::<3>::paper()), Scheme::Object, 4.9, 5.1),
+        (Law::Pd(PdGains::<3>::paper()), Scheme::PerArm, 3.5, 5.5),
     ] {
         let name = format!("{} {scheme:?}", law.name());
         let mut cp = params(law);
@@ -474,7 +469,7 @@ fn redundant_arms_carry_the_object_with_a_damped_self_motion() {
     // 5 s apart differ by < 1 mrad once the object tracks) and the object must track.
     let (plant, guess) = presets::redundant_pair();
     let (c, _) = Controller::new(
-        &params(LawParams::Pd(PdGains::paper())),
+        &params(Law::Pd(PdGains::<3>::paper())),
         &plant,
         Path::paper(),
         10.0,
@@ -531,7 +526,7 @@ fn redundant_arms_carry_the_object_with_a_damped_self_motion() {
 #[test]
 fn the_papers_nn_gains_are_allowed_but_warned() {
     let (_, w) = Controller::new(
-        &params(LawParams::Nn(NnGains::paper())),
+        &params(Law::Nn(NnGains::paper())),
         &presets::paper(),
         Path::paper(),
         90.0,
@@ -543,11 +538,113 @@ fn the_papers_nn_gains_are_allowed_but_warned() {
     assert_eq!(w.len(), 3, "one warning per axis: {w:?}");
     assert!(w[1].to_string().contains("gains.k2[1]") && w[1].to_string().contains("limit cycle"));
     let (_, w) = Controller::new(
-        &params(LawParams::Nn(NnGains::tuned())),
+        &params(Law::Nn(NnGains::tuned())),
         &presets::paper(),
         Path::paper(),
         90.0,
     )
     .unwrap();
     assert!(w.is_empty(), "{w:?}");
+}
+
+#[test]
+fn pd_gravity_compensation_holds_the_arms_and_object_still() {
+    // PD with gravity compensation (SPEC §3.5 plus the model's 𝓖 of (14)): at rest on the
+    // desired pose with zero error, the controller's model equal to the plant, it commands 𝓖
+    // (distributed, with the arms' internal gravity part), so every acceleration of the constrained plant
+    // (joints and object) vanishes to round-off; the paper's plain PD commands no gravity and
+    // the object falls at about g. Then 1 s closed loop from there: compensated, the object
+    // stays put (measured 5e-16 m); plain PD sags by about 𝓖/K_P (6.8 mm). Without the
+    // admittance (and so without squeeze): its force filter would take in the first tick's
+    // grasp forces (those of the torques before the first command) and move the reference.
+    use tandem::control::planar::TickRecord;
+    use tandem::drive::Measurements;
+    use tandem::plant::planar::{PlantInput, PlantParams};
+    let model = PlantParams::paper();
+    let plant = Plant::new(&model).unwrap();
+    let p0 = presets::paper_start();
+    let path = Path::point_to_point(p0, p0, 0.0, 1.0).unwrap();
+    let y = plant.initial_state(p0, Vector3::zeros(), None).unwrap();
+    let n = plant.n_q();
+    let forces = vec![0.0; 2 * plant.arms().len()];
+    let meas = Measurements {
+        q: &y[..n],
+        qd: &y[n + 3..2 * n + 3],
+        wrenches: &forces,
+    };
+    for compensate in [false, true] {
+        let mut cp = params(Law::Pd(PdGains {
+            gravity_compensation: compensate,
+            ..PdGains::<3>::paper()
+        }));
+        cp.disturbance_bound = [0.0; 3];
+        cp.admittance = None;
+        let (mut c, _) = Controller::new(&cp, &model, path.clone(), 1.0).unwrap();
+        c.start(0.0, &meas);
+        let (mut tau, mut rec) = (vec![0.0; n], TickRecord::default());
+        c.tick(0.0, &meas, &mut tau, &mut rec);
+        assert!(rec.z1.norm() < 1e-12, "z1 = {}", rec.z1);
+        let mut ws = plant.workspace();
+        let mut dy = vec![0.0; y.len()];
+        let input = PlantInput {
+            tau: tau.clone(),
+            f_d: Vector3::zeros(),
+        };
+        assert!(plant.derivative(&y, &input, &mut ws, &mut dy));
+        // dy = [q̇, ẋ_o, q̈, ẍ_o]: the accelerations.
+        let acc = dy[n + 3..].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        // Closed loop, 1 s, no disturbance, ideal sensors.
+        let sp = SimParams {
+            duration: 1.0,
+            log_period: 0.01,
+            start: [p0.x, p0.y, p0.z],
+            ..SimParams::paper()
+        };
+        let sim = Simulation::new(
+            &model,
+            &SensorParams::default(),
+            Driver::Controller(Box::new(c)),
+            Disturbance::none(),
+            sp,
+            None,
+        )
+        .unwrap();
+        let (out, _) = sim.run(|_| {});
+        let sag = ["x_o.x", "x_o.y", "x_o.theta"]
+            .iter()
+            .enumerate()
+            .flat_map(|(j, c)| {
+                out.log
+                    .get(c)
+                    .unwrap()
+                    .iter()
+                    .map(move |v| (v - p0[j]).abs())
+            })
+            .fold(0.0_f64, f64::max);
+        println!(
+            "gravity compensation {compensate}: torques {tau:.4?} N m, largest acceleration {acc:.3e}, largest pose error over 1 s {sag:.3e}"
+        );
+        if compensate {
+            assert!(acc < 1e-10, "accelerations up to {acc:e}");
+            assert!(sag < 1e-12, "moved by {sag:e}");
+        } else {
+            assert!(acc > 1.0, "plain PD: accelerations up to {acc:e}");
+            assert!(sag > 1e-3, "plain PD: sagged by {sag:e} only");
+        }
+    }
+    // Where the reduced model (14) does not apply, it is refused by name.
+    let gc = Law::Pd(PdGains {
+        gravity_compensation: true,
+        ..PdGains::<3>::paper()
+    });
+    let mut cp = params(gc.clone());
+    cp.scheme = tandem::control::Scheme::PerArm;
+    let e = err_of(cp);
+    assert!(e.contains("gains.gravity_compensation"), "{e}");
+    let (redundant, _) = presets::redundant_pair();
+    let e = Controller::new(&params(gc), &redundant, Path::paper(), 1.0)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("arms[0]") && e.contains("2-link"), "{e}");
 }

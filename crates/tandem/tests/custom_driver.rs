@@ -3,6 +3,7 @@
 //! paper plant and the spatial dual-UR5 plant with the same `Drive` implementation.
 
 use nalgebra::Vector3;
+use tandem::control::law::Law;
 use tandem::drive::ControlEvents;
 use tandem::drive::{Drive, Measurements, Record};
 use tandem::dynamics::spatial;
@@ -530,13 +531,13 @@ fn spatial_runs_check_health_and_inject_faults() {
 fn tandems_controller_is_a_driver_itself() {
     // The planar controller as `D` directly and through the CLI's `Driver` enum: the same run.
     use tandem::control::law::adaptive::NnGains;
-    use tandem::control::planar::{Controller, ControllerParams, LawParams};
+    use tandem::control::planar::{Controller, ControllerParams};
     use tandem::reference::planar::path::Path;
     use tandem::sim::Driver;
     let params = presets::paper();
     let ctl = || {
         Controller::new(
-            &ControllerParams::paper(LawParams::Nn(NnGains::tuned())),
+            &ControllerParams::paper(Law::Nn(NnGains::tuned())),
             &params,
             Path::paper(),
             2.0,

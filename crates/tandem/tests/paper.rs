@@ -1,15 +1,16 @@
 //! The paper's claims on the full 90 s scenario (SPEC §4), one test per claim. Long: run with
 //! `cargo test --release -- --ignored` (CI does).
 
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::pd::PdGains;
-use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::control::planar::ControllerParams;
 use tandem::model::disturbance::Disturbance;
 use tandem::presets;
 use tandem::report::planar::{Summary, summarize};
 use tandem::sim::{Log, SimParams};
 
-fn paper_run(law: LawParams) -> (Summary, Log) {
+fn paper_run(law: Law<3>) -> (Summary, Log) {
     let name = law.name();
     let cp = ControllerParams::paper(law);
     let (sim, _) =
@@ -24,8 +25,8 @@ fn paper_run(law: LawParams) -> (Summary, Log) {
 #[test]
 #[ignore = "90 s scenario; run with --ignored"]
 fn tuned_nn_reproduces_the_papers_claims() {
-    let (nn, log) = paper_run(LawParams::Nn(NnGains::tuned()));
-    let (pd, _) = paper_run(LawParams::Pd(PdGains::paper()));
+    let (nn, log) = paper_run(Law::Nn(NnGains::tuned()));
+    let (pd, _) = paper_run(Law::Pd(PdGains::<3>::paper()));
     // The object stays inside |x_1j| < 0.35 for the whole run (Fig. 12).
     let worst = ["x_o.x", "x_o.y", "x_o.theta"]
         .iter()
@@ -81,7 +82,7 @@ fn tuned_nn_reproduces_the_papers_claims() {
 #[ignore = "90 s scenario; run with --ignored"]
 fn paper_gains_run_to_the_end_and_respect_the_bound() {
     // Reported as it is (SPEC §3.4): bounded, z1 small, but chattering and a large wrench.
-    let (s, _) = paper_run(LawParams::Nn(NnGains::paper()));
+    let (s, _) = paper_run(Law::Nn(NnGains::paper()));
     assert_eq!(s.violations, 0);
     // A chaotic limit cycle: check the RMS, bound the peak loosely (see tests/control.rs).
     assert!(s.rms_z1_after < 1e-3);

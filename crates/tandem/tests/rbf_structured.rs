@@ -5,8 +5,9 @@
 
 use nalgebra::{SVector, Vector2, Vector3};
 use tandem::control::Scheme;
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
-use tandem::control::planar::{Controller, ControllerParams, LawParams, TickRecord};
+use tandem::control::planar::{Controller, ControllerParams, TickRecord};
 use tandem::control::rbf::structured::{
     NetworkStructure, StructuredNn, grid_norm2_at_zero, matched_theta, scrambled_halton,
 };
@@ -243,8 +244,8 @@ fn log_hash(log: &tandem::sim::Log) -> u64 {
     h
 }
 
-fn short_run(g: NnGains) -> u64 {
-    let cp = ControllerParams::paper(LawParams::Nn(g));
+fn short_run(g: NnGains<3>) -> u64 {
+    let cp = ControllerParams::paper(Law::Nn(g));
     let sp = SimParams {
         duration: 0.4,
         log_period: 1e-3,
@@ -357,7 +358,7 @@ fn validation_names_the_field() {
     // Through the controller: the error keeps its path.
     let mut g = NnGains::tuned();
     g.network = NetworkStructure::QuasiRandom { n: 0, seed: 0 };
-    let cp = ControllerParams::paper(LawParams::Nn(g));
+    let cp = ControllerParams::paper(Law::Nn(g));
     let Err(e) = Controller::new(&cp, &presets::paper(), Path::paper(), 1.0) else {
         panic!("accepted n = 0");
     };
@@ -385,7 +386,7 @@ fn gain_matching_keeps_theta_norm2() {
 
 /// The tuned NN with the given structure and grid levels, Θ matched to the paper grid's loop
 /// gain `Θ‖S(0)‖²` (`matched_theta`).
-fn matched(s: NetworkStructure, levels: &[f64]) -> NnGains {
+fn matched(s: NetworkStructure, levels: &[f64]) -> NnGains<3> {
     let mut g = NnGains::tuned();
     let upd = NnUpdate::<3>::new(Vector3::repeat(1.0), Vector3::repeat(1.0), 1e-3).unwrap();
     let n2 = StructuredNn::<3>::new(&s, levels, g.width2, upd)
@@ -397,8 +398,8 @@ fn matched(s: NetworkStructure, levels: &[f64]) -> NnGains {
     g
 }
 
-fn closed_loop(g: NnGains, duration: f64) -> Summary {
-    let cp = ControllerParams::paper(LawParams::Nn(g));
+fn closed_loop(g: NnGains<3>, duration: f64) -> Summary {
+    let cp = ControllerParams::paper(Law::Nn(g));
     let sp = SimParams {
         duration,
         ..SimParams::paper()
@@ -446,10 +447,10 @@ fn per_axis_closed_loop_stays_inside_the_bounds_and_tracks_like_the_full_grid() 
 fn per_arm_scheme_runs_with_a_per_axis_network() {
     // The per-arm NN (2 outputs per arm, 8 inputs): the full grid has 2^8 nodes per arm, the
     // per-axis structure 2 × 16. Θ matched to the per-arm grid's ‖S(0)‖².
-    let per_arm = |g: NnGains| {
+    let per_arm = |g: NnGains<3>| {
         let cp = ControllerParams {
             scheme: Scheme::PerArm,
-            ..ControllerParams::paper(LawParams::Nn(g))
+            ..ControllerParams::paper(Law::Nn(g))
         };
         let sp = SimParams {
             duration: 5.0,
@@ -515,7 +516,7 @@ fn ticks_allocate_nothing() {
         NetworkStructure::per_axis(),
         NetworkStructure::QuasiRandom { n: 256, seed: 1 },
     ] {
-        let cp = ControllerParams::paper(LawParams::Nn(matched(s.clone(), &LEVELS)));
+        let cp = ControllerParams::paper(Law::Nn(matched(s.clone(), &LEVELS)));
         let (mut c, _) = Controller::new(&cp, &presets::paper(), Path::paper(), 1.0).unwrap();
         let meas = Measurements {
             q,

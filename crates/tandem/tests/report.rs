@@ -6,8 +6,9 @@
 //! moves away has the analytic path error; (c) an object held exactly on the path has none.
 
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
+use tandem::control::law::Law;
+use tandem::control::law::pd::PdGains;
 use tandem::control::spatial::chart::Chart;
-use tandem::control::spatial::{SpatialLaw, SpatialPdGains};
 use tandem::drive::{Drive, Measurements, NoRecord};
 use tandem::plant::spatial::SpatialPlant;
 use tandem::plant::{ClosedChain, SpatialStart};
@@ -24,7 +25,7 @@ use tandem::sim::{Outcome, SimParams, Simulation};
 #[test]
 fn builtin_law_summary_equals_the_cli_golden_values() {
     let s = tandem::presets::dual_ur5();
-    let law = SpatialLaw::Pd(SpatialPdGains::paper());
+    let law = Law::Pd(PdGains::<6>::paper());
     let (sim, _) =
         tandem::presets::spatial_s6_simulation(&s.params, &s, law, 3.0, 1e-3, 1e-6).unwrap();
     let (outcome, sim) = sim.run(|_| {});

@@ -1,8 +1,9 @@
 //! The simulation loop: determinism, replay, faults reported with time and state, bad settings.
 
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::pd::PdGains;
-use tandem::control::planar::{Controller, ControllerParams, LawParams};
+use tandem::control::planar::{Controller, ControllerParams};
 use tandem::model::disturbance::Disturbance;
 use tandem::presets;
 use tandem::reference::planar::path::Path;
@@ -10,7 +11,7 @@ use tandem::report::planar::summarize;
 use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{Driver, FaultKind, Formulation, Outcome, Replay, SimParams, Simulation};
 
-fn controller(law: LawParams, duration: f64) -> Driver {
+fn controller(law: Law<3>, duration: f64) -> Driver {
     let cp = ControllerParams::paper(law);
     Driver::Controller(Box::new(
         Controller::new(&cp, &presets::paper(), Path::paper(), duration)
@@ -66,14 +67,14 @@ fn noisy() -> SensorParams {
 #[test]
 fn same_seed_gives_bitwise_identical_logs() {
     let a = sim(
-        controller(LawParams::Nn(NnGains::tuned()), 2.0),
+        controller(Law::Nn(NnGains::tuned()), 2.0),
         &noisy(),
         2.0,
         0.01,
         Formulation::Constrained,
     );
     let b = sim(
-        controller(LawParams::Nn(NnGains::tuned()), 2.0),
+        controller(Law::Nn(NnGains::tuned()), 2.0),
         &noisy(),
         2.0,
         0.01,
@@ -84,7 +85,7 @@ fn same_seed_gives_bitwise_identical_logs() {
     let mut other = noisy();
     other.seed = 43;
     let c = sim(
-        controller(LawParams::Nn(NnGains::tuned()), 2.0),
+        controller(Law::Nn(NnGains::tuned()), 2.0),
         &other,
         2.0,
         0.01,
@@ -97,7 +98,7 @@ fn same_seed_gives_bitwise_identical_logs() {
 fn replaying_logged_torques_reproduces_the_run() {
     // Log every tick, replay the joint torques open loop: same held inputs ⇒ the same motion.
     let run = sim(
-        controller(LawParams::Pd(PdGains::paper()), 2.0),
+        controller(Law::Pd(PdGains::<3>::paper()), 2.0),
         &SensorParams::default(),
         2.0,
         1e-3,
@@ -142,7 +143,7 @@ fn replaying_logged_torques_reproduces_the_run() {
 #[test]
 fn replay_of_a_log_stamped_by_an_accumulated_clock_is_on_time() {
     let run = sim(
-        controller(LawParams::Pd(PdGains::paper()), 1.0),
+        controller(Law::Pd(PdGains::<3>::paper()), 1.0),
         &SensorParams::default(),
         1.0,
         1e-3,
@@ -194,14 +195,14 @@ fn replay_of_a_log_stamped_by_an_accumulated_clock_is_on_time() {
 #[test]
 fn reduced_and_constrained_plants_give_the_same_closed_loop_metrics() {
     let a = sim(
-        controller(LawParams::Nn(NnGains::tuned()), 3.0),
+        controller(Law::Nn(NnGains::tuned()), 3.0),
         &SensorParams::default(),
         3.0,
         0.01,
         Formulation::Constrained,
     );
     let b = sim(
-        controller(LawParams::Nn(NnGains::tuned()), 3.0),
+        controller(Law::Nn(NnGains::tuned()), 3.0),
         &SensorParams::default(),
         3.0,
         0.01,
@@ -262,7 +263,7 @@ fn bad_periods_are_named() {
     let err = |edit: &dyn Fn(&mut SimParams)| {
         let mut sp = SimParams::paper();
         edit(&mut sp);
-        let driver = controller(LawParams::Pd(PdGains::paper()), 90.0);
+        let driver = controller(Law::Pd(PdGains::<3>::paper()), 90.0);
         match Simulation::new(
             &presets::paper(),
             &SensorParams::default(),
@@ -292,7 +293,7 @@ fn bound_violations_are_counted_every_tick_not_only_on_logged_rows() {
     // overshoots it. With a log row only every 0.5 s, the per-tick count must see more.
     let cp = ControllerParams {
         k_c: [0.201, 0.35, 0.35],
-        ..ControllerParams::paper(LawParams::Pd(PdGains::paper()))
+        ..ControllerParams::paper(Law::Pd(PdGains::<3>::paper()))
     };
     let (c, _) = Controller::new(&cp, &presets::paper(), Path::paper(), 70.0).unwrap();
     let mut sp = SimParams::paper();

@@ -7,8 +7,9 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
-use tandem::control::planar::{ControllerParams, LawParams};
+use tandem::control::planar::ControllerParams;
 use tandem::model::disturbance::Disturbance;
 use tandem::presets;
 use tandem::sim::SimParams;
@@ -49,7 +50,7 @@ static A: Counting = Counting;
 #[test]
 #[ignore = "1000 s simulated (about a minute); CI runs it"]
 fn soak_1000_s_memory_flat_and_drift_below_1e_9() {
-    let cp = ControllerParams::paper(LawParams::Nn(NnGains::tuned()));
+    let cp = ControllerParams::paper(Law::Nn(NnGains::tuned()));
     let sp = SimParams {
         duration: 1000.0,
         ..SimParams::paper()

@@ -3,7 +3,11 @@
 //! along the SPEC-spatial S6 path.
 
 use nalgebra::{SVector, Vector6};
+use tandem::control::law::Law;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::ctc::CtcGains;
 use tandem::control::law::iblf::{Iblf, v1};
+use tandem::control::law::pd::PdGains;
 
 /// Six smooth signals: `x_r,j(t)` and `z_j(t)` as sums of sines well inside the bounds.
 struct Smooth6 {
@@ -90,10 +94,7 @@ fn v1_derivative_is_32_on_six_outputs() {
 
 use nalgebra::{Isometry3, Translation3, Vector3};
 use tandem::control::Scheme;
-use tandem::control::spatial::{
-    SpatialController, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
-    SpatialPdGains,
-};
+use tandem::control::spatial::{SpatialController, SpatialControllerParams};
 use tandem::model::disturbance::{Push, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
 use tandem::presets;
@@ -116,10 +117,10 @@ fn setup(a: Arms) -> SpatialSetup {
     }
 }
 
-fn nn(a: Arms) -> SpatialLaw {
-    SpatialLaw::Nn(match a {
-        Arms::Ur5 => SpatialNnGains::dual_ur5(),
-        Arms::Franka => SpatialNnGains::dual_franka(),
+fn nn(a: Arms) -> Law<6> {
+    Law::Nn(match a {
+        Arms::Ur5 => NnGains::dual_ur5(),
+        Arms::Franka => NnGains::dual_franka(),
     })
 }
 
@@ -180,7 +181,7 @@ fn run_path(
     sim.run(|_| {})
 }
 
-fn run(a: Arms, law: SpatialLaw, duration: f64) -> Outcome {
+fn run(a: Arms, law: Law<6>, duration: f64) -> Outcome {
     run_with(a, &SpatialControllerParams::spec_s6(law), duration, vec![]).0
 }
 
@@ -383,26 +384,14 @@ fn pd_tracks_worse_than_nn_and_every_law_stays_stable_with_the_admittance_on() {
     let mut rms = Vec::new();
     for (name, law, scheme) in [
         ("nn", nn(a), Scheme::Object),
-        (
-            "pd",
-            SpatialLaw::Pd(SpatialPdGains::paper()),
-            Scheme::Object,
-        ),
-        (
-            "ctc",
-            SpatialLaw::Ctc(SpatialCtcGains::default()),
-            Scheme::Object,
-        ),
-        (
-            "pd per-arm",
-            SpatialLaw::Pd(SpatialPdGains::paper()),
-            Scheme::PerArm,
-        ),
+        ("pd", Law::Pd(PdGains::<6>::paper()), Scheme::Object),
+        ("ctc", Law::Ctc(CtcGains::<6>::default()), Scheme::Object),
+        ("pd per-arm", Law::Pd(PdGains::<6>::paper()), Scheme::PerArm),
         (
             "pd+g",
-            SpatialLaw::Pd(SpatialPdGains {
+            Law::Pd(PdGains {
                 gravity_compensation: true,
-                ..SpatialPdGains::paper()
+                ..PdGains::<6>::paper()
             }),
             Scheme::Object,
         ),
@@ -600,7 +589,7 @@ fn lyapunov_function_v3_decreases_outside_its_ultimate_bound_on_six_outputs() {
             w_star = w.to_vec();
         }
     });
-    let g = SpatialNnGains::dual_ur5();
+    let g = NnGains::dual_ur5();
     let nodes = w_star.len() / 6;
     let theta_of = |i: usize| g.theta[i / nodes];
     let vw = |w: &[f64]| -> f64 {
@@ -737,19 +726,19 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
     let base = SpatialControllerParams::spec_s6(nn(a));
     let s6 = Se3Path::spec_s6;
     // Non-positive gains.
-    let mut g = SpatialNnGains::dual_ur5();
+    let mut g = NnGains::dual_ur5();
     g.k2[4] = 0.0;
     let mut p = base.clone();
-    p.law = SpatialLaw::Nn(g);
+    p.law = Law::Nn(g);
     assert!(err_param(build(a, &p, s6())).contains("gains.k2[4]"));
     let mut p = base.clone();
-    p.law = SpatialLaw::Pd(SpatialPdGains {
+    p.law = Law::Pd(PdGains {
         k_d: [1.0, 1.0, 1.0, 1.0, -2.0, 1.0],
-        ..SpatialPdGains::paper()
+        ..PdGains::<6>::paper()
     });
     assert!(err_param(build(a, &p, s6())).contains("gains.k_d[4]"));
     let mut p = base.clone();
-    p.law = SpatialLaw::Ctc(SpatialCtcGains {
+    p.law = Law::Ctc(CtcGains {
         k_p: [0.0; 6],
         ..Default::default()
     });
@@ -759,7 +748,7 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
     p.k_c[5] = std::f64::consts::PI;
     assert!(err_param(build(a, &p, s6())).contains("k_c[5]"));
     let mut p = base.clone();
-    p.law = SpatialLaw::Pd(SpatialPdGains::paper());
+    p.law = Law::Pd(PdGains::<6>::paper());
     p.k_c[3] = 1.7;
     let (_, w) = build(a, &p, s6()).unwrap();
     assert!(w.iter().any(|w| w.to_string().contains("k_c[3]")), "{w:?}");
@@ -773,15 +762,15 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
     let mut c = CircleParams::spec_s6();
     c.radius = 0.6;
     let mut p = base.clone();
-    p.law = SpatialLaw::Pd(SpatialPdGains::paper());
+    p.law = Law::Pd(PdGains::<6>::paper());
     p.k_c = [1.0, 1.0, 0.1, 0.29, 0.29, 0.29];
     let e = err_param(build(a, &p, Se3Path::circle(&c).unwrap()));
     assert!(e.contains("path") && e.contains("reach"), "{e}");
     // The paper's full grid on six outputs; the per-arm scheme with the NN law.
-    let mut g = SpatialNnGains::dual_ur5();
+    let mut g = NnGains::dual_ur5();
     g.network = tandem::control::rbf::structured::NetworkStructure::FullGrid;
     let mut p = base.clone();
-    p.law = SpatialLaw::Nn(g);
+    p.law = Law::Nn(g);
     assert!(err_param(build(a, &p, s6())).contains("gains.network"));
     let mut p = base.clone();
     p.scheme = Scheme::PerArm;
@@ -797,10 +786,10 @@ fn bad_gains_bounds_paths_and_postures_are_typed_errors_naming_the_parameter() {
     p.posture.kd = 0.0;
     assert!(err_param(build(Arms::Franka, &p, s6())).contains("posture.kd"));
     // A risky tuning is a warning with the reason: K2 far below 𝓜 K1.
-    let mut g = SpatialNnGains::dual_ur5();
+    let mut g = NnGains::dual_ur5();
     g.k2[0] = 1.0;
     let mut p = base.clone();
-    p.law = SpatialLaw::Nn(g);
+    p.law = Law::Nn(g);
     let (_, w) = build(a, &p, s6()).unwrap();
     let w: Vec<String> = w.iter().map(|w| w.to_string()).collect();
     eprintln!("warnings: {w:?}");
@@ -905,15 +894,15 @@ fn the_path_chart_rates_and_the_controller_chart_agree() {
 fn pd_and_computed_torque_stay_stable_on_two_franka() {
     // The baselines on the 7-DOF set-up (posture task in the null space), admittance on.
     for (name, law) in [
-        ("pd/franka", SpatialLaw::Pd(SpatialPdGains::paper())),
+        ("pd/franka", Law::Pd(PdGains::<6>::paper())),
         (
             "pd+g/franka",
-            SpatialLaw::Pd(SpatialPdGains {
+            Law::Pd(PdGains {
                 gravity_compensation: true,
-                ..SpatialPdGains::paper()
+                ..PdGains::<6>::paper()
             }),
         ),
-        ("ctc/franka", SpatialLaw::Ctc(SpatialCtcGains::default())),
+        ("ctc/franka", Law::Ctc(CtcGains::<6>::default())),
     ] {
         let (out, _) = run_with(
             Arms::Franka,

@@ -14,11 +14,11 @@
 use nalgebra::{Isometry3, Translation3, Vector3};
 use proptest::prelude::*;
 use tandem::control::actuator::{Actuator, ActuatorParams};
+use tandem::control::law::Law;
+use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::pd::PdGains;
-use tandem::control::planar::{Controller, ControllerParams, LawParams};
-use tandem::control::spatial::{
-    SpatialController, SpatialControllerParams, SpatialLaw, SpatialNnGains,
-};
+use tandem::control::planar::{Controller, ControllerParams};
+use tandem::control::spatial::{SpatialController, SpatialControllerParams};
 use tandem::model::disturbance::{Disturbance, SpatialDisturbance};
 use tandem::plant::spatial::SpatialPlant;
 use tandem::presets;
@@ -172,7 +172,7 @@ fn observing_allocates_nothing() {
 /// scenario's law, path, start, disturbance, ideal sensors, 1 kHz), logged every `log_period`.
 fn dual_ur5_nn(duration: f64, log_period: f64) -> Outcome {
     let s = presets::dual_ur5();
-    let p = SpatialControllerParams::spec_s6(SpatialLaw::Nn(SpatialNnGains::dual_ur5()));
+    let p = SpatialControllerParams::spec_s6(Law::Nn(NnGains::<6>::dual_ur5()));
     let path = Se3Path::spec_s6();
     let (c, _) = SpatialController::new(&p, &s.params, path.clone(), duration, &s.q_guess).unwrap();
     let d0 = path.sample(0.0);
@@ -314,7 +314,7 @@ fn dual_ur5_nn_chatters_where_q_drops_below_one() {
 fn planar_runs_measure_the_applied_torque_and_the_summary_carries_it() {
     // The paper's PD law for 0.2 s with an injected 100 N m/s actuator rate fault: the monitor
     // sees the torque the plant receives (after the fault), so its peak is the fault's rate.
-    let cp = ControllerParams::paper(LawParams::Pd(PdGains::paper()));
+    let cp = ControllerParams::paper(Law::Pd(PdGains::<3>::paper()));
     let c = Controller::new(&cp, &presets::paper(), Path::paper(), 0.2)
         .unwrap()
         .0;

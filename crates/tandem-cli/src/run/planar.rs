@@ -54,6 +54,9 @@ impl Finished {
 pub fn label(sc: &PlanarScenario) -> String {
     match sc.controller.kind {
         ControllerKind::Nn => format!("NN ({})", sc.gains_label()),
+        ControllerKind::Pd if sc.controller.pd.gravity_compensation == Some(true) => {
+            "PD + gravity".into()
+        }
         ControllerKind::Pd => "PD".into(),
         ControllerKind::Ctc => "CTC".into(),
         ControllerKind::Replay => format!("replay ({})", sc.gains_label()),

@@ -27,10 +27,11 @@ use std::path::{Path as FsPath, PathBuf};
 use nalgebra::{Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 use tandem::ModelError;
+use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::ctc::CtcGains;
 use tandem::control::law::pd::PdGains;
-use tandem::control::planar::{Controller, ControllerParams, LawParams};
+use tandem::control::planar::{Controller, ControllerParams};
 use tandem::control::{ControlWarning, Scheme};
 use tandem::model::disturbance::Disturbance;
 use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
@@ -402,7 +403,7 @@ impl GainPreset {
             GainPreset::Tuned => "tuned",
         }
     }
-    fn gains(self) -> NnGains {
+    fn gains(self) -> NnGains<3> {
         match self {
             GainPreset::Paper => NnGains::paper(),
             GainPreset::Tuned => NnGains::tuned(),
@@ -456,7 +457,7 @@ impl NnOverrides {
     fn is_empty(&self) -> bool {
         *self == NnOverrides::default()
     }
-    fn apply(&self, mut g: NnGains) -> NnGains {
+    fn apply(&self, mut g: NnGains<3>) -> NnGains<3> {
         macro_rules! set {
             ($($f:ident),*) => { $( if let Some(v) = &self.$f { g.$f = v.clone(); } )* };
         }
@@ -585,7 +586,7 @@ impl PlanarScenario {
     }
 
     /// The NN gains this scenario runs (preset plus overrides).
-    pub fn nn_gains(&self) -> NnGains {
+    pub fn nn_gains(&self) -> NnGains<3> {
         self.controller
             .nn
             .apply(self.controller.gains.unwrap_or(GainPreset::Tuned).gains())
@@ -606,7 +607,7 @@ impl PlanarScenario {
                 }
             }
             ControllerKind::Pd => {
-                if self.pd_gains() == PdGains::paper() {
+                if self.pd_gains() == PdGains::<3>::paper() {
                     "paper".into()
                 } else {
                     "custom".into()
@@ -627,15 +628,16 @@ impl PlanarScenario {
         }
     }
 
-    fn pd_gains(&self) -> PdGains {
-        let d = PdGains::paper();
+    fn pd_gains(&self) -> PdGains<3> {
+        let d = PdGains::<3>::paper();
         PdGains {
             k_p: self.controller.pd.k_p.unwrap_or(d.k_p),
             k_d: self.controller.pd.k_d.unwrap_or(d.k_d),
+            gravity_compensation: self.controller.pd.gravity_compensation.unwrap_or(false),
         }
     }
 
-    fn ctc_gains(&self) -> CtcGains {
+    fn ctc_gains(&self) -> CtcGains<3> {
         let d = CtcGains::default();
         let c = &self.controller.ctc;
         CtcGains {
@@ -980,13 +982,6 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
              plant's, SPEC-spatial)",
         ));
     }
-    if sc.controller.pd.gravity_compensation == Some(true) {
-        return Err(src.error_at(
-            "controller.pd.gravity_compensation",
-            "controller.pd.gravity_compensation: PD with the model's gravity is a spatial law; \
-             on planar arms use computed torque (`kind = \"ctc\"`), which compensates the model",
-        ));
-    }
     let sensors = sc.sensors.params(sc.run.seed);
     sensors
         .validate()
@@ -1019,9 +1014,9 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
     let c = &sc.controller;
     let admittance = c_admittance(&sc.admittance);
     let law = match c.kind {
-        ControllerKind::Nn => Some(LawParams::Nn(sc.nn_gains())),
-        ControllerKind::Pd => Some(LawParams::Pd(sc.pd_gains())),
-        ControllerKind::Ctc => Some(LawParams::Ctc(sc.ctc_gains())),
+        ControllerKind::Nn => Some(Law::Nn(sc.nn_gains())),
+        ControllerKind::Pd => Some(Law::Pd(sc.pd_gains())),
+        ControllerKind::Ctc => Some(Law::Ctc(sc.ctc_gains())),
         ControllerKind::Replay => None,
     };
     let controller = law.map(|law| ControllerParams {

@@ -28,13 +28,14 @@ use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vect
 use serde::{Deserialize, Serialize};
 use tandem::ModelError;
 use tandem::control::Scheme;
+use tandem::control::law::Law;
+use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::ctc::CtcGains;
+use tandem::control::law::pd::PdGains;
 use tandem::control::rbf::structured::NetworkStructure;
 use tandem::control::spatial::SpatialController;
 use tandem::control::spatial::chart::Chart;
-use tandem::control::spatial::{
-    PostureParams, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
-    SpatialPdGains,
-};
+use tandem::control::spatial::{PostureParams, SpatialControllerParams};
 use tandem::drive::Drive;
 use tandem::model::disturbance::SpatialDisturbance;
 use tandem::model::spatial::SpatialArm;
@@ -380,7 +381,7 @@ fn default_metric_length() -> f64 {
 }
 
 /// NN gains: designed per axis from the chart-space inertia (SPEC §3.4's linearised loop; see
-/// [`SpatialNnGains::from_design`]), then any gain overridden.
+/// [`NnGains::from_design`]), then any gain overridden.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NnConfig {
@@ -967,9 +968,9 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
     }
     let controller = {
         let law = match c.kind {
-            ControllerKind::Nn => SpatialLaw::Nn(nn_gains(&c.nn, None)),
+            ControllerKind::Nn => Law::Nn(nn_gains(&c.nn, None)),
             ControllerKind::Pd | ControllerKind::Replay => {
-                let mut g = SpatialPdGains::paper();
+                let mut g = PdGains::<6>::paper();
                 if let Some(v) = c.pd.k_p {
                     g.k_p = v;
                 }
@@ -977,10 +978,10 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
                     g.k_d = v;
                 }
                 g.gravity_compensation = c.pd.gravity_compensation.unwrap_or(false);
-                SpatialLaw::Pd(g)
+                Law::Pd(g)
             }
             ControllerKind::Ctc => {
-                let mut g = SpatialCtcGains::default();
+                let mut g = CtcGains::<6>::default();
                 if let Some(v) = c.ctc.k_p {
                     g.k_p = v;
                 }
@@ -990,7 +991,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
                 if let Some(v) = c.ctc.model_error {
                     g.model_error = v;
                 }
-                SpatialLaw::Ctc(g)
+                Law::Ctc(g)
             }
         };
         let scheme = match c.scheme {
@@ -1219,14 +1220,14 @@ fn serde_name(m: &RobotModel) -> &'static str {
 }
 
 /// NN gains from the design (with `inertia` when the file gives none) and the overrides.
-pub fn nn_gains(n: &NnConfig, path_inertia: Option<[f64; 6]>) -> SpatialNnGains {
+pub fn nn_gains(n: &NnConfig, path_inertia: Option<[f64; 6]>) -> NnGains<6> {
     let m = n
         .design
         .inertia
         .or(path_inertia.map(|m| m.map(round_up_2)))
         // Placeholder until the path inertia is known (the controller is then rebuilt).
         .unwrap_or([1.0; 6]);
-    let mut g = SpatialNnGains::from_design(m, n.design.k1, n.design.omega_n, n.design.zeta);
+    let mut g = NnGains::from_design(m, n.design.k1, n.design.omega_n, n.design.zeta);
     if let Some(v) = n.k1 {
         g.k1 = v;
     }
@@ -1468,7 +1469,7 @@ pub fn make_simulation(
     let mut path_inertia = None;
     if let (ControllerKind::Nn, None) = (sc.controller.kind, sc.controller.nn.design.inertia) {
         let mut probe = cp.clone();
-        probe.law = SpatialLaw::Pd(SpatialPdGains::paper());
+        probe.law = Law::Pd(PdGains::<6>::paper());
         let (c, _) = SpatialController::new(
             &probe,
             &b.plant,
@@ -1479,7 +1480,7 @@ pub fn make_simulation(
         .map_err(lib)?;
         let m: [f64; 6] = c.path_inertia().into();
         path_inertia = Some(m);
-        cp.law = SpatialLaw::Nn(nn_gains(&sc.controller.nn, Some(m)));
+        cp.law = Law::Nn(nn_gains(&sc.controller.nn, Some(m)));
     }
     let (c, w) = SpatialController::new(
         &cp,

@@ -10,7 +10,9 @@
 //!    unexpected force `LPF(F_i) − F_ref,i`; the object-level reference is their least-squares
 //!    fit, with its exact rates ([`crate::model::planar::grasp::GraspSet::fit_pose_rates`]).
 //! 4. `(x̂_o, ẋ̂_o, x_r, ẋ_r, ẍ_r) → τ`: the tracking law on the object (iBLF + adaptive NN
-//!    ([`crate::control::law::adaptive`]), PD ([`crate::control::law::pd`]) or computed torque ([`crate::control::law::ctc`])).
+//!    ([`crate::control::law::adaptive`]), PD ([`crate::control::law::pd`], optionally plus the
+//!    model's gravity `𝓖` of (14)) or computed torque ([`crate::control::law::ctc`])), selected
+//!    by [`ControllerParams::law`] ([`Law<3>`](crate::control::law::Law)).
 //! 5. `τ → τ_x,i → τ_joint,i = J_e,iᵀ τ_x,i`: wrench distribution with the internal squeeze
 //!    ([`crate::model::planar::grasp::GraspSet::distribute`]) plus the internal part of the arms' own gravity
 //!    (`P_N Ĝ_x`, so the squeeze is the commanded one); for redundant arms, damping and gravity
@@ -20,44 +22,22 @@
 //! counted, a non-finite law output is replaced by zero torque and counted.
 
 use nalgebra::{Dim, Matrix, Matrix2, Rotation2, SVector, Storage, U2, Vector, Vector2, Vector3};
-use serde::{Deserialize, Serialize};
 
-use crate::control::law::adaptive::{AdaptiveNn, FuBound, NnGains, NnInternals};
-use crate::control::law::ctc::{Ctc, CtcGains, nominal_params};
-use crate::control::law::pd::{Pd, PdGains};
+use crate::control::law::Law;
+use crate::control::law::adaptive::{AdaptiveNn, FuBound, NnInternals};
+use crate::control::law::ctc::{Ctc, nominal_params};
+use crate::control::law::pd::Pd;
 use crate::drive::{ControlEvents, Drive, Measurements, Record};
 use crate::dynamics::planar::{Arm, FixedKinematics, FixedLinkArm, TwoLinkArm};
 use crate::error::{ModelError, non_negative, positive};
 use crate::math::linalg::finite_slice;
 use crate::model::planar::grasp::{Grasp, GraspSet};
+use crate::plant::planar::reduced::ObjectSpace;
 use crate::plant::planar::{Plant, PlantParams, PlantWorkspace};
 use crate::reference::planar::admittance::{Admittance, AdmittanceParams, AdmittanceState};
 use crate::reference::planar::path::Path;
 
 use super::{ControlWarning, Scheme};
-
-/// Which tracking law, with its gains (plain data).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
-pub enum LawParams {
-    /// iBLF backstepping + adaptive RBF network with switching (SPEC §3.3–3.4).
-    Nn(NnGains),
-    /// PD baseline (SPEC §3.5).
-    Pd(PdGains),
-    /// Computed torque with a nominal model (SPEC §3.5).
-    Ctc(CtcGains),
-}
-
-impl LawParams {
-    /// Short name: `nn`, `pd` or `ctc`.
-    pub fn name(&self) -> &'static str {
-        match self {
-            LawParams::Nn(_) => "nn",
-            LawParams::Pd(_) => "pd",
-            LawParams::Ctc(_) => "ctc",
-        }
-    }
-}
 
 /// Joint damping of a redundant arm's self-motion (null space of `J_e`), N m s/rad.
 pub const NULL_SPACE_DAMPING: f64 = 2.0;
@@ -65,8 +45,8 @@ pub const NULL_SPACE_DAMPING: f64 = 2.0;
 /// Controller parameters (plain data; validated by [`Controller::new`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ControllerParams {
-    /// The tracking law.
-    pub law: LawParams,
+    /// The tracking law on the object's three outputs `(x, y, θ)`.
+    pub law: Law<3>,
     /// Where it acts.
     pub scheme: Scheme,
     /// Output bounds `k_c` on `(x, y, θ)` of the object, (m, m, rad): `|x_1j| < k_cj`.
@@ -119,7 +99,7 @@ impl ControllerParams {
     /// The paper scenario's settings with the given law (SPEC §3–4): object scheme, `k_c = 0.35`
     /// on every output, the SPEC §3.1 admittance defaults, `δ = 5 mm`, 1 kHz, no torque limit,
     /// the paper disturbance's bound.
-    pub fn paper(law: LawParams) -> Self {
+    pub fn paper(law: Law<3>) -> Self {
         ControllerParams {
             law,
             scheme: Scheme::Object,
@@ -184,12 +164,35 @@ impl TickRecord {
     }
 }
 
-enum Law {
+/// The law a controller runs, validated, with its state: PD with the workspace of its gravity
+/// term when it compensates gravity, computed torque with its nominal model.
+enum Active {
     Nn(Box<AdaptiveNn>),
-    Pd(Pd),
+    Pd(Pd, Option<Box<PlantWorkspace>>),
     Ctc(Ctc, Box<Plant>, Box<PlantWorkspace>),
     PerArmPd(Pd),
     PerArmNn(Vec<AdaptiveNn<2>>),
+}
+
+/// The object-space terms `(𝓜, 𝓒, 𝓖)` of (14) of a controller's model at the estimated state
+/// `(x_1, x_2)`: the nominal model's for computed torque, the controller's model's gravity
+/// `𝓖` for PD with gravity compensation. `None`, counted as a degenerate tick, where the
+/// reduced model cannot be evaluated (a grasp out of reach, a singular arm).
+#[inline]
+fn model_terms(
+    model: &Plant,
+    x1: &Vector3<f64>,
+    x2: &Vector3<f64>,
+    ws: &mut PlantWorkspace,
+    events: &mut ControlEvents,
+) -> Option<ObjectSpace> {
+    match model.object_space(x1, x2, ws) {
+        Ok(os) => Some(os),
+        Err(_) => {
+            events.degenerate += 1;
+            None
+        }
+    }
 }
 
 /// One arm's kinematics kernel for the tick, selected once by [`Controller::new`] from its link
@@ -310,7 +313,7 @@ pub struct Controller {
     adm: Option<Admittance>,
     adm_state: Vec<AdmittanceState>,
     squeeze: f64,
-    law: Law,
+    law: Active,
     k_c: Vector3<f64>,
     h: f64,
     torque_limit: f64,
@@ -434,9 +437,32 @@ impl Controller {
             None => (None, 0.0),
         };
         let law = match (&p.law, p.scheme) {
-            (LawParams::Pd(g), Scheme::Object) => Law::Pd(Pd::new(g)?),
-            (LawParams::Pd(g), Scheme::PerArm) => Law::PerArmPd(Pd::new(g)?),
-            (LawParams::Ctc(g), Scheme::Object) => {
+            (Law::Pd(g), Scheme::Object) => {
+                let pd = Pd::new(g)?;
+                let gravity = if g.gravity_compensation {
+                    if let Some(i) = kin.arms().iter().position(|a| a.dof() != 2) {
+                        return Err(ModelError::geometry(
+                            format!("arms[{i}]"),
+                            "PD gravity compensation adds 𝓖 of the reduced model (14), which needs 2-link arms",
+                        ));
+                    }
+                    Some(Box::new(kin.workspace()))
+                } else {
+                    None
+                };
+                Active::Pd(pd, gravity)
+            }
+            (Law::Pd(g), Scheme::PerArm) => {
+                let pd = Pd::new(g)?;
+                if g.gravity_compensation {
+                    return Err(ModelError::geometry(
+                        "gains.gravity_compensation",
+                        "PD gravity compensation is implemented for the object scheme only",
+                    ));
+                }
+                Active::PerArmPd(pd)
+            }
+            (Law::Ctc(g), Scheme::Object) => {
                 let ctc = Ctc::new(g)?;
                 let nominal = Plant::new(&nominal_params(model, g.model_error))?;
                 if nominal.arms().iter().any(|a| a.dof() != 2) {
@@ -446,15 +472,15 @@ impl Controller {
                     ));
                 }
                 let ws = nominal.workspace();
-                Law::Ctc(ctc, Box::new(nominal), Box::new(ws))
+                Active::Ctc(ctc, Box::new(nominal), Box::new(ws))
             }
-            (LawParams::Ctc(_), Scheme::PerArm) => {
+            (Law::Ctc(_), Scheme::PerArm) => {
                 return Err(ModelError::geometry(
                     "scheme",
                     "computed torque is implemented for the object scheme only",
                 ));
             }
-            (LawParams::Nn(g), Scheme::Object) => {
+            (Law::Nn(g), Scheme::Object) => {
                 if let Some(i) = kin.arms().iter().position(|a| a.dof() != 2) {
                     return Err(ModelError::geometry(
                         format!("arms[{i}]"),
@@ -480,9 +506,9 @@ impl Controller {
                         });
                     }
                 }
-                Law::Nn(Box::new(AdaptiveNn::new(g, k_c, fu, h)?))
+                Active::Nn(Box::new(AdaptiveNn::new(g, k_c, fu, h)?))
             }
-            (LawParams::Nn(g), Scheme::PerArm) => {
+            (Law::Nn(g), Scheme::PerArm) => {
                 let mut nets = Vec::new();
                 for (i, arm) in kin.arms().iter().enumerate() {
                     if arm.dof() != 2 {
@@ -500,9 +526,11 @@ impl Controller {
                         [p.disturbance_bound[0], p.disturbance_bound[1]],
                         g.fu_safety,
                     )?;
-                    nets.push(AdaptiveNn::<2>::new(g, kb, fu, h)?);
+                    // The planar gains are validated on all three outputs; the arm runs x, y.
+                    g.validate_outputs()?;
+                    nets.push(AdaptiveNn::<2>::new(&g.outputs::<2>(), kb, fu, h)?);
                 }
-                Law::PerArmNn(nets)
+                Active::PerArmNn(nets)
             }
         };
         let m = grasps.len();
@@ -570,7 +598,7 @@ impl Controller {
     /// The adaptive law, when this controller runs one (for inspection and tests).
     pub fn adaptive(&self) -> Option<&AdaptiveNn> {
         match &self.law {
-            Law::Nn(nn) => Some(nn),
+            Active::Nn(nn) => Some(nn),
             _ => None,
         }
     }
@@ -593,7 +621,7 @@ impl Controller {
 
     /// Zero the adaptive weights (NN law).
     pub fn reset_weights(&mut self) {
-        if let Law::Nn(nn) = &mut self.law {
+        if let Active::Nn(nn) = &mut self.law {
             nn.reset_weights();
         }
     }
@@ -690,30 +718,36 @@ impl Controller {
         // 4. Tracking law → wrench on the object.
         let z1 = x1 - x_r;
         let z1_dot = x2 - xd_r;
-        let per_arm = matches!(self.law, Law::PerArmPd(_) | Law::PerArmNn(_));
+        let per_arm = matches!(self.law, Active::PerArmPd(_) | Active::PerArmNn(_));
         let mut w = match &mut self.law {
-            Law::Pd(pd) => {
+            Active::Pd(pd, gravity) => {
                 rec.z2 = z1_dot;
-                pd.wrench(&z1, &z1_dot)
-            }
-            Law::Ctc(ctc, nominal, ws) => {
-                rec.z2 = z1_dot;
-                let a = ctc.acceleration(&xdd_r, &z1, &z1_dot);
-                match nominal.object_space(&x1, &x2, ws) {
-                    Ok(os) => os.M * a + os.C * x2 + os.G,
-                    Err(_) => {
-                        self.events.degenerate += 1;
-                        Vector3::zeros()
-                    }
+                let w = pd.wrench(&z1, &z1_dot);
+                // With gravity compensation, + 𝓖 of the controller's model (14); where that
+                // model fails, plain PD (counted as degenerate).
+                match gravity {
+                    None => w,
+                    Some(ws) => match model_terms(&self.kin, &x1, &x2, ws, &mut self.events) {
+                        Some(os) => w + os.G,
+                        None => w,
+                    },
                 }
             }
-            Law::Nn(nn) => {
+            Active::Ctc(ctc, nominal, ws) => {
+                rec.z2 = z1_dot;
+                let a = ctc.acceleration(&xdd_r, &z1, &z1_dot);
+                match model_terms(nominal, &x1, &x2, ws, &mut self.events) {
+                    Some(os) => os.M * a + os.C * x2 + os.G,
+                    None => Vector3::zeros(),
+                }
+            }
+            Active::Nn(nn) => {
                 let mut o = NnInternals::default();
                 let w = nn.wrench(&x1, &x2, &x_r, &xd_r, &xdd_r, &mut o);
                 rec.note_nn(&o);
                 w
             }
-            Law::PerArmPd(_) | Law::PerArmNn(_) => {
+            Active::PerArmPd(_) | Active::PerArmNn(_) => {
                 rec.z2 = z1_dot;
                 self.per_arm_forces(rec);
                 // The wrench the arms' commands put on the object (for the record).
@@ -799,12 +833,12 @@ impl Controller {
             let (x1, x2) = (a.p_ee, a.v_ee);
             let (xr, xdr, xddr) = (self.ref_p[i], self.ref_v[i], self.ref_a[i]);
             let law = match &mut self.law {
-                Law::PerArmPd(pd) => {
+                Active::PerArmPd(pd) => {
                     let (kp, kd) = pd.gains();
                     -Vector2::new(kp.x, kp.y).component_mul(&(x1 - xr))
                         - Vector2::new(kd.x, kd.y).component_mul(&(x2 - xdr))
                 }
-                Law::PerArmNn(nets) => {
+                Active::PerArmNn(nets) => {
                     let v = |a: Vector2<f64>| SVector::<f64, 2>::new(a.x, a.y);
                     let f = nets[i].wrench(&v(x1), &v(x2), &v(xr), &v(xdr), &v(xddr), &mut sub);
                     for j in 0..2 {
@@ -996,6 +1030,7 @@ impl Drive<Plant> for Controller {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::control::law::pd::PdGains;
     use crate::math::random::SplitMix64;
     use crate::model::planar::arm::{ArmParams, Elbow, LinkParams};
     use crate::presets;
@@ -1035,7 +1070,7 @@ mod tests {
         let (p4, g4) = four_link_pair();
         for (name, model, guess, links) in [("3-link", p3, g3, 3), ("4-link", p4, g4, 4)] {
             for scheme in [Scheme::Object, Scheme::PerArm] {
-                let mut cp = ControllerParams::paper(LawParams::Pd(PdGains::paper()));
+                let mut cp = ControllerParams::paper(Law::Pd(PdGains::<3>::paper()));
                 cp.scheme = scheme;
                 cp.torque_limit = Some(20.0);
                 let build = || Controller::new(&cp, &model, Path::paper(), 1.0).unwrap().0;

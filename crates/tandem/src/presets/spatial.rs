@@ -173,7 +173,7 @@ pub fn dual_franka() -> SpatialSetup {
 pub fn spatial_s6_simulation(
     truth: &crate::plant::spatial::SpatialPlantParams,
     model: &SpatialSetup,
-    law: crate::control::spatial::SpatialLaw,
+    law: crate::control::law::Law<6>,
     duration: f64,
     plant_step: f64,
     max_drift: f64,

@@ -24,27 +24,46 @@ use crate::control::rbf::{NnUpdate, Rbf, RbfNetwork, RbfWorkspace};
 use crate::error::{ModelError, positive};
 use crate::plant::planar::Plant;
 
-/// Gains of the NN law (plain data). Presets: [`NnGains::paper`], [`NnGains::tuned`].
+/// Gains of the NN law on `N` outputs (plain data): `K1` of the virtual control (31), `K2`,
+/// `K_r`, `ϖ` of the law (42)–(43), `Θ`, `σ` of the update (44), the RBF basis (36)–(37) and the
+/// switching function (38)–(40), with the SPEC §3.4 errata. The planar object has `N = 3`
+/// outputs `(x, y, θ)` (presets [`NnGains::paper`], [`NnGains::tuned`]); the spatial one
+/// `N = 6`, `[x, y, z, rx, ry, rz]` in the output chart (SPEC-spatial S5; presets
+/// [`NnGains::dual_ur5`], [`NnGains::dual_franka`], [`NnGains::from_design`]).
+///
+/// Serialised form (serde): the fields by name, unknown fields refused. `network` depends on
+/// `N` ([`default_network`], [`network_is_skipped`]): planar (`N ≤ 3`) it defaults to the
+/// paper's full grid and is not written when it is the full grid; spatial (`N > 3`, where the
+/// full grid has `2^24` nodes and is refused) it defaults to one grid per output
+/// ([`NetworkStructure::per_axis`]) and is always written.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct NnGains {
+#[serde(
+    deny_unknown_fields,
+    bound(
+        serialize = "[f64; N]: Serialize",
+        deserialize = "[f64; N]: Deserialize<'de>"
+    )
+)]
+pub struct NnGains<const N: usize> {
     /// `K1` diagonal (virtual control gain κ1), 1/s.
-    pub k1: [f64; 3],
-    /// `K2` diagonal, (N s/m, N s/m, N m s/rad).
-    pub k2: [f64; 3],
-    /// `K_r` diagonal (sign term), (N, N, N m).
-    pub k_r: [f64; 3],
+    pub k1: [f64; N],
+    /// `K2` diagonal: N s/m on the linear outputs, N m s/rad on the angular ones (spatial: in
+    /// chart coordinates).
+    pub k2: [f64; N],
+    /// `K_r` diagonal (sign term): N on the linear outputs, N m on the angular ones.
+    pub k_r: [f64; N],
     /// Adaptation gains `Θ_j`.
-    pub theta: [f64; 3],
+    pub theta: [f64; N],
     /// σ-modification `σ_j`.
-    pub sigma: [f64; 3],
+    pub sigma: [f64; N],
     /// Robust-term smoothing `ϖ`.
     pub varpi: f64,
     /// Safety factor on the `f^U` constants.
     pub fu_safety: f64,
     /// RBF width `ϑ²` ("variance").
     pub width2: f64,
-    /// Centre levels per input (the grid is their Cartesian product over the 12 inputs).
+    /// Centre levels per input (the full grid is their Cartesian product over the `4N`
+    /// inputs).
     pub levels: Vec<f64>,
     /// Switching inner radius `d1` (every input).
     pub d1: f64,
@@ -53,13 +72,36 @@ pub struct NnGains {
     /// Switching shape `ω ≥ 1`.
     pub omega: f64,
     /// Structure of the RBF network ([`crate::control::rbf::structured`]): the paper's full grid on
-    /// `levels` (the default, bit for bit), one grid per output over a subset of `Z`, or
-    /// quasi-random centres. Not serialised when it is the default.
-    #[serde(default, skip_serializing_if = "NetworkStructure::is_full_grid")]
+    /// `levels` (bit for bit), one grid per output over a subset of `Z`, or quasi-random
+    /// centres. Planar: the full grid by default, not serialised when it is the full grid.
+    /// Spatial: the full grid (`2^24` nodes, 800 MB of weights) is refused, the default is one
+    /// grid per output over its own four signals ([`NetworkStructure::per_axis`],
+    /// `docs/network.md`), always serialised.
+    #[serde(
+        default = "default_network::<N>",
+        skip_serializing_if = "network_is_skipped::<N>"
+    )]
     pub network: NetworkStructure,
 }
 
-impl NnGains {
+/// The default [`NnGains::network`] for `N` outputs: the paper's full grid when planar
+/// (`N ≤ 3`, [`crate::control::law::is_planar`]), one grid per output
+/// ([`NetworkStructure::per_axis`]) otherwise.
+pub fn default_network<const N: usize>() -> NetworkStructure {
+    if crate::control::law::is_planar(N) {
+        NetworkStructure::FullGrid
+    } else {
+        NetworkStructure::per_axis()
+    }
+}
+
+/// Whether [`NnGains::network`] is left out of the serialised gains: planar (`N ≤ 3`) when it is
+/// the full grid (the default); spatial never.
+pub fn network_is_skipped<const N: usize>(network: &NetworkStructure) -> bool {
+    crate::control::law::is_planar(N) && network.is_full_grid()
+}
+
+impl NnGains<3> {
     /// The paper's gains (Section V-B-2), kept faithfully; SPEC §3.4 explains why they end in a
     /// limit cycle.
     pub fn paper() -> Self {
@@ -92,35 +134,40 @@ impl NnGains {
     }
 }
 
-/// The per-output gains of the NN law for `N` outputs (validated by [`AdaptiveNn::with_axes`]).
-/// Planar gains give theirs with [`NnGains::axes`]; the spatial law has six
-/// ([`crate::control::spatial::SpatialNnGains`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct NnAxes<const N: usize> {
-    /// `K1` diagonal (κ1), 1/s.
-    pub k1: [f64; N],
-    /// `K2` diagonal.
-    pub k2: [f64; N],
-    /// `K_r` diagonal (sign term), ≥ 0.
-    pub k_r: [f64; N],
-    /// Adaptation gains `Θ_j`.
-    pub theta: [f64; N],
-    /// σ-modification `σ_j`.
-    pub sigma: [f64; N],
-}
-
-impl NnGains {
-    /// The first `N ≤ 3` entries of the per-output gains (`N = 2`: the `x`, `y` entries, for
-    /// the per-arm scheme).
-    pub fn axes<const N: usize>(&self) -> NnAxes<N> {
-        assert!(N <= 3, "planar gains have three outputs");
-        NnAxes {
+impl<const N: usize> NnGains<N> {
+    /// The gains of the first `M ≤ N` outputs, the shared settings (`ϖ`, `ϑ²`, levels,
+    /// switching, network) as they are: the planar per-arm scheme runs the `x`, `y` entries
+    /// (`M = 2`) on each end-effector.
+    pub fn outputs<const M: usize>(&self) -> NnGains<M> {
+        const { assert!(M <= N, "cannot take more outputs than the gains have") };
+        NnGains {
             k1: std::array::from_fn(|j| self.k1[j]),
             k2: std::array::from_fn(|j| self.k2[j]),
             k_r: std::array::from_fn(|j| self.k_r[j]),
             theta: std::array::from_fn(|j| self.theta[j]),
             sigma: std::array::from_fn(|j| self.sigma[j]),
+            varpi: self.varpi,
+            fu_safety: self.fu_safety,
+            width2: self.width2,
+            levels: self.levels.clone(),
+            d1: self.d1,
+            d2: self.d2,
+            omega: self.omega,
+            network: self.network.clone(),
         }
+    }
+
+    /// Check the per-output gains against the theory's conditions (SPEC §3.4): `K2, Θ, σ > 0`,
+    /// `K_r ≥ 0`, output by output; errors name `gains.k2[j]` etc. (`K1` is checked with the
+    /// bounds by the iBLF.)
+    pub fn validate_outputs(&self) -> Result<(), ModelError> {
+        for j in 0..N {
+            positive(&format!("gains.k2[{j}]"), self.k2[j])?;
+            crate::error::non_negative(&format!("gains.k_r[{j}]"), self.k_r[j])?;
+            positive(&format!("gains.theta[{j}]"), self.theta[j])?;
+            positive(&format!("gains.sigma[{j}]"), self.sigma[j])?;
+        }
+        Ok(())
     }
 }
 
@@ -373,35 +420,15 @@ const NORM_REFRESH: u64 = 1000;
 
 impl<const N: usize> AdaptiveNn<N> {
     /// Validate the gains against the theory's conditions (SPEC §3.4: `K1, K2, Θ, σ > 0`,
-    /// `0 < d1 < d2`, `ω ≥ 1`, `ϖ > 0`, `ϑ² > 0`) and build the network on `4N` inputs with the
-    /// given `f^U` bound. With `N = 2` the `x` and `y` entries of the gains are used.
-    pub fn new(g: &NnGains, k_c: SVector<f64, N>, fu: FuBound, h: f64) -> Result<Self, ModelError> {
-        // Planar gains are validated on all three outputs, whatever N.
-        for j in 0..3 {
-            positive(&format!("gains.k2[{j}]"), g.k2[j])?;
-            crate::error::non_negative(&format!("gains.k_r[{j}]"), g.k_r[j])?;
-            positive(&format!("gains.theta[{j}]"), g.theta[j])?;
-            positive(&format!("gains.sigma[{j}]"), g.sigma[j])?;
-        }
-        Self::with_axes(&g.axes::<N>(), g, k_c, fu, h)
-    }
-
-    /// [`AdaptiveNn::new`] with the per-output gains `axes` (any `N`, e.g. six outputs in SE(3));
-    /// the shared settings (`ϖ`, `ϑ²`, levels, switching, network structure) come from `g`, whose
-    /// per-output arrays are ignored. Errors name `gains.k2[j]` etc.
-    pub fn with_axes(
-        axes: &NnAxes<N>,
-        g: &NnGains,
+    /// `K_r ≥ 0`, `0 < d1 < d2`, `ω ≥ 1`, `ϖ > 0`, `ϑ² > 0`; errors name `gains.k2[j]` etc.)
+    /// and build the network on `4N` inputs with the given `f^U` bound (one entry per output).
+    pub fn new(
+        g: &NnGains<N>,
         k_c: SVector<f64, N>,
         fu: FuBound,
         h: f64,
     ) -> Result<Self, ModelError> {
-        for j in 0..N {
-            positive(&format!("gains.k2[{j}]"), axes.k2[j])?;
-            crate::error::non_negative(&format!("gains.k_r[{j}]"), axes.k_r[j])?;
-            positive(&format!("gains.theta[{j}]"), axes.theta[j])?;
-            positive(&format!("gains.sigma[{j}]"), axes.sigma[j])?;
-        }
+        g.validate_outputs()?;
         if fu.a.len() != N || fu.b.len() != N || fu.c.len() != N || fu.d.len() != N {
             return Err(ModelError::geometry(
                 "fu",
@@ -410,7 +437,7 @@ impl<const N: usize> AdaptiveNn<N> {
         }
         positive("gains.varpi", g.varpi)?;
         positive("gains.fu_safety", g.fu_safety)?;
-        let k1 = SVector::<f64, N>::from(axes.k1);
+        let k1 = SVector::<f64, N>::from(g.k1);
         let iblf = Iblf::new(k_c, k1).map_err(|e| prefix_gains(e, "k1", "kappa1"))?;
         let sw = SwitchParams::new(g.d1, g.d2, g.omega).map_err(|e| prefix_gains(e, "", ""))?;
         let switching = Switching::uniform(4 * N, sw)?;
@@ -420,8 +447,8 @@ impl<const N: usize> AdaptiveNn<N> {
                 "needs at least one centre level",
             ));
         }
-        let theta = SVector::from(axes.theta);
-        let sigma = SVector::from(axes.sigma);
+        let theta = SVector::from(g.theta);
+        let sigma = SVector::from(g.sigma);
         let update = NnUpdate::new(theta, sigma, h).map_err(|e| prefix_gains(e, "", ""))?;
         let network = if g.network.is_full_grid() {
             let levels = vec![g.levels.clone(); 4 * N];
@@ -438,12 +465,12 @@ impl<const N: usize> AdaptiveNn<N> {
             switching,
             network,
             update,
-            k2: SVector::from(axes.k2),
-            k_r: SVector::from(axes.k_r),
+            k2: SVector::from(g.k2),
+            k_r: SVector::from(g.k_r),
             varpi: g.varpi,
             fu_k: std::array::from_fn(|j| [fu.a[j], fu.b[j], fu.c[j], fu.d[j]]),
             fu,
-            theta: axes.theta,
+            theta: g.theta,
             z: vec![0.0; 4 * N],
             w_n2: [0.0; N],
             ticks: 0,

@@ -6,46 +6,60 @@
 //! It shows what model knowledge buys; the nominal model's masses and inertias are the true
 //! ones times `1 + model_error` (arms and object alike), which makes its sensitivity visible.
 
-use nalgebra::Vector3;
+use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, positive};
 use crate::plant::planar::PlantParams;
 
-/// Computed-torque gains (plain data).
+/// Computed-torque gains on `N` outputs (plain data), SPEC §3.5: the commanded acceleration
+/// `a = ẍ_r − K_D ż1 − K_P z1`, then planar (`N = 3`) `τ = 𝓜̂ a + 𝓒̂ x_2 + 𝓖̂` with the nominal
+/// model of (14), spatial (`N = 6`, in the chart) `F = 𝓜 E⁻¹(a − Ė V) + 𝓱` with the nominal
+/// object-level model.
+///
+/// Serialised form (serde): `k_p`, `k_d`, `model_error`, all required, unknown fields refused
+/// (the same for every `N`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CtcGains {
+#[serde(
+    deny_unknown_fields,
+    bound(
+        serialize = "[f64; N]: Serialize",
+        deserialize = "[f64; N]: Deserialize<'de>"
+    )
+)]
+pub struct CtcGains<const N: usize> {
     /// `K_P` diagonal, 1/s².
-    pub k_p: [f64; 3],
+    pub k_p: [f64; N],
     /// `K_D` diagonal, 1/s.
-    pub k_d: [f64; 3],
-    /// Relative error of the nominal model's masses and inertias (0 = exact model).
+    pub k_d: [f64; N],
+    /// Relative error of every mass and inertia of the nominal model (0 = exact model).
     pub model_error: f64,
 }
 
-impl Default for CtcGains {
-    /// Critically damped at 20 rad/s on every axis, exact model.
+impl<const N: usize> Default for CtcGains<N> {
+    /// Critically damped at `ω_n = 20` rad/s on every axis (`K_P = 400`, `K_D = 40`), exact
+    /// model.
     fn default() -> Self {
         CtcGains {
-            k_p: [400.0; 3],
-            k_d: [40.0; 3],
+            k_p: [400.0; N],
+            k_d: [40.0; N],
             model_error: 0.0,
         }
     }
 }
 
-/// A validated computed-torque law (stateless; the nominal model lives in the controller).
+/// A validated computed-torque law on `N` outputs (stateless; the nominal model lives in the
+/// controller).
 #[derive(Clone, Copy, Debug)]
-pub struct Ctc {
-    k_p: Vector3<f64>,
-    k_d: Vector3<f64>,
+pub struct Ctc<const N: usize = 3> {
+    k_p: SVector<f64, N>,
+    k_d: SVector<f64, N>,
 }
 
-impl Ctc {
+impl<const N: usize> Ctc<N> {
     /// Validate (gains > 0, `model_error > −1`).
-    pub fn new(g: &CtcGains) -> Result<Self, ModelError> {
-        for j in 0..3 {
+    pub fn new(g: &CtcGains<N>) -> Result<Self, ModelError> {
+        for j in 0..N {
             positive(&format!("gains.k_p[{j}]"), g.k_p[j])?;
             positive(&format!("gains.k_d[{j}]"), g.k_d[j])?;
         }
@@ -57,8 +71,8 @@ impl Ctc {
             ));
         }
         Ok(Ctc {
-            k_p: Vector3::from(g.k_p),
-            k_d: Vector3::from(g.k_d),
+            k_p: SVector::from(g.k_p),
+            k_d: SVector::from(g.k_d),
         })
     }
 
@@ -66,10 +80,10 @@ impl Ctc {
     #[inline]
     pub fn acceleration(
         &self,
-        xdd_r: &Vector3<f64>,
-        z1: &Vector3<f64>,
-        z1_dot: &Vector3<f64>,
-    ) -> Vector3<f64> {
+        xdd_r: &SVector<f64, N>,
+        z1: &SVector<f64, N>,
+        z1_dot: &SVector<f64, N>,
+    ) -> SVector<f64, N> {
         xdd_r - self.k_d.component_mul(z1_dot) - self.k_p.component_mul(z1)
     }
 }

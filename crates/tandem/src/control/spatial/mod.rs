@@ -34,14 +34,14 @@ pub mod distribute;
 pub mod model;
 pub mod params;
 
-pub use params::{
-    PostureParams, SpatialControllerParams, SpatialCtcGains, SpatialLaw, SpatialNnGains,
-    SpatialPdGains,
-};
+pub use params::{PostureParams, SpatialControllerParams};
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 
+use crate::control::law::Law;
 use crate::control::law::adaptive::{AdaptiveNn, FuBound, NnInternals};
+use crate::control::law::ctc::CtcGains;
+use crate::control::law::pd::PdGains;
 use crate::control::spatial::chart::Chart;
 use crate::control::{ControlWarning, Scheme};
 use crate::drive::ControlEvents;
@@ -231,11 +231,12 @@ impl Record for SpatialTickRecord {
     }
 }
 
-enum Law {
+/// The law a controller runs, validated, with its state.
+enum Active {
     Nn(Box<AdaptiveNn<6>>),
-    Pd(SpatialPdGains),
-    Ctc(SpatialCtcGains, Box<ObjectModel>, Box<ModelWorkspace>),
-    PerArmPd(SpatialPdGains),
+    Pd(PdGains<6>),
+    Ctc(CtcGains<6>, Box<ObjectModel>, Box<ModelWorkspace>),
+    PerArmPd(PdGains<6>),
 }
 
 /// A spatial cooperative controller: validated gains and models, its state (admittance offsets,
@@ -253,7 +254,7 @@ pub struct SpatialController {
     x_og: Vec<Isometry3<f64>>,
     adm: Option<Vec<AdmittanceSe3>>,
     adm_state: Vec<AdmittanceSe3State>,
-    law: Law,
+    law: Active,
     k_c: Vector6<f64>,
     h: f64,
     squeeze: f64,
@@ -411,7 +412,7 @@ impl SpatialController {
             }
             None => None,
         };
-        if p.scheme == Scheme::PerArm && !matches!(p.law, SpatialLaw::Pd(_)) {
+        if p.scheme == Scheme::PerArm && !matches!(p.law, Law::Pd(_)) {
             return Err(ModelError::geometry(
                 "scheme",
                 "the per-arm scheme is implemented for the PD law; use the object scheme with the NN and computed-torque laws",
@@ -419,18 +420,18 @@ impl SpatialController {
         }
         let x_wo0 = Isometry3::from_parts(s0.p.into(), s0.r);
         let law = match &p.law {
-            SpatialLaw::Pd(g) => {
+            Law::Pd(g) => {
                 for j in 0..6 {
                     positive(&format!("gains.k_p[{j}]"), g.k_p[j])?;
                     positive(&format!("gains.k_d[{j}]"), g.k_d[j])?;
                 }
                 if p.scheme == Scheme::PerArm {
-                    Law::PerArmPd(*g)
+                    Active::PerArmPd(*g)
                 } else {
-                    Law::Pd(*g)
+                    Active::Pd(*g)
                 }
             }
-            SpatialLaw::Ctc(g) => {
+            Law::Ctc(g) => {
                 for j in 0..6 {
                     positive(&format!("gains.k_p[{j}]"), g.k_p[j])?;
                     positive(&format!("gains.k_d[{j}]"), g.k_d[j])?;
@@ -444,9 +445,9 @@ impl SpatialController {
                 }
                 let nominal = ObjectModel::new(&model::nominal_params(model, g.model_error))?;
                 let nws = nominal.workspace();
-                Law::Ctc(*g, Box::new(nominal), Box::new(nws))
+                Active::Ctc(*g, Box::new(nominal), Box::new(nws))
             }
-            SpatialLaw::Nn(g) => {
+            Law::Nn(g) => {
                 if g.network.is_full_grid() {
                     return Err(ModelError::geometry(
                         "gains.network",
@@ -479,13 +480,7 @@ impl SpatialController {
                         });
                     }
                 }
-                Law::Nn(Box::new(AdaptiveNn::<6>::with_axes(
-                    &g.axes(),
-                    &g.shared(),
-                    k_c,
-                    fu,
-                    h,
-                )?))
+                Active::Nn(Box::new(AdaptiveNn::<6>::new(g, k_c, fu, h)?))
             }
         };
         let object = RigidObject::new(&model.object)?;
@@ -560,7 +555,7 @@ impl SpatialController {
     /// The adaptive law, when this controller runs one.
     pub fn adaptive(&self) -> Option<&AdaptiveNn<6>> {
         match &self.law {
-            Law::Nn(nn) => Some(nn),
+            Active::Nn(nn) => Some(nn),
             _ => None,
         }
     }
@@ -610,7 +605,7 @@ impl SpatialController {
 
     /// Zero the adaptive weights.
     pub fn reset_weights(&mut self) {
-        if let Law::Nn(nn) = &mut self.law {
+        if let Active::Nn(nn) = &mut self.law {
             nn.reset_weights();
         }
     }
@@ -761,7 +756,7 @@ impl SpatialController {
         }
         // 4. Law → object wrench F (world axes, about the estimated object origin).
         let mut f = match &mut self.law {
-            Law::Nn(nn) => {
+            Active::Nn(nn) => {
                 let mut o = NnInternals::<6>::default();
                 let tx = nn.wrench(&x1, &x2, &x_r, &xd_r, &xdd_r, &mut o);
                 rec.z2 = o.z2;
@@ -773,7 +768,7 @@ impl SpatialController {
                 rec.non_finite |= o.non_finite;
                 cs.jac.wrench_from_chart(&tx)
             }
-            Law::Pd(g) => {
+            Active::Pd(g) => {
                 rec.z2 = z1_dot;
                 let tx = -Vector6::from(g.k_p).component_mul(&z1)
                     - Vector6::from(g.k_d).component_mul(&z1_dot);
@@ -783,7 +778,7 @@ impl SpatialController {
                 }
                 f
             }
-            Law::Ctc(g, nominal, nws) => {
+            Active::Ctc(g, nominal, nws) => {
                 rec.z2 = z1_dot;
                 let a = xdd_r
                     - Vector6::from(g.k_d).component_mul(&z1_dot)
@@ -798,7 +793,7 @@ impl SpatialController {
                     }
                 }
             }
-            Law::PerArmPd(g) => {
+            Active::PerArmPd(g) => {
                 rec.z2 = z1_dot;
                 let g = *g;
                 self.per_arm_pd(&g, &des);
@@ -823,7 +818,7 @@ impl SpatialController {
         // 5. Distribute (object scheme): min-norm share + squeeze, plus the internal part of
         // the arms' own gravity (no object wrench commands it; without it, it adds to the
         // squeeze and the admittance yields to it).
-        if !matches!(self.law, Law::PerArmPd(_)) {
+        if !matches!(self.law, Active::PerArmPd(_)) {
             if !self.dist.distribute(&self.r, &f, self.squeeze, &mut self.w) {
                 self.events.degenerate += 1;
                 tau.fill(0.0);
@@ -875,7 +870,7 @@ impl SpatialController {
     /// Whether the tick needs the full object-level model ([`ObjectModel::dynamics`]): computed
     /// torque, or an arm that is not square (its null-space projector needs `M_i` and `Λ_i`).
     fn needs_full_model(&self) -> bool {
-        matches!(self.law, Law::Ctc(..)) || self.model.arms().iter().any(|a| a.chain.dof() != 6)
+        matches!(self.law, Active::Ctc(..)) || self.model.arms().iter().any(|a| a.chain.dof() != 6)
     }
 
     /// `𝓖 = [−m g; 0] + Σ G_iᵀ g_x,i`: the object's and the arms' weight as an object wrench, at
@@ -892,7 +887,7 @@ impl SpatialController {
     /// without admittance), `w_i = −K_P e_i − K_D ė_i − F_ref,i (+ g_x,i)` with
     /// `e_i = (p_T − p_r, Log(R_T R_rᵀ))` (world axes) and `ė_i = V_T − V_r`: the expected wrench
     /// and the arm's own operational-space gravity fed forward. Writes `w_i`.
-    fn per_arm_pd(&mut self, g: &SpatialPdGains, des: &PoseSample) {
+    fn per_arm_pd(&mut self, g: &PdGains<6>, des: &PoseSample) {
         let (kp, kd) = (Vector6::from(g.k_p), Vector6::from(g.k_d));
         for i in 0..self.tools.len() {
             let rf = if self.adm.is_some() {

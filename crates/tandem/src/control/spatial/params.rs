@@ -1,7 +1,9 @@
 //! Parameters of the spatial cooperative controller (plain data, validated by
-//! [`SpatialController::new`](super::SpatialController::new)): the law and its gains on six
-//! outputs, the output bounds, the chart, the admittance, the internal squeeze, the posture task
-//! of redundant arms and the actuator limits.
+//! [`SpatialController::new`](super::SpatialController::new)): the law on six outputs
+//! ([`Law<6>`](crate::control::law::Law); the gains are defined once for any number of outputs
+//! in [`crate::control::law`], their spatial presets are here), the output bounds, the chart,
+//! the admittance, the internal squeeze, the posture task of redundant arms and the actuator
+//! limits.
 //!
 //! Gains are per output, linear first: `[x, y, z, rx, ry, rz]` in the output chart
 //! `x_1 = (p_WO − c, φ)` (metres and radians; SPEC-spatial S5). The presets and how they were
@@ -10,47 +12,13 @@
 //! inertia of the set-up at its start.
 
 use nalgebra::{UnitQuaternion, Vector3};
-use serde::{Deserialize, Serialize};
 
 use crate::control::Scheme;
-use crate::control::law::adaptive::{NnAxes, NnGains};
+use crate::control::law::Law;
+use crate::control::law::adaptive::NnGains;
+use crate::control::law::pd::PdGains;
 use crate::control::rbf::structured::NetworkStructure;
 use crate::reference::spatial::admittance::AdmittanceSe3Params;
-
-/// Gains of the NN law on six outputs (plain data).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SpatialNnGains {
-    /// `K1` diagonal (κ1), 1/s.
-    pub k1: [f64; 6],
-    /// `K2` diagonal, (N s/m ×3, N m s/rad ×3) in chart coordinates.
-    pub k2: [f64; 6],
-    /// `K_r` diagonal (sign term), (N ×3, N m ×3).
-    pub k_r: [f64; 6],
-    /// Adaptation gains `Θ_j`.
-    pub theta: [f64; 6],
-    /// σ-modification `σ_j`.
-    pub sigma: [f64; 6],
-    /// Robust-term smoothing `ϖ`.
-    pub varpi: f64,
-    /// Safety factor on the `f^U` constants.
-    pub fu_safety: f64,
-    /// RBF width `ϑ²`.
-    pub width2: f64,
-    /// Centre levels per input.
-    pub levels: Vec<f64>,
-    /// Switching inner radius `d1`.
-    pub d1: f64,
-    /// Switching outer radius `d2`.
-    pub d2: f64,
-    /// Switching shape `ω ≥ 1`.
-    pub omega: f64,
-    /// Network structure. The paper's full grid has `2^24` nodes on six outputs (800 MB of
-    /// weights) and is refused; the default is one grid per output over its own four signals
-    /// ([`NetworkStructure::per_axis`], `docs/network.md`).
-    #[serde(default = "NetworkStructure::per_axis")]
-    pub network: NetworkStructure,
-}
 
 /// `‖S_j(0)‖²` of the default per-axis network (two levels ±1 on four inputs, `ϑ² = 50`):
 /// `(2 e^{−2/50})⁴ = 13.63`.
@@ -58,7 +26,9 @@ fn per_axis_norm2() -> f64 {
     crate::control::rbf::structured::grid_norm2_at_zero(&[-1.0, 1.0], 50.0, 4)
 }
 
-impl SpatialNnGains {
+/// The spatial presets of the NN law on six outputs (SPEC-spatial S5, S6), designed per axis
+/// (module doc).
+impl NnGains<6> {
     /// Gains for the dual-UR5 scenario (SPEC-spatial S6), from the linearised loop per axis
     /// (module doc): `K1 = 8` (as planar `tuned`: `α̇ ≈ K1² z1(0)` stays inside `d1` from the 1 cm
     /// start), the adaptive-bias pair `𝓜_j s² + K2_j s + γ_j` at `ω_n = 20` rad/s and `ζ = 0.8`
@@ -70,7 +40,7 @@ impl SpatialNnGains {
     }
 
     /// Gains for the dual-Franka scenario (two 7-DOF arms, grasps from above), designed as
-    /// [`SpatialNnGains::dual_ur5`] on that set-up's inertia (23.9, 10.3, 11.4 kg; 0.66, 2.08,
+    /// [`NnGains::dual_ur5`] on that set-up's inertia (23.9, 10.3, 11.4 kg; 0.66, 2.08,
     /// 0.16 kg m² at the start).
     pub fn dual_franka() -> Self {
         Self::from_design([26.0, 12.0, 12.0, 0.7, 2.2, 0.2], 8.0, 20.0, 0.8)
@@ -89,7 +59,7 @@ impl SpatialNnGains {
         let s2 = per_axis_norm2();
         let sigma = 0.001 * s2
             / crate::control::rbf::structured::grid_norm2_at_zero(&[-1.0, 1.0], 50.0, 12);
-        SpatialNnGains {
+        NnGains {
             k1: [k1; 6],
             k2: std::array::from_fn(|j| 2.0 * zeta * m[j] * omega_n),
             k_r: [0.001; 6],
@@ -105,64 +75,16 @@ impl SpatialNnGains {
             network: NetworkStructure::per_axis(),
         }
     }
-
-    /// The per-output gains.
-    pub fn axes(&self) -> NnAxes<6> {
-        NnAxes {
-            k1: self.k1,
-            k2: self.k2,
-            k_r: self.k_r,
-            theta: self.theta,
-            sigma: self.sigma,
-        }
-    }
-
-    /// The shared settings as planar gains (their per-output arrays are the first three of
-    /// these; [`crate::control::law::adaptive::AdaptiveNn::with_axes`] ignores them).
-    pub fn shared(&self) -> NnGains {
-        NnGains {
-            k1: [self.k1[0], self.k1[1], self.k1[2]],
-            k2: [self.k2[0], self.k2[1], self.k2[2]],
-            k_r: [self.k_r[0], self.k_r[1], self.k_r[2]],
-            theta: [self.theta[0], self.theta[1], self.theta[2]],
-            sigma: [self.sigma[0], self.sigma[1], self.sigma[2]],
-            varpi: self.varpi,
-            fu_safety: self.fu_safety,
-            width2: self.width2,
-            levels: self.levels.clone(),
-            d1: self.d1,
-            d2: self.d2,
-            omega: self.omega,
-            network: self.network.clone(),
-        }
-    }
 }
 
-/// PD gains on six outputs (plain data). SPEC §3.5 on the chart: `τ_x = −K_P z1 − K_D ż1`,
-/// mapped to the object wrench `F = Eᵀ τ_x`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SpatialPdGains {
-    /// `K_P` diagonal, (N/m ×3, N m/rad ×3).
-    pub k_p: [f64; 6],
-    /// `K_D` diagonal, (N s/m ×3, N m s/rad ×3).
-    pub k_d: [f64; 6],
-    /// Add the model's gravity `𝓖` (object and arms, at the measured joints). Off in the
-    /// paper's baseline (SPEC §3.5: no gravity compensation), which then sags by
-    /// `𝓖/K_P` (about 2 cm under the S6 arms' and box's 110 N); on, it is the model-based PD
-    /// a practitioner would run, and on a path as slow as S6 it tracks about as well as the NN
-    /// law (`docs/spatial-control.md`).
-    #[serde(default)]
-    pub gravity_compensation: bool,
-}
-
-impl SpatialPdGains {
+/// The spatial preset of the PD law on six outputs.
+impl PdGains<6> {
     /// The paper's translational PD gains (5000 N/m, 450 N s/m) on the position axes, and the
     /// same natural frequency and damping ratio on the rotational axes at the S6 box's lever arm
     /// `ℓ = 0.2` m (`K ℓ²`): 200 N m/rad, 18 N m s/rad; no gravity compensation (SPEC §3.5).
     pub fn paper() -> Self {
         let l2 = 0.04;
-        SpatialPdGains {
+        PdGains {
             k_p: [
                 5000.0,
                 5000.0,
@@ -173,54 +95,6 @@ impl SpatialPdGains {
             ],
             k_d: [450.0, 450.0, 450.0, 450.0 * l2, 450.0 * l2, 450.0 * l2],
             gravity_compensation: false,
-        }
-    }
-}
-
-/// Computed-torque gains on six outputs: `a = ẍ_r − K_D ż1 − K_P z1` in the chart,
-/// `F = 𝓜 E⁻¹(a − Ė V) + 𝓱` with the nominal model.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SpatialCtcGains {
-    /// `K_P` diagonal, 1/s².
-    pub k_p: [f64; 6],
-    /// `K_D` diagonal, 1/s.
-    pub k_d: [f64; 6],
-    /// Relative error of every mass and inertia of the nominal model (0 = exact).
-    pub model_error: f64,
-}
-
-impl Default for SpatialCtcGains {
-    /// `ω_n = 20` rad/s, `ζ = 1` on every axis; exact model.
-    fn default() -> Self {
-        SpatialCtcGains {
-            k_p: [400.0; 6],
-            k_d: [40.0; 6],
-            model_error: 0.0,
-        }
-    }
-}
-
-/// Which law, with its gains.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
-#[allow(clippy::large_enum_variant)] // plain data, built once per run
-pub enum SpatialLaw {
-    /// iBLF backstepping + adaptive RBF network with switching on six outputs (SPEC-spatial S5).
-    Nn(SpatialNnGains),
-    /// PD on six outputs.
-    Pd(SpatialPdGains),
-    /// Computed torque with the nominal model.
-    Ctc(SpatialCtcGains),
-}
-
-impl SpatialLaw {
-    /// `nn`, `pd` or `ctc`.
-    pub fn name(&self) -> &'static str {
-        match self {
-            SpatialLaw::Nn(_) => "nn",
-            SpatialLaw::Pd(_) => "pd",
-            SpatialLaw::Ctc(_) => "ctc",
         }
     }
 }
@@ -258,7 +132,7 @@ impl Default for PostureParams {
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpatialControllerParams {
     /// The law.
-    pub law: SpatialLaw,
+    pub law: Law<6>,
     /// Object scheme (all laws) or per-arm scheme (PD).
     pub scheme: Scheme,
     /// Output bounds `k_c` on `x_1 = (p − c, φ)`, (m ×3, rad ×3); `k_c,rot < π`.
@@ -291,7 +165,7 @@ impl SpatialControllerParams {
     /// 0.29 rad) and 0.1 m, 0.29 rad on the others; the chart about the path's centre and its
     /// initial orientation; the default 6-D admittance; a 5 N squeeze; the S6 box's half-length
     /// as the metric length; 1 kHz; URDF effort limits; the S6 disturbance's bound.
-    pub fn spec_s6(law: SpatialLaw) -> Self {
+    pub fn spec_s6(law: Law<6>) -> Self {
         SpatialControllerParams {
             law,
             scheme: Scheme::Object,
