@@ -5,6 +5,24 @@
 //!
 //! The simulation itself (models, plants, control laws, the loop) is the `tandem` library crate,
 //! which has no I/O.
+//!
+//! # Architecture
+//!
+//! The same blocks for planar and spatial scenarios, side by side inside each; imports go one way
+//! (bottom to top; `.ci/run` checks there is no circle):
+//!
+//! | layer | module | planar | spatial |
+//! |---|---|---|---|
+//! | foot | [`suggest`], [`files`] (output folders that never delete what tandem did not write, atomic writes, CSV numbers) | both | both |
+//! | scenario | [`scenario`]: [`scenario::source`] (where a text comes from, what an error says, the catalogue), [`scenario::tables`] (the tables both kinds share, declared once), [`scenario::parse`] and [`scenario::load`] (**the one place** planar or spatial is decided: `enum` [`scenario::Scenario`]), [`scenario::replay`] | [`scenario::planar`] | [`scenario::spatial`] |
+//! | run | [`run`]: prepare (every validation) and execute | [`run::planar`] | [`run::spatial`] |
+//! | figures | [`figures`]: [`figures::plot`] (panels, PNG + SVG) | [`figures::planar`] | [`figures::spatial`] |
+//! | view | [`view`] | [`view::planar`] (the animation) | [`view::spatial`] (the 3-D viewer) |
+//! | output | [`output`]: what a run writes ([`output::table`]: terminal and Markdown tables) | [`output::planar`] | [`output::spatial`] |
+//! | studies | [`sweep`] (sweeps, shards, merges), [`robustness`] | both | both |
+//!
+//! `main.rs` matches on [`scenario::Scenario`] once per command; the Python package keeps the
+//! variant it parsed.
 
 pub mod figures;
 pub mod files;

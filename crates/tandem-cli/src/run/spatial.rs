@@ -1,8 +1,8 @@
-//! Spatial runs end to end (issue 9): a spatial scenario file ([`scenario`]) is loaded, built
-//! and validated ([`prepare`]), run ([`execute`]) and written ([`output`], [`figures`]):
-//! `timeseries.csv`, `summary.json`, figures on six outputs, `viewer.html` and the snapshots,
-//! into a marker-protected output folder. `tandem compare` runs several laws from one start
-//! ([`cmd_compare`]).
+//! Spatial runs (issue 9): a spatial scenario ([`crate::scenario::spatial`]) is built and
+//! validated ([`prepare`]) and run ([`execute`]) to a [`Finished`] run, which
+//! [`crate::output::spatial`] and [`crate::figures::spatial`] write: `timeseries.csv`,
+//! `summary.json`, figures on six outputs, `viewer.html` and the snapshots. `tandem compare`
+//! runs the laws of [`compare_variants`] from one start.
 
 use anyhow::{Context, Result};
 use tandem::control::spatial::chart::Chart;
@@ -29,7 +29,7 @@ pub struct Finished {
     pub path: Se3Path,
     /// Simulated duration asked for, s.
     pub duration: f64,
-    /// The law's short name, the [`super::slug`] of its label: `nn`, `pd`, `pd-gravity`, `ctc`,
+    /// The law's short name, the [`slug`] of its label: `nn`, `pd`, `pd-gravity`, `ctc`,
     /// `per-arm-pd`, `replay`.
     pub controller: String,
     /// A human label for tables and legends, e.g. `NN`.

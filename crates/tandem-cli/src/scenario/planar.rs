@@ -15,7 +15,7 @@
 //! | `[object]` | [`ObjectParams`] (from a mass, or explicit: [`ObjectConfig`]) |
 //! | `[plant]` | gravity, Baumgarte drift control |
 //! | `[path]` | [`Path`] (`kind` = circle, point_to_point, lemniscate, spline) |
-//! | `[disturbance]`, `[[disturbance.pushes]]` | [`Disturbance`], [`Push`] |
+//! | `[disturbance]`, `[[disturbance.pushes]]` | [`Disturbance`], [`tandem::model::disturbance::Push`] |
 //! | `[sensors]` | [`SensorParams`] (its seed is `run.seed`) |
 //! | `[controller]` (+ `.nn`, `.pd`, `.ctc`) | [`ControllerParams`] or a torque replay |
 //! | `[admittance]` | [`AdmittanceParams`] |
@@ -45,8 +45,8 @@ use tandem::sim::{Driver, Replay, SimParams, Simulation};
 use super::Overrides;
 use super::source::*;
 use super::tables::{
-    AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig, PdConfig,
-    PlantConfig, RunConfig, SensorsConfig,
+    AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig, PathKind,
+    PdConfig, PlantConfig, RunConfig, SensorsConfig,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -299,40 +299,8 @@ fn default_elbow() -> Elbow {
     Elbow::Positive
 }
 
-/// Shape of the desired path.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PathKind {
-    /// [`Path::circle`]: `center`, `radius`, `omega`, `phase`, `theta`.
-    Circle,
-    /// [`Path::point_to_point`]: `from`, `to`, `t0`, `duration`.
-    PointToPoint,
-    /// [`Path::lemniscate`]: `center`, `size`, `omega`, `phase`, `theta`.
-    Lemniscate,
-    /// [`Path::spline`]: `waypoints`.
-    Spline,
-}
-
-impl PathKind {
-    /// The name used in files.
-    pub fn name(self) -> &'static str {
-        match self {
-            PathKind::Circle => "circle",
-            PathKind::PointToPoint => "point_to_point",
-            PathKind::Lemniscate => "lemniscate",
-            PathKind::Spline => "spline",
-        }
-    }
-    /// Fields this kind uses (required ones first), for error messages.
-    fn fields(self) -> (&'static [&'static str], &'static [&'static str]) {
-        match self {
-            PathKind::Circle => (&["center", "radius", "omega"], &["phase", "theta"]),
-            PathKind::PointToPoint => (&["from", "to", "duration"], &["t0"]),
-            PathKind::Lemniscate => (&["center", "size", "omega"], &["phase", "theta"]),
-            PathKind::Spline => (&["waypoints"], &[]),
-        }
-    }
-}
+/// The planar path table: centres `[x, y]`, poses `[x, y, θ]`, [`Waypoint`]s.
+pub type PathConfig = super::tables::PathConfig<[f64; 2], [f64; 3], Waypoint>;
 
 /// One spline waypoint.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -342,47 +310,6 @@ pub struct Waypoint {
     pub t: f64,
     /// Pose (x, y, θ), (m, m, rad).
     pub pose: [f64; 3],
-}
-
-/// The desired path: `kind` plus the fields that kind uses (the others must be absent).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PathConfig {
-    /// Shape.
-    pub kind: PathKind,
-    /// Centre (circle, lemniscate), m.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub center: Option<[f64; 2]>,
-    /// Radius (circle), m.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub radius: Option<f64>,
-    /// Half-width (lemniscate), m.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub size: Option<f64>,
-    /// Angular rate (circle, lemniscate), rad/s.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub omega: Option<f64>,
-    /// Phase at t = 0 (circle, lemniscate), rad; default 0.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub phase: Option<f64>,
-    /// Constant orientation (circle, lemniscate), rad; default 0.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub theta: Option<f64>,
-    /// Start pose (point_to_point), (m, m, rad).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub from: Option<[f64; 3]>,
-    /// End pose (point_to_point), (m, m, rad).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub to: Option<[f64; 3]>,
-    /// Start time of the motion (point_to_point), s; default 0.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub t0: Option<f64>,
-    /// Duration of the motion (point_to_point), s.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub duration: Option<f64>,
-    /// Timed waypoints (spline).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub waypoints: Option<Vec<Waypoint>>,
 }
 
 /// Gain preset of the NN law.
@@ -1094,52 +1021,7 @@ fn c_admittance(a: &AdmittanceConfig<2>) -> Option<AdmittanceParams> {
 
 fn build_path(p: &PathConfig, src: &Source) -> Result<Path, ScenarioError> {
     let kind = p.kind;
-    let (required, optional) = kind.fields();
-    let present: Vec<(&str, bool)> = vec![
-        ("center", p.center.is_some()),
-        ("radius", p.radius.is_some()),
-        ("size", p.size.is_some()),
-        ("omega", p.omega.is_some()),
-        ("phase", p.phase.is_some()),
-        ("theta", p.theta.is_some()),
-        ("from", p.from.is_some()),
-        ("to", p.to.is_some()),
-        ("t0", p.t0.is_some()),
-        ("duration", p.duration.is_some()),
-        ("waypoints", p.waypoints.is_some()),
-    ];
-    for (name, set) in &present {
-        let used = required.contains(name) || optional.contains(name);
-        if *set && !used {
-            return Err(src.error_at(
-                &format!("path.{name}"),
-                format!(
-                    "path.{name} is not used by kind = \"{}\" (it takes {})",
-                    kind.name(),
-                    required
-                        .iter()
-                        .chain(optional.iter())
-                        .map(|f| format!("`{f}`"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            ));
-        }
-        if !*set && required.contains(name) {
-            return Err(src.error_at(
-                "path",
-                format!(
-                    "missing field `{name}` in path: kind = \"{}\" needs {}",
-                    kind.name(),
-                    required
-                        .iter()
-                        .map(|f| format!("`{f}`"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            ));
-        }
-    }
+    p.check_fields(super::Kind::Planar, src)?;
     let v2 = |a: [f64; 2]| Vector2::new(a[0], a[1]);
     let v3 = Vector3::from;
     let r = match kind {

@@ -51,8 +51,8 @@ use tandem::sim::{Formulation, Outcome, Replay, SimParams, Simulation, SpatialSt
 use super::planar::{control_warning, load_replay};
 use super::source::{MAX_ARMS, MAX_LINKS, ScenarioError, Source, num, read_limited};
 use super::tables::{
-    AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig, PdConfig,
-    PlantConfig, RunConfig, SensorsConfig,
+    AdmittanceConfig, AxisFrameConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig,
+    Orientation, PathKind, PdConfig, PlantConfig, RunConfig, SensorsConfig,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -176,21 +176,6 @@ pub struct Placement {
     pub axes: Option<[[f64; 3]; 3]>,
 }
 
-/// An orientation: at most one of the forms (none = identity).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Orientation {
-    /// Roll, pitch, yaw (URDF convention), rad.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub rpy: Option<[f64; 3]>,
-    /// Unit quaternion `[w, x, y, z]`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub quaternion: Option<[f64; 4]>,
-    /// The frame's x, y and z axes as columns.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub axes: Option<[[f64; 3]; 3]>,
-}
-
 /// The object: a box (drawn, and its inertia unless `inertia` is given).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -208,86 +193,8 @@ pub struct ObjectConfig {
     pub damping: [f64; 6],
 }
 
-/// Which desired path.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PathKind {
-    /// A circle at constant rate plus an orientation oscillation about a fixed axis.
-    Circle,
-    /// Rest to rest from `from` to `to` (quintic time law; geodesic in orientation).
-    PointToPoint,
-    /// A clamped cubic spline through timed poses.
-    Spline,
-}
-
-/// The desired path; fields by `kind`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PathConfig {
-    /// `circle`, `point_to_point` or `spline`.
-    pub kind: PathKind,
-    /// Circle centre, m.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub center: Option<[f64; 3]>,
-    /// Circle radius, m.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub radius: Option<f64>,
-    /// Rate along the circle, rad/s.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub omega: Option<f64>,
-    /// Circle phase at t = 0, rad (default 0).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub phase: Option<f64>,
-    /// First in-plane axis (default world x).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub plane_x: Option<[f64; 3]>,
-    /// Second in-plane axis (default world y).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub plane_y: Option<[f64; 3]>,
-    /// Orientation about which the object oscillates (default identity).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub r0: Option<Orientation>,
-    /// Oscillation axis (default y).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub axis: Option<[f64; 3]>,
-    /// `world` (default) or `body`: the axes `axis` is given in.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub axis_frame: Option<AxisFrameConfig>,
-    /// Oscillation amplitude, rad (default 0).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub amplitude: Option<f64>,
-    /// Oscillation rate, rad/s (default `omega`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub omega_rot: Option<f64>,
-    /// Oscillation phase, rad (default 0).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub phase_rot: Option<f64>,
-    /// Start pose (point_to_point).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub from: Option<Placement>,
-    /// End pose (point_to_point).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub to: Option<Placement>,
-    /// Start time of the move (point_to_point), s (default 0).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub t0: Option<f64>,
-    /// Duration of the move (point_to_point), s.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub duration: Option<f64>,
-    /// Timed poses (spline).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub waypoints: Option<Vec<WaypointConfig>>,
-}
-
-/// `world` or `body`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum AxisFrameConfig {
-    /// The axis is fixed in the world.
-    World,
-    /// The axis is fixed in the object (in `r0`'s axes).
-    Body,
-}
+/// The spatial path table: centres `[x, y, z]`, poses [`Placement`]s, [`WaypointConfig`]s.
+pub type PathConfig = super::tables::PathConfig<[f64; 3], Placement, WaypointConfig>;
 
 /// A timed pose of a spline.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -1281,7 +1188,12 @@ fn need<T: Copy>(src: &Source, v: Option<T>, field: &str, kind: &str) -> Result<
 
 fn build_path(p: &PathConfig, src: &Source) -> Result<Se3Path, ScenarioError> {
     let lib = |e: ModelError| src.model_error(e, |s| s.to_string());
+    p.check_fields(super::Kind::Spatial, src)?;
     match p.kind {
+        PathKind::Lemniscate => Err(src.error_at(
+            "path.kind",
+            "path.kind = \"lemniscate\" is a planar path (spatial: circle, point_to_point, spline)",
+        )),
         PathKind::Circle => {
             let omega = need(src, p.omega, "omega", "circle")?;
             let d = CircleParams::spec_s6();

@@ -551,3 +551,244 @@ impl RunConfig {
         self.formulation.unwrap_or_default()
     }
 }
+
+/// Which desired path (the shapes of both kinds; [`PathKind::fields`] says which a kind has).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PathKind {
+    /// A circle at constant rate: planar `center`, `radius`, `omega`, `phase`, `theta`
+    /// ([`tandem::reference::planar::path::Path::circle`]); spatial also an orientation
+    /// oscillation about a fixed axis (`plane_x`, `plane_y`, `r0`, `axis`, `axis_frame`,
+    /// `amplitude`, `omega_rot`, `phase_rot`; [`tandem::reference::spatial::path::Se3Path::circle`]).
+    Circle,
+    /// Rest to rest from `from` to `to` (quintic time law; geodesic in orientation): `from`,
+    /// `to`, `duration`, `t0`.
+    PointToPoint,
+    /// A figure eight (Gerono lemniscate, planar only): `center`, `size`, `omega`, `phase`,
+    /// `theta`.
+    Lemniscate,
+    /// A clamped cubic spline through timed poses: `waypoints`.
+    Spline,
+}
+
+impl PathKind {
+    /// The name used in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            PathKind::Circle => "circle",
+            PathKind::PointToPoint => "point_to_point",
+            PathKind::Lemniscate => "lemniscate",
+            PathKind::Spline => "spline",
+        }
+    }
+
+    /// The fields this kind of path uses on a `space` scenario: (required, optional); `None`
+    /// for a shape that kind of scenario does not have.
+    pub fn fields(
+        self,
+        space: crate::scenario::Kind,
+    ) -> Option<(&'static [&'static str], &'static [&'static str])> {
+        use crate::scenario::Kind;
+        Some(match (self, space) {
+            (PathKind::Circle, Kind::Planar) => {
+                (&["center", "radius", "omega"], &["phase", "theta"])
+            }
+            (PathKind::Circle, Kind::Spatial) => (
+                &["center", "radius", "omega"],
+                &[
+                    "phase",
+                    "plane_x",
+                    "plane_y",
+                    "r0",
+                    "axis",
+                    "axis_frame",
+                    "amplitude",
+                    "omega_rot",
+                    "phase_rot",
+                ],
+            ),
+            (PathKind::PointToPoint, _) => (&["from", "to", "duration"], &["t0"]),
+            (PathKind::Lemniscate, Kind::Planar) => {
+                (&["center", "size", "omega"], &["phase", "theta"])
+            }
+            (PathKind::Lemniscate, Kind::Spatial) => return None,
+            (PathKind::Spline, _) => (&["waypoints"], &[]),
+        })
+    }
+}
+
+/// `world` or `body`: the axes a spatial path's oscillation `axis` is given in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AxisFrameConfig {
+    /// The axis is fixed in the world.
+    World,
+    /// The axis is fixed in the object (in `r0`'s axes).
+    Body,
+}
+
+/// An orientation: at most one of the forms (none = identity).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Orientation {
+    /// Roll, pitch, yaw (URDF convention), rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rpy: Option<[f64; 3]>,
+    /// Unit quaternion `[w, x, y, z]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quaternion: Option<[f64; 4]>,
+    /// The frame's x, y and z axes as columns.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axes: Option<[[f64; 3]; 3]>,
+}
+
+/// The desired object path: `kind` plus the fields that kind uses on this kind of scenario (the
+/// others must be absent: [`PathConfig::check_fields`]). A planar table has points `Pt = [x, y]`,
+/// poses `Pose = [x, y, θ]` and waypoints `{ t, pose }`; a spatial one `[x, y, z]`, placements
+/// and waypoints `{ t, position, orientation }`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    bound(
+        serialize = "Pt: Serialize, Pose: Serialize, Wp: Serialize",
+        deserialize = "Pt: Deserialize<'de>, Pose: Deserialize<'de>, Wp: Deserialize<'de>"
+    )
+)]
+pub struct PathConfig<Pt, Pose, Wp> {
+    /// The shape.
+    pub kind: PathKind,
+    /// Centre (circle, lemniscate), m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub center: Option<Pt>,
+    /// Radius (circle), m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    /// Half-width (lemniscate), m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<f64>,
+    /// Angular rate along the path (circle, lemniscate), rad/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub omega: Option<f64>,
+    /// Phase at t = 0 (circle, lemniscate), rad; default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase: Option<f64>,
+    /// Constant orientation (planar circle, lemniscate), rad; default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub theta: Option<f64>,
+    /// First in-plane axis (spatial circle; default world x).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plane_x: Option<[f64; 3]>,
+    /// Second in-plane axis (spatial circle; default world y).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plane_y: Option<[f64; 3]>,
+    /// Orientation about which the object oscillates (spatial circle; default identity).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub r0: Option<Orientation>,
+    /// Oscillation axis (spatial circle; default y).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f64; 3]>,
+    /// `world` (default) or `body`: the axes `axis` is given in (spatial circle).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis_frame: Option<AxisFrameConfig>,
+    /// Oscillation amplitude (spatial circle), rad (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub amplitude: Option<f64>,
+    /// Oscillation rate (spatial circle), rad/s (default `omega`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub omega_rot: Option<f64>,
+    /// Oscillation phase (spatial circle), rad (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase_rot: Option<f64>,
+    /// Start pose (point_to_point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from: Option<Pose>,
+    /// End pose (point_to_point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to: Option<Pose>,
+    /// Start time of the motion (point_to_point), s; default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t0: Option<f64>,
+    /// Duration of the motion (point_to_point), s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub duration: Option<f64>,
+    /// Timed waypoints (spline).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub waypoints: Option<Vec<Wp>>,
+}
+
+impl<Pt, Pose, Wp> PathConfig<Pt, Pose, Wp> {
+    /// The fields `kind` needs are present and no other is: errors name the field (`path.omega
+    /// is missing`, then `path.size is not used by kind = "circle"`) with its line.
+    pub fn check_fields(
+        &self,
+        space: crate::scenario::Kind,
+        src: &crate::scenario::Source,
+    ) -> Result<(), crate::scenario::ScenarioError> {
+        let kind = self.kind;
+        let Some((required, optional)) = kind.fields(space) else {
+            return Err(src.error_at(
+                "path.kind",
+                format!(
+                    "path.kind = \"{}\" is not a {} path",
+                    kind.name(),
+                    space.name()
+                ),
+            ));
+        };
+        let present: [(&str, bool); 19] = [
+            ("center", self.center.is_some()),
+            ("radius", self.radius.is_some()),
+            ("size", self.size.is_some()),
+            ("omega", self.omega.is_some()),
+            ("phase", self.phase.is_some()),
+            ("theta", self.theta.is_some()),
+            ("plane_x", self.plane_x.is_some()),
+            ("plane_y", self.plane_y.is_some()),
+            ("r0", self.r0.is_some()),
+            ("axis", self.axis.is_some()),
+            ("axis_frame", self.axis_frame.is_some()),
+            ("amplitude", self.amplitude.is_some()),
+            ("omega_rot", self.omega_rot.is_some()),
+            ("phase_rot", self.phase_rot.is_some()),
+            ("from", self.from.is_some()),
+            ("to", self.to.is_some()),
+            ("t0", self.t0.is_some()),
+            ("duration", self.duration.is_some()),
+            ("waypoints", self.waypoints.is_some()),
+        ];
+        let list = |f: &[&str]| {
+            f.iter()
+                .map(|f| format!("`{f}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        // What the kind needs first (a user who changed `kind` learns what to add), then
+        // what it does not use.
+        for (name, set) in present {
+            if !set && required.contains(&name) {
+                return Err(src.error_at(
+                    "path",
+                    format!(
+                        "path.{name} is missing: kind = \"{}\" needs {}",
+                        kind.name(),
+                        list(required)
+                    ),
+                ));
+            }
+        }
+        for (name, set) in present {
+            if set && !(required.contains(&name) || optional.contains(&name)) {
+                let all: Vec<&str> = required.iter().chain(optional.iter()).copied().collect();
+                return Err(src.error_at(
+                    &format!("path.{name}"),
+                    format!(
+                        "path.{name} is not used by kind = \"{}\" (it takes {})",
+                        kind.name(),
+                        list(&all)
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,5 +1,5 @@
 //! What a spatial run writes (issue 9): `timeseries.csv`, `summary.json`, the figures
-//! ([`super::figures`]), `viewer.html` and the snapshots, the terminal table, and the files of a
+//! ([`crate::figures::spatial`]), `viewer.html` and the snapshots, the terminal table, and the files of a
 //! comparison ([`write_compare`]).
 //!
 //! Everything here reads a [`Finished`] run only: the preset or scenario it came from and the law
