@@ -6,6 +6,7 @@
 //! The simulation itself (models, plants, control laws, the loop) is the `tandem` library crate,
 //! which has no I/O.
 
+pub mod export;
 pub mod figures;
 pub mod files;
 pub mod output;
