@@ -151,7 +151,7 @@ pub fn write(s: &Setup) -> String {
             "duration": s.duration,
         },
         "loop": {
-            "order": "start(t = 0, first readings) then, every control period, tick(t, readings) -> joint torques, held over the period (zero-order hold) while the plant steps",
+            "order": "start(0, the readings at rest with zero torque) once; then tick(t_k, readings) -> joint torques at t_k = k * control_period from k = 0 (the first tick on the same first frame); each tick's torques are held (zero-order hold) while the plant steps to t_(k+1)",
             "readings": "each reading is taken with the previous tick's torque held (the first with the zero torque of the start)",
             "joint_sensors": "q [rad or m], qd [rad/s or m/s], joint order as above",
             "wrist_wrench": "per arm [f; tau] (N, N m): the object's wrench on the tool, about the tool origin, in tool axes",
