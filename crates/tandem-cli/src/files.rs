@@ -193,6 +193,65 @@ pub fn check_replaceable(dir: &Path, inputs: &[Input]) -> Result<()> {
     }
 }
 
+/// How many bytes at a file's start [`check_file_replaceable`] reads for the writer's mark.
+pub const MARK_WINDOW: usize = 1024;
+
+/// The one decision of what `--force` may replace for a command that writes one file
+/// (`tandem export --out FILE`): an existing `file` is replaced only when it is a regular file
+/// (not a folder, not a symbolic link), is none of the work's `inputs`, and holds one of
+/// `marks` (the text that tandem writes near the start of such a file) in its first
+/// [`MARK_WINDOW`] bytes. A refusal ([`Refused`]) says why and that nothing was written. A
+/// missing `file` is fine.
+pub fn check_file_replaceable(file: &Path, inputs: &[Input], marks: &[&str]) -> Result<()> {
+    let refuse = |why: String| -> Result<()> {
+        Err(anyhow!(Refused(format!(
+            "--force does not replace {}: {why} (nothing was written)",
+            file.display()
+        ))))
+    };
+    let meta = match fs::symlink_metadata(file) {
+        Ok(m) => m,
+        Err(_) => return Ok(()),
+    };
+    let forms = input_forms(file);
+    if let Some(i) = inputs
+        .iter()
+        .find(|i| input_forms(&i.path).iter().any(|f| forms.contains(f)))
+    {
+        return refuse(format!(
+            "it is the input {} ({}) itself",
+            i.path.display(),
+            i.what
+        ));
+    }
+    if meta.file_type().is_symlink() {
+        return refuse("it is a symbolic link, not a file tandem wrote".into());
+    }
+    if meta.is_dir() {
+        return refuse("it is a folder; --out names the file to write".into());
+    }
+    if !meta.is_file() {
+        return refuse("it is not a regular file".into());
+    }
+    let head = {
+        use std::io::Read;
+        let mut buf = Vec::new();
+        fs::File::open(file)
+            .and_then(|f| f.take(MARK_WINDOW as u64).read_to_end(&mut buf))
+            .map(|_| String::from_utf8_lossy(&buf).into_owned())
+            .unwrap_or_default()
+    };
+    if marks.iter().any(|m| head.contains(m)) {
+        Ok(())
+    } else {
+        refuse(
+            "it does not carry tandem's mark near its start, so tandem did not write it \
+             (delete it yourself, or choose another file)"
+                .into(),
+        )
+    }
+}
+
 /// Whether process `pid` is alive (on a system without `/proc`, every process is taken to
 /// be alive: then nothing is ever cleaned up).
 fn pid_alive(pid: u32) -> bool {

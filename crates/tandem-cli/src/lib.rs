@@ -24,6 +24,7 @@
 //! `main.rs` matches on [`scenario::Scenario`] once per command; the Python package keeps the
 //! variant it parsed.
 
+pub mod export;
 pub mod figures;
 pub mod files;
 pub mod output;

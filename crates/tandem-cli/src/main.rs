@@ -96,6 +96,16 @@ enum Command {
     Sweep(SweepArgs),
     /// Join the folders of a sharded sweep into one (runs.csv identical to an unsharded run).
     Merge(MergeArgs),
+    /// Write a spatial scenario's set-up for another simulator: a MuJoCo model (MJCF) or JSON.
+    ///
+    /// The scenario is built and validated as `tandem run` builds it, and its start solved (the
+    /// arms' joints on the start pose); the file describes that set-up: the arms' bodies,
+    /// joints and inertias from tandem's parse of the URDFs, the bases, the box, the grasps
+    /// (MJCF: weld equalities held to ~1e-9 m), the start pose with the torques that hold it,
+    /// and sites `arm0_tool`, `arm0_grasp`, ... for the tool and grasp frames. JSON adds the
+    /// URDF text, the sensor and loop conventions and the time steps, for Drake, Pinocchio,
+    /// Isaac or your own code. Without --out the text goes to standard output.
+    Export(ExportArgs),
     /// The embedded scenarios.
     Scenario {
         #[command(subcommand)]
@@ -222,6 +232,23 @@ struct MergeArgs {
 }
 
 #[derive(Args)]
+struct ExportArgs {
+    /// Scenario file or embedded scenario name (spatial: e.g. `dual-ur5`, `dual-franka`).
+    scenario: String,
+    /// mjcf (a MuJoCo model) or json [default: the one --out's extension names (.xml, .mjcf,
+    /// .json), else mjcf].
+    #[arg(long, value_enum)]
+    format: Option<tandem_cli::export::Format>,
+    /// The file to write (atomically) [default: standard output; `-` is standard output too].
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+    /// Replace --out if it exists and tandem export wrote it (never another file, nor an
+    /// input of the scenario).
+    #[arg(long)]
+    force: bool,
+}
+
+#[derive(Args)]
 struct CompareArgs {
     /// Scenario file or embedded scenario name [default: paper].
     scenario: Option<String>,
@@ -280,6 +307,7 @@ fn main() -> ExitCode {
         Command::Sweep(a) => cmd_sweep(a),
         Command::Merge(a) => cmd_merge(a),
         Command::Scenario { command } => cmd_scenario(command),
+        Command::Export(a) => cmd_export(a),
     };
     match result {
         Ok(code) => code,
@@ -1034,6 +1062,87 @@ fn cmd_validate(arg: &str) -> Result<ExitCode> {
         rows
     );
     print_warnings(&label, &p.ready.warnings);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_export(a: ExportArgs) -> Result<ExitCode> {
+    use std::io::Write;
+    use tandem_cli::export::{self, Format};
+    let out = a.out.filter(|p| p.as_os_str() != "-");
+    let format = Format::resolve(a.format, out.as_deref())?;
+    let (src, sc) = scenario::load(Some(&a.scenario), &Overrides::default())?;
+    let Scenario::Spatial(spatial_sc) = &sc else {
+        return Err(export::planar_refusal(&src, format).into());
+    };
+    // The output is checked before any work, and again just before it is written.
+    let protected = scenario::inputs(&src, spatial_sc);
+    let check = |p: &Path| -> Result<()> {
+        if std::fs::symlink_metadata(p).is_ok_and(|m| m.is_dir()) {
+            return Err(BadInput::msg(format!(
+                "--out {}: is a folder; give the file to write (e.g. {})",
+                p.display(),
+                p.join(format!(
+                    "{}.{}",
+                    src.name,
+                    if format == Format::Json {
+                        "json"
+                    } else {
+                        "xml"
+                    }
+                ))
+                .display()
+            ))
+            .into());
+        }
+        if std::fs::symlink_metadata(p).is_err() {
+            return Ok(());
+        }
+        if a.force {
+            return output::check_file_replaceable(p, &protected, export::WRITTEN_MARKS);
+        }
+        let mut cmd = vec!["tandem".to_string()];
+        cmd.extend(std::env::args().skip(1).map(|a| shell_quote(&a)));
+        cmd.push("--force".into());
+        Err(BadInput::msg(format!(
+            "{} exists (nothing was written). To overwrite it, run:\n    {}\nor choose another file with --out FILE",
+            p.display(),
+            cmd.join(" ")
+        ))
+        .into())
+    };
+    if let Some(p) = &out {
+        check(p)?;
+    }
+    let setup = export::setup(sc, &src, format)?;
+    print_warnings(&setup.name, &setup.warnings);
+    let text = export::render(&setup, format)?;
+    match &out {
+        None => {
+            let mut so = std::io::stdout().lock();
+            so.write_all(text.as_bytes())?;
+            so.flush()?;
+        }
+        Some(p) => {
+            check(p)?;
+            if let Some(parent) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(parent).map_err(|e| {
+                    anyhow::anyhow!(
+                        "cannot create the folder {} for --out: {e}",
+                        parent.display()
+                    )
+                })?;
+            }
+            output::write_text_atomic(p, &text)?;
+            eprintln!(
+                "{}: {} ({} arms, {} joints) written to {}",
+                setup.name,
+                format.name(),
+                setup.arms.len(),
+                setup.n_q(),
+                p.display()
+            );
+        }
+    }
     Ok(ExitCode::SUCCESS)
 }
 

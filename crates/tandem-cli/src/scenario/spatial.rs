@@ -110,19 +110,22 @@ pub enum RobotModel {
 }
 
 impl RobotModel {
-    fn text(self) -> &'static str {
+    /// The embedded URDF text.
+    pub fn text(self) -> &'static str {
         match self {
             RobotModel::Ur5 => urdf::UR5_URDF,
             RobotModel::Franka => urdf::FRANKA_URDF,
         }
     }
-    fn base(self) -> &'static str {
+    /// The embedded model's base link.
+    pub fn base(self) -> &'static str {
         match self {
             RobotModel::Ur5 => urdf::UR5_BASE,
             RobotModel::Franka => urdf::FRANKA_BASE,
         }
     }
-    fn tool(self) -> &'static str {
+    /// The embedded model's tool link.
+    pub fn tool(self) -> &'static str {
         match self {
             RobotModel::Ur5 => urdf::UR5_TOOL,
             RobotModel::Franka => urdf::FRANKA_TOOL,
@@ -1119,7 +1122,8 @@ fn num_short(v: f64) -> String {
     }
 }
 
-fn serde_name(m: &RobotModel) -> &'static str {
+/// The name a scenario file gives an embedded model (`ur5`, `franka`).
+pub fn serde_name(m: &RobotModel) -> &'static str {
     match m {
         RobotModel::Ur5 => "ur5",
         RobotModel::Franka => "franka",
@@ -1295,6 +1299,15 @@ impl SpatialSim {
         match self {
             SpatialSim::Control(s) => s.run(progress).0,
             SpatialSim::Replay(s) => s.run(progress).0,
+        }
+    }
+
+    /// The plant and its flat state (at the start until [`SpatialSim::run`]: the arms' joints
+    /// solved on the start pose, at rest).
+    pub fn plant_state(&self) -> (&SpatialPlant, &[f64]) {
+        match self {
+            SpatialSim::Control(s) => (s.plant(), s.state()),
+            SpatialSim::Replay(s) => (s.plant(), s.state()),
         }
     }
 }
