@@ -1,5 +1,5 @@
 // tandem 3-D viewer: plain WebGL 1, no library, no network. Reads the scene JSON embedded in
-// the page (see crates/tandem-cli/src/viewer/mod.rs for the format) and plays it.
+// the page (see crates/tandem-cli/src/view/spatial/mod.rs for the format) and plays it.
 // World frame: z up, metres. Test hooks: window.tandemViewer = { seek, play, pause, frames, ready }.
 (function () {
   'use strict';
