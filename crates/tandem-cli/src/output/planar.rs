@@ -63,6 +63,10 @@ pub fn summary_json(f: &Finished, scenario: &str, output_time: Option<f64>) -> V
         }
         head.extend(m);
     }
+    head.insert(
+        "torque_rate".into(),
+        super::torque_rate_json(&f.summary.torque_rate),
+    );
     let mut reasons = serde_json::Map::new();
     for (k, why) in gaps {
         reasons.insert(k.into(), json!(why));

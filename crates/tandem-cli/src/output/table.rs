@@ -129,6 +129,14 @@ pub fn rows(runs: &[(&str, &Summary)]) -> Vec<(String, Vec<String>)> {
             num(s.peak_joint_torque, 3)
         )
     });
+    let tr = |s: &Summary| {
+        crate::output::torque_rate_rows(&crate::output::torque_rate_json(&s.torque_rate))
+    };
+    if let Some((_, first)) = runs.first() {
+        let [(peak, _), (chatter, _)] = tr(first);
+        row(&peak, &|s| tr(s)[0].1.clone());
+        row(&chatter, &|s| tr(s)[1].1.clone());
+    }
     row("grasp force range", &|s| {
         format!(
             "{} … {} N",

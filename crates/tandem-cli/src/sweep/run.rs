@@ -51,6 +51,11 @@ pub const METRICS: &[(&str, &str)] = &[
     ("degenerate", "/events/degenerate"),
     ("max_drift", "/max_drift"),
     ("regularised", "/regularised"),
+    ("rms_path_error_after", "/rms_path_error_after"),
+    ("max_path_error_after", "/max_path_error_after"),
+    ("max_path_error_theta_after", "/max_path_error_theta_after"),
+    ("peak_torque_rate_Nm_per_s", "/torque_rate/peak_Nm_per_s"),
+    ("chatter_ticks", "/torque_rate/chatter_ticks"),
 ];
 
 /// A spatial metric column's value in the spatial `summary.json`.
@@ -147,6 +152,23 @@ pub const SPATIAL_METRICS: &[(&str, Pick)] = &[
     ("max_drift_m", Pick::At("/max_drift_m")),
     ("max_drift_rad", Pick::At("/max_drift_rad")),
     ("regularised", Pick::At("/regularised")),
+    (
+        "path_error_p_rms_after_2s_m",
+        Pick::At("/path_error_p_rms_after_2s_m"),
+    ),
+    (
+        "path_error_p_max_after_2s_m",
+        Pick::At("/path_error_p_max_after_2s_m"),
+    ),
+    (
+        "path_error_rot_max_after_2s_rad",
+        Pick::At("/path_error_rot_max_after_2s_rad"),
+    ),
+    (
+        "peak_torque_rate_Nm_per_s",
+        Pick::At("/torque_rate/peak_Nm_per_s"),
+    ),
+    ("chatter_ticks", Pick::At("/torque_rate/chatter_ticks")),
 ];
 
 /// A spatial metric's cell.

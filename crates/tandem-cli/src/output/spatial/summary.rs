@@ -90,6 +90,10 @@ pub fn summary_json(
         }),
     );
     s.put("violation_ticks", json!(r.violations));
+    s.put(
+        "torque_rate",
+        crate::output::torque_rate_json(&r.torque_rate),
+    );
     s.put("regularised", json!(o.regularised));
     s.num(
         "min_margin",

@@ -163,6 +163,12 @@ pub fn rows(runs: &[(&str, &Value)]) -> Vec<(String, Vec<String>)> {
             format!("{} / {last}", num(f(&s["q_switch_min"]), 3))
         });
     }
+    let tr = |s: &Value| crate::output::torque_rate_rows(&s["torque_rate"]);
+    if let Some((_, first)) = runs.first() {
+        let [(peak, _), (chatter, _)] = tr(first);
+        row(&peak, &|s| tr(s)[0].1.clone());
+        row(&chatter, &|s| tr(s)[1].1.clone());
+    }
     row("barrier hits / torque clips (ticks)", &|s| {
         format!(
             "{} / {}",
