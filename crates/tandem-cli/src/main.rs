@@ -202,7 +202,7 @@ struct SweepArgs {
     threads: Option<usize>,
     /// Run only the runs with index % N == I (I from 0). Without it, SLURM_ARRAY_TASK_ID and
     /// SLURM_ARRAY_TASK_COUNT are used when set.
-    #[arg(long, value_name = "I/N")]
+    #[arg(long, value_name = "I/N", allow_hyphen_values = true)]
     shard: Option<String>,
     /// Also write every run's outputs (time series, summary, scenario) to DIR/runs/<index>/.
     #[arg(long)]

@@ -854,7 +854,7 @@ fn slip_section<'a>(md: &mut String, find: &FindSlip<'a>, halved: Option<&Cell>)
     let info = |lv: Option<usize>, law: usize| find(lv, law).and_then(|c| c.slip.clone());
     md.push_str(&format!(
         "## Grasp slip (spatial S6, dual UR5: compliant true grasps, stiffness N/m / N m/rad)\n\n\
-         The SPEC-spatial S6 closed loop (`fixtures::spatial_s6_simulation_with`: the S6 circle \
+         The SPEC-spatial S6 closed loop (`presets::spatial_s6_simulation_with`: the S6 circle \
          with its pitch oscillation, the S6 disturbance, a start 1 cm inside the circle, 1 kHz \
          control, the default 6-D admittance) with a controller that assumes welded grasps, on \
          a true plant whose grasps are 6-D spring–dampers (`plant::spatial::GraspModel::\

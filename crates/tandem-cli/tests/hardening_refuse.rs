@@ -119,3 +119,58 @@ fn an_object_no_arm_can_carry_is_refused_by_its_field_and_line() {
     }
     let _ = fs::remove_dir_all(&d);
 }
+
+/// Say the right field (issue 22): a spatial file whose arms were emptied is still read as
+/// spatial (its box has three edges) and blames `arms`, not a planar field; the library's grasp
+/// model is the file's `plant.compliant_grasps`, with its line; a negative shard index gets the
+/// sweep's own message, not clap's `-- -1` hint.
+#[test]
+fn the_right_field_is_named() {
+    let d = scratch("refuse_right_field");
+    let text = stdout(&tandem(&d, &["scenario", "show", "dual-ur5"]));
+    let start = text.find("[[arms]]").unwrap();
+    let end = text.find("\n[object]").unwrap();
+    fs::write(
+        d.join("empty.toml"),
+        format!("{}arms = []\n{}", &text[..start], &text[end..]),
+    )
+    .unwrap();
+    let o = tandem(&d, &["validate", "empty.toml"]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(e.contains("arms: give at least one arm"), "{e}");
+    assert!(!e.contains("admittance"), "{e}");
+
+    fs::write(
+        d.join("soft.toml"),
+        text.replacen(
+            "[plant]",
+            "[plant]\ncompliant_grasps = { stiffness = [-1.0, 1e5, 1e5, 1e3, 1e3, 1e3], damping = [10.0, 10.0, 10.0, 1.0, 1.0, 1.0] }",
+            1,
+        ),
+    )
+    .unwrap();
+    let o = tandem(&d, &["validate", "soft.toml"]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(
+        e.contains("plant.compliant_grasps.stiffness[0] = -1: must be finite and > 0"),
+        "{e}"
+    );
+    assert!(e.contains("(line "), "{e}");
+    assert!(!e.contains("not set in the file"), "{e}");
+
+    fs::write(
+        d.join("s.toml"),
+        "base = \"paper\"\n[vary]\n\"run.seed\" = { grid = [1, 2] }\n",
+    )
+    .unwrap();
+    let o = tandem(&d, &["sweep", "s.toml", "--shard", "-1/4"]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(
+        e.contains("--shard -1/4: I must be a whole number from 0 to N − 1"),
+        "{e}"
+    );
+    let _ = fs::remove_dir_all(&d);
+}

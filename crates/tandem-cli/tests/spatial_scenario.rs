@@ -53,7 +53,7 @@ fn presets_are_the_library_s6_setups_exactly() {
         let (sc, b) = built(name);
         assert_eq!(tandem_cli::scenario::kind_of(&preset(name)), Kind::Spatial);
         // Plant: arms (chains, base placements), grasp frames, object, gravity, Baumgarte — bit
-        // for bit (the files write the same numbers the fixtures compute).
+        // for bit (the files write the same numbers the presets compute).
         assert_eq!(b.plant, setup.params, "{name}: plant");
         assert_eq!(b.start.q_guess, setup.q_guess, "{name}: IK guess");
         assert_eq!(b.path, Se3Path::spec_s6(), "{name}: path");

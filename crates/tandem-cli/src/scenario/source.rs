@@ -27,18 +27,31 @@ pub enum Kind {
 
 impl Kind {
     /// The kind of a parsed scenario document: spatial when an arm names a robot model (`model`
-    /// or `urdf`), planar otherwise (its own parser then names what is missing).
+    /// or `urdf`), or when no arm says (no `model`, `urdf` or `links`) and the object is a box
+    /// with three edge lengths; planar otherwise (its own parser then names what is missing).
     pub fn of(doc: &toml::Table) -> Kind {
-        let spatial = doc
-            .get("arms")
+        let arms = doc.get("arms").and_then(toml::Value::as_array);
+        let has = |key: &str| {
+            arms.is_some_and(|arms| {
+                arms.iter()
+                    .any(|a| a.as_table().is_some_and(|t| t.contains_key(key)))
+            })
+        };
+        if has("model") || has("urdf") {
+            return Kind::Spatial;
+        }
+        // No arm says (`arms = []`, or arms that name neither a robot nor links): a box with
+        // three edge lengths is a spatial object (a planar one has two).
+        let box_3d = doc
+            .get("object")
+            .and_then(|o| o.get("size"))
             .and_then(toml::Value::as_array)
-            .is_some_and(|arms| {
-                arms.iter().any(|a| {
-                    a.as_table()
-                        .is_some_and(|t| t.contains_key("model") || t.contains_key("urdf"))
-                })
-            });
-        if spatial { Kind::Spatial } else { Kind::Planar }
+            .is_some_and(|s| s.len() == 3);
+        if !has("links") && box_3d {
+            Kind::Spatial
+        } else {
+            Kind::Planar
+        }
     }
 
     /// `planar` or `spatial`.

@@ -585,6 +585,8 @@ fn file_path(sc: &SpatialScenario, dofs: &[usize], param: &str) -> String {
             format!("run.{param}")
         }
         "gravity" | "baumgarte" => format!("plant.{param}"),
+        // The library's grasp model is the file's `plant.compliant_grasps`.
+        "grasp_model" => format!("plant.compliant_grasps{rest}"),
         "grasps" => {
             // `grasps[i]...` → `arms[i].grasp...`
             match rest.strip_prefix('[').and_then(|r| r.split_once(']')) {

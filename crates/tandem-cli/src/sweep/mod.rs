@@ -862,11 +862,11 @@ impl Shard {
         let i: u64 = i
             .trim()
             .parse()
-            .map_err(|_| bad("I must be a whole number"))?;
+            .map_err(|_| bad("I must be a whole number from 0 to N − 1 (shard I of N, from 0)"))?;
         let n: u64 = n
             .trim()
             .parse()
-            .map_err(|_| bad("N must be a whole number"))?;
+            .map_err(|_| bad("N must be a whole number, at least 1 (the number of shards)"))?;
         Shard::new(i, n).map_err(|w| bad(&w))
     }
 
