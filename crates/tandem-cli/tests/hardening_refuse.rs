@@ -174,3 +174,58 @@ fn the_right_field_is_named() {
     );
     let _ = fs::remove_dir_all(&d);
 }
+
+/// A compliant grasp's fastest mode against the plant step (issue 22): the UR5's tool link on a
+/// 1e3 N m/rad grasp spring oscillates at about 3440 rad/s, beyond RK4's stability at 1 ms (the
+/// run went non-finite at 9 ms); validation refuses `run.plant_step` with the step that resolves
+/// it. At 0.25 ms it validates, warns that the file's weld-sized `max_drift` would stop it, and
+/// without that `max_drift` (0.05 m and rad for compliant grasps) the run completes.
+#[test]
+fn a_compliant_grasp_needs_a_step_that_resolves_it() {
+    let d = scratch("refuse_grasp_step");
+    let text = stdout(&tandem(&d, &["scenario", "show", "dual-ur5"]));
+    let soft = text.replacen(
+        "[plant]",
+        "[plant]\ncompliant_grasps = { stiffness = [1e5, 1e5, 1e5, 1e3, 1e3, 1e3], damping = [100.0, 100.0, 100.0, 1.0, 1.0, 1.0] }",
+        1,
+    );
+    fs::write(d.join("fast.toml"), &soft).unwrap();
+    let o = tandem(&d, &["validate", "fast.toml"]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(e.contains("run.plant_step = 0.001 s is too long"), "{e}");
+    assert!(e.contains("`wrist_3_link`"), "{e}");
+    assert!(e.contains("use plant_step ≤ 0.000291 s"), "{e}");
+    assert!(e.contains("(line "), "{e}");
+
+    let small = soft.replacen("plant_step = 0.001 ", "plant_step = 0.00025 ", 1);
+    assert_ne!(small, soft);
+    fs::write(d.join("small.toml"), &small).unwrap();
+    let o = tandem(&d, &["validate", "small.toml"]);
+    ok(&o);
+    assert!(
+        stderr(&o).contains("run.max_drift = 1e-6 stops the run"),
+        "{}",
+        stderr(&o)
+    );
+
+    let line = small.lines().find(|l| l.starts_with("max_drift")).unwrap();
+    fs::write(d.join("ok.toml"), small.replacen(line, "", 1)).unwrap();
+    let o = tandem(
+        &d,
+        &[
+            "run",
+            "ok.toml",
+            "--controller",
+            "ctc",
+            "--duration",
+            "0.05",
+            "--no-figures",
+            "--out",
+            "o",
+        ],
+    );
+    ok(&o);
+    assert_eq!(read_json(&d.join("o/summary.json"))["status"], "completed");
+    let _ = fs::remove_dir_all(&d);
+}

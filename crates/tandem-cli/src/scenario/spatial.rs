@@ -629,6 +629,80 @@ fn file_path(sc: &SpatialScenario, dofs: &[usize], param: &str) -> String {
     }
 }
 
+/// The plant step against the fastest mode of a compliant grasp: the tool link (the lightest
+/// body on the grasp spring) oscillating on it at `ω = max(√(k/m), √(k_rot/I_min))` (`m` its
+/// mass, `I_min` its smallest principal inertia, `k` the largest stiffness). RK4 is unstable on an
+/// undamped oscillator beyond `h ω = 2√2 ≈ 2.83`: a longer step is refused by `run.plant_step`
+/// (the run would only fault); above `h ω = 1` the mode is resolved poorly, a warning (`tandem
+/// robustness` steps its grasp-slip runs at `h ω ≤ 1`).
+fn grasp_step_check(
+    src: &Source,
+    arms: &[SpatialArm],
+    c: &super::tables::ComplianceConfig,
+    h: f64,
+) -> Result<Vec<String>, ScenarioError> {
+    // A stiffness that is not a positive number is the library's to refuse, by its field.
+    if !c.stiffness.iter().all(|k| k.is_finite() && *k > 0.0) || !(h.is_finite() && h > 0.0) {
+        return Ok(Vec::new());
+    }
+    let k = c.stiffness[..3].iter().copied().fold(0.0f64, f64::max);
+    let k_rot = c.stiffness[3..].iter().copied().fold(0.0f64, f64::max);
+    let mut worst: Option<(f64, usize, String)> = None;
+    for (i, a) in arms.iter().enumerate() {
+        let Some(b) = a.chain.bodies.last() else {
+            continue;
+        };
+        let i_min = b.inertia.symmetric_eigenvalues().min();
+        let mut w = 0.0f64;
+        if b.mass > 0.0 {
+            w = w.max((k / b.mass).sqrt());
+        }
+        if i_min > 0.0 {
+            w = w.max((k_rot / i_min).sqrt());
+        }
+        if w.is_finite() && worst.as_ref().is_none_or(|x| w > x.0) {
+            worst = Some((w, i, b.name.clone()));
+        }
+    }
+    let Some((w, i, link)) = worst else {
+        return Ok(Vec::new());
+    };
+    let hw = h * w;
+    let what = format!(
+        "the compliant grasps' fastest mode, arms[{i}]'s tool link `{link}` on the grasp spring, is \
+         ω = {} rad/s (plant.compliant_grasps.stiffness)",
+        sig3(w)
+    );
+    if hw > 2.0 * std::f64::consts::SQRT_2 {
+        return Err(src.error_at(
+            "run.plant_step",
+            format!(
+                "run.plant_step = {} s is too long: {what}, and RK4 is unstable beyond h ω = 2.83 \
+                 (here {}); use plant_step ≤ {} s (h ω ≤ 1), or softer grasps",
+                sig3(h),
+                sig3(hw),
+                sig3(1.0 / w)
+            ),
+        ));
+    }
+    Ok(if hw > 1.0 {
+        vec![format!(
+            "run.plant_step = {} s resolves {what} poorly (h ω = {}); plant_step ≤ {} s (h ω ≤ 1) \
+             resolves it",
+            sig3(h),
+            sig3(hw),
+            sig3(1.0 / w)
+        )]
+    } else {
+        Vec::new()
+    })
+}
+
+/// `v` to three significant digits, for a message (`31600`, `3.16e-5`).
+fn sig3(v: f64) -> String {
+    num(format!("{v:.2e}").parse().unwrap_or(v))
+}
+
 /// Map a library error of the spatial set-up to the file.
 pub fn model_error(
     src: &Source,
@@ -843,6 +917,17 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             damping: six(c.damping),
         },
     };
+    if let Some(c) = &sc.plant.compliant_grasps {
+        warnings.extend(grasp_step_check(src, &arms, c, sc.run.plant_step())?);
+        if let Some(d) = sc.run.max_drift.filter(|d| *d < 1e-3) {
+            warnings.push(format!(
+                "run.max_drift = {} stops the run when a grasp deflects that far, but compliant \
+                 grasps deflect by design; leave it out (0.05 m and rad: a grasp that slipped) \
+                 or raise it",
+                num(d)
+            ));
+        }
+    }
     let plant = SpatialPlantParams {
         arms,
         grasps,
@@ -971,7 +1056,16 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
         log_period: r.log_period(),
         start: [0.0; 3],
         formulation: Formulation::Constrained,
-        max_drift: r.max_drift.unwrap_or(1e-6),
+        // Welds hold to 1e-6 (m and rad) or the run has lost its constraint; a compliant grasp
+        // deflects by design, and has slipped at 0.05 m or 0.05 rad (`tandem robustness`'s
+        // grasp-slip family uses the same).
+        max_drift: r
+            .max_drift
+            .unwrap_or(if sc.plant.compliant_grasps.is_some() {
+                0.05
+            } else {
+                1e-6
+            }),
         min_sigma: r.min_sigma.unwrap_or(1e-3),
     };
     // Start: the desired pose at t = 0, offset (world axes).

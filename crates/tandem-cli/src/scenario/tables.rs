@@ -463,7 +463,8 @@ pub struct RunConfig {
     /// Seed of every random stream (sensor noise, dropout).
     #[serde(default)]
     pub seed: u64,
-    /// Largest grasp-constraint drift before the run stops, m.
+    /// Largest grasp-constraint drift before the run stops, m (and rad); default 1e-6 for
+    /// welds (planar and spatial), 0.05 for spatial compliant grasps (a grasp that slipped).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_drift: Option<f64>,
     /// Smallest arm-Jacobian singular value before the run stops.
