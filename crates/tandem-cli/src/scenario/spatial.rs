@@ -642,7 +642,7 @@ fn grasp_step_check(
     h: f64,
 ) -> Result<Vec<String>, ScenarioError> {
     // A stiffness that is not a positive number is the library's to refuse, by its field.
-    if !c.stiffness.iter().all(|k| k.is_finite() && *k > 0.0) || !(h.is_finite() && h > 0.0) {
+    if !(c.stiffness.iter().all(|k| k.is_finite() && *k > 0.0) && h.is_finite() && h > 0.0) {
         return Ok(Vec::new());
     }
     let k = c.stiffness[..3].iter().copied().fold(0.0f64, f64::max);
