@@ -716,7 +716,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             regularised: P::regularised(&self.ws),
             min_margin: self.has_bounds.then_some(self.min_margin),
             violation_ticks: self.violation_ticks,
-            torque_rate: self.torque_rate.result(),
+            torque_rate: self.torque_rate.take(),
         };
         (out, self)
     }

@@ -203,6 +203,12 @@ impl TorqueRateMonitor {
     pub fn result(&self) -> TorqueRate {
         self.out.clone()
     }
+
+    /// The result, moved out without a copy (the loop's end allocates nothing); the monitor is
+    /// left with an empty result.
+    pub fn take(&mut self) -> TorqueRate {
+        std::mem::take(&mut self.out)
+    }
 }
 
 #[cfg(test)]
