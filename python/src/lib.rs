@@ -18,6 +18,7 @@ use rayon::prelude::*;
 use serde_json::Value as Json;
 use toml::{Table, Value};
 
+use tandem_cli::BadInput;
 use tandem_cli::files::{self as output, OutputDir};
 use tandem_cli::output::planar::{self as planar_output, Outputs};
 use tandem_cli::output::spatial as spatial_output;
@@ -28,7 +29,6 @@ use tandem_cli::scenario::{
     SpatialScenario,
 };
 use tandem_cli::sweep;
-use tandem_cli::BadInput;
 
 create_exception!(
     tandem,
@@ -814,6 +814,26 @@ impl PyScenario {
         PyRun::live(py, p, fin)
     }
 
+    /// The scenario's controller, built exactly as `tandem run` builds it (every validation,
+    /// the spatial NN law's design-inertia probe), to step with your own measurements: see
+    /// `Controller`. `law` is `"nn"`, `"pd"` (the scenario's `controller.pd` as it is, as
+    /// `--controller pd`), `"pd-gravity"` (PD with the model's gravity) or `"ctc"`; None: the
+    /// scenario's law. A torque replay is not a controller (ScenarioError).
+    #[pyo3(signature = (law=None))]
+    fn controller(&self, py: Python<'_>, law: Option<&str>) -> PyResult<PyController> {
+        let law = match law {
+            None => None,
+            Some(l) => Some(
+                scenario::standalone::LawName::parse(l)
+                    .map_err(|m| bad(Some("controller.kind"), m))
+                    .map_err(|e| e.into_py(py))?,
+            ),
+        };
+        let kind = self.kind.clone();
+        let r = py.detach(move || PyController::new(kind, law));
+        py_res(py, r)
+    }
+
     /// The resolved scenario as TOML: every default written out, re-runnable
     /// (`tandem run FILE`, `Scenario.from_toml`); the run folder's `scenario.toml`.
     fn to_toml(&self, py: Python<'_>) -> PyResult<String> {
@@ -922,6 +942,396 @@ impl PyScenario {
         let f = py.import("tandem")?.getattr("_restore_scenario")?;
         let text = py_res(py, self.kind.to_toml())?;
         PyTuple::new(py, [f, PyTuple::new(py, [text])?.into_any()])
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// A scenario's controller, stepped by the caller.
+
+/// A NumPy float64 array (or anything `numpy.asarray` makes one of) of exactly `shape`, all
+/// finite, copied into `buf` (preallocated: nothing is allocated on the Rust side). Errors are
+/// ValueError naming the argument `name` and the shape expected.
+fn read_arg(arg: &Bound<'_, PyAny>, name: &str, shape: &[usize], buf: &mut [f64]) -> PyResult<()> {
+    use numpy::{PyArrayDyn, PyUntypedArrayMethods};
+    let shape_text = |s: &[usize]| {
+        if s.len() == 1 {
+            format!("({},)", s[0])
+        } else {
+            format!(
+                "({})",
+                s.iter()
+                    .map(|d| d.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        }
+    };
+    let arr = match arg.cast::<PyArrayDyn<f64>>() {
+        Ok(a) => a.clone(),
+        Err(_) => {
+            let np = arg.py().import("numpy")?;
+            let converted = np
+                .getattr("asarray")?
+                .call1((arg, np.getattr("float64")?))
+                .map_err(|e| {
+                    PyTypeError::new_err(format!(
+                        "{name}: expected a float64 array of shape {}, got {} ({e})",
+                        shape_text(shape),
+                        arg.get_type()
+                            .name()
+                            .map(|n| n.to_string())
+                            .unwrap_or_default()
+                    ))
+                })?;
+            converted.cast_into::<PyArrayDyn<f64>>().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "{name}: expected a float64 array of shape {}",
+                    shape_text(shape)
+                ))
+            })?
+        }
+    };
+    if arr.shape() != shape {
+        return Err(PyValueError::new_err(format!(
+            "{name}: expected shape {}, got {}",
+            shape_text(shape),
+            shape_text(arr.shape())
+        )));
+    }
+    let ro = arr
+        .try_readonly()
+        .map_err(|e| PyValueError::new_err(format!("{name}: {e}")))?;
+    let view = ro.as_array();
+    for (b, v) in buf.iter_mut().zip(view.iter()) {
+        *b = *v;
+    }
+    if let Some(k) = buf.iter().position(|v| !v.is_finite()) {
+        let idx = if shape.len() == 2 {
+            format!("[{}, {}]", k / shape[1], k % shape[1])
+        } else {
+            format!("[{k}]")
+        };
+        return Err(PyValueError::new_err(format!(
+            "{name}{idx} = {}: every value must be finite",
+            buf[k]
+        )));
+    }
+    Ok(())
+}
+
+/// A time argument: finite.
+fn read_time(t: f64) -> PyResult<f64> {
+    if !t.is_finite() {
+        return Err(PyValueError::new_err(format!("t = {t}: must be finite")));
+    }
+    Ok(t)
+}
+
+/// A scenario's controller, built exactly as `tandem run` builds it, stepped by you.
+///
+/// Made by `Scenario.controller(law=None)`. Call `start(t0, q, qd, wrenches)` once with the
+/// first readings, then `tick(t, q, qd, wrenches)` once per control period (`control_period`,
+/// the scenario's `run.control_period`) from `t0` on, the first tick at `t0` itself: the
+/// controller integrates its own states over `control_period` per tick. Inputs are float64
+/// arrays: `q`, `qd` of shape `(n_q,)` (joint angles in rad and rates in rad/s, stacked over
+/// arms in the scenario's order), `wrenches` of shape `wrench_shape` = `(n_arms, 2)` planar, the
+/// object's force on each end effector in world axes (N), or `(n_arms, 6)` spatial, the
+/// object's wrench `[fx, fy, fz, tx, ty, tz]` on each tool, about the tool origin, in the
+/// tool's axes (N, N m): what a wrist force/torque sensor at the tool reads. A wrong shape,
+/// NaN or infinity raises ValueError naming the argument.
+#[pyclass(module = "tandem", name = "Controller")]
+struct PyController {
+    kind: Arc<Kind>,
+    law: Option<scenario::standalone::LawName>,
+    inner: scenario::standalone::Standalone,
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    w: Vec<f64>,
+    /// The time of the last start or tick; `None` before `start`.
+    t_last: Option<f64>,
+    /// Whether a tick has run since the start (the first may be at the start's time).
+    ticked: bool,
+}
+
+fn build_controller(
+    kind: &Kind,
+    law: Option<scenario::standalone::LawName>,
+) -> Res<scenario::standalone::Standalone> {
+    check_kernel()?;
+    Ok(match kind {
+        Kind::Planar(p) => scenario::standalone::planar(&p.sc, &p.src, law)?,
+        Kind::Spatial(p) => scenario::standalone::spatial(&p.sc, &p.src, law)?,
+    })
+}
+
+impl PyController {
+    fn new(kind: Arc<Kind>, law: Option<scenario::standalone::LawName>) -> Res<Self> {
+        let inner = build_controller(&kind, law)?;
+        let (n_q, nw) = (inner.n_q, inner.n_arms * inner.wrench_dim);
+        Ok(PyController {
+            kind,
+            law,
+            inner,
+            q: vec![0.0; n_q],
+            qd: vec![0.0; n_q],
+            w: vec![0.0; nw],
+            t_last: None,
+            ticked: false,
+        })
+    }
+
+    fn read_inputs(
+        &mut self,
+        q: &Bound<'_, PyAny>,
+        qd: &Bound<'_, PyAny>,
+        wrenches: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
+        let n_q = self.inner.n_q;
+        let ws = [self.inner.n_arms, self.inner.wrench_dim];
+        read_arg(q, "q", &[n_q], &mut self.q)?;
+        read_arg(qd, "qd", &[n_q], &mut self.qd)?;
+        read_arg(wrenches, "wrenches", &ws, &mut self.w)
+    }
+}
+
+/// `(q, qd, wrenches)` of `Controller.start_state()`.
+type StartState<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyAny>,
+);
+
+fn array1<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyArray1<f64>> {
+    PyArray1::from_slice(py, v)
+}
+
+#[pymethods]
+impl PyController {
+    /// Joints, all arms.
+    #[getter]
+    fn n_q(&self) -> usize {
+        self.inner.n_q
+    }
+
+    /// Arms.
+    #[getter]
+    fn n_arms(&self) -> usize {
+        self.inner.n_arms
+    }
+
+    /// The shape of `wrenches`: `(n_arms, 2)` planar, `(n_arms, 6)` spatial.
+    #[getter]
+    fn wrench_shape(&self) -> (usize, usize) {
+        (self.inner.n_arms, self.inner.wrench_dim)
+    }
+
+    /// The scenario's control period, s: tick once per period.
+    #[getter]
+    fn control_period(&self) -> f64 {
+        self.inner.control_period
+    }
+
+    /// The law: `"nn"`, `"pd"`, `"pd-gravity"` or `"ctc"` (the scenario's when none was given).
+    #[getter]
+    fn law(&self) -> String {
+        use scenario::standalone::LawName;
+        use tandem_cli::scenario::ControllerKind;
+        let law = self.law.unwrap_or_else(|| {
+            let (kind, gravity) = match &*self.kind {
+                Kind::Planar(p) => (
+                    p.sc.controller.kind,
+                    p.sc.controller.pd.gravity_compensation,
+                ),
+                Kind::Spatial(p) => (
+                    p.sc.controller.kind,
+                    p.sc.controller.pd.gravity_compensation,
+                ),
+            };
+            match kind {
+                ControllerKind::Pd if gravity == Some(true) => LawName::PdGravity,
+                ControllerKind::Pd => LawName::Pd,
+                ControllerKind::Ctc => LawName::Ctc,
+                _ => LawName::Nn,
+            }
+        });
+        match law {
+            LawName::Nn => "nn",
+            LawName::Pd => "pd",
+            LawName::PdGravity => "pd-gravity",
+            LawName::Ctc => "ctc",
+        }
+        .to_string()
+    }
+
+    /// `(q, qd, wrenches)` where the scenario's run starts: the chain at rest on the start
+    /// pose holding the object with zero torque, and what the wrist sensors read there (the
+    /// readings `tandem run` starts its controller with).
+    fn start_state<'py>(&self, py: Python<'py>) -> PyResult<StartState<'py>> {
+        let s = &self.inner.start;
+        let w = array1(py, &s.wrenches)
+            .reshape([self.inner.n_arms, self.inner.wrench_dim])?
+            .into_any();
+        Ok((array1(py, &s.q), array1(py, &s.qd), w))
+    }
+
+    /// Start (or restart) at time `t` with the first readings: the admittance at rest with
+    /// its wrench filters at the expected wrenches, the pose estimate from `q`. Adaptive
+    /// weights are kept (`reset()` zeroes them).
+    fn start(
+        &mut self,
+        t: f64,
+        q: &Bound<'_, PyAny>,
+        qd: &Bound<'_, PyAny>,
+        wrenches: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
+        let t = read_time(t)?;
+        self.read_inputs(q, qd, wrenches)?;
+        self.inner.start(t, &self.q, &self.qd, &self.w);
+        self.t_last = Some(t);
+        self.ticked = false;
+        Ok(())
+    }
+
+    /// One control tick at time `t`: the joint torques `tau` (N m, shape `(n_q,)`), written
+    /// into `out` (a writeable, contiguous float64 array of shape `(n_q,)`) and returned when
+    /// given, else into a new array. `t` must not go back: the first tick after `start` may be
+    /// at the start's time, every later one after the previous tick. Never returns NaN.
+    #[pyo3(signature = (t, q, qd, wrenches, out=None))]
+    fn tick<'py>(
+        &mut self,
+        py: Python<'py>,
+        t: f64,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+        wrenches: &Bound<'py, PyAny>,
+        out: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let t = read_time(t)?;
+        let Some(last) = self.t_last else {
+            return Err(PyRuntimeError::new_err(
+                "Controller.tick before Controller.start: call start(t0, q, qd, wrenches) first \
+                 (e.g. with start_state())",
+            ));
+        };
+        if t < last || (self.ticked && t == last) {
+            return Err(PyValueError::new_err(format!(
+                "t = {t}: time went back (the previous {} was at t = {last}); ticks must advance",
+                if self.ticked { "tick" } else { "start" }
+            )));
+        }
+        self.read_inputs(q, qd, wrenches)?;
+        use numpy::PyUntypedArrayMethods;
+        let n_q = self.inner.n_q;
+        let out = match out {
+            Some(o) => {
+                let a = o.cast::<PyArray1<f64>>().map_err(|_| {
+                    PyValueError::new_err(format!(
+                        "out: expected a float64 array of shape ({n_q},)"
+                    ))
+                })?;
+                if PyUntypedArrayMethods::len(a) != n_q {
+                    return Err(PyValueError::new_err(format!(
+                        "out: expected shape ({n_q},), got ({},)",
+                        PyUntypedArrayMethods::len(a)
+                    )));
+                }
+                {
+                    let mut rw = a.try_readwrite().map_err(|e| {
+                        PyValueError::new_err(format!("out: must be writeable ({e})"))
+                    })?;
+                    let tau = rw
+                        .as_slice_mut()
+                        .map_err(|_| PyValueError::new_err("out: must be a contiguous array"))?;
+                    self.inner.tick(t, &self.q, &self.qd, &self.w, tau);
+                }
+                o
+            }
+            None => {
+                let a = PyArray1::<f64>::zeros(py, n_q, false);
+                {
+                    let mut rw = a.readwrite();
+                    let tau = rw
+                        .as_slice_mut()
+                        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+                    self.inner.tick(t, &self.q, &self.qd, &self.w, tau);
+                }
+                a.into_any()
+            }
+        };
+        self.t_last = Some(t);
+        self.ticked = true;
+        Ok(out)
+    }
+
+    /// The last tick's internals: arrays (3 outputs planar, 6 spatial, in the output chart)
+    /// `x_hat`, `xd_hat` (the pose and rate estimated from the encoders), `x_d`, `x_r`, `xd_r`
+    /// (desired and admittance reference), `z1`, `z2`, `alpha`, `alpha_dot`, `wrench` (the
+    /// object wrench commanded: the log's `tau.*`), `w_norm` (NN weight norms); floats `Q`
+    /// (NN switching value, 1 for other laws), `margin` (output-bound margin of the estimate),
+    /// spatial `angle_error`; spatial `internal` `(n_arms, 6)` (each arm's internal wrench);
+    /// bools `barrier_hit`, `torque_clipped`, `non_finite`; and `events`, the counts since the
+    /// start. Copies, taken when read.
+    #[getter]
+    fn record<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (k, v) in self.inner.record_vectors() {
+            d.set_item(k, array1(py, v))?;
+        }
+        for (k, v) in self.inner.record_scalars() {
+            d.set_item(k, v)?;
+        }
+        for (k, v) in self.inner.record_flags() {
+            d.set_item(k, v)?;
+        }
+        if let Some(int) = self.inner.record_internal() {
+            let flat: Vec<f64> = int.iter().flat_map(|w| w.iter().copied()).collect();
+            d.set_item("internal", array1(py, &flat).reshape([int.len(), 6])?)?;
+        }
+        let e = self.inner.events();
+        let ev = PyDict::new(py);
+        ev.set_item("barrier_hits", e.barrier_hits)?;
+        ev.set_item("torque_clips", e.torque_clips)?;
+        ev.set_item("non_finite", e.non_finite)?;
+        ev.set_item("degenerate", e.degenerate)?;
+        d.set_item("events", ev)?;
+        Ok(d)
+    }
+
+    /// Back to the controller as built (adaptive weights zeroed, admittance at rest, no
+    /// record): call `start` again before `tick`.
+    fn reset(&mut self, py: Python<'_>) -> PyResult<()> {
+        let inner = py_res(py, build_controller(&self.kind, self.law))?;
+        self.inner = inner;
+        self.t_last = None;
+        self.ticked = false;
+        Ok(())
+    }
+
+    /// Pickled through its scenario and law: `tandem._restore_controller(scenario, law)`
+    /// gives the controller as built (not its state: `start` it again).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let f = py.import("tandem")?.getattr("_restore_controller")?;
+        let sc = Bound::new(
+            py,
+            PyScenario {
+                kind: self.kind.clone(),
+            },
+        )?;
+        let law = self.law.map(|_| self.law());
+        let args = PyTuple::new(py, [sc.into_any(), law.into_pyobject(py)?.into_any()])?;
+        PyTuple::new(py, [f, args.into_any()])
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<tandem.Controller {:?}: {}, {} joints, {} arms, wrenches {:?}, h = {} s>",
+            self.kind.src().name,
+            self.law(),
+            self.inner.n_q,
+            self.inner.n_arms,
+            (self.inner.n_arms, self.inner.wrench_dim),
+            self.inner.control_period
+        )
     }
 }
 
@@ -1174,7 +1584,8 @@ impl PyRun {
                     // As `tandem run` (spatial::cmd_run): the outputs, then scenario.toml.
                     let text = spatial_output::scenario_toml(&p.sc, name).map_err(other)?;
                     let (_, _, problems) =
-                        tandem_cli::output::spatial::write(out.tmp_dir(), name, f, figures).map_err(other)?;
+                        tandem_cli::output::spatial::write(out.tmp_dir(), name, f, figures)
+                            .map_err(other)?;
                     output::write_text_atomic(&out.tmp_dir().join("scenario.toml"), &text)
                         .map_err(other)?;
                     problems
@@ -1475,6 +1886,7 @@ fn _tandem(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add_class::<PyScenario>()?;
     m.add_class::<PyRun>()?;
+    m.add_class::<PyController>()?;
     m.add_class::<LogOwner>()?;
     m.add_function(wrap_pyfunction!(rollout, m)?)?;
     m.add_function(wrap_pyfunction!(presets, m)?)?;

@@ -14,6 +14,8 @@ same numbers and gets the same error messages.
 
 * :class:`Scenario` -- ``preset``, ``from_toml``, ``load``, ``with_`` (field paths, as in
   sweeps), ``run``, ``to_toml``; picklable.
+* :class:`Controller` -- ``Scenario.controller(law)``: the run's controller, stepped by you
+  (``start``, ``tick(t, q, qd, wrenches, out=)``, ``record``, ``reset``, ``start_state``).
 * :class:`Run` -- ``summary`` (dict), ``timeseries`` (dict of NumPy arrays), ``to_pandas()``,
   ``write(dir)``; picklable.
 * :func:`rollout` -- many closed-loop runs in Rust, in parallel, with the GIL released.
@@ -31,6 +33,7 @@ from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from ._tandem import (
+    Controller,
     Run,
     Scenario,
     ScenarioError,
@@ -42,6 +45,7 @@ from ._tandem import (
 )
 
 __all__ = [
+    "Controller",
     "Run",
     "Scenario",
     "ScenarioError",
@@ -111,3 +115,8 @@ def _restore_run(
 ) -> Run:
     """Unpickle a Run (scenario TOML, summary JSON, columns and their samples)."""
     return Run._from_state(scenario_toml, summary, names, units, data)
+
+
+def _restore_controller(scenario: Scenario, law: Optional[str]) -> Controller:
+    """Unpickle a Controller: the scenario's, as built (not started)."""
+    return scenario.controller(law)

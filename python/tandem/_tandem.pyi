@@ -56,6 +56,12 @@ class Scenario:
         """The value of a field of the resolved scenario; KeyError if there is none."""
     def run(self, duration: Optional[float] = None, seed: Optional[int] = None) -> Run:
         """Simulate (GIL released); ``duration``/``seed`` override ``run.duration``/``run.seed``."""
+    def controller(self, law: Optional[str] = None) -> Controller:
+        """The scenario's controller, built exactly as ``tandem run`` builds it (every
+        validation; the spatial NN law's design-inertia probe), to step with your own
+        measurements. ``law``: ``"nn"``, ``"pd"`` (the file's ``controller.pd`` as it is, as
+        ``--controller pd``), ``"pd-gravity"`` (PD with the model's gravity), ``"ctc"``; None:
+        the scenario's. A torque replay is not a controller (:exc:`ScenarioError`)."""
     def to_toml(self) -> str:
         """The resolved scenario as TOML (every default written out; re-runnable)."""
     @property
@@ -77,6 +83,62 @@ class Scenario:
     @property
     def warnings(self) -> List[str]: ...
     def __eq__(self, other: object) -> bool: ...
+
+class Controller:
+    """A scenario's controller (:meth:`Scenario.controller`), stepped by you.
+
+    Loop: ``start(t0, q, qd, wrenches)`` once with the first readings, then
+    ``tick(t, q, qd, wrenches)`` once per ``control_period`` from ``t0`` on (the first tick at
+    ``t0`` itself); the controller integrates its own states over ``control_period`` per tick.
+    Inputs are float64: ``q`` (rad) and ``qd`` (rad/s) of shape ``(n_q,)``, stacked over arms in
+    the scenario's order; ``wrenches`` of shape ``wrench_shape``: planar ``(n_arms, 2)``, the
+    object's force on each end effector in world axes (N); spatial ``(n_arms, 6)``, the
+    object's wrench ``[fx, fy, fz, tx, ty, tz]`` on each tool, about the tool origin, in the
+    tool's axes (N, N m), as a wrist force/torque sensor at the tool reads it. A wrong shape,
+    NaN or infinity raises ValueError naming the argument and the shape expected; ``tick``
+    before ``start`` raises RuntimeError; a time that goes back raises ValueError.
+    """
+
+    @property
+    def n_q(self) -> int:
+        """Joints, all arms."""
+    @property
+    def n_arms(self) -> int: ...
+    @property
+    def wrench_shape(self) -> Tuple[int, int]:
+        """``(n_arms, 2)`` planar, ``(n_arms, 6)`` spatial."""
+    @property
+    def control_period(self) -> float:
+        """The scenario's ``run.control_period``, s: tick once per period."""
+    @property
+    def law(self) -> str:
+        """``"nn"``, ``"pd"``, ``"pd-gravity"`` or ``"ctc"`` (the scenario's when none was given)."""
+    def start_state(self) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """``(q, qd, wrenches)`` where the scenario's run starts (at rest on the start pose,
+        zero torque held) and what its sensors read there: what ``tandem run`` starts with."""
+    def start(self, t: float, q: npt.ArrayLike, qd: npt.ArrayLike, wrenches: npt.ArrayLike) -> None:
+        """Start (or restart) at ``t``: admittance at rest, wrench filters at the expected
+        wrenches, the pose estimate from ``q``. Adaptive weights are kept (``reset()``)."""
+    def tick(
+        self,
+        t: float,
+        q: npt.ArrayLike,
+        qd: npt.ArrayLike,
+        wrenches: npt.ArrayLike,
+        out: Optional[npt.NDArray[np.float64]] = None,
+    ) -> npt.NDArray[np.float64]:
+        """One tick: the joint torques (N m, ``(n_q,)``), written into ``out`` (writeable,
+        contiguous float64 of shape ``(n_q,)``) and returned when given, else a new array.
+        Never NaN."""
+    @property
+    def record(self) -> Dict[str, Any]:
+        """The last tick's internals: arrays (3 outputs planar, 6 spatial) ``x_hat``,
+        ``xd_hat``, ``x_d``, ``x_r``, ``xd_r``, ``z1``, ``z2``, ``alpha``, ``alpha_dot``,
+        ``wrench`` (the object wrench commanded, the log's ``tau.*``), ``w_norm``; floats ``Q``,
+        ``margin`` (spatial also ``angle_error``); spatial ``internal`` ``(n_arms, 6)``; bools
+        ``barrier_hit``, ``torque_clipped``, ``non_finite``; ``events`` (counts since start)."""
+    def reset(self) -> None:
+        """Back to the controller as built (weights zeroed); ``start`` again before ``tick``."""
 
 class Run:
     """One finished run; picklable (the summary and the samples travel)."""

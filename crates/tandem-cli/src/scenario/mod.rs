@@ -1,12 +1,14 @@
 //! Scenario files: what a run simulates, in TOML, planar or spatial.
 //!
 //! [`source`] is the foot (where the text comes from, what an error says); [`planar`] and
-//! [`spatial`] are the two kinds' documents and their builders; [`replay`] reads a torque file.
+//! [`spatial`] are the two kinds' documents and their builders; [`replay`] reads a torque file;
+//! [`standalone`] builds a scenario's controller alone, to be stepped by a caller (Python).
 
 pub mod planar;
 pub mod replay;
 pub mod source;
 pub mod spatial;
+pub mod standalone;
 pub mod tables;
 
 pub use source::*;

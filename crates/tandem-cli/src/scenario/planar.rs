@@ -1067,6 +1067,42 @@ pub struct Ready {
     pub warnings: Vec<String>,
 }
 
+/// Build the controller of a scenario's law as [`make_simulation`] does (every check of
+/// [`Controller::new`] with its file path, the start inside the output bounds), with its set-up
+/// warnings appended to `warnings`. The controller is not started.
+pub fn make_controller(
+    sc: &PlanarScenario,
+    b: &Built,
+    cp: &ControllerParams,
+    src: &Source,
+    warnings: &mut Vec<String>,
+) -> Result<Controller, ScenarioError> {
+    let (c, w) = Controller::new(cp, &b.plant, b.path.clone(), b.sim.duration)
+        .map_err(|e| src.model_error(e, controller_path(sc.controller.kind)))?;
+    let map = controller_path(sc.controller.kind);
+    warnings.extend(w.iter().map(|w| control_warning(src, w, &map)));
+    // The start must be inside the output bounds the controller keeps (iBLF: |x_1j| < k_cj).
+    if sc.controller.kind != ControllerKind::Replay {
+        let unit = ["m", "m", "rad"];
+        for j in 0..3 {
+            let (x, k) = (sc.run.start()[j], sc.controller.k_c[j]);
+            if k > 0.0 && !(x.abs() < k) {
+                return Err(src.error_at(
+                    &format!("run.start[{j}]"),
+                    format!(
+                        "run.start[{j}] = {} {} is outside the output bound |x_{j}| < controller.k_c[{j}] = {} {}: the run would start in violation",
+                        num(x),
+                        unit[j],
+                        num(k),
+                        unit[j]
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(c)
+}
+
 /// Build the driver (controller or replay) and the simulation: every library validation.
 pub fn make_simulation(
     sc: &PlanarScenario,
@@ -1076,29 +1112,7 @@ pub fn make_simulation(
     let mut warnings = Vec::new();
     let driver = match &b.controller {
         Some(cp) => {
-            let (c, w) = Controller::new(cp, &b.plant, b.path.clone(), b.sim.duration)
-                .map_err(|e| src.model_error(e, controller_path(sc.controller.kind)))?;
-            let map = controller_path(sc.controller.kind);
-            warnings.extend(w.iter().map(|w| control_warning(src, w, &map)));
-            // The start must be inside the output bounds the controller keeps (iBLF: |x_1j| < k_cj).
-            if sc.controller.kind != ControllerKind::Replay {
-                let unit = ["m", "m", "rad"];
-                for j in 0..3 {
-                    let (x, k) = (sc.run.start()[j], sc.controller.k_c[j]);
-                    if k > 0.0 && !(x.abs() < k) {
-                        return Err(src.error_at(
-                            &format!("run.start[{j}]"),
-                            format!(
-                                "run.start[{j}] = {} {} is outside the output bound |x_{j}| < controller.k_c[{j}] = {} {}: the run would start in violation",
-                                num(x),
-                                unit[j],
-                                num(k),
-                                unit[j]
-                            ),
-                        ));
-                    }
-                }
-            }
+            let c = make_controller(sc, b, cp, src, &mut warnings)?;
             Driver::Controller(Box::new(c))
         }
         None => {

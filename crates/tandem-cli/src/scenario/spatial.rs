@@ -27,7 +27,6 @@ use std::path::{Path as FsPath, PathBuf};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 use tandem::ModelError;
-use tandem::control::Scheme;
 use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::ctc::CtcGains;
@@ -36,6 +35,7 @@ use tandem::control::rbf::structured::NetworkStructure;
 use tandem::control::spatial::SpatialController;
 use tandem::control::spatial::chart::Chart;
 use tandem::control::spatial::{PostureParams, SpatialControllerParams};
+use tandem::control::{ControlWarning, Scheme};
 use tandem::drive::Drive;
 use tandem::model::disturbance::SpatialDisturbance;
 use tandem::model::spatial::SpatialArm;
@@ -1447,6 +1447,62 @@ fn simulation<D: Drive<SpatialPlant>>(
     .map(Box::new)
 }
 
+/// A scenario's spatial controller as [`make_simulation`] builds it, not started.
+pub struct Designed {
+    /// The controller.
+    pub controller: SpatialController,
+    /// Its set-up warnings (the library's, not yet mapped to file paths).
+    pub warnings: Vec<ControlWarning>,
+    /// Its parameters as resolved (design inertia filled in).
+    pub params: SpatialControllerParams,
+    /// The chart-space path inertia the PD probe measured, when the NN law was designed on it.
+    pub probed_inertia: Option<[f64; 6]>,
+}
+
+/// Build the controller of a scenario as [`make_simulation`] does: the set-up checks of
+/// [`SpatialController::new`] (gains, bounds, the path inside the bounds, the arms' reach and
+/// joint limits, the posture); an NN law whose file gives no design inertia is designed on the
+/// path's chart-space inertia, which a first set-up with the PD law measures.
+pub fn make_controller(
+    sc: &SpatialScenario,
+    b: &SpatialBuilt,
+    src: &Source,
+) -> Result<Designed, ScenarioError> {
+    let dofs = dofs(b);
+    let lib = |e: ModelError| model_error(src, sc, &dofs, e);
+    let mut cp = b.controller.clone();
+    let mut probed_inertia = None;
+    if let (ControllerKind::Nn, None) = (sc.controller.kind, sc.controller.nn.design.inertia) {
+        let mut probe = cp.clone();
+        probe.law = Law::Pd(PdGains::<6>::paper());
+        let (c, _) = SpatialController::new(
+            &probe,
+            &b.plant,
+            b.path.clone(),
+            b.sim.duration,
+            &b.start.q_guess,
+        )
+        .map_err(lib)?;
+        let m: [f64; 6] = c.path_inertia().into();
+        probed_inertia = Some(m);
+        cp.law = Law::Nn(nn_gains(&sc.controller.nn, Some(m)));
+    }
+    let (c, w) = SpatialController::new(
+        &cp,
+        &b.plant,
+        b.path.clone(),
+        b.sim.duration,
+        &b.start.q_guess,
+    )
+    .map_err(lib)?;
+    Ok(Designed {
+        controller: c,
+        warnings: w,
+        params: cp,
+        probed_inertia,
+    })
+}
+
 /// Build the controller (the set-up checks of [`SpatialController::new`]: gains, bounds, the
 /// path inside the bounds and the arms' reach and joint limits, the posture) and the simulation.
 /// An NN law whose file gives no design inertia is designed on the path's chart-space inertia
@@ -1486,31 +1542,13 @@ pub fn make_simulation(
             _ => lib(e),
         }
     };
-    let mut cp = b.controller.clone();
-    let mut path_inertia = None;
-    if let (ControllerKind::Nn, None) = (sc.controller.kind, sc.controller.nn.design.inertia) {
-        let mut probe = cp.clone();
-        probe.law = Law::Pd(PdGains::<6>::paper());
-        let (c, _) = SpatialController::new(
-            &probe,
-            &b.plant,
-            b.path.clone(),
-            b.sim.duration,
-            &b.start.q_guess,
-        )
-        .map_err(lib)?;
-        let m: [f64; 6] = c.path_inertia().into();
-        path_inertia = Some(m);
-        cp.law = Law::Nn(nn_gains(&sc.controller.nn, Some(m)));
-    }
-    let (c, w) = SpatialController::new(
-        &cp,
-        &b.plant,
-        b.path.clone(),
-        b.sim.duration,
-        &b.start.q_guess,
-    )
-    .map_err(lib)?;
+    let Designed {
+        controller: c,
+        warnings: w,
+        params: cp,
+        probed_inertia,
+    } = make_controller(sc, b, src)?;
+    let mut path_inertia = probed_inertia;
     let k_c: [f64; 6] = c.k_c().into();
     let chart = *c.chart();
     let (sim, controller) = match &b.replay {

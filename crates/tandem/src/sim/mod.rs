@@ -472,6 +472,12 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
     pub fn last_sensor_truth(&self) -> &[f64] {
         &self.sensor_truth
     }
+    /// The joint torques held over the last tick (the driver's, after any injected actuator
+    /// fault), N m: what the log's `tau_q*` columns show. `&mut` only because the plant's
+    /// input gives its torques mutably; nothing changes.
+    pub fn applied_torques(&mut self) -> &[f64] {
+        P::torques_mut(&mut self.input)
+    }
     /// The wrist readings of the last tick (flat, `W` per arm), before any injected fault.
     pub fn last_readings(&self) -> &[f64] {
         &self.meas

@@ -1,0 +1,296 @@
+//! A scenario's controller outside tandem's loop (issue 23): built by the same functions as
+//! `tandem run` ([`planar::make_controller`], [`spatial::make_controller`], which
+//! `make_simulation` calls), with the start state a run begins from, to be stepped with the
+//! caller's own measurements ([`Standalone::start`], [`Standalone::tick`]).
+//!
+//! The loop contract is the simulation's ([`tandem::drive`]): `start(t0, …)` once with the
+//! first readings, then `tick(t, …)` every control period from `t0` on (the first tick at `t0`
+//! itself); the controller integrates its internal states with the scenario's control period,
+//! whatever the spacing of the `t` it is given. Wrenches are the wrist readings of
+//! [`Measurements`]: planar, the object's force on each end effector in world axes (2 per arm,
+//! N); spatial, the object's wrench `[f; τ]` on each tool, about the tool origin, in tool axes
+//! (6 per arm, N and N m).
+
+use tandem::control::planar::{Controller, TickRecord};
+use tandem::control::spatial::{SpatialController, SpatialTickRecord};
+use tandem::drive::{ControlEvents, Measurements};
+
+use super::planar::{self, PlanarScenario};
+use super::source::{ScenarioError, Source};
+use super::spatial::{self, SpatialScenario};
+use super::tables::ControllerKind;
+
+/// A law name as the Python package and `--controller` take it: `nn`, `pd`, `pd-gravity`,
+/// `ctc`. `pd-gravity` is the PD law with `controller.pd.gravity_compensation = true`; `pd`
+/// keeps the file's `controller.pd` section as it is (as `--controller pd` does).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LawName {
+    /// The adaptive NN law.
+    Nn,
+    /// PD on the object.
+    Pd,
+    /// PD with the model's gravity.
+    PdGravity,
+    /// Computed torque.
+    Ctc,
+}
+
+impl LawName {
+    /// The names, in the order of the docs.
+    pub const NAMES: [&'static str; 4] = ["nn", "pd", "pd-gravity", "ctc"];
+
+    /// Parse a name; `Err` with the message naming the valid ones.
+    pub fn parse(s: &str) -> Result<LawName, String> {
+        Ok(match s {
+            "nn" => LawName::Nn,
+            "pd" => LawName::Pd,
+            "pd-gravity" => LawName::PdGravity,
+            "ctc" => LawName::Ctc,
+            _ => {
+                return Err(format!(
+                    "law = {s:?}: must be one of {} (or None: the scenario's)",
+                    LawName::NAMES.join(", ")
+                ));
+            }
+        })
+    }
+
+    fn kind(self) -> ControllerKind {
+        match self {
+            LawName::Nn => ControllerKind::Nn,
+            LawName::Pd | LawName::PdGravity => ControllerKind::Pd,
+            LawName::Ctc => ControllerKind::Ctc,
+        }
+    }
+}
+
+/// The controller of either kind with its tick record.
+pub enum Law {
+    /// The planar controller.
+    Planar(Box<Controller>, Box<TickRecord>),
+    /// The spatial controller.
+    Spatial(Box<SpatialController>, Box<SpatialTickRecord>),
+}
+
+/// Where a run starts: the encoder readings and the wrist readings the run's driver is started
+/// with (the chain at rest on the start pose, zero torque held).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StartState {
+    /// Joint angles, stacked over arms, rad.
+    pub q: Vec<f64>,
+    /// Joint rates, rad/s (zero: at rest).
+    pub qd: Vec<f64>,
+    /// Wrist readings, flat, `wrench_dim` per arm.
+    pub wrenches: Vec<f64>,
+}
+
+/// A scenario's controller, ready to be started and ticked by the caller.
+pub struct Standalone {
+    /// The controller and its record.
+    pub law: Law,
+    /// Joints, all arms.
+    pub n_q: usize,
+    /// Arms.
+    pub n_arms: usize,
+    /// Wrench channels per arm: 2 (planar force) or 6 (spatial `[f; τ]`).
+    pub wrench_dim: usize,
+    /// The scenario's control period, s.
+    pub control_period: f64,
+    /// The run's start state.
+    pub start: StartState,
+}
+
+/// Refuse a torque replay: it is not a controller.
+fn no_replay(src: &Source, kind: ControllerKind) -> Result<(), ScenarioError> {
+    if kind == ControllerKind::Replay {
+        return Err(src.error_at(
+            "controller.kind",
+            format!(
+                "controller.kind = \"replay\": a torque replay is not a controller; choose a law ({})",
+                LawName::NAMES.join(", ")
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The planar scenario's controller (law `law`, or the scenario's), every check of a run.
+pub fn planar(
+    sc: &PlanarScenario,
+    src: &Source,
+    law: Option<LawName>,
+) -> Result<Standalone, ScenarioError> {
+    let mut sc = sc.clone();
+    if let Some(l) = law {
+        sc.controller.kind = l.kind();
+        if l == LawName::PdGravity {
+            sc.controller.pd.gravity_compensation = Some(true);
+        }
+    }
+    no_replay(src, sc.controller.kind)?;
+    let built = planar::build(&sc, src)?;
+    // The whole set-up of a run (the start pose, the sensors), for the start state.
+    let ready = planar::make_simulation(&sc, &built, src)?;
+    super::check_finite(src, &sc)?;
+    let cp = built
+        .controller
+        .as_ref()
+        .ok_or_else(|| src.error_at("controller.kind", "the scenario has no controller"))?;
+    let mut warnings = Vec::new();
+    let c = planar::make_controller(&sc, &built, cp, src, &mut warnings)?;
+    let sim = &ready.sim;
+    let n_q = sim.sensors().q().len();
+    let n_arms = built.plant.arms.len();
+    Ok(Standalone {
+        law: Law::Planar(Box::new(c), Box::default()),
+        n_q,
+        n_arms,
+        wrench_dim: 2,
+        control_period: built.sim.control_period,
+        start: StartState {
+            q: sim.sensors().q().to_vec(),
+            qd: sim.sensors().qd().to_vec(),
+            wrenches: sim.last_sensor_truth().to_vec(),
+        },
+    })
+}
+
+/// The spatial scenario's controller (law `law`, or the scenario's), every check of a run
+/// (the NN law's design-inertia probe included).
+pub fn spatial(
+    sc: &SpatialScenario,
+    src: &Source,
+    law: Option<LawName>,
+) -> Result<Standalone, ScenarioError> {
+    let mut sc = sc.clone();
+    if let Some(l) = law {
+        sc.controller.kind = l.kind();
+        if l == LawName::PdGravity {
+            sc.controller.pd.gravity_compensation = Some(true);
+        }
+    }
+    no_replay(src, sc.controller.kind)?;
+    let built = spatial::build(&sc, src)?;
+    let ready = spatial::make_simulation(&sc, &built, src)?;
+    super::check_finite(src, &sc)?;
+    let d = spatial::make_controller(&sc, &built, src)?;
+    let (start, n_q) = match &ready.sim {
+        spatial::SpatialSim::Control(s) => (
+            StartState {
+                q: s.sensors().q().to_vec(),
+                qd: s.sensors().qd().to_vec(),
+                wrenches: s.last_sensor_truth().to_vec(),
+            },
+            s.sensors().q().len(),
+        ),
+        spatial::SpatialSim::Replay(_) => {
+            return Err(src.error_at("controller.kind", "the scenario has no controller"));
+        }
+    };
+    let n_arms = built.plant.arms.len();
+    Ok(Standalone {
+        law: Law::Spatial(
+            Box::new(d.controller),
+            Box::new(SpatialTickRecord::new(n_arms)),
+        ),
+        n_q,
+        n_arms,
+        wrench_dim: 6,
+        control_period: built.sim.control_period,
+        start,
+    })
+}
+
+impl Standalone {
+    /// Start (or restart) at `t0` with the first readings (lengths as the fields say; the
+    /// caller checks them).
+    pub fn start(&mut self, t0: f64, q: &[f64], qd: &[f64], wrenches: &[f64]) {
+        let m = Measurements { q, qd, wrenches };
+        match &mut self.law {
+            Law::Planar(c, _) => c.start(t0, &m),
+            Law::Spatial(c, _) => c.start(t0, &m),
+        }
+    }
+
+    /// One tick: joint torques into `tau` (`n_q`), the internals into the record. No
+    /// allocation.
+    pub fn tick(&mut self, t: f64, q: &[f64], qd: &[f64], wrenches: &[f64], tau: &mut [f64]) {
+        let m = Measurements { q, qd, wrenches };
+        match &mut self.law {
+            Law::Planar(c, r) => c.tick(t, &m, tau, r),
+            Law::Spatial(c, r) => c.tick(t, &m, tau, r),
+        }
+    }
+
+    /// Event counters since the start.
+    pub fn events(&self) -> ControlEvents {
+        match &self.law {
+            Law::Planar(c, _) => c.events(),
+            Law::Spatial(c, _) => c.events(),
+        }
+    }
+
+    /// The last tick's record as named vectors (3 outputs planar, 6 spatial): `x_hat`,
+    /// `xd_hat`, `x_d`, `x_r`, `xd_r`, `z1`, `z2`, `alpha`, `alpha_dot`, `wrench` (the object
+    /// wrench commanded, the log's `tau.*`), `w_norm`.
+    pub fn record_vectors(&self) -> [(&'static str, &[f64]); 11] {
+        match &self.law {
+            Law::Planar(_, r) => [
+                ("x_hat", r.x_o.as_slice()),
+                ("xd_hat", r.xd_o.as_slice()),
+                ("x_d", r.x_d.as_slice()),
+                ("x_r", r.x_r.as_slice()),
+                ("xd_r", r.xd_r.as_slice()),
+                ("z1", r.z1.as_slice()),
+                ("z2", r.z2.as_slice()),
+                ("alpha", r.alpha.as_slice()),
+                ("alpha_dot", r.alpha_dot.as_slice()),
+                ("wrench", r.wrench.as_slice()),
+                ("w_norm", r.w_norm.as_slice()),
+            ],
+            Law::Spatial(_, r) => [
+                ("x_hat", r.x_hat.as_slice()),
+                ("xd_hat", r.xd_hat.as_slice()),
+                ("x_d", r.x_d.as_slice()),
+                ("x_r", r.x_r.as_slice()),
+                ("xd_r", r.xd_r.as_slice()),
+                ("z1", r.z1.as_slice()),
+                ("z2", r.z2.as_slice()),
+                ("alpha", r.alpha.as_slice()),
+                ("alpha_dot", r.alpha_dot.as_slice()),
+                ("wrench", r.wrench.as_slice()),
+                ("w_norm", r.w_norm.as_slice()),
+            ],
+        }
+    }
+
+    /// The last tick's scalars: `Q` (NN switching value, 1 otherwise), `margin` (of the
+    /// estimate), and spatial `angle_error`.
+    pub fn record_scalars(&self) -> Vec<(&'static str, f64)> {
+        match &self.law {
+            Law::Planar(_, r) => vec![("Q", r.q_switch), ("margin", r.margin)],
+            Law::Spatial(_, r) => vec![
+                ("Q", r.q_switch),
+                ("margin", r.margin),
+                ("angle_error", r.angle_error),
+            ],
+        }
+    }
+
+    /// The last tick's flags: `barrier_hit`, `torque_clipped`, `non_finite`.
+    pub fn record_flags(&self) -> [(&'static str, bool); 3] {
+        let (b, c, n) = match &self.law {
+            Law::Planar(_, r) => (r.barrier_hit, r.torque_clipped, r.non_finite),
+            Law::Spatial(_, r) => (r.barrier_hit, r.torque_clipped, r.non_finite),
+        };
+        [("barrier_hit", b), ("torque_clipped", c), ("non_finite", n)]
+    }
+
+    /// Spatial: each arm's internal (null-space) commanded wrench, world axes (`None` planar).
+    pub fn record_internal(&self) -> Option<&[nalgebra::Vector6<f64>]> {
+        match &self.law {
+            Law::Planar(..) => None,
+            Law::Spatial(_, r) => Some(&r.internal),
+        }
+    }
+}
