@@ -24,8 +24,8 @@ use tandem_cli::run::planar::{self as runner, Finished};
 use tandem_cli::run::spatial;
 use tandem_cli::scenario::planar::GainPreset;
 use tandem_cli::scenario::{
-    self, ControllerKind, Kind, Overrides, PlanarScenario, Scenario, ScenarioError, Source,
-    SpatialScenario, replay,
+    self, ControllerChoice, ControllerKind, Kind, Overrides, PlanarScenario, Scenario,
+    ScenarioError, Source, SpatialScenario, replay,
 };
 use tandem_cli::{BadInput, robustness, suggest, sweep};
 
@@ -151,9 +151,9 @@ struct Common {
 struct RunArgs {
     /// Scenario file or embedded scenario name [default: paper].
     scenario: Option<String>,
-    /// Controller (overrides controller.kind).
+    /// Controller (overrides controller.kind; pd-gravity is PD with the model's gravity).
     #[arg(long, value_enum)]
-    controller: Option<ControllerKind>,
+    controller: Option<ControllerChoice>,
     /// Gain preset of the nn controller (overrides controller.gains).
     #[arg(long, value_enum)]
     gains: Option<GainPreset>,
@@ -379,7 +379,8 @@ fn print_warnings(label: &str, w: &[String]) {
 
 fn cmd_run(a: RunArgs) -> Result<ExitCode> {
     let o = Overrides {
-        controller: a.controller,
+        controller: a.controller.map(ControllerChoice::kind),
+        pd_gravity: a.controller == Some(ControllerChoice::PdGravity),
         gains: a.gains,
         duration: a.common.duration,
         replay: a.replay.clone(),
@@ -398,6 +399,9 @@ fn cmd_run_planar(a: RunArgs, src: Source, sc: PlanarScenario) -> Result<ExitCod
     let kind = sc.controller.kind;
     let out_dir = a.common.out.clone().unwrap_or_else(|| {
         let mut name = format!("{}-{}", src.name, kind.name());
+        if kind == ControllerKind::Pd && sc.controller.pd.gravity_compensation == Some(true) {
+            name.push_str("-gravity");
+        }
         if kind == ControllerKind::Nn {
             name.push('-');
             name.push_str(sc.controller.gains.unwrap_or(GainPreset::Tuned).name());

@@ -17,7 +17,7 @@ use std::path::PathBuf;
 
 pub use planar::PlanarScenario;
 pub use spatial::SpatialScenario;
-pub use tables::ControllerKind;
+pub use tables::{ControllerChoice, ControllerKind};
 
 /// A parsed scenario of either kind; the one place where planar or spatial is decided
 /// ([`load`]). Commands, sweeps, robustness and the Python package take it and match once.
@@ -72,6 +72,8 @@ pub fn parse(src: &Source) -> Result<Scenario, ScenarioError> {
 pub struct Overrides {
     /// `--controller`.
     pub controller: Option<ControllerKind>,
+    /// `--controller pd-gravity`: PD with the model's gravity.
+    pub pd_gravity: bool,
     /// `--gains`.
     pub gains: Option<planar::GainPreset>,
     /// `--duration`.

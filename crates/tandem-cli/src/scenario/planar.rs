@@ -458,6 +458,9 @@ impl PlanarScenario {
         if let Some(k) = o.controller {
             self.controller.kind = k;
         }
+        if o.pd_gravity {
+            self.controller.pd.gravity_compensation = Some(true);
+        }
         if let Some(r) = &o.replay {
             if o.controller.is_none() {
                 self.controller.kind = ControllerKind::Replay;

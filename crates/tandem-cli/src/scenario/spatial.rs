@@ -1601,6 +1601,9 @@ impl SpatialScenario {
         if let Some(k) = o.controller {
             self.controller.kind = k;
         }
+        if o.pd_gravity {
+            self.controller.pd.gravity_compensation = Some(true);
+        }
         if let Some(r) = &o.replay {
             self.controller.kind = ControllerKind::Replay;
             // The command line's path is relative to the working folder, the file's to the file.

@@ -30,6 +30,35 @@ impl ControllerKind {
     }
 }
 
+/// `--controller`: a law by name, PD's two forms apart (`pd-gravity` is `kind = "pd"` with
+/// `controller.pd.gravity_compensation = true`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ControllerChoice {
+    /// iBLF backstepping + adaptive RBF network (SPEC §3.3–3.4).
+    Nn,
+    /// PD on the object (SPEC §3.5), as the file sets its gravity compensation (default off).
+    Pd,
+    /// PD on the object plus the model's gravity 𝓖.
+    #[value(name = "pd-gravity")]
+    PdGravity,
+    /// Computed torque with a nominal model (SPEC §3.5).
+    Ctc,
+    /// Joint torques replayed from a CSV file.
+    Replay,
+}
+
+impl ControllerChoice {
+    /// The scenario's `controller.kind`.
+    pub fn kind(self) -> ControllerKind {
+        match self {
+            ControllerChoice::Nn => ControllerKind::Nn,
+            ControllerChoice::Pd | ControllerChoice::PdGravity => ControllerKind::Pd,
+            ControllerChoice::Ctc => ControllerKind::Ctc,
+            ControllerChoice::Replay => ControllerKind::Replay,
+        }
+    }
+}
+
 use tandem::model::disturbance::{Disturbance, Push};
 use tandem::sim::sensors::{ChannelNoise, SensorParams};
 
