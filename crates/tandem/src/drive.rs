@@ -131,8 +131,13 @@ pub trait Drive<P: ClosedChain> {
 pub struct ControlEvents {
     /// Ticks with a barrier saturation.
     pub barrier_hits: u64,
-    /// Ticks with clipped torques.
+    /// Ticks with clipped torques (the actuator's effort limit acted on a joint, or a
+    /// non-finite torque was replaced).
     pub torque_clips: u64,
+    /// Ticks on which the actuator's torque-rate limit acted on a joint.
+    pub rate_limited: u64,
+    /// Ticks through the actuator's output filter (every tick when it is on).
+    pub filtered: u64,
     /// Ticks with a non-finite value replaced.
     pub non_finite: u64,
     /// Ticks that could not estimate or distribute (degenerate grasps).

@@ -36,9 +36,15 @@ fn the_counter_counts() {
 }
 
 fn params(law: Law<3>) -> ControllerParams {
-    // With a torque limit, so the clamp path runs too.
+    // With a torque limit, a rate limit and the output filter, so the actuator stage and the
+    // NN law's anti-windup run too.
     ControllerParams {
         torque_limit: Some(50.0),
+        actuator: tandem::control::actuator::ActuatorParams {
+            rate_limit: Some(200.0),
+            filter_time_constant: Some(0.002),
+            ..Default::default()
+        },
         ..ControllerParams::paper(law)
     }
 }

@@ -101,6 +101,9 @@ fn every_spatial_law_and_scheme_ticks_without_allocating() {
         let mut p = SpatialControllerParams::spec_s6(law);
         p.scheme = scheme;
         p.torque_limit = torque_limit;
+        // The actuator stage with a rate limit and a filter (and the NN law's anti-windup).
+        p.actuator.rate_limit = Some(300.0);
+        p.actuator.filter_time_constant = Some(0.002);
         let path = Se3Path::spec_s6();
         let duration = 0.3;
         let (c, _) =

@@ -384,6 +384,7 @@ fn stage(effort: Option<Vec<f64>>, rate: Option<f64>, tf: Option<f64>) -> Actuat
             effort,
             rate_limit: rate,
             filter_time_constant: tf,
+            anti_windup: None,
         },
         1,
         H,
@@ -461,6 +462,7 @@ fn apply_allocates_nothing() {
             effort: Some(vec![87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0]),
             rate_limit: Some(1000.0),
             filter_time_constant: Some(0.005),
+            anti_windup: None,
         },
         7,
         H,
@@ -543,6 +545,7 @@ fn params_strategy() -> impl Strategy<Value = (usize, ActuatorParams)> {
                         effort,
                         rate_limit,
                         filter_time_constant: tf,
+                        anti_windup: None,
                     },
                 )
             })

@@ -45,8 +45,8 @@ use tandem::sim::{Driver, Replay, SimParams, Simulation};
 use super::Overrides;
 use super::source::*;
 use super::tables::{
-    AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig, PathKind,
-    PdConfig, PlantConfig, RunConfig, SensorsConfig,
+    ActuatorConfig, AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig,
+    PathKind, PdConfig, PlantConfig, RunConfig, SensorsConfig,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -414,6 +414,10 @@ pub struct ControllerConfig {
     /// Symmetric joint torque limit, N m (absent: unlimited).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub torque_limit: Option<f64>,
+    /// The actuator stage: effort, rate limit, output filter (default: off; the effort limit
+    /// is `torque_limit` unless given).
+    #[serde(default, skip_serializing_if = "ActuatorConfig::is_off")]
+    pub actuator: ActuatorConfig,
     /// Known bound of `|F_d,j|` for the NN law's `f^U` (absent: computed from `[disturbance]`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub disturbance_bound: Option<[f64; 3]>,
@@ -957,6 +961,7 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
         delta: c.delta,
         control_period: sc.run.control_period(),
         torque_limit: c.torque_limit,
+        actuator: c.actuator.params(),
         disturbance_bound: c.disturbance_bound.unwrap_or(disturbance.bound()),
     });
     let replay = match (c.kind, &c.replay) {

@@ -51,8 +51,9 @@ use tandem::sim::{Formulation, Outcome, Replay, SimParams, Simulation, SpatialSt
 use super::planar::{control_warning, load_replay};
 use super::source::{MAX_ARMS, MAX_LINKS, ScenarioError, Source, num, read_limited};
 use super::tables::{
-    AdmittanceConfig, AxisFrameConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig,
-    Orientation, PathKind, PdConfig, PlantConfig, RunConfig, SensorsConfig,
+    ActuatorConfig, AdmittanceConfig, AxisFrameConfig, ControllerKind, CtcConfig,
+    DisturbanceConfig, MetricsConfig, Orientation, PathKind, PdConfig, PlantConfig, RunConfig,
+    SensorsConfig,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -256,6 +257,10 @@ pub struct ControllerConfig {
     /// Joint torque limit, every joint, N m (default: each joint's URDF effort limit).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub torque_limit: Option<f64>,
+    /// The actuator stage: effort, rate limit, output filter (default: off; the effort limits
+    /// are `torque_limit` or the URDF's unless given).
+    #[serde(default, skip_serializing_if = "ActuatorConfig::is_off")]
+    pub actuator: ActuatorConfig,
     /// Known bound of the environment wrench in chart coordinates (enters `f^U`).
     #[serde(default)]
     pub disturbance_bound: [f64; 6],
@@ -579,7 +584,7 @@ fn file_path(sc: &SpatialScenario, dofs: &[usize], param: &str) -> String {
     };
     match head {
         "k_c" | "disturbance_bound" | "squeeze" | "metric_length" | "torque_limit" | "centre"
-        | "scheme" | "posture" => format!("controller.{param}"),
+        | "scheme" | "posture" | "actuator" => format!("controller.{param}"),
         "gains" => format!("controller.{law}{rest}"),
         "control_period" | "duration" | "plant_step" | "log_period" | "max_drift" | "min_sigma" => {
             format!("run.{param}")
@@ -1024,6 +1029,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             metric_length: c.metric_length,
             control_period: sc.run.control_period(),
             torque_limit: c.torque_limit,
+            actuator: c.actuator.params(),
             disturbance_bound: c.disturbance_bound,
             posture,
         }

@@ -822,3 +822,43 @@ impl<Pt, Pose, Wp> PathConfig<Pt, Pose, Wp> {
         Ok(())
     }
 }
+
+/// `[controller.actuator]`: the actuator stage every law's torques go through (issue 24;
+/// [`tandem::control::actuator`]): per-joint effort limits, a torque-rate limit and a
+/// first-order output filter, all off by default (no change to any result). The library
+/// validates the values; its errors name `controller.actuator.<field>`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActuatorConfig {
+    /// Effort limit per joint, N m, all arms in joint order (`inf` for a joint without one;
+    /// absent: `controller.torque_limit`, or on spatial arms each joint's URDF `effort`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub effort: Option<Vec<f64>>,
+    /// Torque-rate limit, every joint, N m/s (absent: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate_limit: Option<f64>,
+    /// Time constant of the first-order output filter, s, at least the control period (absent:
+    /// none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub filter_time_constant: Option<f64>,
+    /// Anti-windup of the NN update against the stage (default: on when a field of this table
+    /// sets a limit; `torque_limit` or a URDF's `effort` alone keep the update as before).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub anti_windup: Option<bool>,
+}
+
+impl ActuatorConfig {
+    /// Nothing set (the table is left out of a written scenario).
+    pub fn is_off(&self) -> bool {
+        *self == ActuatorConfig::default()
+    }
+    /// The library's parameters.
+    pub fn params(&self) -> tandem::control::actuator::ActuatorParams {
+        tandem::control::actuator::ActuatorParams {
+            effort: self.effort.clone(),
+            rate_limit: self.rate_limit,
+            filter_time_constant: self.filter_time_constant,
+            anti_windup: self.anti_windup,
+        }
+    }
+}

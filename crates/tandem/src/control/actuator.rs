@@ -37,6 +37,28 @@
 //! wind up against a saturated actuator): the applied torque is the `applied` output, the
 //! saturation deficit `applied − commanded`.
 //!
+//! **In the controllers.** Both cooperative controllers
+//! ([`Controller`](crate::control::planar::Controller),
+//! [`SpatialController`](crate::control::spatial::SpatialController)) build one stage from
+//! their `actuator` parameters and pass every law's joint torques through it (`actuate`);
+//! without `effort` the stage's effort limits are the controller's `torque_limit` (spatial: or
+//! each joint's URDF `effort`), which reproduces the symmetric clamp the controllers had before
+//! bit for bit. The ticks each limit acted on go into the controller's
+//! [`ControlEvents`](crate::drive::ControlEvents) (`torque_clips`, `rate_limited`,
+//! `filtered`). The NN law's update is trained against the deficit
+//! ([`crate::control::law::adaptive::AdaptiveNn::anti_windup`]: `Ŵ̇_j = −Θ_j (Q S (z_2j − ξ_j)
+//! + σ_j Ŵ_j)`, `M_j ξ̇_j = −K2_j ξ_j + δτ_j`), on by default when a limit of this table is set
+//! ([`ActuatorParams::anti_windup`]).
+//!
+//! **A Franka's 1000 N m/s** (Franka Control Interface documentation, "torque rate limit") is not
+//! the default of the embedded robots: at 1000 N m/s the NN law's start on `dual-ur5` and
+//! `dual-franka` faults (0.84 s, 0.69 s): from 16 ms `Q` drops to 0 and the robust term
+//! `(1 − Q) f^U tanh(f^U z2/ϖ)` switches faster than the limit lets the torque follow. PD, PD +
+//! model gravity and computed torque are unchanged at that limit (their peak rates, from the
+//! first tick, are 1000, 145 and 353 N m/s on UR5; 1000, 574, 621 on Franka). The NN presets
+//! meet the S5 claims with the same `z1` as without a limit from 1500 N m/s (UR5) and 2000 N m/s
+//! (Franka) on.
+//!
 //! The stage is preallocated for its joints; [`Actuator::apply`] allocates nothing.
 
 use serde::{Deserialize, Serialize};
@@ -60,6 +82,26 @@ pub struct ActuatorParams {
     /// `None`: no filter.
     #[serde(default)]
     pub filter_time_constant: Option<f64>,
+    /// Anti-windup of the NN law's update against this stage
+    /// ([`crate::control::law::adaptive::AdaptiveNn::anti_windup`]). `None` (default): on
+    /// exactly when a limit of this table is set (`effort`, `rate_limit` or
+    /// `filter_time_constant`); the controllers' legacy effort limits (`torque_limit`, a URDF's
+    /// `effort`) alone keep the update of (44) on `z2`, so runs that set none of these give the
+    /// results they gave before the stage existed, bit for bit.
+    #[serde(default)]
+    pub anti_windup: Option<bool>,
+}
+
+impl ActuatorParams {
+    /// Whether the NN update runs with anti-windup against this stage (see
+    /// [`ActuatorParams::anti_windup`]).
+    pub fn anti_windup_on(&self) -> bool {
+        self.anti_windup.unwrap_or(
+            self.effort.is_some()
+                || self.rate_limit.is_some()
+                || self.filter_time_constant.is_some(),
+        )
+    }
 }
 
 impl ActuatorParams {
@@ -260,6 +302,37 @@ impl Actuator {
     }
 }
 
+/// The actuator stage of a tick, shared by the planar and spatial controllers: `tau` holds the
+/// commanded torques on entry (`cmd` receives them, a NaN replaced by zero) and the applied ones
+/// on exit (a non-finite one replaced by zero). Counts the ticks each limit acted on into
+/// `events`; returns whether a torque was clipped (the effort limit acted, or a NaN was
+/// replaced). No allocation.
+pub(crate) fn actuate(
+    act: &mut Actuator,
+    tau: &mut [f64],
+    cmd: &mut [f64],
+    events: &mut crate::drive::ControlEvents,
+) -> bool {
+    let mut clipped = false;
+    for (c, v) in cmd.iter_mut().zip(tau.iter()) {
+        // A NaN counts as clipped and becomes zero (as the symmetric clamp did).
+        clipped |= v.is_nan();
+        *c = if v.is_nan() { 0.0 } else { *v };
+    }
+    let (rate0, effort0) = (act.counts().rate, act.counts().effort);
+    act.apply(cmd, tau);
+    for v in tau.iter_mut() {
+        if !v.is_finite() {
+            *v = 0.0;
+        }
+    }
+    let c = act.counts();
+    clipped |= c.effort != effort0;
+    events.rate_limited += c.rate - rate0;
+    events.filtered += u64::from(act.params().filter_time_constant.is_some());
+    clipped
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -337,6 +410,7 @@ mod tests {
                 effort: Some(vec![f64::INFINITY, 1.0]),
                 filter_time_constant: Some(1e-3),
                 rate_limit: Some(1000.0),
+                anti_windup: None,
             },
             2,
             1e-3,

@@ -23,6 +23,7 @@
 
 use nalgebra::{Dim, Matrix, Matrix2, Rotation2, SVector, Storage, U2, Vector, Vector2, Vector3};
 
+use crate::control::actuator::{Actuator, ActuatorParams};
 use crate::control::law::Law;
 use crate::control::law::adaptive::{AdaptiveNn, FuBound, NnInternals};
 use crate::control::law::ctc::{Ctc, nominal_params};
@@ -57,8 +58,12 @@ pub struct ControllerParams {
     pub delta: f64,
     /// Control period, s.
     pub control_period: f64,
-    /// Joint torque limit (symmetric), N m; `None` = unlimited.
+    /// Joint torque limit (symmetric, every joint), N m; `None` = unlimited. The actuator
+    /// stage's effort limit when [`ActuatorParams::effort`] is not given.
     pub torque_limit: Option<f64>,
+    /// The actuator stage every law's torques go through (effort, rate limit, output filter;
+    /// [`crate::control::actuator`]); all off by default.
+    pub actuator: ActuatorParams,
     /// Known bound of the disturbance `|F_d,j|` (enters `f^U`, SPEC §3.4), (N, N, N m).
     pub disturbance_bound: [f64; 3],
 }
@@ -108,6 +113,7 @@ impl ControllerParams {
             delta: 0.005,
             control_period: 1e-3,
             torque_limit: None,
+            actuator: ActuatorParams::default(),
             disturbance_bound: crate::model::disturbance::Disturbance::paper().bound(),
         }
     }
@@ -250,21 +256,20 @@ fn joints<const N: usize>(v: &[f64], off: usize) -> [f64; N] {
 
 /// Step 5 for one arm (SPEC §3): `τ_joint = J_eᵀ τ_x`; an arm with more than two joints adds
 /// damping and gravity compensation in the null space of `J_e`,
-/// `τ_null = (I − J_eᵀ(J_eJ_eᵀ)⁻¹J_e)(−K_N q̇ + Ĝ(q))` (`K_N` = [`NULL_SPACE_DAMPING`]); each
-/// torque is clipped to `±limit`, a non-finite one is replaced by zero. `j` is 2 × n, `gq` has
+/// `τ_null = (I − J_eᵀ(J_eJ_eᵀ)⁻¹J_e)(−K_N q̇ + Ĝ(q))` (`K_N` = [`NULL_SPACE_DAMPING`]): the
+/// commanded torques, before the actuator stage (a NaN is replaced by zero there; an infinite
+/// one is clamped to the effort limit, or replaced by zero without one). `j` is 2 × n, `gq` has
 /// n entries (read only when n > 2), `qd` and `tau` at least n. Generic over the column
 /// dimension, so 2–4 links run with the link count a constant (no bounds checks) and other
-/// counts on the dynamic-size terms, with the same operations in the same order. Returns
-/// whether a torque was clipped.
+/// counts on the dynamic-size terms, with the same operations in the same order.
 #[inline(always)]
 fn joint_torques<C: Dim, SJ: Storage<f64, U2, C>, SG: Storage<f64, C>>(
     j: &Matrix<f64, U2, C, SJ>,
     gq: &Vector<f64, C, SG>,
     qd: &[f64],
     tau_x: Vector2<f64>,
-    limit: f64,
     tau: &mut [f64],
-) -> bool {
+) {
     let n = j.ncols();
     let (qd, tau) = (&qd[..n], &mut tau[..n]);
     let mut w_null = Vector2::zeros();
@@ -284,21 +289,14 @@ fn joint_torques<C: Dim, SJ: Storage<f64, U2, C>, SG: Storage<f64, C>>(
             w_null = Vector2::new(d * ju.x - b * ju.y, a * ju.y - b * ju.x) / det;
         }
     }
-    let mut clipped = false;
     for k in 0..n {
         let mut v = j[(0, k)] * tau_x.x + j[(1, k)] * tau_x.y;
         if n > 2 {
             let u = -NULL_SPACE_DAMPING * qd[k] + gq[k];
             v += u - (j[(0, k)] * w_null.x + j[(1, k)] * w_null.y);
         }
-        // `clamp` as two compare-selects (`limit > 0` is validated; a NaN `v` stays NaN and
-        // counts as clipped, as with `clamp`).
-        let c = if v < -limit { -limit } else { v };
-        let c = if c > limit { limit } else { c };
-        clipped |= c != v;
-        tau[k] = if c.is_finite() { c } else { 0.0 };
+        tau[k] = v;
     }
-    clipped
 }
 
 /// A cooperative controller: validated gains and models, its own state (admittance, weights),
@@ -316,7 +314,10 @@ pub struct Controller {
     law: Active,
     k_c: Vector3<f64>,
     h: f64,
-    torque_limit: f64,
+    /// The actuator stage (effort from `torque_limit` unless given, rate limit, filter).
+    actuator: Actuator,
+    /// The commanded torques of the last tick, N m (before the actuator stage).
+    tau_cmd: Vec<f64>,
     events: ControlEvents,
     theta_hint: f64,
     theta_r_hint: f64,
@@ -384,9 +385,15 @@ impl Controller {
             ));
         }
         let torque_limit = match p.torque_limit {
-            Some(l) => positive("torque_limit", l)?,
-            None => f64::INFINITY,
+            Some(l) => Some(positive("torque_limit", l)?),
+            None => None,
         };
+        let mut act = p.actuator.clone();
+        if act.effort.is_none() {
+            act.effort = torque_limit.map(|l| vec![l; kin.n_q()]);
+        }
+        let n_q = kin.n_q();
+        let actuator = Actuator::new(&act, n_q, h)?;
         let grasps: Vec<Grasp> = kin.grasps().to_vec();
         for (i, g) in grasps.iter().enumerate() {
             if g.r.norm() <= delta {
@@ -506,7 +513,12 @@ impl Controller {
                         });
                     }
                 }
-                Active::Nn(Box::new(AdaptiveNn::new(g, k_c, fu, h)?))
+                let mut nn = AdaptiveNn::new(g, k_c, fu, h)?;
+                // Anti-windup on the 𝓜 bound of each output (the z2 loop's inertia).
+                if p.actuator.anti_windup_on() {
+                    nn.set_anti_windup_inertia(std::array::from_fn(|j| nn.fu().c[j] / g.fu_safety));
+                }
+                Active::Nn(Box::new(nn))
             }
             (Law::Nn(g), Scheme::PerArm) => {
                 let mut nets = Vec::new();
@@ -553,7 +565,8 @@ impl Controller {
                 law,
                 k_c,
                 h,
-                torque_limit,
+                tau_cmd: vec![0.0; n_q],
+                actuator,
                 events: ControlEvents::default(),
                 theta_hint: 0.0,
                 theta_r_hint: 0.0,
@@ -603,6 +616,25 @@ impl Controller {
         }
     }
 
+    /// The adaptive law, mutable (to switch its anti-windup off for a comparison).
+    pub fn adaptive_mut(&mut self) -> Option<&mut AdaptiveNn> {
+        match &mut self.law {
+            Active::Nn(nn) => Some(nn),
+            _ => None,
+        }
+    }
+    /// The actuator stage (its limits and the ticks each acted on).
+    pub fn actuator(&self) -> &Actuator {
+        &self.actuator
+    }
+    /// Replace the actuator stage between ticks (to lift a limit mid-run): the new stage starts
+    /// from its first command; `p.effort = None` means no effort limit (not `torque_limit`).
+    /// Errors name the field as [`ActuatorParams::validate`].
+    pub fn set_actuator(&mut self, p: &ActuatorParams) -> Result<(), ModelError> {
+        self.actuator = Actuator::new(p, self.tau_cmd.len(), self.h)?;
+        Ok(())
+    }
+
     /// Start (or restart) at time `t0`: admittance offsets at rest, each force filter started at
     /// its expected force `F_ref,i(t0)` (SPEC §3.1), the pose estimate's angle branch set from
     /// the measurements. Adaptive weights are kept (call [`Controller::reset_weights`] to zero
@@ -616,6 +648,7 @@ impl Controller {
         self.theta_hint = s.p.z;
         self.theta_r_hint = s.p.z;
         self.estimate(meas);
+        self.actuator.reset();
         self.events = ControlEvents::default();
     }
 
@@ -791,23 +824,35 @@ impl Controller {
         }
         // The torque map of each arm on the kernel selected at set-up (2–4 links: fixed size).
         let g = self.kin.gravity();
-        let lim = self.torque_limit;
         for (i, a) in self.arm_slots.iter().enumerate() {
             let (off, tx) = (a.off, self.tau_x[i]);
             let (qd, out) = (&meas.qd[off..], &mut tau[off..]);
-            rec.torque_clipped |= match &a.kernel {
-                ArmKernel::Two(_, j) => joint_torques(j, &Vector2::zeros(), qd, tx, lim, out),
-                ArmKernel::Three(_, k) => joint_torques(&k.j, &k.gravity, qd, tx, lim, out),
-                ArmKernel::Four(_, k) => joint_torques(&k.j, &k.gravity, qd, tx, lim, out),
+            match &a.kernel {
+                ArmKernel::Two(_, j) => joint_torques(j, &Vector2::zeros(), qd, tx, out),
+                ArmKernel::Three(_, k) => joint_torques(&k.j, &k.gravity, qd, tx, out),
+                ArmKernel::Four(_, k) => joint_torques(&k.j, &k.gravity, qd, tx, out),
                 ArmKernel::General => {
                     let arm = &self.kin.arms()[i];
                     let t = &mut self.ws.terms[i];
                     if arm.dof() > 2 {
                         arm.general_dynamics(g, t);
                     }
-                    joint_torques(&t.J, &t.G, qd, tx, lim, out)
+                    joint_torques(&t.J, &t.G, qd, tx, out)
                 }
-            };
+            }
+        }
+        // The actuator stage: the law's torques → the applied ones.
+        rec.torque_clipped |= crate::control::actuator::actuate(
+            &mut self.actuator,
+            tau,
+            &mut self.tau_cmd,
+            &mut self.events,
+        );
+        if matches!(self.law, Active::Nn(_)) {
+            let d = self.deficit_wrench(&rot1, tau);
+            if let Active::Nn(nn) = &mut self.law {
+                nn.anti_windup(&d);
+            }
         }
         if rec.barrier_hit {
             self.events.barrier_hits += 1;
@@ -818,6 +863,34 @@ impl Controller {
         if rec.non_finite {
             self.events.non_finite += 1;
         }
+    }
+
+    /// The actuator's deficit `δτ_q = τ_applied − τ_cmd` of this tick as an object wrench,
+    /// with the maps of (14) the wrench was distributed with: per arm `δτ_x,i = J_e,i⁻ᵀ δτ_q,i`
+    /// (2-link arms, the NN law's), then `δ𝓣 = Σ_i 𝐉_iᵀ δτ_x,i` (the grasp maps at the
+    /// estimated angle; the internal part of the deficit puts no wrench on the object). Zero
+    /// where nothing was limited.
+    fn deficit_wrench(&self, rot1: &Rotation2<f64>, tau: &[f64]) -> Vector3<f64> {
+        let mut d = Vector3::zeros();
+        for (a, g) in self.arm_slots.iter().zip(self.set.grasps()) {
+            let ArmKernel::Two(_, j) = &a.kernel else {
+                continue;
+            };
+            let off = a.off;
+            let dq = Vector2::new(
+                tau[off] - self.tau_cmd[off],
+                tau[off + 1] - self.tau_cmd[off + 1],
+            );
+            if dq == Vector2::zeros() {
+                continue;
+            }
+            if let Some(dx) = crate::math::linalg::lu_solve_2x2(&j.transpose(), &dq)
+                .filter(|v| v.x.is_finite() & v.y.is_finite())
+            {
+                d += Grasp::jacobian_from_arm(rot1 * g.r).transpose() * dx;
+            }
+        }
+        d
     }
 
     /// Per-arm scheme, step 4: each arm's law on its end-effector tracks `x_r,i`, with the

@@ -454,6 +454,10 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
     pub fn driver(&self) -> &D {
         &self.driver
     }
+    /// The driver, to change it between ticks (a test lifting an actuator limit mid-run).
+    pub fn driver_mut(&mut self) -> &mut D {
+        &mut self.driver
+    }
     /// The torque-rate monitor (what it has seen of the applied torques so far).
     pub fn torque_rate(&self) -> &TorqueRateMonitor {
         &self.torque_rate

@@ -85,6 +85,8 @@ pub fn summary_json(
         json!({
             "barrier_hits": o.events.barrier_hits,
             "torque_clips": o.events.torque_clips,
+            "rate_limited": o.events.rate_limited,
+            "filtered": o.events.filtered,
             "non_finite": o.events.non_finite,
             "degenerate": o.events.degenerate,
         }),

@@ -413,6 +413,12 @@ pub struct AdaptiveNn<const N: usize = 3> {
     /// `‖Ŵ_j‖²`, carried by the exact recurrence and refreshed every [`NORM_REFRESH`] ticks.
     w_n2: [f64; N],
     ticks: u64,
+    /// Anti-windup state `ξ` (see [`AdaptiveNn::anti_windup`]); zero without saturation.
+    xi: SVector<f64, N>,
+    /// `(e^{−K2_j h/M_j}, (1 − e^{−K2_j h/M_j})/K2_j)` of the anti-windup filter (`None`: off).
+    aw: Option<[(f64, f64); N]>,
+    /// Control period, s.
+    h: f64,
 }
 
 /// Ticks between exact recomputations of the weight norms (one read pass over the weights).
@@ -474,6 +480,9 @@ impl<const N: usize> AdaptiveNn<N> {
             z: vec![0.0; 4 * N],
             w_n2: [0.0; N],
             ticks: 0,
+            xi: SVector::zeros(),
+            aw: None,
+            h,
         })
     }
 
@@ -488,6 +497,7 @@ impl<const N: usize> AdaptiveNn<N> {
             Network::Structured(s) => s.reset(),
         }
         self.w_n2 = [0.0; N];
+        self.xi = SVector::zeros();
     }
     /// The weights `Ŵ`: on the full grid interleaved by node (`w[k·N + j]`: node k, output j);
     /// otherwise in the layout of [`StructuredNn::weights`]. With the `batched` kernels'
@@ -506,6 +516,64 @@ impl<const N: usize> AdaptiveNn<N> {
             Network::Structured(s) => Some(s),
         }
     }
+    /// Switch the anti-windup filter of [`AdaptiveNn::anti_windup`] on, with the inertia `M_j`
+    /// per output (kg, kg m², …; `> 0`, finite); `ξ` starts at zero.
+    pub fn set_anti_windup_inertia(&mut self, m: [f64; N]) {
+        self.xi = SVector::zeros();
+        self.aw = Some(std::array::from_fn(|j| {
+            let (k2, mj) = (self.k2[j], m[j]);
+            if !(mj > 0.0 && mj.is_finite()) {
+                // No inertia for this output: ξ_j stays zero.
+                return (0.0, 0.0);
+            }
+            let a = -k2 * self.h / mj;
+            // e^{a} and (1 − e^{a})/K2 (exp_m1 keeps the small-step gain accurate).
+            (a.exp(), -a.exp_m1() / k2)
+        }));
+    }
+
+    /// Switch the anti-windup filter off (`ξ = 0`: the update (44) on `z2` whatever the
+    /// actuator does; for comparisons).
+    pub fn clear_anti_windup(&mut self) {
+        self.aw = None;
+        self.xi = SVector::zeros();
+    }
+
+    /// The anti-windup state `ξ` (zero while the actuator never limited the law).
+    pub fn anti_windup_state(&self) -> SVector<f64, N> {
+        self.xi
+    }
+
+    /// Anti-windup of the update (44) against a limiting actuator (issue 24). `deficit` is the
+    /// actuator's deficit `δτ = τ_applied − τ_cmd` of the tick just run, mapped to the law's
+    /// outputs with the maps the controller distributes the law's output with (planar: the
+    /// arms' `J_eᵀ` and the grasp maps of (14); spatial: the wrist wrenches through the grasp
+    /// map and the chart). The part of `z2` the deficit caused is estimated by the filter of
+    /// the `z2` loop's dominant (damping) part,
+    /// ```text
+    /// M_j ξ̇_j = −K2_j ξ_j + δτ_j,
+    /// ξ_j ← e^{−K2_j h/M_j} ξ_j + (1 − e^{−K2_j h/M_j}) δτ_j / K2_j   (exact for δτ held over the tick),
+    /// ```
+    /// and the update (44) is trained on what the law is responsible for,
+    /// ```text
+    /// Ŵ̇_j = −Θ_j (Q S (z_2j − ξ_j) + σ_j Ŵ_j),
+    /// ```
+    /// from the next tick on (one tick late: the deficit is known after the law ran). Without
+    /// saturation `δτ = 0`, `ξ ≡ 0` and the update is (44) bit for bit. Without
+    /// [`AdaptiveNn::set_anti_windup_inertia`] this does nothing. No allocation.
+    pub fn anti_windup(&mut self, deficit: &SVector<f64, N>) {
+        let Some(aw) = &self.aw else { return };
+        for j in 0..N {
+            let (e, g) = aw[j];
+            let d = if deficit[j].is_finite() {
+                deficit[j]
+            } else {
+                0.0
+            };
+            self.xi[j] = e * self.xi[j] + g * d;
+        }
+    }
+
     /// The adaptation gains `Θ_j`.
     pub fn theta(&self) -> [f64; N] {
         self.theta
@@ -544,11 +612,18 @@ impl<const N: usize> AdaptiveNn<N> {
         }
         let q = self.switching.eval(&self.z);
         self.ticks += 1;
+        // The update's error: z2, less the part the actuator's deficit caused
+        // ([`AdaptiveNn::anti_windup`]; ξ = 0 without saturation: z2 itself).
+        let e2 = if self.xi == SVector::<f64, N>::zeros() {
+            z2
+        } else {
+            z2 - self.xi
+        };
         let (phi_a, norms) = match &mut self.network {
             Network::Grid { rbf, rbf_ws, net } => {
                 // S(Z) on the grid, outputs with the old weights and the exact held-input update
                 // of (44), fused in one pass over the weights.
-                let phi_a = net.tick_at_outputs(rbf, &self.z, rbf_ws, q, &z2, &self.update);
+                let phi_a = net.tick_at_outputs(rbf, &self.z, rbf_ws, q, &e2, &self.update);
                 // ‖Ŵ_j‖ for the record: ‖e Ŵ − c S‖² = e²‖Ŵ‖² − 2ec Ŵ·S + c²‖S‖², Ŵ·S = f̂_j.
                 if self.ticks.is_multiple_of(NORM_REFRESH) {
                     // The exact norms need the stored weights to be `Ŵ` (kernels `batched`,
@@ -561,7 +636,7 @@ impl<const N: usize> AdaptiveNn<N> {
                 } else {
                     let (e, g, s2) = (self.update.decay(), self.update.gain(), rbf_ws.s_norm2());
                     for j in 0..N {
-                        let c = g[j] * q * z2[j];
+                        let c = g[j] * q * e2[j];
                         self.w_n2[j] = (e[j] * e[j] * self.w_n2[j] - 2.0 * e[j] * c * phi_a[j]
                             + c * c * s2)
                             .max(0.0);
@@ -572,7 +647,7 @@ impl<const N: usize> AdaptiveNn<N> {
             }
             Network::Structured(s) => {
                 // Per output: f̂_j = Ŵ_jᵀ S_j(Z) and the exact update (44), Q over the full Z.
-                let t = s.tick(&self.z, q, &z2);
+                let t = s.tick(&self.z, q, &e2);
                 (t.f_hat, std::array::from_fn(|j| t.w_norm[j]))
             }
         };

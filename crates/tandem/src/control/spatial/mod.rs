@@ -38,6 +38,7 @@ pub use params::{PostureParams, SpatialControllerParams};
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3, Vector6};
 
+use crate::control::actuator::Actuator;
 use crate::control::law::Law;
 use crate::control::law::adaptive::{AdaptiveNn, FuBound, NnInternals};
 use crate::control::law::ctc::CtcGains;
@@ -258,7 +259,10 @@ pub struct SpatialController {
     k_c: Vector6<f64>,
     h: f64,
     squeeze: f64,
-    torque_limit: Vec<f64>,
+    /// The actuator stage (effort from `torque_limit` or the URDF unless given).
+    actuator: Actuator,
+    /// The commanded torques of the last tick, N m (before the actuator stage).
+    tau_cmd: Vec<f64>,
     posture: PostureTask,
     posture_rest_given: bool,
     path_inertia: Vector6<f64>,
@@ -399,6 +403,11 @@ impl SpatialController {
                 .map(|e| if e > 0.0 { e } else { f64::INFINITY })
                 .collect(),
         };
+        let mut act = p.actuator.clone();
+        if act.effort.is_none() {
+            act.effort = Some(torque_limit.clone());
+        }
+        let actuator = Actuator::new(&act, plant.n_q(), h)?;
         let ws = obj_model.workspace();
         let dist = Distribution::new(m, p.metric_length).map_err(|e| rename(e, "metric_length"))?;
         let adm = match &p.admittance {
@@ -480,7 +489,12 @@ impl SpatialController {
                         });
                     }
                 }
-                Active::Nn(Box::new(AdaptiveNn::<6>::new(g, k_c, fu, h)?))
+                let mut nn = AdaptiveNn::<6>::new(g, k_c, fu, h)?;
+                // Anti-windup on the chart-space inertia along the path (the z2 loop's).
+                if p.actuator.anti_windup_on() {
+                    nn.set_anti_windup_inertia(std::array::from_fn(|j| path_inertia[j]));
+                }
+                Active::Nn(Box::new(nn))
             }
         };
         let object = RigidObject::new(&model.object)?;
@@ -502,7 +516,8 @@ impl SpatialController {
                 k_c,
                 h,
                 squeeze,
-                torque_limit,
+                tau_cmd: vec![0.0; torque_limit.len()],
+                actuator,
                 posture,
                 posture_rest_given: p.posture.q_rest.is_some(),
                 path_inertia,
@@ -600,7 +615,20 @@ impl SpatialController {
         if self.estimate(meas).is_some() {
             // hint_hat now follows the measured pose.
         }
+        self.actuator.reset();
         self.events = ControlEvents::default();
+    }
+
+    /// The adaptive law, mutable (to switch its anti-windup off for a comparison).
+    pub fn adaptive_mut(&mut self) -> Option<&mut AdaptiveNn<6>> {
+        match &mut self.law {
+            Active::Nn(nn) => Some(nn),
+            _ => None,
+        }
+    }
+    /// The actuator stage (its limits and the ticks each acted on).
+    pub fn actuator(&self) -> &Actuator {
+        &self.actuator
     }
 
     /// Zero the adaptive weights.
@@ -850,11 +878,18 @@ impl SpatialController {
                 tau,
             );
         }
-        for (k, v) in tau.iter_mut().enumerate() {
-            let l = self.torque_limit[k];
-            let c = v.clamp(-l, l);
-            rec.torque_clipped |= c != *v;
-            *v = if c.is_finite() { c } else { 0.0 };
+        // The actuator stage: the law's torques → the applied ones.
+        rec.torque_clipped |= crate::control::actuator::actuate(
+            &mut self.actuator,
+            tau,
+            &mut self.tau_cmd,
+            &mut self.events,
+        );
+        if matches!(self.law, Active::Nn(_)) {
+            let d = cs.jac.wrench_to_chart(&self.deficit_wrench(tau));
+            if let Active::Nn(nn) = &mut self.law {
+                nn.anti_windup(&d);
+            }
         }
         if rec.barrier_hit {
             self.events.barrier_hits += 1;
@@ -865,6 +900,44 @@ impl SpatialController {
         if rec.non_finite {
             self.events.non_finite += 1;
         }
+    }
+
+    /// The actuator's deficit `δτ_q = τ_applied − τ_cmd` of this tick as an object wrench,
+    /// with the maps the wrench was distributed with: per arm the wrist wrench that `J_iᵀ`
+    /// maps onto the deficit in least squares, `δw_i = (J_i J_iᵀ)⁻¹ J_i δτ_q,i` (`J_i⁻ᵀ δτ_q,i`
+    /// on a 6-joint arm; the null-space part of a redundant arm's deficit reaches no wrist),
+    /// then the grasp map `δF = Σ_i G_iᵀ δw_i`. Zero where nothing was limited. Uses `w2` as
+    /// scratch.
+    fn deficit_wrench(&mut self, tau: &[f64]) -> Vector6<f64> {
+        let mut any = false;
+        for i in 0..self.w2.len() {
+            let n = self.model.arms()[i].chain.dof();
+            let s = self.model.offset(i);
+            let nz = (s..s + n).any(|k| tau[k] != self.tau_cmd[k]);
+            self.w2[i] = Vector6::zeros();
+            if !nz {
+                continue;
+            }
+            any = true;
+            let jt = &self.ws.data[i].J.as_slice()[..6 * n];
+            let mut b = Vector6::zeros();
+            let mut a = nalgebra::Matrix6::<f64>::zeros();
+            for k in 0..n {
+                let col = Vector6::from_column_slice(&jt[6 * k..6 * k + 6]);
+                a += col * col.transpose();
+                b += col * (tau[s + k] - self.tau_cmd[s + k]);
+            }
+            if let Some(c) = a.cholesky() {
+                let w = c.solve(&b);
+                if finite_slice(w.as_slice()) {
+                    self.w2[i] = w;
+                }
+            }
+        }
+        if !any {
+            return Vector6::zeros();
+        }
+        Distribution::net(&self.r, &self.w2)
     }
 
     /// Whether the tick needs the full object-level model ([`ObjectModel::dynamics`]): computed

@@ -153,6 +153,9 @@ pub struct SpatialControllerParams {
     /// Joint torque limit (symmetric, every joint), N m; `None` = each joint's URDF effort
     /// limit (unlimited where the URDF gives none).
     pub torque_limit: Option<f64>,
+    /// The actuator stage every law's torques go through ([`crate::control::actuator`]); its
+    /// effort limits, when not given, are `torque_limit` or the URDF's; all off by default.
+    pub actuator: crate::control::actuator::ActuatorParams,
     /// Known bound of `|F_d,j|` in chart coordinates (enters `f^U`), (N ×3, N m ×3).
     pub disturbance_bound: [f64; 6],
     /// Posture task of redundant arms.
@@ -177,6 +180,7 @@ impl SpatialControllerParams {
             metric_length: 0.2,
             control_period: 1e-3,
             torque_limit: None,
+            actuator: Default::default(),
             disturbance_bound: [0.5, 0.5, 0.5, 0.05, 0.05, 0.05],
             posture: PostureParams::default(),
         }
