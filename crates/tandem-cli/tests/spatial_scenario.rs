@@ -82,7 +82,7 @@ fn the_default_design_is_measured_on_the_path() {
     // (20, 15, 12 kg; 0.03, 0.8, 0.9 kg m²) must be within that rule's reach of it.
     let src = preset("dual-ur5");
     let mut sc = sp::parse(&src).unwrap();
-    sc.controller.nn.design.inertia = None;
+    sc.controller.nn.design.get_or_insert_default().inertia = None;
     sc.run.duration = 1.0;
     let b = sp::build(&sc, &src).unwrap();
     let r = sp::make_simulation(&sc, &b, &src).unwrap();

@@ -46,7 +46,7 @@ use super::Overrides;
 use super::source::*;
 use super::tables::{
     ActuatorConfig, AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig,
-    PathKind, PdConfig, PlantConfig, RunConfig, SensorsConfig,
+    NnConfig, PathKind, PdConfig, PlantConfig, RunConfig, SensorsConfig,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -338,63 +338,6 @@ impl GainPreset {
     }
 }
 
-/// Per-field overrides of the NN preset (absent = the preset's value).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct NnOverrides {
-    /// `K1` diagonal, 1/s.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k1: Option<[f64; 3]>,
-    /// `K2` diagonal.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k2: Option<[f64; 3]>,
-    /// `K_r` diagonal.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k_r: Option<[f64; 3]>,
-    /// Adaptation gains `Θ_j`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub theta: Option<[f64; 3]>,
-    /// σ-modification.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sigma: Option<[f64; 3]>,
-    /// Robust-term smoothing `ϖ`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub varpi: Option<f64>,
-    /// Safety factor on `f^U`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub fu_safety: Option<f64>,
-    /// RBF width `ϑ²`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub width2: Option<f64>,
-    /// Centre levels per input.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub levels: Option<Vec<f64>>,
-    /// Switching inner radius.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub d1: Option<f64>,
-    /// Switching outer radius.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub d2: Option<f64>,
-    /// Switching shape.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub omega: Option<f64>,
-}
-
-impl NnOverrides {
-    fn is_empty(&self) -> bool {
-        *self == NnOverrides::default()
-    }
-    fn apply(&self, mut g: NnGains<3>) -> NnGains<3> {
-        macro_rules! set {
-            ($($f:ident),*) => { $( if let Some(v) = &self.$f { g.$f = v.clone(); } )* };
-        }
-        set!(
-            k1, k2, k_r, theta, sigma, varpi, fu_safety, width2, levels, d1, d2, omega
-        );
-        g
-    }
-}
-
 /// The controller section.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -422,8 +365,8 @@ pub struct ControllerConfig {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub disturbance_bound: Option<[f64; 3]>,
     /// Overrides of the NN preset.
-    #[serde(default, skip_serializing_if = "NnOverrides::is_empty")]
-    pub nn: NnOverrides,
+    #[serde(default, skip_serializing_if = "NnConfig::is_empty")]
+    pub nn: NnConfig<3>,
     /// PD gains.
     #[serde(default)]
     pub pd: PdConfig<3>,
@@ -907,6 +850,14 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
             "sensors.torque",
             "sensors.torque: a planar arm has no wrist torque channel (its force sensor reads the \
              end effector's force in the plane, `sensors.force`)",
+        ));
+    }
+    if sc.controller.nn.design.is_some() {
+        return Err(src.error_at(
+            "controller.nn.design",
+            "controller.nn.design: the per-axis design from the chart-space inertia is the \
+             spatial NN law's; planar NN gains are a preset (`gains = \"tuned\"`, --gains) plus \
+             the gains given in [controller.nn]",
         ));
     }
     if sc.plant.compliant_grasps.is_some() {

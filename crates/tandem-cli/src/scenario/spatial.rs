@@ -31,7 +31,6 @@ use tandem::control::law::Law;
 use tandem::control::law::adaptive::NnGains;
 use tandem::control::law::ctc::CtcGains;
 use tandem::control::law::pd::PdGains;
-use tandem::control::rbf::structured::NetworkStructure;
 use tandem::control::spatial::SpatialController;
 use tandem::control::spatial::chart::Chart;
 use tandem::control::spatial::{PostureParams, SpatialControllerParams};
@@ -52,8 +51,8 @@ use super::planar::{control_warning, load_replay};
 use super::source::{MAX_ARMS, MAX_LINKS, ScenarioError, Source, num, read_limited};
 use super::tables::{
     ActuatorConfig, AdmittanceConfig, AxisFrameConfig, ControllerKind, CtcConfig,
-    DisturbanceConfig, MetricsConfig, Orientation, PathKind, PdConfig, PlantConfig, RunConfig,
-    SensorsConfig,
+    DisturbanceConfig, MetricsConfig, NnConfig, Orientation, PathKind, PdConfig, PlantConfig,
+    RunConfig, SensorsConfig,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -266,7 +265,7 @@ pub struct ControllerConfig {
     pub disturbance_bound: [f64; 6],
     /// NN gains.
     #[serde(default)]
-    pub nn: NnConfig,
+    pub nn: NnConfig<6>,
     /// PD gains.
     #[serde(default)]
     pub pd: PdConfig<6>,
@@ -295,96 +294,6 @@ fn default_metric_length() -> f64 {
     0.2
 }
 
-/// NN gains: designed per axis from the chart-space inertia (SPEC §3.4's linearised loop; see
-/// [`NnGains::from_design`]), then any gain overridden.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct NnConfig {
-    /// The per-axis design.
-    #[serde(default)]
-    pub design: DesignConfig,
-    /// `K1` diagonal, 1/s.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k1: Option<[f64; 6]>,
-    /// `K2` diagonal.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k2: Option<[f64; 6]>,
-    /// `K_r` diagonal.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub k_r: Option<[f64; 6]>,
-    /// Adaptation gains `Θ`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub theta: Option<[f64; 6]>,
-    /// σ-modification.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sigma: Option<[f64; 6]>,
-    /// Robust-term smoothing `ϖ`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub varpi: Option<f64>,
-    /// Safety factor on `f^U`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub fu_safety: Option<f64>,
-    /// RBF width `ϑ²`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub width2: Option<f64>,
-    /// Centre levels per input.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub levels: Option<Vec<f64>>,
-    /// Switching inner radius.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub d1: Option<f64>,
-    /// Switching outer radius.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub d2: Option<f64>,
-    /// Switching shape `ω ≥ 1`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub omega: Option<f64>,
-    /// Network structure (`{ kind = "per_axis" }` by default; `quasi_random` with `n`, `seed`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub network: Option<NetworkStructure>,
-}
-
-/// The per-axis gain design.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DesignConfig {
-    /// Chart-space inertia per axis (kg ×3, kg m² ×3). Default: 1.1 × the largest diagonal of
-    /// the chart-space inertia along the path (computed at set-up), rounded up to two
-    /// significant digits.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub inertia: Option<[f64; 6]>,
-    /// `K1`, 1/s.
-    #[serde(default = "default_k1")]
-    pub k1: f64,
-    /// Natural frequency of the adaptive-bias pair, rad/s.
-    #[serde(default = "default_omega_n")]
-    pub omega_n: f64,
-    /// Its damping ratio.
-    #[serde(default = "default_zeta")]
-    pub zeta: f64,
-}
-
-fn default_k1() -> f64 {
-    8.0
-}
-fn default_omega_n() -> f64 {
-    20.0
-}
-fn default_zeta() -> f64 {
-    0.8
-}
-
-impl Default for DesignConfig {
-    fn default() -> Self {
-        DesignConfig {
-            inertia: None,
-            k1: default_k1(),
-            omega_n: default_omega_n(),
-            zeta: default_zeta(),
-        }
-    }
-}
-
 /// The posture task of redundant arms (default `K_p = 20`, `K_d = 4`, rest = the start).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -410,6 +319,7 @@ pub fn parse(src: &Source) -> Result<SpatialScenario, ScenarioError> {
     // the wrist torque channels and the PD law's gravity switch, written out in `scenario.toml`.
     sc.sensors.torque.get_or_insert_default();
     sc.controller.pd.gravity_compensation.get_or_insert(false);
+    sc.controller.nn.design.get_or_insert_default();
     sc.run
         .complete(super::Kind::Spatial)
         .map_err(|(f, m)| src.error_at(&f, m))?;
@@ -746,7 +656,7 @@ fn six(v: [f64; 6]) -> Vector6<f64> {
 }
 
 /// 1.1 × `x` rounded up to two significant digits (the design inertia rule of
-/// [`DesignConfig::inertia`]).
+/// [`super::tables::DesignConfig::inertia`]).
 pub fn round_up_2(x: f64) -> f64 {
     let x = 1.1 * x;
     if !(x > 0.0) || !x.is_finite() {
@@ -950,7 +860,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
     // before the gains designed from them are (a NaN `k1` would otherwise surface as the
     // designed `controller.nn.k1[0]`, a field the file does not set).
     if c.kind == ControllerKind::Nn {
-        let d = &c.nn.design;
+        let d = c.nn.design();
         let mut fields: Vec<(String, f64)> = vec![
             ("controller.nn.design.k1".into(), d.k1),
             ("controller.nn.design.omega_n".into(), d.omega_n),
@@ -1233,54 +1143,14 @@ pub fn serde_name(m: &RobotModel) -> &'static str {
 }
 
 /// NN gains from the design (with `inertia` when the file gives none) and the overrides.
-pub fn nn_gains(n: &NnConfig, path_inertia: Option<[f64; 6]>) -> NnGains<6> {
-    let m = n
-        .design
+pub fn nn_gains(n: &NnConfig<6>, path_inertia: Option<[f64; 6]>) -> NnGains<6> {
+    let d = n.design();
+    let m = d
         .inertia
         .or(path_inertia.map(|m| m.map(round_up_2)))
         // Placeholder until the path inertia is known (the controller is then rebuilt).
         .unwrap_or([1.0; 6]);
-    let mut g = NnGains::from_design(m, n.design.k1, n.design.omega_n, n.design.zeta);
-    if let Some(v) = n.k1 {
-        g.k1 = v;
-    }
-    if let Some(v) = n.k2 {
-        g.k2 = v;
-    }
-    if let Some(v) = n.k_r {
-        g.k_r = v;
-    }
-    if let Some(v) = n.theta {
-        g.theta = v;
-    }
-    if let Some(v) = n.sigma {
-        g.sigma = v;
-    }
-    if let Some(v) = n.varpi {
-        g.varpi = v;
-    }
-    if let Some(v) = n.fu_safety {
-        g.fu_safety = v;
-    }
-    if let Some(v) = n.width2 {
-        g.width2 = v;
-    }
-    if let Some(v) = &n.levels {
-        g.levels = v.clone();
-    }
-    if let Some(v) = n.d1 {
-        g.d1 = v;
-    }
-    if let Some(v) = n.d2 {
-        g.d2 = v;
-    }
-    if let Some(v) = n.omega {
-        g.omega = v;
-    }
-    if let Some(v) = &n.network {
-        g.network = v.clone();
-    }
-    g
+    n.apply(NnGains::from_design(m, d.k1, d.omega_n, d.zeta))
 }
 
 fn need<T: Copy>(src: &Source, v: Option<T>, field: &str, kind: &str) -> Result<T, ScenarioError> {
@@ -1478,7 +1348,7 @@ pub fn make_controller(
     let lib = |e: ModelError| model_error(src, sc, &dofs, e);
     let mut cp = b.controller.clone();
     let mut probed_inertia = None;
-    if let (ControllerKind::Nn, None) = (sc.controller.kind, sc.controller.nn.design.inertia) {
+    if let (ControllerKind::Nn, None) = (sc.controller.kind, sc.controller.nn.design().inertia) {
         let mut probe = cp.clone();
         probe.law = Law::Pd(PdGains::<6>::paper());
         let (c, _) = SpatialController::new(

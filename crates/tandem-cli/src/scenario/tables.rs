@@ -862,3 +862,149 @@ impl ActuatorConfig {
         }
     }
 }
+
+/// The NN law's gains, every field optional over a base: the planar preset (`gains = "paper"`
+/// or `"tuned"`) or, on spatial arms, the per-axis design from the chart-space inertia
+/// (`design`, SPEC §3.4's linearised loop; see `NnGains::<6>::from_design`); any gain given
+/// here replaces the base's ([`NnConfig::apply`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    bound(
+        serialize = "[f64; N]: Serialize",
+        deserialize = "[f64; N]: Deserialize<'de>"
+    )
+)]
+pub struct NnConfig<const N: usize> {
+    /// The per-axis design (spatial; a spatial scenario always has it, defaults written out).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub design: Option<DesignConfig>,
+    /// `K1` diagonal, 1/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k1: Option<[f64; N]>,
+    /// `K2` diagonal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k2: Option<[f64; N]>,
+    /// `K_r` diagonal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_r: Option<[f64; N]>,
+    /// Adaptation gains `Θ_j`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub theta: Option<[f64; N]>,
+    /// σ-modification.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<[f64; N]>,
+    /// Robust-term smoothing `ϖ`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub varpi: Option<f64>,
+    /// Safety factor on `f^U`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fu_safety: Option<f64>,
+    /// RBF width `ϑ²`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width2: Option<f64>,
+    /// Centre levels per input.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub levels: Option<Vec<f64>>,
+    /// Switching inner radius.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub d1: Option<f64>,
+    /// Switching outer radius.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub d2: Option<f64>,
+    /// Switching shape `ω ≥ 1`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub omega: Option<f64>,
+    /// Network structure (`{ kind = "per_axis" }`, `quasi_random` with `n`, `seed`, or the
+    /// full grid; default: the base's: planar full grid, spatial per axis).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub network: Option<tandem::control::rbf::structured::NetworkStructure>,
+}
+
+impl<const N: usize> Default for NnConfig<N> {
+    fn default() -> Self {
+        NnConfig {
+            design: None,
+            k1: None,
+            k2: None,
+            k_r: None,
+            theta: None,
+            sigma: None,
+            varpi: None,
+            fu_safety: None,
+            width2: None,
+            levels: None,
+            d1: None,
+            d2: None,
+            omega: None,
+            network: None,
+        }
+    }
+}
+
+impl<const N: usize> NnConfig<N> {
+    /// Nothing set.
+    pub fn is_empty(&self) -> bool {
+        *self == NnConfig::default()
+    }
+
+    /// The design (its defaults where the file gives none).
+    pub fn design(&self) -> DesignConfig {
+        self.design.clone().unwrap_or_default()
+    }
+
+    /// `g` with every gain this table gives.
+    pub fn apply(
+        &self,
+        mut g: tandem::control::law::adaptive::NnGains<N>,
+    ) -> tandem::control::law::adaptive::NnGains<N> {
+        macro_rules! set {
+            ($($f:ident),*) => { $( if let Some(v) = &self.$f { g.$f = v.clone(); } )* };
+        }
+        set!(
+            k1, k2, k_r, theta, sigma, varpi, fu_safety, width2, levels, d1, d2, omega, network
+        );
+        g
+    }
+}
+
+/// The per-axis gain design.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DesignConfig {
+    /// Chart-space inertia per axis (kg ×3, kg m² ×3). Default: 1.1 × the largest diagonal of
+    /// the chart-space inertia along the path (computed at set-up), rounded up to two
+    /// significant digits.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inertia: Option<[f64; 6]>,
+    /// `K1`, 1/s.
+    #[serde(default = "default_k1")]
+    pub k1: f64,
+    /// Natural frequency of the adaptive-bias pair, rad/s.
+    #[serde(default = "default_omega_n")]
+    pub omega_n: f64,
+    /// Its damping ratio.
+    #[serde(default = "default_zeta")]
+    pub zeta: f64,
+}
+
+fn default_k1() -> f64 {
+    8.0
+}
+fn default_omega_n() -> f64 {
+    20.0
+}
+fn default_zeta() -> f64 {
+    0.8
+}
+
+impl Default for DesignConfig {
+    fn default() -> Self {
+        DesignConfig {
+            inertia: None,
+            k1: default_k1(),
+            omega_n: default_omega_n(),
+            zeta: default_zeta(),
+        }
+    }
+}
