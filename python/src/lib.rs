@@ -824,7 +824,7 @@ impl PyScenario {
         let law = match law {
             None => None,
             Some(l) => Some(
-                scenario::standalone::LawName::parse(l)
+                tandem_cli::scenario::ControllerChoice::parse(l)
                     .map_err(|m| bad(Some("controller.kind"), m))
                     .map_err(|e| e.into_py(py))?,
             ),
@@ -1042,7 +1042,7 @@ fn read_time(t: f64) -> PyResult<f64> {
 #[pyclass(module = "tandem", name = "Controller")]
 struct PyController {
     kind: Arc<Kind>,
-    law: Option<scenario::standalone::LawName>,
+    law: Option<tandem_cli::scenario::ControllerChoice>,
     inner: scenario::standalone::Standalone,
     q: Vec<f64>,
     qd: Vec<f64>,
@@ -1055,7 +1055,7 @@ struct PyController {
 
 fn build_controller(
     kind: &Kind,
-    law: Option<scenario::standalone::LawName>,
+    law: Option<tandem_cli::scenario::ControllerChoice>,
 ) -> Res<scenario::standalone::Standalone> {
     check_kernel()?;
     Ok(match kind {
@@ -1065,7 +1065,7 @@ fn build_controller(
 }
 
 impl PyController {
-    fn new(kind: Arc<Kind>, law: Option<scenario::standalone::LawName>) -> Res<Self> {
+    fn new(kind: Arc<Kind>, law: Option<tandem_cli::scenario::ControllerChoice>) -> Res<Self> {
         let inner = build_controller(&kind, law)?;
         let (n_q, nw) = (inner.n_q, inner.n_arms * inner.wrench_dim);
         Ok(PyController {
@@ -1134,32 +1134,19 @@ impl PyController {
     /// The law: `"nn"`, `"pd"`, `"pd-gravity"` or `"ctc"` (the scenario's when none was given).
     #[getter]
     fn law(&self) -> String {
-        use scenario::standalone::LawName;
-        use tandem_cli::scenario::ControllerKind;
-        let law = self.law.unwrap_or_else(|| {
-            let (kind, gravity) = match &*self.kind {
-                Kind::Planar(p) => (
+        use tandem_cli::scenario::ControllerChoice;
+        self.law
+            .unwrap_or_else(|| match &*self.kind {
+                Kind::Planar(p) => ControllerChoice::of(
                     p.sc.controller.kind,
                     p.sc.controller.pd.gravity_compensation,
                 ),
-                Kind::Spatial(p) => (
+                Kind::Spatial(p) => ControllerChoice::of(
                     p.sc.controller.kind,
                     p.sc.controller.pd.gravity_compensation,
                 ),
-            };
-            match kind {
-                ControllerKind::Pd if gravity == Some(true) => LawName::PdGravity,
-                ControllerKind::Pd => LawName::Pd,
-                ControllerKind::Ctc => LawName::Ctc,
-                _ => LawName::Nn,
-            }
-        });
-        match law {
-            LawName::Nn => "nn",
-            LawName::Pd => "pd",
-            LawName::PdGravity => "pd-gravity",
-            LawName::Ctc => "ctc",
-        }
+            })
+            .name()
         .to_string()
     }
 

@@ -5,7 +5,8 @@
 //! planar log holds no joint rates, so the planar proof is here (the Python test checks the
 //! dual-UR5 case from a logged run).
 
-use tandem_cli::scenario::standalone::{self, LawName, Standalone};
+use tandem_cli::scenario::ControllerChoice as LawName;
+use tandem_cli::scenario::standalone::{self, Standalone};
 use tandem_cli::scenario::{self, EMBEDDED, Scenario, embedded_source, spatial};
 
 /// An embedded scenario with `(from, to)` text replacements.
@@ -73,6 +74,7 @@ fn planar_controller_steps_as_the_run_does_every_law_noisy_sensors() {
                 LawName::Nn => scenario::ControllerKind::Nn,
                 LawName::Pd | LawName::PdGravity => scenario::ControllerKind::Pd,
                 LawName::Ctc => scenario::ControllerKind::Ctc,
+                LawName::Replay => unreachable!("not a law"),
             };
             if l == LawName::PdGravity {
                 sc.controller.pd.gravity_compensation = Some(true);

@@ -88,6 +88,17 @@ pub struct Overrides {
     pub replay_columns: Option<Vec<String>>,
 }
 
+impl Overrides {
+    /// The overrides that choose a law (`--controller`, Python's `law=`).
+    pub fn law(choice: ControllerChoice) -> Overrides {
+        Overrides {
+            controller: Some(choice.kind()),
+            pd_gravity: choice == ControllerChoice::PdGravity,
+            ..Overrides::default()
+        }
+    }
+}
+
 impl Scenario {
     /// Apply the command line's overrides (errors are bad input, exit code 2).
     pub fn apply(&mut self, o: &Overrides) -> Result<(), crate::BadInput> {

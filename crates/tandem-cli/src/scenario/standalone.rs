@@ -18,51 +18,7 @@ use tandem::drive::{ControlEvents, Measurements};
 use super::planar::{self, PlanarScenario};
 use super::source::{ScenarioError, Source};
 use super::spatial::{self, SpatialScenario};
-use super::tables::ControllerKind;
-
-/// A law name as the Python package and `--controller` take it: `nn`, `pd`, `pd-gravity`,
-/// `ctc`. `pd-gravity` is the PD law with `controller.pd.gravity_compensation = true`; `pd`
-/// keeps the file's `controller.pd` section as it is (as `--controller pd` does).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LawName {
-    /// The adaptive NN law.
-    Nn,
-    /// PD on the object.
-    Pd,
-    /// PD with the model's gravity.
-    PdGravity,
-    /// Computed torque.
-    Ctc,
-}
-
-impl LawName {
-    /// The names, in the order of the docs.
-    pub const NAMES: [&'static str; 4] = ["nn", "pd", "pd-gravity", "ctc"];
-
-    /// Parse a name; `Err` with the message naming the valid ones.
-    pub fn parse(s: &str) -> Result<LawName, String> {
-        Ok(match s {
-            "nn" => LawName::Nn,
-            "pd" => LawName::Pd,
-            "pd-gravity" => LawName::PdGravity,
-            "ctc" => LawName::Ctc,
-            _ => {
-                return Err(format!(
-                    "law = {s:?}: must be one of {} (or None: the scenario's)",
-                    LawName::NAMES.join(", ")
-                ));
-            }
-        })
-    }
-
-    fn kind(self) -> ControllerKind {
-        match self {
-            LawName::Nn => ControllerKind::Nn,
-            LawName::Pd | LawName::PdGravity => ControllerKind::Pd,
-            LawName::Ctc => ControllerKind::Ctc,
-        }
-    }
-}
+use super::tables::{ControllerChoice, ControllerKind};
 
 /// The controller of either kind with its tick record.
 pub enum Law {
@@ -107,7 +63,7 @@ fn no_replay(src: &Source, kind: ControllerKind) -> Result<(), ScenarioError> {
             "controller.kind",
             format!(
                 "controller.kind = \"replay\": a torque replay is not a controller; choose a law ({})",
-                LawName::NAMES.join(", ")
+                ControllerChoice::LAWS.join(", ")
             ),
         ));
     }
@@ -118,14 +74,12 @@ fn no_replay(src: &Source, kind: ControllerKind) -> Result<(), ScenarioError> {
 pub fn planar(
     sc: &PlanarScenario,
     src: &Source,
-    law: Option<LawName>,
+    law: Option<ControllerChoice>,
 ) -> Result<Standalone, ScenarioError> {
     let mut sc = sc.clone();
     if let Some(l) = law {
-        sc.controller.kind = l.kind();
-        if l == LawName::PdGravity {
-            sc.controller.pd.gravity_compensation = Some(true);
-        }
+        sc.apply(&super::Overrides::law(l))
+            .map_err(|e| src.error_at("controller.kind", e.to_string()))?;
     }
     no_replay(src, sc.controller.kind)?;
     let built = planar::build(&sc, src)?;
@@ -160,14 +114,12 @@ pub fn planar(
 pub fn spatial(
     sc: &SpatialScenario,
     src: &Source,
-    law: Option<LawName>,
+    law: Option<ControllerChoice>,
 ) -> Result<Standalone, ScenarioError> {
     let mut sc = sc.clone();
     if let Some(l) = law {
-        sc.controller.kind = l.kind();
-        if l == LawName::PdGravity {
-            sc.controller.pd.gravity_compensation = Some(true);
-        }
+        sc.apply(&super::Overrides::law(l))
+            .map_err(|e| src.error_at("controller.kind", e.to_string()))?;
     }
     no_replay(src, sc.controller.kind)?;
     let built = spatial::build(&sc, src)?;

@@ -48,6 +48,46 @@ pub enum ControllerChoice {
 }
 
 impl ControllerChoice {
+    /// The names of the laws a scenario's controller can be built with (not `replay`), in the
+    /// order of the docs.
+    pub const LAWS: [&'static str; 4] = ["nn", "pd", "pd-gravity", "ctc"];
+
+    /// Parse a law's name (as `--controller` takes it); `Err` names the valid ones.
+    pub fn parse(s: &str) -> Result<ControllerChoice, String> {
+        <ControllerChoice as clap::ValueEnum>::from_str(s, false)
+            .ok()
+            .filter(|c| *c != ControllerChoice::Replay)
+            .ok_or_else(|| {
+                format!(
+                    "law = {s:?}: must be one of {} (or None: the scenario's)",
+                    Self::LAWS.join(", ")
+                )
+            })
+    }
+
+    /// The name (`pd-gravity`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            ControllerChoice::Nn => "nn",
+            ControllerChoice::Pd => "pd",
+            ControllerChoice::PdGravity => "pd-gravity",
+            ControllerChoice::Ctc => "ctc",
+            ControllerChoice::Replay => "replay",
+        }
+    }
+
+    /// The choice a scenario makes: its `controller.kind`, PD with `gravity_compensation`
+    /// as `pd-gravity`.
+    pub fn of(kind: ControllerKind, gravity_compensation: Option<bool>) -> ControllerChoice {
+        match kind {
+            ControllerKind::Nn => ControllerChoice::Nn,
+            ControllerKind::Pd if gravity_compensation == Some(true) => ControllerChoice::PdGravity,
+            ControllerKind::Pd => ControllerChoice::Pd,
+            ControllerKind::Ctc => ControllerChoice::Ctc,
+            ControllerKind::Replay => ControllerChoice::Replay,
+        }
+    }
+
     /// The scenario's `controller.kind`.
     pub fn kind(self) -> ControllerKind {
         match self {
