@@ -39,6 +39,14 @@ line's; `path` is the scenario field it concerns (or None), `file` how the input
 );
 create_exception!(
     tandem,
+    PlantFault,
+    PyRuntimeError,
+    "The plant failed numerically (non-finite state, grasp drift, a singular arm): the message \
+says what, when, and the last good state; `t` is the time (s). `Plant.step` raises it; the \
+plant then refuses to step (make a new one with `Scenario.plant()`)."
+);
+create_exception!(
+    tandem,
     ScenarioWarning,
     pyo3::exceptions::PyUserWarning,
     "A set-up warning of a scenario (the command line prints the same text)."
@@ -445,6 +453,28 @@ impl Kind {
             Kind::Spatial(p) => p.execute(),
         }
     }
+    /// Prepare and simulate with a user's law driving the loop (GIL released; the law takes
+    /// it per tick).
+    fn execute_external(&self, law: Box<dyn tandem::sim::ExternalLaw>) -> Res<Fin> {
+        check_kernel()?;
+        match self {
+            Kind::Planar(p) => {
+                let pr = runner::prepare_external(p.sc.clone(), &p.src, law)?;
+                Ok(Fin::Planar(runner::execute(pr, |_| {})))
+            }
+            Kind::Spatial(p) => {
+                let pr = spatial::prepare_external(p.sc.clone(), &p.src, law)?;
+                spatial_fin(spatial::execute(pr, |_| {}))
+            }
+        }
+    }
+    /// Wrench channels per arm.
+    fn wrench_dim(&self) -> usize {
+        match self {
+            Kind::Planar(_) => 2,
+            Kind::Spatial(_) => 6,
+        }
+    }
     /// The law's label (`NN (tuned)`, `PD`; spatial `NN`, `PD + gravity`, `CTC`).
     fn label(&self) -> String {
         match self {
@@ -805,13 +835,62 @@ impl PyScenario {
     /// Simulate this scenario (GIL released) and return the Run. `duration` (s) and `seed`
     /// override `run.duration` and `run.seed`, as `tandem run --duration --seed` do. A run that
     /// hits a numerical fault returns normally: see `Run.fault`.
-    #[pyo3(signature = (duration=None, seed=None))]
-    fn run(&self, py: Python<'_>, duration: Option<f64>, seed: Option<u64>) -> PyResult<PyRun> {
+    ///
+    /// `controller`: your law in tandem's loop instead of the scenario's, a function
+    /// `f(t, q, qd, wrenches) -> tau` or an object with `tick(t, q, qd, wrenches) -> tau` (and
+    /// optionally `start(t0, q, qd, wrenches)`, called once first), e.g. a `tandem.Controller`.
+    /// It gets the readings `Controller.tick` gets (tandem's sensors, faults and seed), in
+    /// arrays that are reused every tick and read-only (copy what you keep), once per control
+    /// period from t = 0; it returns the joint torques (N m, `(n_q,)`). The run is scored on
+    /// the true state against the scenario's path and bounds, as a torque replay is; its
+    /// summary names the law `external`. An exception it raises stops the run and is raised
+    /// here (with a note of the time); non-finite torques are a fault of the run
+    /// (`Run.fault`).
+    #[pyo3(signature = (duration=None, seed=None, controller=None))]
+    fn run(
+        &self,
+        py: Python<'_>,
+        duration: Option<f64>,
+        seed: Option<u64>,
+        controller: Option<Bound<'_, PyAny>>,
+    ) -> PyResult<PyRun> {
         let p = Arc::new(py_res(py, self.kind.with_run(duration, seed))?);
         let k = p.clone();
-        let fin = py.detach(move || k.execute());
+        let fin = match controller {
+            None => py.detach(move || k.execute()),
+            Some(c) if c.is_instance_of::<PyJointPd>() => {
+                let law = c.cast::<PyJointPd>()?.get().clone();
+                py.detach(move || k.execute_external(Box::new(law)))
+            }
+            Some(c) => {
+                let (law, raised) = PyLaw::new(py, &c, p.wrench_dim())?;
+                let fin = py.detach(move || k.execute_external(Box::new(law)));
+                let e = raised.lock().ok().and_then(|mut r| r.take());
+                if let Some(e) = e {
+                    return Err(e);
+                }
+                fin
+            }
+        };
         let fin = py_res(py, fin)?;
         PyRun::live(py, p, fin)
+    }
+
+    /// The scenario's plant, to step with your own torques: see `Plant`. Every validation of a
+    /// run (a scenario `tandem run` refuses, this refuses too).
+    fn plant(&self, py: Python<'_>) -> PyResult<PyPlant> {
+        let kind = self.kind.clone();
+        let r = py.detach(move || {
+            check_kernel()?;
+            let inner = build_plant(&kind)?;
+            let n_q = inner.n_q;
+            Ok(PyPlant {
+                kind,
+                inner,
+                tau: vec![0.0; n_q],
+            })
+        });
+        py_res(py, r)
     }
 
     /// The scenario's controller, built exactly as `tandem run` builds it (every validation,
@@ -952,6 +1031,28 @@ impl PyScenario {
 /// finite, copied into `buf` (preallocated: nothing is allocated on the Rust side). Errors are
 /// ValueError naming the argument `name` and the shape expected.
 fn read_arg(arg: &Bound<'_, PyAny>, name: &str, shape: &[usize], buf: &mut [f64]) -> PyResult<()> {
+    read_shaped(arg, name, shape, buf)?;
+    if let Some(k) = buf.iter().position(|v| !v.is_finite()) {
+        let idx = if shape.len() == 2 {
+            format!("[{}, {}]", k / shape[1], k % shape[1])
+        } else {
+            format!("[{k}]")
+        };
+        return Err(PyValueError::new_err(format!(
+            "{name}{idx} = {}: every value must be finite",
+            buf[k]
+        )));
+    }
+    Ok(())
+}
+
+/// [`read_arg`] without the finiteness check: a float64 array of exactly `shape` into `buf`.
+fn read_shaped(
+    arg: &Bound<'_, PyAny>,
+    name: &str,
+    shape: &[usize],
+    buf: &mut [f64],
+) -> PyResult<()> {
     use numpy::{PyArrayDyn, PyUntypedArrayMethods};
     let shape_text = |s: &[usize]| {
         if s.len() == 1 {
@@ -1004,17 +1105,6 @@ fn read_arg(arg: &Bound<'_, PyAny>, name: &str, shape: &[usize], buf: &mut [f64]
     let view = ro.as_array();
     for (b, v) in buf.iter_mut().zip(view.iter()) {
         *b = *v;
-    }
-    if let Some(k) = buf.iter().position(|v| !v.is_finite()) {
-        let idx = if shape.len() == 2 {
-            format!("[{}, {}]", k / shape[1], k % shape[1])
-        } else {
-            format!("[{k}]")
-        };
-        return Err(PyValueError::new_err(format!(
-            "{name}{idx} = {}: every value must be finite",
-            buf[k]
-        )));
     }
     Ok(())
 }
@@ -1147,7 +1237,7 @@ impl PyController {
                 ),
             })
             .name()
-        .to_string()
+            .to_string()
     }
 
     /// `(q, qd, wrenches)` where the scenario's run starts: the chain at rest on the start
@@ -1319,6 +1409,410 @@ impl PyController {
             (self.inner.n_arms, self.inner.wrench_dim),
             self.inner.control_period
         )
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Your law in tandem's loop; tandem's plant in your loop.
+
+/// What a Python law raised, kept for `Scenario.run` to re-raise once the loop has stopped.
+type Raised = Arc<std::sync::Mutex<Option<PyErr>>>;
+
+/// A Python law as the driver of tandem's loop (`Scenario.run(controller=...)`): a function
+/// `f(t, q, qd, wrenches) -> tau`, or an object with `tick(t, q, qd, wrenches) -> tau` (and,
+/// optionally, `start(t0, q, qd, wrenches)`, called once before the first tick), such as a
+/// `tandem.Controller`. The arrays it is given are tandem's own, reused every tick and
+/// read-only; the GIL is taken for the call only.
+struct PyLaw {
+    /// The tick callable.
+    tick: Py<PyAny>,
+    /// The start callable, if the object has one.
+    start: Option<Py<PyAny>>,
+    /// `q`, `qd` `(n_q,)` and `wrenches` `(n_arms, W)`, made at start.
+    arrays: Option<[Py<PyAny>; 3]>,
+    /// Wrench channels per arm.
+    w: usize,
+    raised: Raised,
+}
+
+impl PyLaw {
+    /// The law of `obj` (a callable, or an object with a callable `tick`), or TypeError naming
+    /// the argument.
+    fn new(py: Python<'_>, obj: &Bound<'_, PyAny>, w: usize) -> PyResult<(Self, Raised)> {
+        let (tick, start) = match obj.getattr_opt("tick")? {
+            Some(t) if t.is_callable() => {
+                let start = obj.getattr_opt("start")?.filter(|s| s.is_callable());
+                (t.unbind(), start.map(Bound::unbind))
+            }
+            _ if obj.is_callable() => (obj.clone().unbind(), None),
+            _ => {
+                return Err(PyTypeError::new_err(format!(
+                    "controller: expected a function f(t, q, qd, wrenches) -> tau or an object \
+                     with a tick(t, q, qd, wrenches) method (e.g. a tandem.Controller), got {}",
+                    obj.get_type().name()?
+                )));
+            }
+        };
+        let raised: Raised = Arc::default();
+        let _ = py;
+        Ok((
+            PyLaw {
+                tick,
+                start,
+                arrays: None,
+                w,
+                raised: raised.clone(),
+            },
+            raised,
+        ))
+    }
+
+    /// Copy the readings into the law's arrays (made read-only to Python on first use).
+    fn fill<'py>(
+        &mut self,
+        py: Python<'py>,
+        meas: &tandem::drive::Measurements<'_>,
+    ) -> PyResult<[Bound<'py, PyAny>; 3]> {
+        if self.arrays.is_none() {
+            let n = meas.q.len();
+            let n_arms = meas.wrenches.len() / self.w;
+            let q = PyArray1::<f64>::zeros(py, n, false).into_any();
+            let qd = PyArray1::<f64>::zeros(py, n, false).into_any();
+            let wr = PyArray1::<f64>::zeros(py, n_arms * self.w, false)
+                .reshape([n_arms, self.w])?
+                .into_any();
+            for a in [&q, &qd, &wr] {
+                a.getattr("flags")?.setattr("writeable", false)?;
+            }
+            self.arrays = Some([q.unbind(), qd.unbind(), wr.unbind()]);
+        }
+        let [q, qd, wr] = self.arrays.as_ref().expect("made above");
+        let (q, qd, wr) = (q.bind(py), qd.bind(py), wr.bind(py));
+        for (a, v) in [(q, meas.q), (qd, meas.qd)] {
+            let a = a.cast::<PyArray1<f64>>()?;
+            // SAFETY: tandem made these arrays (contiguous, owned); Python sees them read-only
+            // and no borrow of them is alive while the law is not running.
+            unsafe { a.as_slice_mut() }
+                .map_err(|e| PyRuntimeError::new_err(e.to_string()))?
+                .copy_from_slice(v);
+        }
+        let a = wr.cast::<numpy::PyArray2<f64>>()?;
+        // SAFETY: as above.
+        unsafe { a.as_slice_mut() }
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?
+            .copy_from_slice(meas.wrenches);
+        Ok([q.clone(), qd.clone(), wr.clone()])
+    }
+
+    /// Keep the exception for `Scenario.run` and give the loop its message.
+    fn fail(&self, py: Python<'_>, e: PyErr, t: f64) -> String {
+        let msg = bounded(e.to_string());
+        let _ = e.value(py).call_method1(
+            "add_note",
+            (format!(
+                "raised by the controller given to Scenario.run, at t = {t} s"
+            ),),
+        );
+        if let Ok(mut r) = self.raised.lock() {
+            if r.is_none() {
+                *r = Some(e);
+            }
+        }
+        msg
+    }
+}
+
+impl tandem::sim::ExternalLaw for PyLaw {
+    fn start(&mut self, t0: f64, meas: &tandem::drive::Measurements<'_>) -> Result<(), String> {
+        Python::attach(|py| {
+            let r = self
+                .fill(py, meas)
+                .and_then(|[q, qd, w]| match &self.start {
+                    Some(s) => s.bind(py).call1((t0, q, qd, w)).map(|_| ()),
+                    None => Ok(()),
+                });
+            r.map_err(|e| self.fail(py, e, t0))
+        })
+    }
+    fn tick(
+        &mut self,
+        t: f64,
+        meas: &tandem::drive::Measurements<'_>,
+        tau: &mut [f64],
+    ) -> Result<(), String> {
+        Python::attach(|py| {
+            let n = tau.len();
+            let r = self.fill(py, meas).and_then(|[q, qd, w]| {
+                let v = self.tick.bind(py).call1((t, q, qd, w))?;
+                read_shaped(&v, "the controller's return value (tau)", &[n], tau)
+            });
+            r.map_err(|e| self.fail(py, e, t))
+        })
+    }
+}
+
+/// A scenario's plant, stepped by you (made by `Scenario.plant()`).
+///
+/// The plant a run simulates: the scenario's (true) arms and object, the start pose at rest
+/// with zero torque held, the sensor models and seed, the disturbance, the timing. `step(tau,
+/// dt)` holds the joint torques `tau` (N m, shape `(n_q,)`) over `dt` (whole control periods;
+/// default one) and integrates with the scenario's plant step; `sensors()` is what the
+/// encoders and wrist sensors read at the current state (the wrenches as
+/// `Controller.tick` takes them); `state`, `wrenches`, `residual` and `energy` are the truth.
+/// Numerical trouble raises `tandem.PlantFault` with its time and the last good state; the
+/// plant then refuses to step.
+#[pyclass(module = "tandem", name = "Plant")]
+struct PyPlant {
+    kind: Arc<Kind>,
+    inner: scenario::standalone::PlantSession,
+    tau: Vec<f64>,
+}
+
+/// The most control periods one `Plant.step` call may take.
+const MAX_STEP_PERIODS: usize = 10_000_000;
+
+fn build_plant(kind: &Kind) -> Res<scenario::standalone::PlantSession> {
+    Ok(match kind {
+        Kind::Planar(p) => scenario::standalone::planar_plant(&p.sc, &p.src)?,
+        Kind::Spatial(p) => scenario::standalone::spatial_plant(&p.sc, &p.src)?,
+    })
+}
+
+fn plant_fault(py: Python<'_>, f: &tandem::sim::Fault) -> PyErr {
+    let e = PlantFault::new_err(f.to_string());
+    let _ = e.value(py).setattr("t", f.t);
+    e
+}
+
+#[pymethods]
+impl PyPlant {
+    /// Joints, all arms.
+    #[getter]
+    fn n_q(&self) -> usize {
+        self.inner.n_q
+    }
+    /// Arms.
+    #[getter]
+    fn n_arms(&self) -> usize {
+        self.inner.n_arms
+    }
+    /// `(n_arms, 2)` planar, `(n_arms, 6)` spatial: the shape of `sensors()`'s wrenches.
+    #[getter]
+    fn wrench_shape(&self) -> (usize, usize) {
+        (self.inner.n_arms, self.inner.wrench_dim)
+    }
+    /// The scenario's `run.control_period`, s: the unit of `step`.
+    #[getter]
+    fn control_period(&self) -> f64 {
+        self.inner.control_period()
+    }
+    /// Simulated time, s.
+    #[getter]
+    fn time(&self) -> f64 {
+        self.inner.time()
+    }
+
+    /// The true state (copies): `q` (rad), `qd` (rad/s), `object_pose` (planar `(x, y, θ)`;
+    /// spatial `(x, y, z, qw, qx, qy, qz)`, world frame) and `object_twist` (planar
+    /// `(ẋ, ẏ, θ̇)`; spatial `(v, ω)`, world axes).
+    #[getter]
+    fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        let (q, qd) = self.inner.joints();
+        let (pose, twist) = self.inner.object();
+        d.set_item("q", array1(py, q))?;
+        d.set_item("qd", array1(py, qd))?;
+        d.set_item("object_pose", array1(py, pose))?;
+        d.set_item("object_twist", array1(py, twist))?;
+        Ok(d)
+    }
+
+    /// What the sensors read at the current state, with the scenario's sensor models and seed:
+    /// `(q, qd, wrenches)`, the arguments of `Controller.tick` (wrenches of shape
+    /// `wrench_shape`: planar world axes, spatial the object's wrench on each tool, about the
+    /// tool origin, in tool axes). Injected sensor faults (`[faults]`) are not applied here.
+    fn sensors<'py>(&self, py: Python<'py>) -> PyResult<StartState<'py>> {
+        let (q, qd) = self.inner.encoders();
+        let w = array1(py, self.inner.readings())
+            .reshape([self.inner.n_arms, self.inner.wrench_dim])?
+            .into_any();
+        Ok((array1(py, q), array1(py, qd), w))
+    }
+
+    /// The true grasp wrenches at the current state with the last torques held: the object's
+    /// wrench on each arm, world axes, shape `wrench_shape` (N; spatial `[f; τ]`, N m, about
+    /// the tool origin).
+    #[getter]
+    fn wrenches<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        Ok(array1(py, self.inner.wrenches())
+            .reshape([self.inner.n_arms, self.inner.wrench_dim])?
+            .into_any())
+    }
+
+    /// The grasp-constraint residual of the current state: `(position (m), rotation (rad))`
+    /// spatial; `(position (m), velocity (m/s))` planar.
+    #[getter]
+    fn residual(&mut self) -> (f64, f64) {
+        self.inner.residual()
+    }
+
+    /// Mechanical energy of arms and object, J: `kinetic`, `potential`, `total`.
+    #[getter]
+    fn energy<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let e = self.inner.energy();
+        let d = PyDict::new(py);
+        d.set_item("kinetic", e.kinetic)?;
+        d.set_item("potential", e.potential)?;
+        d.set_item("total", e.total())?;
+        Ok(d)
+    }
+
+    /// Spatial: the joint torques that hold the current configuration at rest (each arm's
+    /// gravity and an equal share of the object's weight, no internal wrench), N m, `(n_q,)`.
+    /// Planar plants raise NotImplementedError.
+    fn holding_torques<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let mut tau = vec![0.0; self.inner.n_q];
+        if !self.inner.holding_torques(&mut tau) {
+            return Err(pyo3::exceptions::PyNotImplementedError::new_err(
+                "holding_torques: spatial plants only",
+            ));
+        }
+        Ok(array1(py, &tau))
+    }
+
+    /// Hold the joint torques `tau` (N m, float64 `(n_q,)`, finite) over `dt` seconds, a whole
+    /// number of control periods (default: one), integrating with the scenario's plant step;
+    /// the GIL is released meanwhile. Raises ValueError naming `tau` or `dt` (nothing is
+    /// stepped), PlantFault when the plant fails.
+    #[pyo3(signature = (tau, dt=None))]
+    fn step(&mut self, py: Python<'_>, tau: &Bound<'_, PyAny>, dt: Option<f64>) -> PyResult<()> {
+        let h = self.inner.control_period();
+        let periods = match dt {
+            None => 1,
+            Some(dt) => {
+                let n = (dt / h).round();
+                if !(dt.is_finite() && dt > 0.0) {
+                    return Err(PyValueError::new_err(format!(
+                        "dt = {dt}: must be a positive number of seconds"
+                    )));
+                }
+                if n < 1.0 || (n * h - dt).abs() > 1e-9 * dt.max(h) {
+                    return Err(PyValueError::new_err(format!(
+                        "dt = {dt}: must be a whole number of control periods ({h} s)"
+                    )));
+                }
+                if n > MAX_STEP_PERIODS as f64 {
+                    return Err(PyValueError::new_err(format!(
+                        "dt = {}: at most {MAX_STEP_PERIODS} control periods ({} s) per call",
+                        scenario::num(dt),
+                        MAX_STEP_PERIODS as f64 * h
+                    )));
+                }
+                n as usize
+            }
+        };
+        let n_q = self.inner.n_q;
+        read_arg(tau, "tau", &[n_q], &mut self.tau)?;
+        if let Some(f) = self.inner.fault() {
+            return Err(plant_fault(py, f));
+        }
+        let (inner, tau) = (&mut self.inner, &self.tau);
+        let r = py.detach(|| inner.step(tau, periods));
+        r.map_err(|f| plant_fault(py, &f))
+    }
+
+    /// Back to the start (a new plant as `Scenario.plant()` makes it).
+    fn reset(&mut self, py: Python<'_>) -> PyResult<()> {
+        self.inner = py_res(py, build_plant(&self.kind))?;
+        Ok(())
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<tandem.Plant {:?}: {} joints, {} arms, t = {} s, h = {} s>",
+            self.kind.src().name,
+            self.inner.n_q,
+            self.inner.n_arms,
+            self.inner.time(),
+            self.inner.control_period()
+        )
+    }
+}
+
+/// A joint-space PD law with a feedforward, in Rust: `tau = kp * (q_ref - q) - kd * qd +
+/// tau_ff`, per joint (e.g. `tau_ff = Plant.holding_torques()` at the start: PD plus the
+/// gravity of the set point). A baseline to pass to `Scenario.run(controller=...)` and a
+/// reference for your own Python laws (the same law in NumPy gives the same run, bit for bit).
+#[pyclass(module = "tandem", name = "JointPD", frozen)]
+#[derive(Clone)]
+struct PyJointPd {
+    kp: Vec<f64>,
+    kd: Vec<f64>,
+    q_ref: Vec<f64>,
+    tau_ff: Vec<f64>,
+}
+
+#[pymethods]
+impl PyJointPd {
+    /// `kp` (N m/rad), `kd` (N m s/rad), `q_ref` (rad), `tau_ff` (N m): float64 arrays of one
+    /// shape `(n_q,)`, finite.
+    #[new]
+    fn new(
+        kp: &Bound<'_, PyAny>,
+        kd: &Bound<'_, PyAny>,
+        q_ref: &Bound<'_, PyAny>,
+        tau_ff: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        use numpy::PyUntypedArrayMethods;
+        let np = q_ref.py().import("numpy")?;
+        let n = np
+            .getattr("asarray")?
+            .call1((q_ref,))?
+            .cast_into::<numpy::PyUntypedArray>()
+            .map_err(|_| PyTypeError::new_err("q_ref: expected a float64 array"))?
+            .len();
+        let mut v = [vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        for (buf, (a, name)) in
+            v.iter_mut()
+                .zip([(kp, "kp"), (kd, "kd"), (q_ref, "q_ref"), (tau_ff, "tau_ff")])
+        {
+            read_arg(a, name, &[n], buf)?;
+        }
+        let [kp, kd, q_ref, tau_ff] = v;
+        Ok(PyJointPd {
+            kp,
+            kd,
+            q_ref,
+            tau_ff,
+        })
+    }
+    fn __repr__(&self) -> String {
+        format!("<tandem.JointPD: {} joints>", self.q_ref.len())
+    }
+}
+
+impl tandem::sim::ExternalLaw for PyJointPd {
+    fn start(&mut self, _t0: f64, meas: &tandem::drive::Measurements<'_>) -> Result<(), String> {
+        if meas.q.len() != self.q_ref.len() {
+            return Err(format!(
+                "JointPD has {} joints, the scenario {}",
+                self.q_ref.len(),
+                meas.q.len()
+            ));
+        }
+        Ok(())
+    }
+    fn tick(
+        &mut self,
+        _t: f64,
+        meas: &tandem::drive::Measurements<'_>,
+        tau: &mut [f64],
+    ) -> Result<(), String> {
+        for (i, t) in tau.iter_mut().enumerate() {
+            *t =
+                self.kp[i] * (self.q_ref[i] - meas.q[i]) - self.kd[i] * meas.qd[i] + self.tau_ff[i];
+        }
+        Ok(())
     }
 }
 
@@ -1874,12 +2368,15 @@ fn _tandem(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScenario>()?;
     m.add_class::<PyRun>()?;
     m.add_class::<PyController>()?;
+    m.add_class::<PyPlant>()?;
+    m.add_class::<PyJointPd>()?;
     m.add_class::<LogOwner>()?;
     m.add_function(wrap_pyfunction!(rollout, m)?)?;
     m.add_function(wrap_pyfunction!(presets, m)?)?;
     m.add_function(wrap_pyfunction!(_sweep_csv, m)?)?;
     m.add("ScenarioError", py.get_type::<ScenarioError>())?;
     m.add("ScenarioWarning", py.get_type::<ScenarioWarning>())?;
+    m.add("PlantFault", py.get_type::<PlantFault>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -16,6 +16,10 @@ same numbers and gets the same error messages.
   sweeps), ``run``, ``to_toml``; picklable.
 * :class:`Controller` -- ``Scenario.controller(law)``: the run's controller, stepped by you
   (``start``, ``tick(t, q, qd, wrenches, out=)``, ``record``, ``reset``, ``start_state``).
+* :class:`Plant` -- ``Scenario.plant()``: the run's plant, stepped by you (``step(tau, dt)``,
+  ``sensors()``, ``state``, ``wrenches``, ``residual``, ``energy``); :exc:`PlantFault`.
+* ``Scenario.run(controller=f)`` -- your law ``f(t, q, qd, wrenches) -> tau`` (or an object with
+  ``tick``, e.g. a :class:`Controller`, or a :class:`JointPD`) in tandem's loop, scored as a run.
 * :class:`Run` -- ``summary`` (dict), ``timeseries`` (dict of NumPy arrays), ``to_pandas()``,
   ``write(dir)``; picklable.
 * :func:`rollout` -- many closed-loop runs in Rust, in parallel, with the GIL released.
@@ -34,6 +38,9 @@ import numpy as np
 
 from ._tandem import (
     Controller,
+    JointPD,
+    Plant,
+    PlantFault,
     Run,
     Scenario,
     ScenarioError,
@@ -46,6 +53,9 @@ from ._tandem import (
 
 __all__ = [
     "Controller",
+    "JointPD",
+    "Plant",
+    "PlantFault",
     "Run",
     "Scenario",
     "ScenarioError",

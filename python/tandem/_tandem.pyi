@@ -54,8 +54,23 @@ class Scenario:
         value raises :exc:`ScenarioError` with its ``path``."""
     def get(self, path: str) -> Any:
         """The value of a field of the resolved scenario; KeyError if there is none."""
-    def run(self, duration: Optional[float] = None, seed: Optional[int] = None) -> Run:
-        """Simulate (GIL released); ``duration``/``seed`` override ``run.duration``/``run.seed``."""
+    def run(
+        self,
+        duration: Optional[float] = None,
+        seed: Optional[int] = None,
+        controller: Optional[Any] = None,
+    ) -> Run:
+        """Simulate (GIL released); ``duration``/``seed`` override ``run.duration``/``run.seed``.
+
+        ``controller``: your law in tandem's loop, ``f(t, q, qd, wrenches) -> tau`` or an object
+        with ``tick(t, q, qd, wrenches) -> tau`` (and optionally ``start(t0, q, qd, wrenches)``),
+        e.g. a :class:`Controller` or a :class:`JointPD`. It reads what ``Controller.tick`` reads
+        (tandem's sensors), in arrays reused every tick and read-only (copy what you keep). The
+        run is scored on the true state (summary ``controller = "external"``). An exception it
+        raises is raised here, with a note of the time; non-finite torques are ``Run.fault``."""
+    def plant(self) -> Plant:
+        """The scenario's plant (true arms and object, start pose at rest, sensors, seed,
+        disturbance, timing), to step with your own torques: see :class:`Plant`."""
     def controller(self, law: Optional[str] = None) -> Controller:
         """The scenario's controller, built exactly as ``tandem run`` builds it (every
         validation; the spatial NN law's design-inertia probe), to step with your own
@@ -139,6 +154,60 @@ class Controller:
         ``barrier_hit``, ``torque_clipped``, ``non_finite``; ``events`` (counts since start)."""
     def reset(self) -> None:
         """Back to the controller as built (weights zeroed); ``start`` again before ``tick``."""
+
+class Plant:
+    """A scenario's plant (:meth:`Scenario.plant`), stepped by you.
+
+    Loop: ``q, qd, w = plant.sensors()``; your law; ``plant.step(tau)``. ``step`` holds the
+    torques over ``dt`` (whole control periods, default one) with the scenario's plant step;
+    the readings are taken with the previous torques held, as in a run. Numerical trouble
+    raises :exc:`PlantFault` (time and last good state); the plant then refuses to step."""
+
+    @property
+    def n_q(self) -> int: ...
+    @property
+    def n_arms(self) -> int: ...
+    @property
+    def wrench_shape(self) -> Tuple[int, int]: ...
+    @property
+    def control_period(self) -> float: ...
+    @property
+    def time(self) -> float:
+        """Simulated time, s."""
+    @property
+    def state(self) -> Dict[str, npt.NDArray[np.float64]]:
+        """True ``q``, ``qd``, ``object_pose`` (planar ``(x, y, θ)``; spatial ``(x, y, z, qw,
+        qx, qy, qz)``), ``object_twist`` (planar ``(ẋ, ẏ, θ̇)``; spatial ``(v, ω)``, world)."""
+    def sensors(self) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """``(q, qd, wrenches)`` as the sensors read them now: the arguments of ``Controller.tick``."""
+    @property
+    def wrenches(self) -> npt.NDArray[np.float64]:
+        """True grasp wrenches (the object's on each arm), world axes, ``wrench_shape``."""
+    @property
+    def residual(self) -> Tuple[float, float]:
+        """Grasp-constraint residual: spatial ``(m, rad)``; planar ``(m, m/s)``."""
+    @property
+    def energy(self) -> Dict[str, float]:
+        """``kinetic``, ``potential``, ``total`` (J)."""
+    def holding_torques(self) -> npt.NDArray[np.float64]:
+        """Spatial: torques that hold the current configuration at rest (gravity, equal share of
+        the object's weight). Planar: NotImplementedError."""
+    def step(self, tau: npt.ArrayLike, dt: Optional[float] = None) -> None:
+        """Hold ``tau`` (N m, ``(n_q,)``, finite) over ``dt`` s (a whole number of control
+        periods; default one). ValueError naming ``tau`` or ``dt``; :exc:`PlantFault`."""
+    def reset(self) -> None:
+        """Back to the start."""
+
+class JointPD:
+    """``tau = kp * (q_ref - q) - kd * qd + tau_ff`` per joint, in Rust: a baseline law for
+    ``Scenario.run(controller=...)``."""
+
+    def __init__(self, kp: npt.ArrayLike, kd: npt.ArrayLike, q_ref: npt.ArrayLike, tau_ff: npt.ArrayLike) -> None: ...
+
+class PlantFault(RuntimeError):
+    """The plant failed numerically; ``t`` is the time (s)."""
+
+    t: float
 
 class Run:
     """One finished run; picklable (the summary and the samples travel)."""

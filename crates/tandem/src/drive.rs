@@ -107,6 +107,13 @@ pub trait Drive<P: ClosedChain> {
     /// One tick: `(t, measurements) →` joint torques (`n_q`, written into `tau`) and the record.
     /// Must not allocate.
     fn tick(&mut self, t: f64, meas: &Measurements<'_>, tau: &mut [f64], rec: &mut Self::Record);
+    /// Why the driver could not produce its last torques (a user's law raised or returned an
+    /// error), checked by the loop after every [`tick`](Self::tick): `Some` stops the run with a
+    /// [`FaultKind::Driver`](crate::sim::FaultKind::Driver) fault at the tick's time. Default:
+    /// never.
+    fn failure(&self) -> Option<&str> {
+        None
+    }
     /// Event counters since start (default: none).
     fn events(&self) -> ControlEvents {
         ControlEvents::default()

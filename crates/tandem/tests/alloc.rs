@@ -568,3 +568,62 @@ fn rbf_ticks_allocate_nothing_with_every_kernel() {
         assert_eq!(n, 0, "{kernel}: {n} allocations");
     }
 }
+
+/// A user's law behind [`tandem::sim::ExternalLaw`] (issue 23: how a Python law drives the
+/// loop) and a plant stepped from outside ([`tandem::sim::Stepped`]): neither allocates per
+/// tick.
+#[test]
+fn external_law_ticks_and_stepped_plant_steps_allocate_nothing() {
+    use tandem::plant::SpatialStart;
+    use tandem::plant::spatial::SpatialPlant;
+    use tandem::sim::{External, ExternalLaw, Held, Stepped};
+    struct Hold(Vec<f64>);
+    impl ExternalLaw for Hold {
+        fn start(&mut self, _t0: f64, _m: &Measurements<'_>) -> Result<(), String> {
+            Ok(())
+        }
+        fn tick(&mut self, _t: f64, m: &Measurements<'_>, tau: &mut [f64]) -> Result<(), String> {
+            for (k, t) in tau.iter_mut().enumerate() {
+                *t = self.0[k] - 20.0 * m.qd[k];
+            }
+            Ok(())
+        }
+    }
+    let s = presets::dual_ur5();
+    let plant = SpatialPlant::new(&s.params).unwrap();
+    let y0 = plant
+        .initial_state(&s.x_wo, &nalgebra::Vector6::zeros(), &s.q_guess)
+        .unwrap();
+    let mut hold = vec![0.0; plant.n_q()];
+    plant.holding_torques(&y0, &mut plant.workspace(), &mut hold);
+    let start = SpatialStart {
+        x_wo: s.x_wo,
+        q_guess: s.q_guess.clone(),
+    };
+    let mut sp = SimParams::paper();
+    sp.duration = 1.0;
+    sp.plant_step = 5e-4;
+    let sensors = SensorParams::default();
+    let zero = tandem::model::disturbance::SpatialDisturbance::zero;
+    let law = External::new(Box::new(Hold(hold.clone())));
+    let mut sim =
+        Simulation::with_plant(plant.clone(), &start, &sensors, law, zero(), sp.clone()).unwrap();
+    sim.tick(0).unwrap();
+    let n = count(|| {
+        for k in 1..100 {
+            sim.tick(k).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "external-law ticks allocated {n} times");
+    let held = Held::new(hold.len());
+    let sim = Simulation::with_plant(plant, &start, &sensors, held, zero(), sp).unwrap();
+    let mut st = Stepped::new(sim).unwrap();
+    st.step(&hold, 1).unwrap();
+    let n = count(|| {
+        for _ in 0..50 {
+            st.step(&hold, 2).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "stepped plant allocated {n} times");
+    assert!((st.time() - 0.101).abs() < 1e-12);
+}

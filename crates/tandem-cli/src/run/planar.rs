@@ -4,7 +4,7 @@
 use anyhow::Result;
 use tandem::report;
 use tandem::report::planar::Summary;
-use tandem::sim::{Log, Outcome};
+use tandem::sim::{Driver, External, ExternalLaw, Log, Outcome};
 
 use crate::scenario::ControllerKind;
 use crate::scenario::planar::{Built, Ready};
@@ -18,6 +18,8 @@ pub struct Prepared {
     pub built: Built,
     /// The simulation and its set-up warnings.
     pub ready: Ready,
+    /// Driven by a user's law ([`prepare_external`]), not the scenario's controller.
+    pub external: bool,
 }
 
 /// Build and validate everything a run needs (nothing is simulated).
@@ -26,7 +28,33 @@ pub fn prepare(sc: PlanarScenario, src: &Source) -> Result<Prepared, ScenarioErr
     let ready = scenario::planar::make_simulation(&sc, &built, src)?;
     // Last: a NaN or infinity the run's own checks did not meet (another law's section).
     scenario::check_finite(src, &sc)?;
-    Ok(Prepared { sc, built, ready })
+    Ok(Prepared {
+        sc,
+        built,
+        ready,
+        external: false,
+    })
+}
+
+/// [`prepare`] with a user's law driving the loop instead of the scenario's controller (issue
+/// 23): the scenario's plant, sensors, faults, path and bounds; the run is scored as a torque
+/// replay is, on the true state.
+pub fn prepare_external(
+    sc: PlanarScenario,
+    src: &Source,
+    law: Box<dyn ExternalLaw>,
+) -> Result<Prepared, ScenarioError> {
+    let built = scenario::planar::build(&sc, src)?;
+    let mut warnings = Vec::new();
+    let driver = Driver::External(External::new(law));
+    let sim = scenario::planar::simulation_of(&sc, &built, src, driver, &mut warnings)?;
+    scenario::check_finite(src, &sc)?;
+    Ok(Prepared {
+        sc,
+        built,
+        ready: Ready { sim, warnings },
+        external: true,
+    })
 }
 
 /// A finished run.
@@ -41,12 +69,21 @@ pub struct Finished {
     pub summary: Summary,
     /// Set-up warnings.
     pub warnings: Vec<String>,
+    /// Driven by a user's law.
+    pub external: bool,
 }
 
+/// The label and `summary.json` name of a run driven by a user's law.
+pub const EXTERNAL: &str = "external";
+
 impl Finished {
-    /// A human label, e.g. `NN (tuned)`.
+    /// A human label, e.g. `NN (tuned)`; `external` for a user's law.
     pub fn label(&self) -> String {
-        label(&self.sc)
+        if self.external {
+            EXTERNAL.into()
+        } else {
+            label(&self.sc)
+        }
     }
 }
 
@@ -65,16 +102,30 @@ pub fn label(sc: &PlanarScenario) -> String {
 
 /// Simulate; `progress(fraction)` is called about 200 times.
 pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Finished {
-    let Prepared { sc, built, ready } = p;
+    let Prepared {
+        sc,
+        built,
+        ready,
+        external,
+    } = p;
     let (mut outcome, _sim) = ready.sim.run(progress);
-    if sc.controller.kind == ControllerKind::Replay {
+    if external || sc.controller.kind == ControllerKind::Replay {
         fill_replay_columns(&mut outcome.log, &built, sc.k_c());
     }
+    let name = if external {
+        EXTERNAL
+    } else {
+        sc.controller.kind.name()
+    };
     let summary = report::planar::summarize_with_path(
         &outcome,
         &built.path,
-        sc.controller.kind.name(),
-        &sc.gains_label(),
+        name,
+        &if external {
+            EXTERNAL.to_string()
+        } else {
+            sc.gains_label()
+        },
         sc.k_c(),
         sc.metrics.transient,
         built.sim.duration,
@@ -85,6 +136,7 @@ pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Finished {
         outcome,
         summary,
         warnings: ready.warnings,
+        external,
     }
 }
 

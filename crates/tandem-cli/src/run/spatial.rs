@@ -9,7 +9,7 @@ use tandem::control::spatial::chart::Chart;
 use tandem::plant::spatial::SpatialPlant;
 use tandem::reference::spatial::path::Se3Path;
 use tandem::report::spatial::SpatialRun;
-use tandem::sim::Outcome;
+use tandem::sim::{External, ExternalLaw, Outcome};
 
 use crate::scenario::ControllerKind;
 use crate::scenario::spatial as scenario;
@@ -74,12 +74,37 @@ pub struct Prepared {
     pub ready: SpatialReady,
     /// Scenario name.
     pub name: String,
+    /// Driven by a user's law ([`prepare_external`]).
+    pub external: bool,
 }
 
 /// Build and validate (every set-up check; errors name the field).
 pub fn prepare(sc: SpatialScenario, src: &Source) -> Result<Prepared, ScenarioError> {
+    prepare_with(sc, src, None)
+}
+
+/// [`prepare`] with a user's law driving the loop instead of the scenario's controller (issue
+/// 23): the scenario's plant, sensors, path and bounds; the run is scored on the true state,
+/// as a torque replay is.
+pub fn prepare_external(
+    sc: SpatialScenario,
+    src: &Source,
+    law: Box<dyn ExternalLaw>,
+) -> Result<Prepared, ScenarioError> {
+    prepare_with(sc, src, Some(External::new(law)))
+}
+
+fn prepare_with(
+    sc: SpatialScenario,
+    src: &Source,
+    law: Option<External>,
+) -> Result<Prepared, ScenarioError> {
     let built = scenario::build(&sc, src)?;
-    let ready = scenario::make_simulation(&sc, &built, src)?;
+    let external = law.is_some();
+    let ready = match law {
+        Some(l) => scenario::make_simulation_external(&sc, &built, src, l)?,
+        None => scenario::make_simulation(&sc, &built, src)?,
+    };
     // Last: a NaN or infinity the run's own checks did not meet (another law's section).
     crate::scenario::check_finite(src, &sc)?;
     let name = sc.name.clone().unwrap_or_else(|| src.name.clone());
@@ -103,6 +128,7 @@ pub fn prepare(sc: SpatialScenario, src: &Source) -> Result<Prepared, ScenarioEr
         built,
         ready,
         name,
+        external,
     })
 }
 
@@ -156,6 +182,7 @@ pub fn run(name: &str, duration: f64) -> Result<Finished> {
 
 /// Run a prepared scenario, reporting progress in [0, 1].
 pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Result<Finished> {
+    let label = label_of(&p);
     let outcome = p.ready.sim.run(progress);
     Ok(Finished {
         outcome,
@@ -163,12 +190,21 @@ pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Result<Finished> {
         box_size: p.built.box_size,
         path: p.built.path.clone(),
         duration: p.built.sim.duration,
-        controller: slug(&label(&p.sc)),
-        label: label(&p.sc),
+        controller: slug(&label),
+        label,
         k_c: p.ready.k_c,
         chart: p.ready.chart,
         warnings: p.ready.warnings.clone(),
     })
+}
+
+/// The label of a prepared run: the scenario's law, or `external` for a user's law.
+pub fn label_of(p: &Prepared) -> String {
+    if p.external {
+        crate::run::planar::EXTERNAL.into()
+    } else {
+        label(&p.sc)
+    }
 }
 
 /// The laws `tandem compare` runs on a spatial scenario, from one start: the NN law, the paper's

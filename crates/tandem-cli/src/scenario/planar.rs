@@ -33,9 +33,11 @@ use tandem::control::law::ctc::CtcGains;
 use tandem::control::law::pd::PdGains;
 use tandem::control::planar::{Controller, ControllerParams};
 use tandem::control::{ControlWarning, Scheme};
+use tandem::drive::Drive;
 use tandem::model::disturbance::Disturbance;
 use tandem::model::planar::arm::{ArmParams, Elbow, LinkParams};
 use tandem::model::planar::object::ObjectParams;
+use tandem::plant::planar::Plant;
 use tandem::plant::planar::PlantParams;
 use tandem::reference::planar::admittance::AdmittanceParams;
 use tandem::reference::planar::path::Path;
@@ -1083,6 +1085,21 @@ pub fn make_simulation(
             Driver::Replay(replay)
         }
     };
+    let sim = simulation_of(sc, b, src, driver, &mut warnings)?;
+    Ok(Ready { sim, warnings })
+}
+
+/// The simulation of `driver` on the scenario's plant, sensors, disturbance, injected faults
+/// and timing (what [`make_simulation`] builds around the scenario's own driver; a user's law,
+/// [`tandem::sim::External`], or torques from outside, [`tandem::sim::Held`]), with the
+/// set-up warnings of the start appended to `warnings`.
+pub fn simulation_of<D: Drive<Plant>>(
+    sc: &PlanarScenario,
+    b: &Built,
+    src: &Source,
+    driver: D,
+    warnings: &mut Vec<String>,
+) -> Result<Simulation<Plant, D>, ScenarioError> {
     let sim = Simulation::new(
         b.truth.as_ref().unwrap_or(&b.plant),
         &b.sensors,
@@ -1136,7 +1153,7 @@ pub fn make_simulation(
             ),
         ));
     }
-    Ok(Ready { sim, warnings })
+    Ok(sim)
 }
 
 #[cfg(test)]

@@ -45,7 +45,7 @@ use tandem::plant::spatial::{GraspModel, SpatialPlantParams};
 use tandem::reference::spatial::admittance::AdmittanceSe3Params;
 use tandem::reference::spatial::path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};
 use tandem::sim::sensors::SensorParams;
-use tandem::sim::{Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
+use tandem::sim::{External, Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
 
 use super::planar::{control_warning, load_replay};
 use super::source::{MAX_ARMS, MAX_LINKS, ScenarioError, Source, num, read_limited};
@@ -1263,6 +1263,8 @@ pub enum SpatialSim {
     Control(Box<Simulation<SpatialPlant, SpatialController>>),
     /// Joint torques from a file.
     Replay(Box<Simulation<SpatialPlant, Replay>>),
+    /// A user's law (issue 23).
+    External(Box<Simulation<SpatialPlant, External>>),
 }
 
 impl SpatialSim {
@@ -1271,6 +1273,7 @@ impl SpatialSim {
         match self {
             SpatialSim::Control(s) => s.run(progress).0,
             SpatialSim::Replay(s) => s.run(progress).0,
+            SpatialSim::External(s) => s.run(progress).0,
         }
     }
 
@@ -1280,6 +1283,7 @@ impl SpatialSim {
         match self {
             SpatialSim::Control(s) => (s.plant(), s.state()),
             SpatialSim::Replay(s) => (s.plant(), s.state()),
+            SpatialSim::External(s) => (s.plant(), s.state()),
         }
     }
 }
@@ -1388,36 +1392,80 @@ pub fn make_simulation(
     b: &SpatialBuilt,
     src: &Source,
 ) -> Result<SpatialReady, ScenarioError> {
+    make(sc, b, src, None)
+}
+
+/// [`make_simulation`] with a user's law driving the loop instead of the scenario's controller
+/// or replay (issue 23): the scenario's controller is still designed, for the output chart and
+/// bounds the run is scored in.
+pub fn make_simulation_external(
+    sc: &SpatialScenario,
+    b: &SpatialBuilt,
+    src: &Source,
+    law: External,
+) -> Result<SpatialReady, ScenarioError> {
+    make(sc, b, src, Some(law))
+}
+
+/// The simulation of `driver` (torques set from outside, [`tandem::sim::Held`], a user's law)
+/// on the scenario's plant, start, sensors, disturbance and timing, with every set-up check
+/// of a run; errors name the file's fields.
+pub fn simulation_of<D: Drive<SpatialPlant>>(
+    sc: &SpatialScenario,
+    b: &SpatialBuilt,
+    src: &Source,
+    driver: D,
+) -> Result<Box<Simulation<SpatialPlant, D>>, ScenarioError> {
+    let dofs = dofs(b);
+    let plant = SpatialPlant::new(&b.plant).map_err(|e| model_error(src, sc, &dofs, e))?;
+    simulation(plant, b, driver).map_err(|e| start_error(sc, b, src, e))
+}
+
+/// A set-up error of the simulation, named as the file's field: an arm that cannot hold the
+/// start pose names `run.start_offset` when the file gives one (else the arm).
+fn start_error(
+    sc: &SpatialScenario,
+    b: &SpatialBuilt,
+    src: &Source,
+    e: ModelError,
+) -> ScenarioError {
+    let dofs = dofs(b);
+    let o = sc.run.start_offset();
+    match &e {
+        ModelError::Geometry { what, .. } if what.starts_with("arms") => {
+            let offset = format!("[{}]", o.map(num).join(", "));
+            if o.iter().any(|v| *v != 0.0) {
+                src.error_at(
+                    "run.start_offset",
+                    format!(
+                        "run.start_offset = {offset}: the start pose (the path at t = 0 offset by it) cannot be held: {e}"
+                    ),
+                )
+            } else {
+                let field = file_path(sc, &dofs, what);
+                src.error_at(
+                    &field,
+                    format!("{field}: the start pose (the path at t = 0) cannot be held: {e}"),
+                )
+            }
+        }
+        _ => model_error(src, sc, &dofs, e),
+    }
+}
+
+fn make(
+    sc: &SpatialScenario,
+    b: &SpatialBuilt,
+    src: &Source,
+    external: Option<External>,
+) -> Result<SpatialReady, ScenarioError> {
     let dofs = dofs(b);
     let lib = |e: ModelError| model_error(src, sc, &dofs, e);
     let mut warnings = b.warnings.clone();
     let plant = SpatialPlant::new(&b.plant).map_err(lib)?;
     // The controller's set-up has checked that every arm reaches the path, so an arm that
-    // cannot hold the start pose fails on the file's start offset when it gives one: the error
-    // names and points at `run.start_offset` (else at the arm).
-    let start_error = |e: ModelError| {
-        let o = sc.run.start_offset();
-        match &e {
-            ModelError::Geometry { what, .. } if what.starts_with("arms") => {
-                let offset = format!("[{}]", o.map(num).join(", "));
-                if o.iter().any(|v| *v != 0.0) {
-                    src.error_at(
-                        "run.start_offset",
-                        format!(
-                            "run.start_offset = {offset}: the start pose (the path at t = 0 offset by it) cannot be held: {e}"
-                        ),
-                    )
-                } else {
-                    let field = file_path(sc, &dofs, what);
-                    src.error_at(
-                        &field,
-                        format!("{field}: the start pose (the path at t = 0) cannot be held: {e}"),
-                    )
-                }
-            }
-            _ => lib(e),
-        }
-    };
+    // cannot hold the start pose fails on the file's start offset when it gives one.
+    let start_error = |e: ModelError| start_error(sc, b, src, e);
     let Designed {
         controller: c,
         warnings: w,
@@ -1427,8 +1475,13 @@ pub fn make_simulation(
     let mut path_inertia = probed_inertia;
     let k_c: [f64; 6] = c.k_c().into();
     let chart = *c.chart();
-    let (sim, controller) = match &b.replay {
-        None => {
+    let (sim, controller) = match (&b.replay, external) {
+        (_, Some(law)) => {
+            path_inertia = None;
+            let sim = simulation(plant, b, law).map_err(start_error)?;
+            (SpatialSim::External(sim), None)
+        }
+        (None, None) => {
             if path_inertia.is_none() {
                 path_inertia = Some(c.path_inertia().into());
             }
@@ -1439,7 +1492,7 @@ pub fn make_simulation(
             let sim = simulation(plant, b, c).map_err(start_error)?;
             (SpatialSim::Control(sim), Some(cp))
         }
-        Some(file) => {
+        (Some(file), None) => {
             let n_q: usize = dofs.iter().sum();
             let mode = sc.controller.replay_interpolation;
             let columns = sc.controller.replay_columns.as_deref();

@@ -14,6 +14,9 @@
 use tandem::control::planar::{Controller, TickRecord};
 use tandem::control::spatial::{SpatialController, SpatialTickRecord};
 use tandem::drive::{ControlEvents, Measurements};
+use tandem::plant::planar::Plant;
+use tandem::plant::spatial::SpatialPlant;
+use tandem::sim::{Held, Stepped};
 
 use super::planar::{self, PlanarScenario};
 use super::source::{ScenarioError, Source};
@@ -135,7 +138,7 @@ pub fn spatial(
             },
             s.sensors().q().len(),
         ),
-        spatial::SpatialSim::Replay(_) => {
+        spatial::SpatialSim::Replay(_) | spatial::SpatialSim::External(_) => {
             return Err(src.error_at("controller.kind", "the scenario has no controller"));
         }
     };
@@ -244,5 +247,138 @@ impl Standalone {
             Law::Planar(..) => None,
             Law::Spatial(_, r) => Some(&r.internal),
         }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The plant, stepped from outside.
+
+/// The plant of either kind, stepped from outside.
+pub enum PlantSim {
+    /// The planar closed chain.
+    Planar(Box<Stepped<Plant>>),
+    /// The spatial closed chain.
+    Spatial(Box<Stepped<SpatialPlant>>),
+}
+
+/// A scenario's plant as a run simulates it (the true plant, start pose, sensor models and
+/// seed, disturbance, injected actuator faults, timing), stepped by the caller with its own
+/// joint torques (issue 23: Python's `Scenario.plant()`). See [`Stepped`].
+pub struct PlantSession {
+    /// The plant.
+    pub sim: PlantSim,
+    /// Joints, all arms.
+    pub n_q: usize,
+    /// Arms.
+    pub n_arms: usize,
+    /// Wrench channels per arm: 2 (planar force) or 6 (spatial `[f; τ]`).
+    pub wrench_dim: usize,
+}
+
+/// The start could not be evaluated (a plant whose grasp wrenches are not finite at rest).
+fn start_fault(src: &Source, f: tandem::sim::Fault) -> ScenarioError {
+    src.error_at("run", format!("the plant cannot start: {f}"))
+}
+
+/// The planar scenario's plant, every check of a run.
+pub fn planar_plant(sc: &PlanarScenario, src: &Source) -> Result<PlantSession, ScenarioError> {
+    let built = planar::build(sc, src)?;
+    let n_q: usize = built.plant.arms.iter().map(|a| a.links.len()).sum();
+    let mut warnings = Vec::new();
+    let sim = planar::simulation_of(sc, &built, src, Held::new(n_q), &mut warnings)?;
+    super::check_finite(src, sc)?;
+    let n_arms = built.plant.arms.len();
+    Ok(PlantSession {
+        sim: PlantSim::Planar(Box::new(
+            Stepped::new(sim).map_err(|f| start_fault(src, f))?,
+        )),
+        n_q,
+        n_arms,
+        wrench_dim: 2,
+    })
+}
+
+/// The spatial scenario's plant, every check of a run.
+pub fn spatial_plant(sc: &SpatialScenario, src: &Source) -> Result<PlantSession, ScenarioError> {
+    let built = spatial::build(sc, src)?;
+    let n_q: usize = spatial::dofs(&built).iter().sum();
+    let sim = spatial::simulation_of(sc, &built, src, Held::new(n_q))?;
+    super::check_finite(src, sc)?;
+    let n_arms = built.plant.arms.len();
+    Ok(PlantSession {
+        sim: PlantSim::Spatial(Box::new(
+            Stepped::new(*sim).map_err(|f| start_fault(src, f))?,
+        )),
+        n_q,
+        n_arms,
+        wrench_dim: 6,
+    })
+}
+
+/// Call `$body` with `$s` bound to the [`Stepped`] plant of either kind.
+macro_rules! with_stepped {
+    ($sim:expr, $s:ident => $body:expr) => {
+        match $sim {
+            PlantSim::Planar($s) => $body,
+            PlantSim::Spatial($s) => $body,
+        }
+    };
+}
+
+impl PlantSession {
+    /// Apply `tau` (`n_q`, finite: the caller checks) for `periods` control periods.
+    pub fn step(&mut self, tau: &[f64], periods: usize) -> Result<(), tandem::sim::Fault> {
+        with_stepped!(&mut self.sim, s => s.step(tau, periods))
+    }
+    /// The simulation time, s.
+    pub fn time(&self) -> f64 {
+        with_stepped!(&self.sim, s => s.time())
+    }
+    /// The control period, s.
+    pub fn control_period(&self) -> f64 {
+        with_stepped!(&self.sim, s => s.control_period())
+    }
+    /// The fault that stopped the plant.
+    pub fn fault(&self) -> Option<&tandem::sim::Fault> {
+        with_stepped!(&self.sim, s => s.fault())
+    }
+    /// True joint angles and rates.
+    pub fn joints(&self) -> (&[f64], &[f64]) {
+        with_stepped!(&self.sim, s => s.joints())
+    }
+    /// The object's true pose and twist.
+    pub fn object(&self) -> (&[f64], &[f64]) {
+        with_stepped!(&self.sim, s => s.object())
+    }
+    /// Encoder angles and rates as read now.
+    pub fn encoders(&self) -> (&[f64], &[f64]) {
+        with_stepped!(&self.sim, s => (s.sensors().q(), s.sensors().qd()))
+    }
+    /// Wrist readings as read now (flat).
+    pub fn readings(&self) -> &[f64] {
+        with_stepped!(&self.sim, s => s.readings())
+    }
+    /// True grasp wrenches, world axes (flat).
+    pub fn wrenches(&self) -> &[f64] {
+        with_stepped!(&self.sim, s => s.wrenches())
+    }
+    /// Constraint residual `(position, rotation or velocity)`.
+    pub fn residual(&mut self) -> (f64, f64) {
+        with_stepped!(&mut self.sim, s => s.residual())
+    }
+    /// Spatial: the torques that hold the current configuration at rest
+    /// ([`Stepped::holding_torques`]) into `tau`; `false` (nothing written) on a planar plant.
+    pub fn holding_torques(&self, tau: &mut [f64]) -> bool {
+        match &self.sim {
+            PlantSim::Planar(_) => false,
+            PlantSim::Spatial(s) => {
+                s.holding_torques(tau);
+                true
+            }
+        }
+    }
+    /// Mechanical energy.
+    pub fn energy(&mut self) -> tandem::plant::Energy {
+        with_stepped!(&mut self.sim, s => s.energy())
     }
 }

@@ -244,6 +244,9 @@ pub trait ClosedChain {
     fn wrench_channels(&self) -> Vec<(&'static str, &'static str)>;
     /// Drift columns: planar `drift` (m); spatial `drift` (m) and `drift_rot` (rad).
     fn drift_columns(&self) -> Vec<ColumnSpec>;
+    /// The object's pose and twist in a state: planar `(x, y, θ)` and `(ẋ, ẏ, θ̇)`; spatial
+    /// `(p, q = (w, x, y, z))` and `(v, ω)` (world axes).
+    fn object_state<'a>(&self, y: &'a [f64]) -> (&'a [f64], &'a [f64]);
 }
 
 const AX3: [&str; 3] = ["x", "y", "theta"];
@@ -487,6 +490,10 @@ impl ClosedChain for planar::Plant {
     fn drift_columns(&self) -> Vec<ColumnSpec> {
         vec![col("drift", "m")]
     }
+    fn object_state<'a>(&self, y: &'a [f64]) -> (&'a [f64], &'a [f64]) {
+        let n = planar::Plant::n_q(self);
+        (&y[n..n + 3], &y[2 * n + 3..2 * n + 6])
+    }
 }
 
 /// The reduced formulation's state `(x_o, ẋ_o)`: the object part of a planar flat state.
@@ -700,6 +707,10 @@ impl ClosedChain for spatial::SpatialPlant {
     /// Both weld residuals (SPEC-spatial S4: drift < 1e-9 m and 1e-9 rad).
     fn drift_columns(&self) -> Vec<ColumnSpec> {
         vec![col("drift", "m"), col("drift_rot", "rad")]
+    }
+    fn object_state<'a>(&self, y: &'a [f64]) -> (&'a [f64], &'a [f64]) {
+        let n = SpatialPlant::n_q(self);
+        (&y[n..n + 7], &y[2 * n + 7..2 * n + 13])
     }
 }
 

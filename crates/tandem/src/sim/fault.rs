@@ -29,6 +29,12 @@ pub enum FaultKind {
         /// The signal.
         signal: String,
     },
+    /// The driver could not produce the tick's torques: a user's law
+    /// ([`External`](crate::sim::External)) returned an error ([`Drive::failure`](crate::drive::Drive::failure)).
+    Driver {
+        /// What the driver said.
+        message: String,
+    },
 }
 
 /// Why a run stopped early: what, when, and the last good state (never a NaN one).
@@ -94,6 +100,9 @@ impl std::fmt::Display for Fault {
             )?,
             FaultKind::NonFiniteSignal { signal } => {
                 write!(f, "{signal} became non-finite at t = {t:.4} s")?
+            }
+            FaultKind::Driver { message } => {
+                write!(f, "the law failed at t = {t:.4} s: {message}")?
             }
         }
         let q: Vec<String> = self.q.iter().map(|v| readable(*v, 4)).collect();

@@ -27,6 +27,7 @@
 //! Deterministic: the only randomness is in the seeded sensors. A tick allocates nothing.
 
 pub mod driver;
+pub mod external;
 pub mod fault;
 pub mod faults;
 pub mod log;
@@ -49,6 +50,7 @@ use crate::sim::sensors::{SensorParams, Sensors};
 
 pub use crate::plant::{Formulation, SpatialDisturbance, SpatialStart};
 pub use driver::Driver;
+pub use external::{External, ExternalLaw, Held};
 pub use fault::{Fault, FaultKind};
 pub use log::{Column, Log};
 pub use replay::Replay;
@@ -264,6 +266,8 @@ pub struct Simulation<P: ClosedChain = Plant, D: Drive<P> = Driver> {
     faults: Option<Box<FaultState>>,
     /// Torque rate and chattering of the applied torques, fed every tick (reads only).
     torque_rate: TorqueRateMonitor,
+    /// Whether ticks write log rows (off for a plant stepped from outside, which has no end).
+    logging: bool,
 }
 
 impl<D: Drive<Plant>> Simulation<Plant, D> {
@@ -285,6 +289,128 @@ impl<D: Drive<Plant>> Simulation<Plant, D> {
             q_guess: q_guess.map(<[f64]>::to_vec),
         };
         Self::with_plant(plant, &start, sensors, driver, disturbance, params)
+    }
+}
+
+/// A plant stepped from outside (issue 23: Python's `Scenario.plant()`): the scenario's plant,
+/// sensors, disturbance and injected faults, with joint torques given per step and held over
+/// it ([`Held`]). The run's tick split in two: the sensors are sampled at the current state
+/// (what [`sensors`](Self::sensors) and [`readings`](Self::readings) show), then
+/// [`step`](Self::step) applies the torques over whole control periods, runs the run's health
+/// checks every tick, and samples again. Nothing is logged (it has no end); a step allocates
+/// nothing unless it faults. After a fault the plant refuses to step.
+pub struct Stepped<P: ClosedChain> {
+    sim: Simulation<P, Held>,
+    k: usize,
+    fault: Option<Fault>,
+}
+
+impl<P: ClosedChain> Stepped<P> {
+    /// Step `sim` from outside, from its start (`t = 0`, at rest, zero torque held).
+    pub fn new(mut sim: Simulation<P, Held>) -> Result<Self, Fault> {
+        sim.logging = false;
+        sim.log = Log::default();
+        sim.sense(0)?;
+        Ok(Stepped {
+            sim,
+            k: 0,
+            fault: None,
+        })
+    }
+    /// The simulation time, s.
+    pub fn time(&self) -> f64 {
+        self.k as f64 * self.sim.params.control_period
+    }
+    /// Control periods stepped so far.
+    pub fn ticks(&self) -> usize {
+        self.k
+    }
+    /// The control period (the step's unit), s.
+    pub fn control_period(&self) -> f64 {
+        self.sim.params.control_period
+    }
+    /// The fault that stopped the plant, if one did.
+    pub fn fault(&self) -> Option<&Fault> {
+        self.fault.as_ref()
+    }
+    /// Apply `tau` (`n_q`, N m, finite: the caller checks) for `periods` control periods. `Err`
+    /// with the fault (its time and last good state) when the plant fails; it then stays
+    /// failed.
+    pub fn step(&mut self, tau: &[f64], periods: usize) -> Result<(), Fault> {
+        if let Some(f) = &self.fault {
+            return Err(f.clone());
+        }
+        for _ in 0..periods {
+            self.sim.driver.tau.copy_from_slice(tau);
+            let r = self
+                .sim
+                .act(self.k)
+                .and_then(|()| self.sim.check_chain(self.k + 1).map(|_| ()))
+                .and_then(|()| self.sim.sense(self.k + 1));
+            if let Err(f) = r {
+                self.fault = Some(f.clone());
+                return Err(f);
+            }
+            self.k += 1;
+        }
+        Ok(())
+    }
+    /// The plant model.
+    pub fn plant(&self) -> &P {
+        &self.sim.plant
+    }
+    /// The flat true state.
+    pub fn state(&self) -> &[f64] {
+        &self.sim.y
+    }
+    /// The true joint angles and rates.
+    pub fn joints(&self) -> (&[f64], &[f64]) {
+        self.sim.plant.joints(&self.sim.y)
+    }
+    /// The object's true pose and twist ([`ClosedChain::object_state`]).
+    pub fn object(&self) -> (&[f64], &[f64]) {
+        self.sim.plant.object_state(&self.sim.y)
+    }
+    /// The sensors at the current state: encoder angles and rates (with the scenario's noise,
+    /// quantisation, delays), as a driver would read them.
+    pub fn sensors(&self) -> &Sensors {
+        &self.sim.sensors
+    }
+    /// The wrist readings at the current state (flat, `W` per arm), with the scenario's sensor
+    /// models; injected sensor faults ([`Simulation::with_faults`]) act only on a driver's
+    /// view and are not in these (injected actuator faults do act on the stepped torques).
+    pub fn readings(&self) -> &[f64] {
+        &self.sim.meas
+    }
+    /// The true grasp wrenches at the current state with the last torques held (world axes,
+    /// flat, `W` per arm).
+    pub fn wrenches(&self) -> &[f64] {
+        &self.sim.wrenches
+    }
+    /// The same as the wrist sensors see them, without noise (sensor axes).
+    pub fn sensor_truth(&self) -> &[f64] {
+        &self.sim.sensor_truth
+    }
+    /// The grasp-constraint residual of the current state ([`ClosedChain::constraint_residual`]).
+    pub fn residual(&mut self) -> (f64, f64) {
+        self.sim
+            .plant
+            .constraint_residual(&self.sim.y, &mut self.sim.ws)
+    }
+    /// The mechanical energy of the current state.
+    pub fn energy(&mut self) -> crate::plant::Energy {
+        self.sim.plant.energy(&self.sim.y, &mut self.sim.ws)
+    }
+}
+
+impl Stepped<crate::plant::spatial::SpatialPlant> {
+    /// The joint torques that hold the current configuration at rest in static equilibrium
+    /// ([`SpatialPlant::holding_torques`](crate::plant::spatial::SpatialPlant::holding_torques):
+    /// the arms' gravity and an equal share of the object's weight, no internal wrench), into
+    /// `tau` (`n_q`). Allocates a scratch workspace: not for a hot loop.
+    pub fn holding_torques(&self, tau: &mut [f64]) {
+        let mut ws = self.sim.plant.workspace();
+        self.sim.plant.holding_torques(&self.sim.y, &mut ws, tau);
     }
 }
 
@@ -408,6 +534,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             violation_ticks: 0,
             faults: None,
             torque_rate,
+            logging: true,
         };
         // Initial wrenches with zero torque held (the object hanging in the arms' grasp).
         let _ = sim.eval_wrenches();
@@ -521,18 +648,31 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
 
     /// Advance one control tick; `Err` stops the run.
     pub fn tick(&mut self, k: usize) -> Result<(), Fault> {
-        let hc = self.params.control_period;
-        let t = k as f64 * hc;
+        self.sense(k)?;
+        self.act(k)
+    }
+
+    /// Step 1 of tick `k`: the grasp wrenches of the state with the input held, the wrist
+    /// sensors and the encoders sampled.
+    #[inline]
+    fn sense(&mut self, k: usize) -> Result<(), Fault> {
+        let t = k as f64 * self.params.control_period;
         self.y_prev.copy_from_slice(&self.y);
-        // 1. Sensors.
         if let Err(e) = self.eval_wrenches() {
             return Err(self.fault(t, chain_fault(e)));
         }
-        {
-            let (q, qd) = self.plant.joints(&self.y);
-            self.sensors.sample_flat(q, qd, &self.sensor_truth);
-            self.sensors.read_wrenches(&mut self.meas);
-        }
+        let (q, qd) = self.plant.joints(&self.y);
+        self.sensors.sample_flat(q, qd, &self.sensor_truth);
+        self.sensors.read_wrenches(&mut self.meas);
+        Ok(())
+    }
+
+    /// Steps 2–5 of tick `k` on what [`sense`](Self::sense) read: the driver, the checks, the
+    /// log row, the plant's substeps and the bound bookkeeping.
+    #[inline]
+    fn act(&mut self, k: usize) -> Result<(), Fault> {
+        let hc = self.params.control_period;
+        let t = k as f64 * hc;
         // 2. Driver.
         {
             let tau = P::torques_mut(&mut self.input);
@@ -556,6 +696,12 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
                 }
             }
         }
+        if let Some(m) = self.driver.failure() {
+            let kind = FaultKind::Driver {
+                message: m.to_string(),
+            };
+            return Err(self.fault(t, kind));
+        }
         self.driver
             .record_truth(&self.plant, &self.y, &mut self.rec);
         if let Some(fs) = &mut self.faults {
@@ -569,7 +715,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
         // The applied torque of the tick, to the rate monitor (reads only).
         self.torque_rate.observe(t, P::torques_mut(&mut self.input));
         // 5 (before advancing): log the state at t_k with the torque chosen at t_k.
-        if k.is_multiple_of(self.per_log) {
+        if self.logging && k.is_multiple_of(self.per_log) {
             self.log_row(t);
         }
         // 3. Plant substeps with the input held.
@@ -675,6 +821,25 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
         }
     }
 
+    /// The chain's health at the start of tick `k` (SPEC §3 step 4): constraint drift within
+    /// `max_drift`, no arm within `min_sigma` of a singularity. `Ok((drift, rotation drift))`.
+    fn check_chain(&mut self, k: usize) -> Result<(f64, f64), Fault> {
+        let t = k as f64 * self.params.control_period;
+        let ((d, r), s) = self
+            .plant
+            .drift_and_min_singular_value(&self.y, &mut self.ws);
+        if d > self.params.max_drift || r > self.params.max_drift {
+            self.y_prev.copy_from_slice(&self.y);
+            let rotation = (self.seg.drift > 1).then_some(r);
+            return Err(self.fault(t, FaultKind::ConstraintDrift { drift: d, rotation }));
+        }
+        if s < self.params.min_sigma {
+            self.y_prev.copy_from_slice(&self.y);
+            return Err(self.fault(t, FaultKind::Singular { sigma: s }));
+        }
+        Ok((d, r))
+    }
+
     /// Run to the end (or the first fault). `progress(fraction)` is called about 200 times.
     pub fn run(mut self, mut progress: impl FnMut(f64)) -> (Outcome, Self) {
         let start = Instant::now();
@@ -691,22 +856,15 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             k += 1;
             // Drift and singularity checks every 10 ticks (kinematics only, once for both).
             if k % 10 == 0 {
-                let t = k as f64 * self.params.control_period;
-                let ((d, r), s) = self
-                    .plant
-                    .drift_and_min_singular_value(&self.y, &mut self.ws);
-                max_drift = max_drift.max(d);
-                max_drift_rot = max_drift_rot.max(r);
-                if d > self.params.max_drift || r > self.params.max_drift {
-                    self.y_prev.copy_from_slice(&self.y);
-                    let rotation = (self.seg.drift > 1).then_some(r);
-                    fault = Some(self.fault(t, FaultKind::ConstraintDrift { drift: d, rotation }));
-                    break;
-                }
-                if s < self.params.min_sigma {
-                    self.y_prev.copy_from_slice(&self.y);
-                    fault = Some(self.fault(t, FaultKind::Singular { sigma: s }));
-                    break;
+                match self.check_chain(k) {
+                    Ok((d, r)) => {
+                        max_drift = max_drift.max(d);
+                        max_drift_rot = max_drift_rot.max(r);
+                    }
+                    Err(f) => {
+                        fault = Some(f);
+                        break;
+                    }
                 }
             }
             if k % every == 0 {
