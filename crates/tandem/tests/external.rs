@@ -6,7 +6,7 @@
 use tandem::drive::{Drive, Measurements, NoRecord};
 use tandem::model::disturbance::SpatialDisturbance;
 use tandem::plant::spatial::SpatialPlant;
-use tandem::plant::{ClosedChain, SpatialStart};
+use tandem::plant::SpatialStart;
 use tandem::presets;
 use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{External, ExternalLaw, FaultKind, Held, SimParams, Simulation, Stepped};
