@@ -1253,9 +1253,14 @@ impl PyController {
 
     /// Start (or restart) at time `t` with the first readings: the admittance at rest with
     /// its wrench filters at the expected wrenches, the pose estimate from `q`. Adaptive
-    /// weights are kept (`reset()` zeroes them).
+    /// weights are kept (`reset()` zeroes them). The sensor sanity check: when the readings'
+    /// forces (in world axes) do not sum to the object's weight within 25 %, as a robot holding
+    /// the object at rest reads them (nor are tandem's own start, `start_state()`), a
+    /// `ScenarioWarning` names each arm with its reading and the hold's, and the arm whose sign
+    /// looks flipped or whose reading looks given in world axes.
     fn start(
         &mut self,
+        py: Python<'_>,
         t: f64,
         q: &Bound<'_, PyAny>,
         qd: &Bound<'_, PyAny>,
@@ -1263,6 +1268,7 @@ impl PyController {
     ) -> PyResult<()> {
         let t = read_time(t)?;
         self.read_inputs(q, qd, wrenches)?;
+        warn_all(py, &self.inner.check_start(&self.w))?;
         self.inner.start(t, &self.q, &self.qd, &self.w);
         self.t_last = Some(t);
         self.ticked = false;
@@ -1719,6 +1725,16 @@ impl PyPlant {
         let (inner, tau) = (&mut self.inner, &self.tau);
         let r = py.detach(|| inner.step(tau, periods));
         r.map_err(|f| plant_fault(py, &f))
+    }
+
+    /// Hold the joint torques `tau` (N m, `(n_q,)`, finite) from now on without stepping, as a
+    /// robot holds its pose before your loop starts: `sensors()` reads again with them held
+    /// (the readings are always taken with the torques held since the last step; a fresh
+    /// plant holds zero). ValueError naming `tau`; PlantFault.
+    fn hold(&mut self, py: Python<'_>, tau: &Bound<'_, PyAny>) -> PyResult<()> {
+        let n_q = self.inner.n_q;
+        read_arg(tau, "tau", &[n_q], &mut self.tau)?;
+        self.inner.hold(&self.tau).map_err(|f| plant_fault(py, &f))
     }
 
     /// Back to the start (a new plant as `Scenario.plant()` makes it).

@@ -133,7 +133,11 @@ class Controller:
         zero torque held) and what its sensors read there: what ``tandem run`` starts with."""
     def start(self, t: float, q: npt.ArrayLike, qd: npt.ArrayLike, wrenches: npt.ArrayLike) -> None:
         """Start (or restart) at ``t``: admittance at rest, wrench filters at the expected
-        wrenches, the pose estimate from ``q``. Adaptive weights are kept (``reset()``)."""
+        wrenches, the pose estimate from ``q``. Adaptive weights are kept (``reset()``).
+        Sensor sanity check: readings whose forces do not sum (world axes) to the object's
+        weight within 25 % (a robot holding it at rest), other than tandem's own start
+        (``start_state()``), give a :class:`ScenarioWarning` naming the arms, their readings and
+        the hold's, and an arm whose sign looks flipped or whose reading looks in world axes."""
     def tick(
         self,
         t: float,
@@ -195,6 +199,9 @@ class Plant:
     def step(self, tau: npt.ArrayLike, dt: Optional[float] = None) -> None:
         """Hold ``tau`` (N m, ``(n_q,)``, finite) over ``dt`` s (a whole number of control
         periods; default one). ValueError naming ``tau`` or ``dt``; :exc:`PlantFault`."""
+    def hold(self, tau: npt.ArrayLike) -> None:
+        """Hold ``tau`` from now on without stepping (a robot holding its pose before your
+        loop); ``sensors()`` reads again with it held."""
     def reset(self) -> None:
         """Back to the start."""
 

@@ -5,8 +5,8 @@
 
 use tandem::drive::{Drive, Measurements, NoRecord};
 use tandem::model::disturbance::SpatialDisturbance;
-use tandem::plant::spatial::SpatialPlant;
 use tandem::plant::SpatialStart;
+use tandem::plant::spatial::SpatialPlant;
 use tandem::presets;
 use tandem::sim::sensors::{ChannelNoise, SensorParams};
 use tandem::sim::{External, ExternalLaw, FaultKind, Held, SimParams, Simulation, Stepped};

@@ -57,7 +57,29 @@ pub struct Standalone {
     pub control_period: f64,
     /// The run's start state.
     pub start: StartState,
+    /// What the first readings should look like ([`Standalone::check_start`]).
+    pub expect: StartExpectation,
 }
+
+/// What a controller expects of its first wrist readings (issue 23's sensor sanity check): the
+/// readings of a robot holding the object at rest on the start pose, and the frame each
+/// reading is in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StartExpectation {
+    /// The readings (flat, `wrench_dim` per arm, sensor axes) of a static hold at the start
+    /// pose: spatial, the plant's holding torques held (the arms share the weight, no internal
+    /// wrench); planar, an equal share of the object's weight.
+    pub hold: Vec<f64>,
+    /// Each arm's sensor axes in world axes (row-major 3×3; the identity for planar arms,
+    /// whose readings are in world axes).
+    pub axes: Vec<[[f64; 3]; 3]>,
+}
+
+/// How far the sum of the first readings' forces (world axes) may be from the hold's, as a
+/// fraction of the object's weight: a held object under a controller's internal squeeze or a
+/// sensor bias passes; a flipped sign, a reading in the wrong axes or in the wrong unit does
+/// not.
+pub const START_TOLERANCE: f64 = 0.25;
 
 /// Refuse a torque replay: it is not a controller.
 fn no_replay(src: &Source, kind: ControllerKind) -> Result<(), ScenarioError> {
@@ -98,6 +120,16 @@ pub fn planar(
     let sim = &ready.sim;
     let n_q = sim.sensors().q().len();
     let n_arms = built.plant.arms.len();
+    // A static hold: each end effector carries an equal share of the object's weight (its
+    // force on each, world axes: `−G_o / n`, SPEC §1's sign).
+    let g = tandem::plant::planar::Plant::new(built.truth.as_ref().unwrap_or(&built.plant))
+        .map(|p| p.object().G_o)
+        .map_err(|e| src.error_at("object", e.to_string()))?;
+    let share = [-g.x / n_arms as f64, -g.y / n_arms as f64];
+    let expect = StartExpectation {
+        hold: (0..n_arms).flat_map(|_| share).collect(),
+        axes: vec![[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]; n_arms],
+    };
     Ok(Standalone {
         law: Law::Planar(Box::new(c), Box::default()),
         n_q,
@@ -109,6 +141,7 @@ pub fn planar(
             qd: sim.sensors().qd().to_vec(),
             wrenches: sim.last_sensor_truth().to_vec(),
         },
+        expect,
     })
 }
 
@@ -143,6 +176,7 @@ pub fn spatial(
         }
     };
     let n_arms = built.plant.arms.len();
+    let expect = spatial_expectation(&sc, &built, src, n_q)?;
     Ok(Standalone {
         law: Law::Spatial(
             Box::new(d.controller),
@@ -153,7 +187,47 @@ pub fn spatial(
         wrench_dim: 6,
         control_period: built.sim.control_period,
         start,
+        expect,
     })
+}
+
+/// The spatial start's hold: the plant's holding torques held at the start pose, and each
+/// tool's axes (welded: the grasp frame's).
+fn spatial_expectation(
+    sc: &SpatialScenario,
+    built: &spatial::SpatialBuilt,
+    src: &Source,
+    n_q: usize,
+) -> Result<StartExpectation, ScenarioError> {
+    let sim = spatial::simulation_of(sc, built, src, Held::new(n_q))?;
+    let mut st = Stepped::new(*sim).map_err(|f| start_fault(src, f))?;
+    let mut tau = vec![0.0; n_q];
+    st.holding_torques(&mut tau);
+    let plant = st.plant().clone();
+    let (pose, _) = st.object();
+    let x_wo = nalgebra::Isometry3::from_parts(
+        nalgebra::Translation3::new(pose[0], pose[1], pose[2]),
+        nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+            pose[3], pose[4], pose[5], pose[6],
+        )),
+    );
+    let hold = st
+        .truth_with(&tau)
+        .map_err(|k| src.error_at("run", format!("the start cannot be held: {k:?}")))?
+        .0
+        .to_vec();
+    let axes = (0..plant.grasps().len())
+        .map(|i| {
+            let r = plant.grasp_pose(i, &x_wo).rotation.to_rotation_matrix();
+            let m = r.matrix();
+            [
+                [m[(0, 0)], m[(0, 1)], m[(0, 2)]],
+                [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
+                [m[(2, 0)], m[(2, 1)], m[(2, 2)]],
+            ]
+        })
+        .collect();
+    Ok(StartExpectation { hold, axes })
 }
 
 impl Standalone {
@@ -175,6 +249,108 @@ impl Standalone {
             Law::Planar(c, r) => c.tick(t, &m, tau, r),
             Law::Spatial(c, r) => c.tick(t, &m, tau, r),
         }
+    }
+
+    /// The sensor sanity check of a start (issue 23): the sum over arms of the first readings'
+    /// forces, in world axes, against a static hold's (the object's weight), within
+    /// [`START_TOLERANCE`] of the weight. A start that fails it and is not tandem's own start
+    /// ([`StartState`]: at rest, zero torque held) gets one warning that names each arm with
+    /// its reading and the hold's, and says which arm's reading would pass with its sign
+    /// flipped or read as given in world axes. Empty when the readings look right.
+    pub fn check_start(&self, wrenches: &[f64]) -> Vec<String> {
+        let w = self.wrench_dim;
+        let e = &self.expect;
+        let force = |v: &[f64], i: usize| -> [f64; 3] {
+            let mut f = [0.0; 3];
+            f[..w.min(3)].copy_from_slice(&v[w * i..w * i + w.min(3)]);
+            f
+        };
+        let world = |i: usize, f: [f64; 3]| -> [f64; 3] {
+            let r = &e.axes[i];
+            [0, 1, 2].map(|a| r[a][0] * f[0] + r[a][1] * f[1] + r[a][2] * f[2])
+        };
+        let sum = |fs: &dyn Fn(usize) -> [f64; 3]| -> [f64; 3] {
+            (0..self.n_arms).fold([0.0; 3], |s, i| {
+                let f = fs(i);
+                [s[0] + f[0], s[1] + f[1], s[2] + f[2]]
+            })
+        };
+        let want = sum(&|i| world(i, force(&e.hold, i)));
+        let weight = want.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let off = |got: [f64; 3]| {
+            (0..3)
+                .map(|a| (got[a] - want[a]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let ok = |got: [f64; 3]| off(got) <= START_TOLERANCE * weight;
+        let got = sum(&|i| world(i, force(wrenches, i)));
+        if ok(got) || weight == 0.0 {
+            return Vec::new();
+        }
+        // tandem's own start (zero torque held while the chain is at rest) is known too.
+        let scale = self
+            .start
+            .wrenches
+            .iter()
+            .fold(1.0_f64, |m, v| m.max(v.abs()));
+        if wrenches
+            .iter()
+            .zip(&self.start.wrenches)
+            .all(|(a, b)| (a - b).abs() <= 1e-6 * scale)
+        {
+            return Vec::new();
+        }
+        let fmt = |f: &[f64]| {
+            let v: Vec<String> = f.iter().map(|x| format!("{x:.3}")).collect();
+            format!("[{}]", v.join(", "))
+        };
+        let axes = if w == 6 { "tool axes" } else { "world axes" };
+        let mut lines = Vec::new();
+        for i in 0..self.n_arms {
+            let flipped = sum(&|j| {
+                let f = world(j, force(wrenches, j));
+                if j == i { f.map(|v| -v) } else { f }
+            });
+            let in_world = sum(&|j| {
+                if j == i {
+                    force(wrenches, j)
+                } else {
+                    world(j, force(wrenches, j))
+                }
+            });
+            let hint = if ok(flipped) {
+                ": its sign looks flipped (the object's wrench ON the tool is expected)"
+            } else if w == 6 && ok(in_world) {
+                ": it looks given in world axes (tool axes are expected)"
+            } else {
+                ""
+            };
+            lines.push(format!(
+                "arm {}: measured {} N, holding the object at rest gives about {} N ({axes}){hint}",
+                i + 1,
+                fmt(&wrenches[w * i..w * i + w.min(3)]),
+                fmt(&e.hold[w * i..w * i + w.min(3)]),
+            ));
+        }
+        let all = if ok(got.map(|v| -v)) {
+            " Every reading's sign looks flipped."
+        } else if w == 6 && ok(sum(&|j| force(wrenches, j))) {
+            " The readings look given in world axes."
+        } else {
+            ""
+        };
+        vec![format!(
+            "the first wrist readings do not hold the object: their forces sum to {} N in world \
+             axes, a hold at rest to {} N (the object's weight; {:.0} % off, the check allows \
+             {:.0} %). The controller expects each arm's reading to be the object's wrench on \
+             the tool, about the tool origin, in {axes}, in N and N m (docs/loop.md).{all} {}",
+            fmt(&got),
+            fmt(&want),
+            100.0 * off(got) / weight,
+            100.0 * START_TOLERANCE,
+            lines.join("; ")
+        )]
     }
 
     /// Event counters since the start.
@@ -329,6 +505,10 @@ impl PlantSession {
     /// Apply `tau` (`n_q`, finite: the caller checks) for `periods` control periods.
     pub fn step(&mut self, tau: &[f64], periods: usize) -> Result<(), tandem::sim::Fault> {
         with_stepped!(&mut self.sim, s => s.step(tau, periods))
+    }
+    /// Hold `tau` without stepping; the sensors read again ([`Stepped::hold`]).
+    pub fn hold(&mut self, tau: &[f64]) -> Result<(), tandem::sim::Fault> {
+        with_stepped!(&mut self.sim, s => s.hold(tau))
     }
     /// The simulation time, s.
     pub fn time(&self) -> f64 {

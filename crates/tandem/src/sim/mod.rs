@@ -391,6 +391,33 @@ impl<P: ClosedChain> Stepped<P> {
     pub fn sensor_truth(&self) -> &[f64] {
         &self.sim.sensor_truth
     }
+    /// Hold `tau` from now on without stepping (a robot holding its pose before the loop
+    /// starts): the sensors read again at the current state with it held, as a run's readings
+    /// are always taken with the torque held since the last tick (noisy sensors draw again).
+    pub fn hold(&mut self, tau: &[f64]) -> Result<(), Fault> {
+        if let Some(f) = &self.fault {
+            return Err(f.clone());
+        }
+        P::torques_mut(&mut self.sim.input).copy_from_slice(tau);
+        self.sim.driver.tau.copy_from_slice(tau);
+        self.sim
+            .sense(self.k)
+            .inspect_err(|f| self.fault = Some(f.clone()))
+    }
+    /// What the wrist sensors would read at the current state, without noise, if `tau` were
+    /// held (sensor axes, flat), and the same grasp wrenches in world axes: e.g. the readings
+    /// of a robot holding the object at rest. Changes nothing of the plant's course (the next
+    /// [`step`](Self::step) holds its own torques). `Err` when the plant cannot be evaluated.
+    pub fn truth_with(&mut self, tau: &[f64]) -> Result<(&[f64], &[f64]), FaultKind> {
+        P::torques_mut(&mut self.sim.input).copy_from_slice(tau);
+        let r = self.sim.eval_wrenches().map_err(chain_fault);
+        r.map(|()| {
+            (
+                self.sim.sensor_truth.as_slice(),
+                self.sim.wrenches.as_slice(),
+            )
+        })
+    }
     /// The grasp-constraint residual of the current state ([`ClosedChain::constraint_residual`]).
     pub fn residual(&mut self) -> (f64, f64) {
         self.sim
