@@ -21,7 +21,11 @@ fn rust(name: &str) -> Standalone {
 fn bench(c: &mut Criterion) {
     for name in ["dual-ur5", "paper"] {
         let s0 = rust(name);
-        let (q, qd, w) = (s0.start.q.clone(), s0.start.qd.clone(), s0.start.wrenches.clone());
+        let (q, qd, w) = (
+            s0.start.q.clone(),
+            s0.start.qd.clone(),
+            s0.start.wrenches.clone(),
+        );
         let h = s0.control_period;
         let mut tau = vec![0.0; s0.n_q];
 

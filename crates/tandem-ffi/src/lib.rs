@@ -179,12 +179,8 @@ fn text<'a>(arg: &str, p: *const c_char) -> Res<&'a str> {
     }
     // SAFETY: not NULL; the caller passes a NUL-terminated string.
     let s = unsafe { CStr::from_ptr(p) };
-    s.to_str().map_err(|e| {
-        Failure(
-            TANDEM_ERR_ARGUMENT,
-            format!("{arg}: not valid UTF-8 ({e})"),
-        )
-    })
+    s.to_str()
+        .map_err(|e| Failure(TANDEM_ERR_ARGUMENT, format!("{arg}: not valid UTF-8 ({e})")))
 }
 
 /// A law's name, NULL for the scenario's.
@@ -212,12 +208,8 @@ fn put<T>(arg: &str, out: *mut T, v: T) -> Res<()> {
 fn build(sc: &Scenario, src: &Source, law: Option<ControllerChoice>) -> Res<Standalone> {
     let scenario_err = |e: scenario::ScenarioError| Failure(TANDEM_ERR_SCENARIO, e.to_string());
     // A bad TANDEM_KERNEL is refused before anything is built, as the command line does.
-    tandem::control::rbf::Kernel::from_env().map_err(|e| {
-        Failure(
-            TANDEM_ERR_SCENARIO,
-            format!("environment variable {e}"),
-        )
-    })?;
+    tandem::control::rbf::Kernel::from_env()
+        .map_err(|e| Failure(TANDEM_ERR_SCENARIO, format!("environment variable {e}")))?;
     match sc {
         Scenario::Planar(p) => standalone::planar(p, src, law),
         Scenario::Spatial(p) => standalone::spatial(p, src, law),
@@ -459,9 +451,7 @@ pub extern "C" fn tandem_tick(
             let q = slice("q", q, nq)?;
             let qd = slice("qd", qd, nqd)?;
             let w = slice("wrenches", wrenches, nw)?;
-            h.inner
-                .try_tick(t, q, qd, w, tau)
-                .map_err(input_failure)
+            h.inner.try_tick(t, q, qd, w, tau).map_err(input_failure)
         })();
         if r.is_err() && tau.len() == h.inner.n_q {
             tau.fill(0.0);
@@ -549,12 +539,16 @@ pub extern "C" fn tandem_record_scalar(
         let n = text("name", name)?;
         let scalars = h.inner.record_scalars();
         let flags = h.inner.record_flags();
-        let v = scalars.iter().find(|(k, _)| *k == n).map(|(_, v)| *v).or_else(|| {
-            flags
-                .iter()
-                .find(|(k, _)| *k == n)
-                .map(|(_, b)| f64::from(u8::from(*b)))
-        });
+        let v = scalars
+            .iter()
+            .find(|(k, _)| *k == n)
+            .map(|(_, v)| *v)
+            .or_else(|| {
+                flags
+                    .iter()
+                    .find(|(k, _)| *k == n)
+                    .map(|(_, b)| f64::from(u8::from(*b)))
+            });
         match v {
             Some(v) => put("out", out, v),
             None => {
@@ -638,10 +632,11 @@ pub extern "C" fn tandem_status_name(status: TandemStatus) -> *const c_char {
 /// tandem's version (`"0.1.0"`), a static string.
 #[unsafe(no_mangle)]
 pub extern "C" fn tandem_version() -> *const c_char {
-    const V: &CStr = match CStr::from_bytes_with_nul(concat!(env!("CARGO_PKG_VERSION"), "\0").as_bytes()) {
-        Ok(v) => v,
-        Err(_) => c"?",
-    };
+    const V: &CStr =
+        match CStr::from_bytes_with_nul(concat!(env!("CARGO_PKG_VERSION"), "\0").as_bytes()) {
+            Ok(v) => v,
+            Err(_) => c"?",
+        };
     V.as_ptr()
 }
 

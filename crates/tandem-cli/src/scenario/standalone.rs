@@ -119,7 +119,10 @@ impl std::fmt::Display for InputError {
                 if after_tick { "tick" } else { "start" }
             ),
             InputError::NotStarted => {
-                write!(f, "tick before start: call start(t0, q, qd, wrenches) first")
+                write!(
+                    f,
+                    "tick before start: call start(t0, q, qd, wrenches) first"
+                )
             }
         }
     }
