@@ -12,6 +12,11 @@
 //! This crate is the one place in tandem with `unsafe`: dereferencing the caller's pointers,
 //! each checked for null and paired with its length, in [`slice`], [`slice_mut`] and [`text`].
 
+// The entry points are C functions: their pointer contract is the header's (a live handle,
+// arrays of the length passed), which C callers cannot be made to acknowledge with `unsafe`;
+// every pointer is checked for NULL before use. Rust callers are this crate's tests and bench.
+#![allow(clippy::not_unsafe_ptr_arg_deref)]
+
 use std::cell::RefCell;
 use std::ffi::{CStr, CString, c_char};
 use std::panic::{AssertUnwindSafe, catch_unwind};

@@ -101,10 +101,9 @@ impl std::fmt::Display for InputError {
                 cols,
                 value,
             } => {
-                if cols > 0 {
-                    write!(f, "{arg}[{}, {}]", index / cols, index % cols)?;
-                } else {
-                    write!(f, "{arg}[{index}]")?;
+                match index.checked_div(cols) {
+                    Some(row) => write!(f, "{arg}[{row}, {}]", index % cols)?,
+                    None => write!(f, "{arg}[{index}]")?,
                 }
                 write!(f, " = {value}: every value must be finite")
             }
