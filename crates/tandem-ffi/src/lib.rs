@@ -10,7 +10,7 @@
 //! ([`Standalone::try_start`], [`Standalone::try_tick`]), the same as the Python `Controller`.
 //!
 //! This crate is the one place in tandem with `unsafe`: dereferencing the caller's pointers,
-//! each checked for null and paired with its length, in [`slice`], [`slice_mut`] and [`text`].
+//! each checked for null and paired with its length, in `slice`, `slice_mut` and `text`.
 
 // The entry points are C functions: their pointer contract is the header's (a live handle,
 // arrays of the length passed), which C callers cannot be made to acknowledge with `unsafe`;
