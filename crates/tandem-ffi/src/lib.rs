@@ -124,7 +124,8 @@ fn guard(func: &str, f: impl FnOnce() -> Res<()>) -> TandemStatus {
         Ok(()) => TANDEM_OK,
         Err(Failure(status, msg)) => {
             let c = CString::new(msg.replace('\0', " ")).unwrap_or_default();
-            LAST_ERROR.with(|e| *e.borrow_mut() = c);
+            // `try_with`: no panic even during the thread's teardown (the message is lost).
+            let _ = LAST_ERROR.try_with(|e| *e.borrow_mut() = c);
             status
         }
     }
@@ -614,7 +615,11 @@ pub extern "C" fn tandem_events(h: *mut TandemController, out: *mut TandemEvents
 /// copy it to keep it. Never NULL. A successful call leaves it as it was.
 #[unsafe(no_mangle)]
 pub extern "C" fn tandem_last_error() -> *const c_char {
-    LAST_ERROR.with(|e| e.borrow().as_ptr())
+    // Cannot panic: `try_with` (an empty string during the thread's teardown), and nothing
+    // holds the cell mutably outside `guard`.
+    LAST_ERROR
+        .try_with(|e| e.borrow().as_ptr())
+        .unwrap_or(c"".as_ptr())
 }
 
 /// A status's name (`"TANDEM_ERR_LENGTH"`), a static string.
