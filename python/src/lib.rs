@@ -1030,20 +1030,15 @@ impl PyScenario {
 /// A NumPy float64 array (or anything `numpy.asarray` makes one of) of exactly `shape`, all
 /// finite, copied into `buf` (preallocated: nothing is allocated on the Rust side). Errors are
 /// ValueError naming the argument `name` and the shape expected.
-fn read_arg(arg: &Bound<'_, PyAny>, name: &str, shape: &[usize], buf: &mut [f64]) -> PyResult<()> {
+fn read_arg(
+    arg: &Bound<'_, PyAny>,
+    name: &'static str,
+    shape: &[usize],
+    buf: &mut [f64],
+) -> PyResult<()> {
     read_shaped(arg, name, shape, buf)?;
-    if let Some(k) = buf.iter().position(|v| !v.is_finite()) {
-        let idx = if shape.len() == 2 {
-            format!("[{}, {}]", k / shape[1], k % shape[1])
-        } else {
-            format!("[{k}]")
-        };
-        return Err(PyValueError::new_err(format!(
-            "{name}{idx} = {}: every value must be finite",
-            buf[k]
-        )));
-    }
-    Ok(())
+    let cols = if shape.len() == 2 { shape[1] } else { 0 };
+    scenario::standalone::check_finite(name, buf, cols).map_err(input_err)
 }
 
 /// [`read_arg`] without the finiteness check: a float64 array of exactly `shape` into `buf`.
@@ -1111,10 +1106,20 @@ fn read_shaped(
 
 /// A time argument: finite.
 fn read_time(t: f64) -> PyResult<f64> {
-    if !t.is_finite() {
-        return Err(PyValueError::new_err(format!("t = {t}: must be finite")));
-    }
+    scenario::standalone::check_time(t).map_err(input_err)?;
     Ok(t)
+}
+
+/// The standalone controller's input checks as Python exceptions: a tick before the start is
+/// a RuntimeError, a bad value a ValueError naming the argument.
+fn input_err(e: scenario::standalone::InputError) -> PyErr {
+    match e {
+        scenario::standalone::InputError::NotStarted => PyRuntimeError::new_err(
+            "Controller.tick before Controller.start: call start(t0, q, qd, wrenches) first \
+             (e.g. with start_state())",
+        ),
+        e => PyValueError::new_err(e.to_string()),
+    }
 }
 
 /// A scenario's controller, built exactly as `tandem run` builds it, stepped by you.
@@ -1137,10 +1142,6 @@ struct PyController {
     q: Vec<f64>,
     qd: Vec<f64>,
     w: Vec<f64>,
-    /// The time of the last start or tick; `None` before `start`.
-    t_last: Option<f64>,
-    /// Whether a tick has run since the start (the first may be at the start's time).
-    ticked: bool,
 }
 
 fn build_controller(
@@ -1165,8 +1166,6 @@ impl PyController {
             q: vec![0.0; n_q],
             qd: vec![0.0; n_q],
             w: vec![0.0; nw],
-            t_last: None,
-            ticked: false,
         })
     }
 
@@ -1269,10 +1268,9 @@ impl PyController {
         let t = read_time(t)?;
         self.read_inputs(q, qd, wrenches)?;
         warn_all(py, &self.inner.check_start(&self.w))?;
-        self.inner.start(t, &self.q, &self.qd, &self.w);
-        self.t_last = Some(t);
-        self.ticked = false;
-        Ok(())
+        self.inner
+            .try_start(t, &self.q, &self.qd, &self.w)
+            .map_err(input_err)
     }
 
     /// One control tick at time `t`: the joint torques `tau` (N m, shape `(n_q,)`), written
@@ -1289,19 +1287,8 @@ impl PyController {
         wrenches: &Bound<'py, PyAny>,
         out: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let t = read_time(t)?;
-        let Some(last) = self.t_last else {
-            return Err(PyRuntimeError::new_err(
-                "Controller.tick before Controller.start: call start(t0, q, qd, wrenches) first \
-                 (e.g. with start_state())",
-            ));
-        };
-        if t < last || (self.ticked && t == last) {
-            return Err(PyValueError::new_err(format!(
-                "t = {t}: time went back (the previous {} was at t = {last}); ticks must advance",
-                if self.ticked { "tick" } else { "start" }
-            )));
-        }
+        // The time first (a tick before the start, or back in time), then the inputs.
+        self.inner.check_tick_time(t).map_err(input_err)?;
         self.read_inputs(q, qd, wrenches)?;
         use numpy::PyUntypedArrayMethods;
         let n_q = self.inner.n_q;
@@ -1325,7 +1312,9 @@ impl PyController {
                     let tau = rw
                         .as_slice_mut()
                         .map_err(|_| PyValueError::new_err("out: must be a contiguous array"))?;
-                    self.inner.tick(t, &self.q, &self.qd, &self.w, tau);
+                    self.inner
+                        .try_tick(t, &self.q, &self.qd, &self.w, tau)
+                        .map_err(input_err)?;
                 }
                 o
             }
@@ -1336,13 +1325,13 @@ impl PyController {
                     let tau = rw
                         .as_slice_mut()
                         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-                    self.inner.tick(t, &self.q, &self.qd, &self.w, tau);
+                    self.inner
+                        .try_tick(t, &self.q, &self.qd, &self.w, tau)
+                        .map_err(input_err)?;
                 }
                 a.into_any()
             }
         };
-        self.t_last = Some(t);
-        self.ticked = true;
         Ok(out)
     }
 
@@ -1385,8 +1374,6 @@ impl PyController {
     fn reset(&mut self, py: Python<'_>) -> PyResult<()> {
         let inner = py_res(py, build_controller(&self.kind, self.law))?;
         self.inner = inner;
-        self.t_last = None;
-        self.ticked = false;
         Ok(())
     }
 

@@ -10,6 +10,11 @@
 //! [`Measurements`]: planar, the object's force on each end effector in world axes (2 per arm,
 //! N); spatial, the object's wrench `[f; τ]` on each tool, about the tool origin, in tool axes
 //! (6 per arm, N and N m).
+//!
+//! [`Standalone::try_start`] and [`Standalone::try_tick`] check what a caller outside Rust can
+//! get wrong (lengths, NaN or infinity, a time that goes back, a tick before the start) and
+//! return an [`InputError`] naming the argument, the state untouched; the Python `Controller`
+//! and the C ABI (`tandem-ffi`) both go through them.
 
 use tandem::control::planar::{Controller, TickRecord};
 use tandem::control::spatial::{SpatialController, SpatialTickRecord};
@@ -43,6 +48,126 @@ pub struct StartState {
     pub wrenches: Vec<f64>,
 }
 
+/// A bad argument to [`Standalone::try_start`] or [`Standalone::try_tick`]: which one and why.
+/// Nothing was changed by the call that returned it.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum InputError {
+    /// A slice of the wrong length.
+    Length {
+        /// The argument: `q`, `qd`, `wrenches` or `tau`.
+        arg: &'static str,
+        /// Its length, `n_q` or `n_arms · wrench_dim`.
+        expected: usize,
+        /// The length given.
+        got: usize,
+    },
+    /// NaN or infinity in a measurement.
+    NonFinite {
+        /// The argument: `q`, `qd` or `wrenches`.
+        arg: &'static str,
+        /// The first offending index in the flat slice.
+        index: usize,
+        /// Row length when the argument is a matrix (`wrenches`: `wrench_dim`, read as
+        /// `[arm, channel]`); 0 for a vector.
+        cols: usize,
+        /// The value found there.
+        value: f64,
+    },
+    /// A time that is NaN or infinite.
+    Time {
+        /// The time given, s.
+        t: f64,
+    },
+    /// A tick at or before the previous tick (or before the start).
+    TimeBack {
+        /// The time given, s.
+        t: f64,
+        /// The previous start or tick, s.
+        last: f64,
+        /// Whether `last` was a tick (else the start, which the first tick may equal).
+        after_tick: bool,
+    },
+    /// A tick before any start (or after a reset).
+    NotStarted,
+}
+
+impl std::fmt::Display for InputError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            InputError::Length { arg, expected, got } => {
+                write!(f, "{arg}: expected length {expected}, got {got}")
+            }
+            InputError::NonFinite {
+                arg,
+                index,
+                cols,
+                value,
+            } => {
+                match index.checked_div(cols) {
+                    Some(row) => write!(f, "{arg}[{row}, {}]", index % cols)?,
+                    None => write!(f, "{arg}[{index}]")?,
+                }
+                write!(f, " = {value}: every value must be finite")
+            }
+            InputError::Time { t } => write!(f, "t = {t}: must be finite"),
+            InputError::TimeBack {
+                t,
+                last,
+                after_tick,
+            } => write!(
+                f,
+                "t = {t}: time went back (the previous {} was at t = {last}); ticks must advance",
+                if after_tick { "tick" } else { "start" }
+            ),
+            InputError::NotStarted => {
+                write!(
+                    f,
+                    "tick before start: call start(t0, q, qd, wrenches) first"
+                )
+            }
+        }
+    }
+}
+
+impl std::error::Error for InputError {}
+
+/// `t` is finite.
+pub fn check_time(t: f64) -> Result<(), InputError> {
+    if t.is_finite() {
+        Ok(())
+    } else {
+        Err(InputError::Time { t })
+    }
+}
+
+/// Every value of `v` (the argument `arg`; a matrix of rows of `cols`, or a vector when `cols`
+/// is 0) is finite.
+pub fn check_finite(arg: &'static str, v: &[f64], cols: usize) -> Result<(), InputError> {
+    match v.iter().position(|x| !x.is_finite()) {
+        None => Ok(()),
+        Some(index) => Err(InputError::NonFinite {
+            arg,
+            index,
+            cols,
+            value: v[index],
+        }),
+    }
+}
+
+/// `v` (the argument `arg`) has `expected` values.
+pub fn check_len(arg: &'static str, v: &[f64], expected: usize) -> Result<(), InputError> {
+    if v.len() == expected {
+        Ok(())
+    } else {
+        Err(InputError::Length {
+            arg,
+            expected,
+            got: v.len(),
+        })
+    }
+}
+
 /// A scenario's controller, ready to be started and ticked by the caller.
 pub struct Standalone {
     /// The controller and its record.
@@ -59,6 +184,10 @@ pub struct Standalone {
     pub start: StartState,
     /// What the first readings should look like ([`Standalone::check_start`]).
     pub expect: StartExpectation,
+    /// The time of the last start or tick; `None` before the start.
+    t_last: Option<f64>,
+    /// Whether a tick has run since the start (the first may be at the start's time).
+    ticked: bool,
 }
 
 /// What a controller expects of its first wrist readings (issue 23's sensor sanity check): the
@@ -142,6 +271,8 @@ pub fn planar(
             wrenches: sim.last_sensor_truth().to_vec(),
         },
         expect,
+        t_last: None,
+        ticked: false,
     })
 }
 
@@ -188,6 +319,8 @@ pub fn spatial(
         control_period: built.sim.control_period,
         start,
         expect,
+        t_last: None,
+        ticked: false,
     })
 }
 
@@ -232,23 +365,98 @@ fn spatial_expectation(
 
 impl Standalone {
     /// Start (or restart) at `t0` with the first readings (lengths as the fields say; the
-    /// caller checks them).
+    /// caller checks them: [`Standalone::try_start`] does).
     pub fn start(&mut self, t0: f64, q: &[f64], qd: &[f64], wrenches: &[f64]) {
         let m = Measurements { q, qd, wrenches };
         match &mut self.law {
             Law::Planar(c, _) => c.start(t0, &m),
             Law::Spatial(c, _) => c.start(t0, &m),
         }
+        self.t_last = Some(t0);
+        self.ticked = false;
     }
 
     /// One tick: joint torques into `tau` (`n_q`), the internals into the record. No
-    /// allocation.
+    /// allocation. Unchecked: [`Standalone::try_tick`] checks the arguments first.
     pub fn tick(&mut self, t: f64, q: &[f64], qd: &[f64], wrenches: &[f64], tau: &mut [f64]) {
         let m = Measurements { q, qd, wrenches };
         match &mut self.law {
             Law::Planar(c, r) => c.tick(t, &m, tau, r),
             Law::Spatial(c, r) => c.tick(t, &m, tau, r),
         }
+        self.t_last = Some(t);
+        self.ticked = true;
+    }
+
+    /// The measurements have the lengths of this controller (`q`, `qd`: `n_q`; `wrenches`:
+    /// `n_arms · wrench_dim`) and are finite, checked in that order.
+    pub fn check_measurements(
+        &self,
+        q: &[f64],
+        qd: &[f64],
+        wrenches: &[f64],
+    ) -> Result<(), InputError> {
+        check_len("q", q, self.n_q)?;
+        check_len("qd", qd, self.n_q)?;
+        check_len("wrenches", wrenches, self.n_arms * self.wrench_dim)?;
+        check_finite("q", q, 0)?;
+        check_finite("qd", qd, 0)?;
+        check_finite("wrenches", wrenches, self.wrench_dim)
+    }
+
+    /// A tick may run at `t`: `t` finite, the controller started, and `t` after the previous
+    /// tick (the first tick may be at the start's time).
+    pub fn check_tick_time(&self, t: f64) -> Result<(), InputError> {
+        check_time(t)?;
+        let Some(last) = self.t_last else {
+            return Err(InputError::NotStarted);
+        };
+        if t < last || (self.ticked && t == last) {
+            return Err(InputError::TimeBack {
+                t,
+                last,
+                after_tick: self.ticked,
+            });
+        }
+        Ok(())
+    }
+
+    /// [`Standalone::start`] after checking `t0` and the measurements; on an error nothing
+    /// changed.
+    pub fn try_start(
+        &mut self,
+        t0: f64,
+        q: &[f64],
+        qd: &[f64],
+        wrenches: &[f64],
+    ) -> Result<(), InputError> {
+        check_time(t0)?;
+        self.check_measurements(q, qd, wrenches)?;
+        self.start(t0, q, qd, wrenches);
+        Ok(())
+    }
+
+    /// [`Standalone::tick`] after checking the time ([`Standalone::check_tick_time`]), the
+    /// measurements and `tau`'s length; on an error nothing changed (the controller, its
+    /// record and `tau` are as they were). No allocation.
+    pub fn try_tick(
+        &mut self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        wrenches: &[f64],
+        tau: &mut [f64],
+    ) -> Result<(), InputError> {
+        self.check_tick_time(t)?;
+        self.check_measurements(q, qd, wrenches)?;
+        check_len("tau", tau, self.n_q)?;
+        self.tick(t, q, qd, wrenches, tau);
+        Ok(())
+    }
+
+    /// Whether the controller has been started (and not reset since).
+    pub fn started(&self) -> bool {
+        self.t_last.is_some()
     }
 
     /// The sensor sanity check of a start (issue 23): the sum over arms of the first readings'
