@@ -1675,7 +1675,7 @@ impl PyPlant {
 
     /// Hold the joint torques `tau` (N m, float64 `(n_q,)`, finite) over `dt` seconds, a whole
     /// number of control periods (default: one), integrating with the scenario's plant step;
-    /// the GIL is released meanwhile. Raises ValueError naming `tau` or `dt` (nothing is
+    /// the GIL is released for more than one period. Raises ValueError naming `tau` or `dt` (nothing is
     /// stepped), PlantFault when the plant fails.
     #[pyo3(signature = (tau, dt=None))]
     fn step(&mut self, py: Python<'_>, tau: &Bound<'_, PyAny>, dt: Option<f64>) -> PyResult<()> {
@@ -1710,7 +1710,12 @@ impl PyPlant {
             return Err(plant_fault(py, f));
         }
         let (inner, tau) = (&mut self.inner, &self.tau);
-        let r = py.detach(|| inner.step(tau, periods));
+        // One period takes microseconds: releasing the GIL would cost a good part of it.
+        let r = if periods > 1 {
+            py.detach(|| inner.step(tau, periods))
+        } else {
+            inner.step(tau, periods)
+        };
         r.map_err(|f| plant_fault(py, &f))
     }
 
