@@ -58,6 +58,18 @@ impl NnGains<6> {
         Self::from_design([26.0, 12.0, 12.0, 0.7, 2.2, 0.2], 8.0, 20.0, 0.8)
     }
 
+    /// These gains with the paper's switching and robust term as SPEC §3.4 gives them
+    /// (`smoothing = "paper"`, `d1 = 1`, `d2 = 1.5`): the spatial presets as they were before the
+    /// smooth default (`docs/smooth-nn.md`), for comparisons and the issue-24 measurements.
+    pub fn with_paper_switching(self) -> Self {
+        NnGains {
+            smoothing: Smoothing::Paper,
+            d1: 1.0,
+            d2: 1.5,
+            ..self
+        }
+    }
+
     /// The per-axis design of the module doc: for inertia `m[j]` (kg or kg m², chart axes),
     /// `K1 = k1`, `γ_j = m_j ω_n²`, `K2_j = 2 ζ m_j ω_n`, `Θ_j = γ_j / ‖S_j(0)‖²` on the default
     /// per-axis network; `K_r = 0.001`, `ϖ = 0.05`, `ϑ² = 50`, levels `±1`, `ω = 1`, `f^U`
