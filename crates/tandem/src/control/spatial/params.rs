@@ -212,4 +212,14 @@ impl SpatialControllerParams {
             posture: PostureParams::default(),
         }
     }
+
+    /// [`SpatialControllerParams::spec_s6`] on Franka arms: the actuator stage's rate limit at
+    /// the Franka Control Interface's published 1000 N m/s
+    /// ([`crate::model::spatial::urdf::FRANKA_TORQUE_RATE_LIMIT`]), the default of a scenario
+    /// with Franka arms (the `dual-franka` preset).
+    pub fn spec_s6_franka(law: Law<6>) -> Self {
+        let mut p = Self::spec_s6(law);
+        p.actuator.rate_limit = Some(crate::model::spatial::urdf::FRANKA_TORQUE_RATE_LIMIT);
+        p
+    }
 }
