@@ -1066,7 +1066,7 @@ fn check_path_reach(
     path: &Se3Path,
     duration: f64,
     q_guess: &[f64],
-) -> Result<(Vec<f64>, Vector6<f64>, Vector6<f64>), ModelError> {
+) -> Result<PathReach, ModelError> {
     let n = ((duration / PATH_CHECK_STEP).ceil() as usize).clamp(1, MAX_PATH_SAMPLES);
     let mut q = q_guess.to_vec();
     let zero = vec![0.0; q.len()];
@@ -1115,6 +1115,10 @@ fn check_path_reach(
     }
     Ok((q0.unwrap_or_else(|| q_guess.to_vec()), inertia, light))
 }
+
+/// What [`check_path_reach`] returns: the configuration at `t = 0`, the largest diagonal of
+/// the chart-space inertia along the path, and the smallest effective inertias `1/(M_x⁻¹)_jj`.
+type PathReach = (Vec<f64>, Vector6<f64>, Vector6<f64>);
 
 /// A posture must be finite and inside every joint's limits.
 fn check_posture(plant: &SpatialPlant, q: &[f64]) -> Result<(), ModelError> {
