@@ -854,6 +854,57 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_sampled_boundary_layer_caps_the_robust_slope_and_keeps_the_paper_where_it_fits() {
+        // ϖ_j = max(ϖ, f² h/(β M_j)): the linear zone's slope f²/ϖ_j is at most β M_j/h, and
+        // where the paper's ϖ already meets that the law keeps it (docs/smooth-nn.md).
+        let plant = Plant::new(&crate::presets::paper()).unwrap();
+        let k_c = Vector3::repeat(0.35);
+        let fu = FuBound::from_model(&plant, k_c, [0.02, 0.02, 0.0], 1.5).unwrap();
+        let h = 1e-3;
+        let sampled = NnGains {
+            smoothing: Smoothing::Sampled,
+            ..NnGains::tuned()
+        };
+        let mut nn = AdaptiveNn::<3>::new(&sampled, k_c, fu.clone(), h).unwrap();
+        // Before the inertia is known, and with the paper's form: ϖ.
+        assert_eq!(nn.varpi_at(0, 100.0), 0.05);
+        let m = [2.0, 3.0, 0.5];
+        nn.set_sampling_inertia(m);
+        for (j, &mj) in m.iter().enumerate() {
+            for f in [0.1, 1.0, 10.0, 164.0, 1e4] {
+                let v = nn.varpi_at(j, f);
+                assert!(v >= 0.05);
+                let slope = f * f / v;
+                assert!(
+                    slope <= SAMPLED_BETA * mj / h * (1.0 + 1e-12),
+                    "{j} {f}: {slope}"
+                );
+                // Paper's ϖ kept exactly where its slope fits.
+                if f * f / 0.05 <= SAMPLED_BETA * mj / h {
+                    assert_eq!(v, 0.05);
+                }
+            }
+        }
+        // The paper form ignores the inertia.
+        let mut paper = AdaptiveNn::<3>::new(&NnGains::tuned(), k_c, fu, h).unwrap();
+        paper.set_sampling_inertia(m);
+        assert_eq!(paper.smoothing(), Smoothing::Paper);
+        assert_eq!(paper.varpi_at(1, 164.0), 0.05);
+        // The lightest effective inertias over the box are positive and finite, and no more
+        // than the row-norm bound of (14)'s 𝓜 that `f^U`'s c_j carries.
+        let fu = FuBound::from_model(&plant, k_c, [0.02, 0.02, 0.0], 1.0).unwrap();
+        let light = FuBound::lightest_inertia(&plant, k_c);
+        for j in 0..3 {
+            assert!(light[j] > 0.0 && light[j].is_finite(), "{light:?}");
+            assert!(
+                light[j] <= fu.c[j] * (1.0 + 1e-12),
+                "{light:?} vs {:?}",
+                fu.c
+            );
+        }
+    }
+
+    #[test]
     fn recorded_weight_norms_equal_the_exact_norms() {
         // The norms are carried by a recurrence between exact refreshes; after 2500 ticks of
         // varied inputs they must equal ‖Ŵ_j‖ computed from the weights (relative 1e-9: the
