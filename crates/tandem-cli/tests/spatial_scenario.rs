@@ -458,7 +458,7 @@ fn bad_input_names_the_field_and_the_urdf_line() {
         &[
             "controller.nn.design.k1 = NaN",
             "> 0",
-            "(line 97, column 63)",
+            "(line 100, column 63)",
         ],
     );
     bad(
@@ -467,7 +467,7 @@ fn bad_input_names_the_field_and_the_urdf_line() {
         &[
             "controller.nn.design.inertia[0] = -20",
             "> 0",
-            "(line 97, column 23)",
+            "(line 100, column 23)",
         ],
     );
     // A NaN in a frame's axes is named by its entry (it passed the orthonormality test: the
@@ -481,7 +481,7 @@ fn bad_input_names_the_field_and_the_urdf_line() {
     bad(
         &d,
         &[("model_error = 0.0", "model_error = nan")],
-        &["controller.ctc.model_error = NaN", "finite", "line 106"],
+        &["controller.ctc.model_error = NaN", "finite", "line 109"],
     );
     // A start offset the arms cannot hold: the error names and points at run.start_offset
     // (its line in the file), not at the first arm, and still says which arm fails.
