@@ -338,8 +338,9 @@ pub const TIP_MASS: f64 = 0.2;
 /// See [`TIP_MASS`].
 pub const TIP_INERTIA: f64 = 1e-4;
 
-/// The robust-term smoothing `ϖ` proposed for the spatial NN law under compliant grasps
-/// (`docs/robustness.md`); the default is the paper's 0.05.
+/// The robust-term smoothing `ϖ` once proposed for the spatial NN law under compliant grasps
+/// (`docs/robustness.md`); the default keeps the paper's 0.05 and widens it where the control
+/// period needs it instead (`smoothing = "sampled"`, `docs/smooth-nn.md`).
 pub const PROPOSED_VARPI: f64 = 20.0;
 
 /// A law of the slip family: label, the law, whether the 6-D admittance runs, and whether it
@@ -356,10 +357,12 @@ pub struct SlipLaw {
 }
 
 /// The compared spatial laws: PD as the paper's baseline (no gravity compensation), PD with
-/// the model's gravity, the NN law with its S6 gains, and the NN law with the proposed `ϖ`;
-/// then diagnostics of the NN law's degradation (no admittance; smaller `ϖ`; a wider switching
-/// region).
-pub const SLIP_LAWS: [SlipLaw; 8] = [
+/// the model's gravity, the NN law with its S6 gains in the paper's form (SPEC §3.4's `ϖ`,
+/// `d1`, `d2`: `NnGains::with_paper_switching`), and that form with `ϖ = 20`; then diagnostics
+/// of the paper form's degradation (no admittance; smaller `ϖ`; a wider switching region with
+/// the paper's `ϖ`); last the NN law's smooth default (`docs/smooth-nn.md`: the sampled-data
+/// boundary layer and `d1 = 2`, `d2 = 3`).
+pub const SLIP_LAWS: [SlipLaw; 9] = [
     SlipLaw {
         name: "PD (paper)",
         law: || Law::Pd(PdGains::<6>::paper()),
@@ -378,8 +381,8 @@ pub const SLIP_LAWS: [SlipLaw; 8] = [
         ladder: true,
     },
     SlipLaw {
-        name: "NN",
-        law: || Law::Nn(NnGains::dual_ur5()),
+        name: "NN (paper form)",
+        law: || Law::Nn(NnGains::dual_ur5().with_paper_switching()),
         admittance: true,
         ladder: true,
     },
@@ -388,7 +391,7 @@ pub const SLIP_LAWS: [SlipLaw; 8] = [
         law: || {
             Law::Nn(NnGains {
                 varpi: PROPOSED_VARPI,
-                ..NnGains::dual_ur5()
+                ..NnGains::dual_ur5().with_paper_switching()
             })
         },
         admittance: true,
@@ -396,7 +399,7 @@ pub const SLIP_LAWS: [SlipLaw; 8] = [
     },
     SlipLaw {
         name: "NN, no admittance",
-        law: || Law::Nn(NnGains::dual_ur5()),
+        law: || Law::Nn(NnGains::dual_ur5().with_paper_switching()),
         admittance: false,
         ladder: false,
     },
@@ -405,7 +408,7 @@ pub const SLIP_LAWS: [SlipLaw; 8] = [
         law: || {
             Law::Nn(NnGains {
                 varpi: 3.0,
-                ..NnGains::dual_ur5()
+                ..NnGains::dual_ur5().with_paper_switching()
             })
         },
         admittance: true,
@@ -416,23 +419,29 @@ pub const SLIP_LAWS: [SlipLaw; 8] = [
         law: || {
             Law::Nn(NnGains {
                 varpi: 10.0,
-                ..NnGains::dual_ur5()
+                ..NnGains::dual_ur5().with_paper_switching()
             })
         },
         admittance: true,
         ladder: false,
     },
     SlipLaw {
-        name: "NN, d1 = 2, d2 = 3",
+        name: "NN, d1 = 2, d2 = 3 (paper ϖ)",
         law: || {
             Law::Nn(NnGains {
                 d1: 2.0,
                 d2: 3.0,
-                ..NnGains::dual_ur5()
+                ..NnGains::dual_ur5().with_paper_switching()
             })
         },
         admittance: true,
         ladder: false,
+    },
+    SlipLaw {
+        name: "NN",
+        law: || Law::Nn(NnGains::dual_ur5()),
+        admittance: true,
+        ladder: true,
     },
 ];
 
@@ -835,7 +844,7 @@ pub fn write(
 /// Type of the slip-cell lookup: (level, `None` = welds; law).
 type FindSlip<'a> = dyn Fn(Option<usize>, usize) -> Option<&'a Cell> + 'a;
 
-/// Index of the NN law (default gains) and of the proposed one in [`SLIP_LAWS`].
+/// Index of the NN law in the paper's form and of that form with `ϖ = 20` in [`SLIP_LAWS`].
 const NN: usize = 2;
 const NN_PROPOSED: usize = 3;
 
@@ -943,7 +952,7 @@ fn slip_section<'a>(md: &mut String, find: &FindSlip<'a>, halved: Option<&Cell>)
         .as_ref()
         .map_or("—".into(), |i| num(i.q_low * SLIP_DURATION * 1e3, 2));
     md.push_str(&format!(
-        "### Why the NN law degrades under compliance\n\n\
+        "### Why the NN law in the paper's form degrades under compliance\n\n\
          The NN law blends the network and the robust term with the switching `Q = Π_k m_k(Z_k)` \
          (paper (37)–(38)) over the 24 inputs `Z = [x_1, x_2, α, α̇]`, `m_k = 1` for \
          `|Z_k| ≤ d1 = 1` and 0 beyond `d2 = 1.5`, and the robust term `−f^U tanh(f^U z_2/ϖ)` \
@@ -975,11 +984,13 @@ fn slip_section<'a>(md: &mut String, find: &FindSlip<'a>, halved: Option<&Cell>)
          - **Or keep `Q = 1`:** a switching region wide enough for the start transient \
          (`d1 = 2`, `d2 = 3`; the RBF centres ±1 with `ϑ² = 50` still cover it): {} / {}; \
          with welds {}.\n\n\
-         Proposal (not applied: the default stays the paper's `ϖ = 0.05`, `d1 = 1`, `d2 = 1.5`): \
-         for a set-up whose grasps may be compliant, choose `ϖ` so that the robust term is not a \
-         high-gain sampled feedback (here `ϖ ≥ 20`), or `d1` so that the nominal trajectory's \
-         `Z` stays inside `Ω` (here `d1 = 2`). Both are the paper's own design constants, \
-         neither touches the planar law, and both leave the welded S6 run as it was. The soft \
+         Applied as the spatial default (`docs/smooth-nn.md`; the ladder's column **NN**): \
+         `d1 = 2`, `d2 = 3`, so that the nominal trajectory's `Z` stays inside `Ω`, and the \
+         robust term's boundary layer widened to what the control period resolves \
+         (`smoothing = \"sampled\"`, `ϖ_j = max(ϖ, f_jᵁ² h/(β M_j))`), so that it is never a \
+         high-gain sampled feedback when `Q` does drop. Both are the paper's own design \
+         constants, neither touches the planar law, and both leave the welded S6 run as it was \
+         (`z1` within 0.3 %). The soft \
          end of the ladder (1e4 / 1e2) slips under every law within half a second, in the start \
          transient: a 100 N m/rad grasp turns 0.05 rad under 5 N m.\n\n",
         qmin(&weld),

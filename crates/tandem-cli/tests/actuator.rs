@@ -24,16 +24,23 @@ fn summary(dir: &std::path::Path, args: &[&str]) -> serde_json::Value {
 #[test]
 fn a_rate_limit_bounds_the_measured_torque_rate() {
     let dir = scratch("actuator_rate");
-    // The dual-UR5 NN start chatters at 16276 N m/s (tests/torque_rate.rs). At 1000 N m/s (a
-    // Franka's limit) the stage holds the rate, but the NN law's switching robust term is
-    // not smooth enough for it: the run faults at 0.84 s (reported in docs; the smoothing is
-    // issue 24's next part). Over its first 0.3 s the limit holds and acts.
+    // The dual-UR5 NN start with the paper's switching chatters at 16276 N m/s
+    // (tests/torque_rate.rs); at 1000 N m/s (a Franka's limit) the stage holds the rate but the
+    // paper's switching robust term is not smooth enough for it: the run faults at 0.84 s. Over
+    // its first 0.3 s the limit holds and acts.
     let f = with_actuator(&dir, "dual-ur5", "ur5-1000.toml", "rate_limit = 1000.0");
+    let paper = embedded_with(
+        &dir,
+        "dual-ur5",
+        "ur5-paper-1000.toml",
+        PAPER_SWITCHING,
+        "[controller.actuator]\nrate_limit = 1000.0",
+    );
     let s = summary(
         &dir,
         &[
             "run",
-            &f,
+            &paper,
             "--duration",
             "0.3",
             "--no-figures",
@@ -66,9 +73,15 @@ fn a_rate_limit_bounds_the_measured_torque_rate() {
     );
     assert_eq!(s["s5_claims"]["pass"], true, "{}", s["s5_claims"]);
     assert!(s["torque_rate"]["peak_Nm_per_s"].as_f64().unwrap() <= 1000.0);
-    // The NN law at 1500 N m/s: the start's 46 reversals are rate-limited (47 ticks) and the S5
+    // The paper-form NN law at 1500 N m/s: the start's 46 reversals are rate-limited and the S5
     // claims hold, z1 as without the limit.
-    let f = with_actuator(&dir, "dual-ur5", "ur5-1500.toml", "rate_limit = 1500.0");
+    let f = embedded_with(
+        &dir,
+        "dual-ur5",
+        "ur5-paper-1500.toml",
+        PAPER_SWITCHING,
+        "[controller.actuator]\nrate_limit = 1500.0",
+    );
     let s = summary(
         &dir,
         &[

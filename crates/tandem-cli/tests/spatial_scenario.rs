@@ -42,12 +42,17 @@ fn built(name: &str) -> (sp::SpatialScenario, sp::SpatialBuilt) {
 
 #[test]
 fn presets_are_the_library_s6_setups_exactly() {
-    for (name, setup, gains) in [
-        ("dual-ur5", tandem::presets::dual_ur5(), NnGains::dual_ur5()),
+    // The Franka preset has its maker's torque-rate limit (FRANKA_TORQUE_RATE_LIMIT).
+    for (name, setup, want) in [
+        (
+            "dual-ur5",
+            tandem::presets::dual_ur5(),
+            SpatialControllerParams::spec_s6(Law::Nn(NnGains::dual_ur5())),
+        ),
         (
             "dual-franka",
             tandem::presets::dual_franka(),
-            NnGains::dual_franka(),
+            SpatialControllerParams::spec_s6_franka(Law::Nn(NnGains::dual_franka())),
         ),
     ] {
         let (sc, b) = built(name);
@@ -57,7 +62,6 @@ fn presets_are_the_library_s6_setups_exactly() {
         assert_eq!(b.plant, setup.params, "{name}: plant");
         assert_eq!(b.start.q_guess, setup.q_guess, "{name}: IK guess");
         assert_eq!(b.path, Se3Path::spec_s6(), "{name}: path");
-        let want = SpatialControllerParams::spec_s6(Law::Nn(gains));
         assert_eq!(b.controller, want, "{name}: controller");
         assert_eq!(
             b.disturbance,
@@ -454,7 +458,7 @@ fn bad_input_names_the_field_and_the_urdf_line() {
         &[
             "controller.nn.design.k1 = NaN",
             "> 0",
-            "(line 97, column 63)",
+            "(line 100, column 63)",
         ],
     );
     bad(
@@ -463,7 +467,7 @@ fn bad_input_names_the_field_and_the_urdf_line() {
         &[
             "controller.nn.design.inertia[0] = -20",
             "> 0",
-            "(line 97, column 23)",
+            "(line 100, column 23)",
         ],
     );
     // A NaN in a frame's axes is named by its entry (it passed the orthonormality test: the
@@ -477,7 +481,7 @@ fn bad_input_names_the_field_and_the_urdf_line() {
     bad(
         &d,
         &[("model_error = 0.0", "model_error = nan")],
-        &["controller.ctc.model_error = NaN", "finite", "line 106"],
+        &["controller.ctc.model_error = NaN", "finite", "line 109"],
     );
     // A start offset the arms cannot hold: the error names and points at run.start_offset
     // (its line in the file), not at the first arm, and still says which arm fails.

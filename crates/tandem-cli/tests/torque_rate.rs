@@ -1,6 +1,7 @@
 //! Torque rate and chattering in every run's report (issue 24, "measure it"): `summary.json`'s
 //! `torque_rate` block and the terminal table, planar and spatial alike, from the torques of
-//! every control tick. The dual-UR5 NN start is the issue's measured case: Q drops below 1 from
+//! every control tick. The dual-UR5 NN start with the paper's switching and robust term
+//! (`smoothing = "paper"`, `d1 = 1`, `d2 = 1.5`) is the issue's measured case: Q drops below 1 from
 //! 16 to 68 ms and the joint torques reverse tick to tick (46 ticks, up to 16.3 N m in 1 ms);
 //! `crates/tandem/tests/torque.rs` pins the same numbers on the library's monitor, so this test
 //! proves the CLI reports the monitor's result, not a recomputation from the logged rows.
@@ -18,17 +19,12 @@ fn summary_after(dir: &std::path::Path, args: &[&str]) -> (serde_json::Value, St
 #[test]
 fn the_dual_ur5_nn_start_reports_its_chattering() {
     let dir = scratch("torque_rate_ur5");
+    // The paper's switching and robust term (the preset's smooth default does not chatter:
+    // tests/smooth_nn.rs).
+    let f = embedded_with(&dir, "dual-ur5", "paper-form.toml", PAPER_SWITCHING, "");
     let (s, text) = summary_after(
         &dir,
-        &[
-            "run",
-            "dual-ur5",
-            "--duration",
-            "0.2",
-            "--no-figures",
-            "--out",
-            "u",
-        ],
+        &["run", &f, "--duration", "0.2", "--no-figures", "--out", "u"],
     );
     let tr = &s["torque_rate"];
     assert_eq!(tr["chatter_ticks"], 46, "{tr}");

@@ -5,7 +5,7 @@
 //! those types).
 
 use tandem::control::law::Law;
-use tandem::control::law::adaptive::NnGains;
+use tandem::control::law::adaptive::{NnGains, Smoothing};
 use tandem::control::law::ctc::CtcGains;
 use tandem::control::law::pd::PdGains;
 use tandem::control::rbf::structured::NetworkStructure;
@@ -48,16 +48,23 @@ fn planar_laws_serialise_as_before() {
 
 #[test]
 fn spatial_laws_serialise_as_before() {
-    // The network is always written (per axis by default, the full grid too).
+    // The network is always written (per axis by default, the full grid too), and so is the
+    // robust term's smoothing (`sampled` by default, with the radii d1 = 2, d2 = 3 of the
+    // smooth design: docs/smooth-nn.md).
     assert_eq!(
         json(&Law::Nn(NnGains::dual_ur5())),
-        r#"{"kind":"nn","k1":[8.0,8.0,8.0,8.0,8.0,8.0],"k2":[640.0,480.0,384.00000000000006,0.96,25.600000000000005,28.800000000000004],"k_r":[0.001,0.001,0.001,0.001,0.001,0.001],"theta":[586.7554354959052,440.0665766219289,352.0532612975431,0.8801331532438578,23.470217419836207,26.403994597315734],"sigma":[5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6],"varpi":0.05,"fu_safety":1.5,"width2":50.0,"levels":[-1.0,1.0],"d1":1.0,"d2":1.5,"omega":1.0,"network":{"kind":"per_axis","inputs":[]}}"#
+        r#"{"kind":"nn","k1":[8.0,8.0,8.0,8.0,8.0,8.0],"k2":[640.0,480.0,384.00000000000006,0.96,25.600000000000005,28.800000000000004],"k_r":[0.001,0.001,0.001,0.001,0.001,0.001],"theta":[586.7554354959052,440.0665766219289,352.0532612975431,0.8801331532438578,23.470217419836207,26.403994597315734],"sigma":[5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6],"varpi":0.05,"fu_safety":1.5,"width2":50.0,"levels":[-1.0,1.0],"d1":2.0,"d2":3.0,"omega":1.0,"network":{"kind":"per_axis","inputs":[]},"smoothing":"sampled"}"#
     );
     let mut full = NnGains::dual_ur5();
     full.network = NetworkStructure::FullGrid;
     assert_eq!(
         json(&Law::Nn(full)),
-        r#"{"kind":"nn","k1":[8.0,8.0,8.0,8.0,8.0,8.0],"k2":[640.0,480.0,384.00000000000006,0.96,25.600000000000005,28.800000000000004],"k_r":[0.001,0.001,0.001,0.001,0.001,0.001],"theta":[586.7554354959052,440.0665766219289,352.0532612975431,0.8801331532438578,23.470217419836207,26.403994597315734],"sigma":[5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6],"varpi":0.05,"fu_safety":1.5,"width2":50.0,"levels":[-1.0,1.0],"d1":1.0,"d2":1.5,"omega":1.0,"network":{"kind":"full_grid"}}"#
+        r#"{"kind":"nn","k1":[8.0,8.0,8.0,8.0,8.0,8.0],"k2":[640.0,480.0,384.00000000000006,0.96,25.600000000000005,28.800000000000004],"k_r":[0.001,0.001,0.001,0.001,0.001,0.001],"theta":[586.7554354959052,440.0665766219289,352.0532612975431,0.8801331532438578,23.470217419836207,26.403994597315734],"sigma":[5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6,5.379405329437334e-6],"varpi":0.05,"fu_safety":1.5,"width2":50.0,"levels":[-1.0,1.0],"d1":2.0,"d2":3.0,"omega":1.0,"network":{"kind":"full_grid"},"smoothing":"sampled"}"#
+    );
+    let paper = json(&Law::Nn(NnGains::dual_ur5().with_paper_switching()));
+    assert!(
+        paper.ends_with(r#""d1":1.0,"d2":1.5,"omega":1.0,"network":{"kind":"per_axis","inputs":[]},"smoothing":"paper"}"#),
+        "{paper}"
     );
     // `gravity_compensation` is always written.
     assert_eq!(
@@ -89,6 +96,19 @@ fn defaults_and_refusals_are_as_before() {
         panic!()
     };
     assert_eq!(g.network, NetworkStructure::per_axis());
+    // `smoothing` left out: the paper's when planar, `sampled` when spatial; planar writes it
+    // only when it is not the paper's.
+    assert_eq!(g.smoothing, Smoothing::Sampled);
+    let Law::Nn(g) = serde_json::from_str::<Law<3>>(&nn_without_network(3)).unwrap() else {
+        panic!()
+    };
+    assert_eq!(g.smoothing, Smoothing::Paper);
+    let sampled = NnGains {
+        smoothing: Smoothing::Sampled,
+        ..NnGains::tuned()
+    };
+    assert!(json(&sampled).ends_with(r#","smoothing":"sampled"}"#));
+    assert!(!json(&NnGains::tuned()).contains("smoothing"));
     // `gravity_compensation` left out: off, for both.
     let pd3: Law<3> = serde_json::from_str(r#"{"kind":"pd","k_p":[1,2,3],"k_d":[4,5,6]}"#).unwrap();
     assert_eq!(
@@ -105,6 +125,7 @@ fn defaults_and_refusals_are_as_before() {
     // Round trips.
     for l in [
         Law::Nn(NnGains::tuned()),
+        Law::Nn(sampled),
         Law::Pd(PdGains {
             gravity_compensation: true,
             ..PdGains::<3>::paper()

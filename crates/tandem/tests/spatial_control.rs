@@ -651,20 +651,30 @@ fn lyapunov_function_v3_decreases_outside_its_ultimate_bound_on_six_outputs() {
         v3[0] > 100.0 * ultimate,
         "V3 should fall by two orders of magnitude"
     );
-    // Above 200× the final level V3 decreases on every tick. Below it, during the transient
-    // (220–265 ms, at 136–166× the final level), V3 rises by about 20 %: the weights move away
+    // Above 300× the final level V3 decreases on every tick. Below it, during the transient
+    // (196–265 ms, at up to 239× the final level with the smooth default's `Q ≡ 1`; 136–166×
+    // with the paper's switching, whose robust term acted there), V3 rises by about 20 %: the
+    // weights move away
     // from W* while the network, an adaptive bias here (ϑ² = 50), takes in the transient force
     // 𝓜α̇ that no constant weight represents. That is the proof's approximation error ε in
     // C3 (51) (z2ᵀε ≤ K2 z2²/2 + ε²/(2 K2)), not a violation; the test bounds every rise.
     let mut checked = 0;
     let mut worst_rise: f64 = 0.0;
+    let top_rise = (1..ticks)
+        .filter(|&k| v3[k] >= v3[k - 1])
+        .map(|k| (v3[k - 1] / ultimate, k))
+        .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
+    eprintln!(
+        "highest level at which V3 rose: {:.1}× the final level, at {} ms",
+        top_rise.0, top_rise.1
+    );
     for k in 1..ticks {
         if v3[k] >= v3[k - 1] {
             worst_rise = worst_rise.max(v3[k] / v3[k - 1] - 1.0);
         }
     }
-    // The largest excursion above the running minimum (measured: 22 %, at 136–166× the
-    // final level); a bounded, transient rise.
+    // The largest excursion above the running minimum (measured: 22 % with the paper's
+    // switching, at 136–166× the final level); a bounded, transient rise.
     let mut running_min = v3[0];
     let mut largest_excursion: f64 = 0.0;
     for &v in &v3 {
@@ -672,7 +682,7 @@ fn lyapunov_function_v3_decreases_outside_its_ultimate_bound_on_six_outputs() {
         largest_excursion = largest_excursion.max(v / running_min - 1.0);
     }
     for k in 1..ticks {
-        if v3[k - 1] > 200.0 * ultimate {
+        if v3[k - 1] > 300.0 * ultimate {
             assert!(
                 v3[k] < v3[k - 1],
                 "V3 rose at t = {k} ms: {} -> {}",
@@ -683,7 +693,7 @@ fn lyapunov_function_v3_decreases_outside_its_ultimate_bound_on_six_outputs() {
         }
     }
     eprintln!(
-        "largest rise of V3 (below 200× its final level): {:.1} % over its running minimum (per tick {:.2e})",
+        "largest rise of V3 (below 300× its final level): {:.1} % over its running minimum (per tick {:.2e})",
         100.0 * largest_excursion,
         worst_rise
     );
@@ -692,7 +702,7 @@ fn lyapunov_function_v3_decreases_outside_its_ultimate_bound_on_six_outputs() {
         "V3 rose by {:.1} %",
         100.0 * largest_excursion
     );
-    eprintln!("V3 decreased on all {checked} ticks above 200× its final level");
+    eprintln!("V3 decreased on all {checked} ticks above 300× its final level");
     assert!(checked > 10);
 }
 

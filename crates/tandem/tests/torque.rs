@@ -172,7 +172,10 @@ fn observing_allocates_nothing() {
 /// scenario's law, path, start, disturbance, ideal sensors, 1 kHz), logged every `log_period`.
 fn dual_ur5_nn(duration: f64, log_period: f64) -> Outcome {
     let s = presets::dual_ur5();
-    let p = SpatialControllerParams::spec_s6(Law::Nn(NnGains::<6>::dual_ur5()));
+    // The paper's switching and robust term (the measurement; the preset's smooth
+    // default does not chatter, `crates/tandem-cli/tests/smooth_nn.rs`).
+    let p =
+        SpatialControllerParams::spec_s6(Law::Nn(NnGains::<6>::dual_ur5().with_paper_switching()));
     let path = Se3Path::spec_s6();
     let (c, _) = SpatialController::new(&p, &s.params, path.clone(), duration, &s.q_guess).unwrap();
     let d0 = path.sample(0.0);

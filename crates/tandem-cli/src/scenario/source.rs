@@ -777,8 +777,17 @@ fn check_lengths<T: Serialize>(src: &Source, sc: &T) -> Result<(), ScenarioError
 /// A number that is not finite (`nan`, `inf`) anywhere in the file's known fields, also in a
 /// section the run does not use (the gains of another law, which `tandem compare` would use),
 /// is an error naming the field. Run after the field-specific checks, whose messages say more.
+/// The actuator's limits take `inf` ("no limit": `effort` on a joint without one, and
+/// `rate_limit = inf` to turn an embedded robot's default off), never `-inf` or `nan`.
 pub(crate) fn check_finite<T: Serialize>(src: &Source, sc: &T) -> Result<(), ScenarioError> {
     first_in_file(src, sc, &mut |path, _, back| match back {
+        toml::Value::Float(x)
+            if *x == f64::INFINITY
+                && (path == "controller.actuator.rate_limit"
+                    || path.starts_with("controller.actuator.effort")) =>
+        {
+            None
+        }
         toml::Value::Float(x) if !x.is_finite() => {
             Some(format!("{path} = {}: must be a finite number", num(*x)))
         }

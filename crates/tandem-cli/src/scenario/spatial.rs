@@ -131,6 +131,32 @@ impl RobotModel {
             RobotModel::Franka => urdf::FRANKA_TOOL,
         }
     }
+    /// The maker's published joint torque-rate limit, N m/s: Franka's 1000
+    /// ([`urdf::FRANKA_TORQUE_RATE_LIMIT`]); none published for the UR5.
+    pub fn rate_limit(self) -> Option<f64> {
+        match self {
+            RobotModel::Ur5 => None,
+            RobotModel::Franka => Some(urdf::FRANKA_TORQUE_RATE_LIMIT),
+        }
+    }
+}
+
+/// The actuator stage's parameters from `[controller.actuator]`, with the embedded robots'
+/// published torque-rate limit as the default `rate_limit` when the table gives none (the
+/// strictest over the arms: the stage has one rate limit for every joint); `rate_limit = inf`
+/// turns it off.
+fn actuator_params(
+    arms: &[ArmConfig],
+    a: &ActuatorConfig,
+) -> tandem::control::actuator::ActuatorParams {
+    let mut p = a.params();
+    if a.rate_limit.is_none() {
+        p.rate_limit = arms
+            .iter()
+            .filter_map(|arm| arm.model.and_then(RobotModel::rate_limit))
+            .reduce(f64::min);
+    }
+    p
 }
 
 /// One arm.
@@ -939,7 +965,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             metric_length: c.metric_length,
             control_period: sc.run.control_period(),
             torque_limit: c.torque_limit,
-            actuator: c.actuator.params(),
+            actuator: actuator_params(&sc.arms, &c.actuator),
             disturbance_bound: c.disturbance_bound,
             posture,
         }

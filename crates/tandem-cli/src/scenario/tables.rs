@@ -874,7 +874,8 @@ pub struct ActuatorConfig {
     /// absent: `controller.torque_limit`, or on spatial arms each joint's URDF `effort`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub effort: Option<Vec<f64>>,
-    /// Torque-rate limit, every joint, N m/s (absent: none).
+    /// Torque-rate limit, every joint, N m/s (absent: none, or on spatial arms the embedded
+    /// robot's published limit: Franka 1000 N m/s; `inf`: none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rate_limit: Option<f64>,
     /// Time constant of the first-order output filter, s, at least the control period (absent:
@@ -896,7 +897,8 @@ impl ActuatorConfig {
     pub fn params(&self) -> tandem::control::actuator::ActuatorParams {
         tandem::control::actuator::ActuatorParams {
             effort: self.effort.clone(),
-            rate_limit: self.rate_limit,
+            // `inf` is "no limit" (it turns an embedded robot's default off).
+            rate_limit: self.rate_limit.filter(|r| *r != f64::INFINITY),
             filter_time_constant: self.filter_time_constant,
             anti_windup: self.anti_windup,
         }
@@ -959,6 +961,11 @@ pub struct NnConfig<const N: usize> {
     /// full grid; default: the base's: planar full grid, spatial per axis).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub network: Option<tandem::control::rbf::structured::NetworkStructure>,
+    /// Smoothing of the robust term (`"paper"`: the paper's constant `ϖ`; `"sampled"`: the
+    /// boundary layer widened to what the control period resolves, `docs/smooth-nn.md`;
+    /// default: planar `paper`, spatial `sampled`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub smoothing: Option<tandem::control::law::adaptive::Smoothing>,
 }
 
 impl<const N: usize> Default for NnConfig<N> {
@@ -978,6 +985,7 @@ impl<const N: usize> Default for NnConfig<N> {
             d2: None,
             omega: None,
             network: None,
+            smoothing: None,
         }
     }
 }
@@ -1002,7 +1010,8 @@ impl<const N: usize> NnConfig<N> {
             ($($f:ident),*) => { $( if let Some(v) = &self.$f { g.$f = v.clone(); } )* };
         }
         set!(
-            k1, k2, k_r, theta, sigma, varpi, fu_safety, width2, levels, d1, d2, omega, network
+            k1, k2, k_r, theta, sigma, varpi, fu_safety, width2, levels, d1, d2, omega, network,
+            smoothing
         );
         g
     }

@@ -90,6 +90,31 @@ pub fn paper_with(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
     p
 }
 
+/// An embedded scenario (`tandem scenario show NAME`) with `nn` inserted at the top of its
+/// `[controller.nn]` table and `tail` appended, written into `dir/file`; returns `file`.
+pub fn embedded_with(dir: &Path, name: &str, file: &str, nn: &str, tail: &str) -> String {
+    let o = tandem(dir, &["scenario", "show", name]);
+    ok(&o);
+    let mut text = stdout(&o);
+    if !nn.is_empty() {
+        assert!(
+            text.contains("\n[controller.nn]\n"),
+            "{name} has no [controller.nn]"
+        );
+        text = text.replacen(
+            "\n[controller.nn]\n",
+            &format!("\n[controller.nn]\n{nn}\n"),
+            1,
+        );
+    }
+    fs::write(dir.join(file), format!("{text}\n{tail}\n")).expect("write scenario");
+    file.to_string()
+}
+
+/// The NN table lines that give the spatial presets the paper's switching and robust term
+/// (SPEC §3.4: `ϖ` as given, `d1 = 1`, `d2 = 1.5`), as they were before the smooth default.
+pub const PAPER_SWITCHING: &str = "smoothing = \"paper\"\nd1 = 1.0\nd2 = 1.5";
+
 pub fn read_json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&fs::read_to_string(path).expect("read json")).expect("parse json")
 }

@@ -50,14 +50,17 @@
 //! + σ_j Ŵ_j)`, `M_j ξ̇_j = −K2_j ξ_j + δτ_j`), on by default when a limit of this table is set
 //! ([`ActuatorParams::anti_windup`]).
 //!
-//! **A Franka's 1000 N m/s** (Franka Control Interface documentation, "torque rate limit") is not
-//! the default of the embedded robots: at 1000 N m/s the NN law's start on `dual-ur5` and
-//! `dual-franka` faults (0.84 s, 0.69 s): from 16 ms `Q` drops to 0 and the robust term
-//! `(1 − Q) f^U tanh(f^U z2/ϖ)` switches faster than the limit lets the torque follow. PD, PD +
-//! model gravity and computed torque are unchanged at that limit (their peak rates, from the
-//! first tick, are 1000, 145 and 353 N m/s on UR5; 1000, 574, 621 on Franka). The NN presets
-//! meet the S5 claims with the same `z1` as without a limit from 1500 N m/s (UR5) and 2000 N m/s
-//! (Franka) on.
+//! **A Franka's 1000 N m/s** (Franka Control Interface documentation, "Robot and interface
+//! specifications": the torque derivative limit) is the default `rate_limit` of a scenario with
+//! Franka arms ([`crate::model::spatial::urdf::FRANKA_TORQUE_RATE_LIMIT`]; the UR5 has no
+//! published figure and no default). With the NN law's paper form (SPEC §3.4: `ϖ = 0.05`,
+//! `d1 = 1`) the `dual-ur5` and `dual-franka` starts fault at that limit (0.84 s, 0.69 s): from
+//! 16 ms `Q` drops and the robust term `(1 − Q) f^U tanh(f^U z2/ϖ)` switches faster than the
+//! limit lets the torque follow. The spatial default (`smoothing = "sampled"`, `d1 = 2`,
+//! `d2 = 3`; `docs/smooth-nn.md`) meets the S5 claims at 1000 N m/s with `z1` within 0.3 % of
+//! the unlimited run. PD, PD + model gravity and computed torque are unchanged at that limit
+//! (their peak rates, from the first tick, are 1000, 145 and 353 N m/s on UR5; 1000, 574, 621 on
+//! Franka).
 //!
 //! The stage is preallocated for its joints; [`Actuator::apply`] allocates nothing.
 

@@ -25,7 +25,7 @@ use nalgebra::{Dim, Matrix, Matrix2, Rotation2, SVector, Storage, U2, Vector, Ve
 
 use crate::control::actuator::{Actuator, ActuatorParams};
 use crate::control::law::Law;
-use crate::control::law::adaptive::{AdaptiveNn, FuBound, NnInternals};
+use crate::control::law::adaptive::{AdaptiveNn, FuBound, NnInternals, Smoothing};
 use crate::control::law::ctc::{Ctc, nominal_params};
 use crate::control::law::pd::Pd;
 use crate::drive::{ControlEvents, Drive, Measurements, Record};
@@ -514,6 +514,11 @@ impl Controller {
                     }
                 }
                 let mut nn = AdaptiveNn::new(g, k_c, fu, h)?;
+                // The sampled-data boundary layer of the robust term (`smoothing = "sampled"`,
+                // docs/smooth-nn.md) on the lightest effective inertia over the box.
+                if g.smoothing == Smoothing::Sampled {
+                    nn.set_sampling_inertia(FuBound::lightest_inertia(&kin, k_c));
+                }
                 // Anti-windup on the 𝓜 bound of each output (the z2 loop's inertia).
                 if p.actuator.anti_windup_on() {
                     nn.set_anti_windup_inertia(std::array::from_fn(|j| nn.fu().c[j] / g.fu_safety));
@@ -521,6 +526,12 @@ impl Controller {
                 Active::Nn(Box::new(nn))
             }
             (Law::Nn(g), Scheme::PerArm) => {
+                if g.smoothing == Smoothing::Sampled {
+                    return Err(ModelError::geometry(
+                        "gains.smoothing",
+                        "\"sampled\" is implemented for the object scheme only (the per-arm scheme has no lightest-inertia bound yet); use \"paper\"",
+                    ));
+                }
                 let mut nets = Vec::new();
                 for (i, arm) in kin.arms().iter().enumerate() {
                     if arm.dof() != 2 {

@@ -82,6 +82,70 @@ pub struct NnGains<const N: usize> {
         skip_serializing_if = "network_is_skipped::<N>"
     )]
     pub network: NetworkStructure,
+    /// How the robust term `Φᵇ` of (42)–(43) is smoothed ([`Smoothing`]): the paper's
+    /// `tanh(f^U z2/ϖ)` with the constant `ϖ` (`"paper"`), or its boundary layer widened to
+    /// what the control period resolves (`"sampled"`, `docs/smooth-nn.md`). Default: `paper`
+    /// on planar outputs (`N ≤ 3`, where it is not written when it is the default), `sampled`
+    /// on spatial ones (always written).
+    #[serde(
+        default = "default_smoothing::<N>",
+        skip_serializing_if = "smoothing_is_skipped::<N>"
+    )]
+    pub smoothing: Smoothing,
+}
+
+/// The smoothing of the robust term `Φᵇ_j = −f_jᵁ tanh(f_jᵁ z_2j/ϖ_j)` of (42)–(43) (SPEC §3.4;
+/// `docs/smooth-nn.md`).
+///
+/// In its linear zone the robust term is a feedback on `z_2j` of slope `(1 − Q) f_jᵁ²/ϖ`; held
+/// over a control period `h` on an output of inertia `M_j` it moves `z_2j` by
+/// `(1 − Q) (f_jᵁ²/ϖ) (h/M_j) z_2j` in one tick, and when that factor exceeds 1 the sampled
+/// loop overshoots zero every tick: the robust term chatters at the tick rate (on the S6
+/// set-up `f^U²/ϖ` reaches 5e5 N s/m against 20 kg and 1 ms, a factor of 25).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Smoothing {
+    /// The paper's (42)–(43): `ϖ_j = ϖ`, constant.
+    #[default]
+    Paper,
+    /// The sampled-data boundary layer: `ϖ_j(Z) = max(ϖ, f_jᵁ(Z)² h/(β M_j))` with
+    /// [`SAMPLED_BETA`] `= 1/2` and `M_j` the lightest effective inertia of output `j`
+    /// (`1/(𝓜⁻¹)_jj`) the controller expects, so that the linear zone's slope
+    /// `f_jᵁ²/ϖ_j ≤ β M_j/h` removes at most half of `z_2j` per tick and never flips its
+    /// sign. Where the paper's `ϖ` already satisfies it, the law is the paper's bit for bit;
+    /// with `Q = 1` (inside Ω1) the term is off either way.
+    Sampled,
+}
+
+impl Smoothing {
+    /// The name in a scenario file (`paper`, `sampled`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Smoothing::Paper => "paper",
+            Smoothing::Sampled => "sampled",
+        }
+    }
+}
+
+/// `β` of [`Smoothing::Sampled`]: the fraction of `z_2j` the robust term may remove in one
+/// control period at its steepest (`1` is dead-beat, above it the sampled loop overshoots;
+/// `1/2` leaves a factor 2 for an output lighter than expected).
+pub const SAMPLED_BETA: f64 = 0.5;
+
+/// The default [`NnGains::smoothing`] for `N` outputs: the paper's on planar outputs (the
+/// planar presets reproduce the paper), [`Smoothing::Sampled`] on spatial ones.
+pub fn default_smoothing<const N: usize>() -> Smoothing {
+    if crate::control::law::is_planar(N) {
+        Smoothing::Paper
+    } else {
+        Smoothing::Sampled
+    }
+}
+
+/// Whether [`NnGains::smoothing`] is left out of the serialised gains: planar when it is the
+/// default (`paper`), spatial never.
+pub fn smoothing_is_skipped<const N: usize>(s: &Smoothing) -> bool {
+    crate::control::law::is_planar(N) && *s == Smoothing::Paper
 }
 
 /// The default [`NnGains::network`] for `N` outputs: the paper's full grid when planar
@@ -119,6 +183,7 @@ impl NnGains<3> {
             d2: 1.5,
             omega: 1.0,
             network: NetworkStructure::FullGrid,
+            smoothing: Smoothing::Paper,
         }
     }
     /// Gains that make the paper's claims hold on the paper scenario (SPEC §3.4 starting point;
@@ -154,6 +219,7 @@ impl<const N: usize> NnGains<N> {
             d2: self.d2,
             omega: self.omega,
             network: self.network.clone(),
+            smoothing: self.smoothing,
         }
     }
 
@@ -363,6 +429,44 @@ impl FuBound {
         fu.finish(safety, &dist)
     }
 
+    /// The lightest effective object-space inertias `1/(𝓜⁻¹)_jj` of (14) over the poses
+    /// [`FuBound::from_model`] uses (the reachable, well-conditioned part of the constraint
+    /// box, 13 × 13 × 5): what [`Smoothing::Sampled`] sizes the robust term's boundary layer on
+    /// ([`AdaptiveNn::set_sampling_inertia`]). `+∞` for an output when no pose is usable.
+    pub fn lightest_inertia(model: &Plant, k_c: Vector3<f64>) -> [f64; 3] {
+        let mut ws = model.workspace();
+        let mut light = [f64::INFINITY; 3];
+        let (n, nt) = (13, 5);
+        for ix in 0..n {
+            for iy in 0..n {
+                for it in 0..nt {
+                    let x =
+                        Vector3::new(grid(ix, n, k_c.x), grid(iy, n, k_c.y), grid(it, nt, k_c.z));
+                    let Ok(os) = model.object_space(&x, &Vector3::zeros(), &mut ws) else {
+                        continue;
+                    };
+                    let sig = model
+                        .arms()
+                        .iter()
+                        .enumerate()
+                        .map(|(i, arm)| arm.min_singular_value(&ws.terms[i]))
+                        .fold(f64::INFINITY, f64::min);
+                    if sig < 0.05 {
+                        continue;
+                    }
+                    if let Some(inv) = os.M.try_inverse() {
+                        for (j, l) in light.iter_mut().enumerate() {
+                            if inv[(j, j)] > 0.0 {
+                                *l = l.min(1.0 / inv[(j, j)]);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        light
+    }
+
     /// `f_jᵁ(Z)`.
     #[inline]
     pub fn eval(&self, j: usize, x2: f64, alpha: f64, alpha_dot: f64) -> f64 {
@@ -404,6 +508,11 @@ pub struct AdaptiveNn<const N: usize = 3> {
     k2: SVector<f64, N>,
     k_r: SVector<f64, N>,
     varpi: f64,
+    smoothing: Smoothing,
+    /// `1/(β M_j/h)` per output: with [`Smoothing::Sampled`] and the inertia given
+    /// ([`AdaptiveNn::set_sampling_inertia`]) `ϖ_j = max(ϖ, f_jᵁ² · this)`; zero otherwise
+    /// (`ϖ_j = ϖ`).
+    inv_slope_cap: [f64; N],
     fu: FuBound,
     /// `(a_j, b_j, c_j, d_j)` of `fu` per output, in a fixed-size array (the tick reads them
     /// without the vectors' bounds checks).
@@ -474,6 +583,8 @@ impl<const N: usize> AdaptiveNn<N> {
             k2: SVector::from(g.k2),
             k_r: SVector::from(g.k_r),
             varpi: g.varpi,
+            smoothing: g.smoothing,
+            inv_slope_cap: [0.0; N],
             fu_k: std::array::from_fn(|j| [fu.a[j], fu.b[j], fu.c[j], fu.d[j]]),
             fu,
             theta: g.theta,
@@ -530,6 +641,33 @@ impl<const N: usize> AdaptiveNn<N> {
             // e^{a} and (1 − e^{a})/K2 (exp_m1 keeps the small-step gain accurate).
             (a.exp(), -a.exp_m1() / k2)
         }));
+    }
+
+    /// The robust term's smoothing in use.
+    pub fn smoothing(&self) -> Smoothing {
+        self.smoothing
+    }
+
+    /// The inertia `M_j` per output (kg, kg m², …) that [`Smoothing::Sampled`] sizes the
+    /// robust term's boundary layer on: the lightest effective inertia `1/(𝓜⁻¹)_jj` the
+    /// output can have (the fastest response to the term). With [`Smoothing::Paper`], or for
+    /// an output whose `M_j` is not positive and finite, `ϖ_j = ϖ`.
+    pub fn set_sampling_inertia(&mut self, m: [f64; N]) {
+        for j in 0..N {
+            let mj = m[j];
+            self.inv_slope_cap[j] =
+                if self.smoothing == Smoothing::Sampled && mj > 0.0 && mj.is_finite() {
+                    self.h / (SAMPLED_BETA * mj)
+                } else {
+                    0.0
+                };
+        }
+    }
+
+    /// The widest robust-term boundary layer `ϖ_j` the law would use at `f_jᵁ = fu`
+    /// (`ϖ` with [`Smoothing::Paper`]).
+    pub fn varpi_at(&self, j: usize, fu: f64) -> f64 {
+        self.varpi.max(fu * fu * self.inv_slope_cap[j])
     }
 
     /// Switch the anti-windup filter off (`ξ = 0`: the update (44) on `z2` whatever the
@@ -659,7 +797,10 @@ impl<const N: usize> AdaptiveNn<N> {
             // the sign of φ_b. For a finite x, clamp(x, −1, 1) has the sign and zero-ness of
             // tanh(x) and keeps −f^U·(it) finite, so it stands in for tanh(x) there with the
             // same bits (the NN branch skips the tanh).
-            let x = fu * z2[j] / self.varpi;
+            // ϖ_j: the paper's ϖ, or the sampled-data boundary layer of [`Smoothing::Sampled`]
+            // (`max(ϖ, f^U² h/(β M_j))`, `docs/smooth-nn.md`; `inv_slope_cap = 0` gives ϖ).
+            let varpi = self.varpi.max(fu * fu * self.inv_slope_cap[j]);
+            let x = fu * z2[j] / varpi;
             let th = if q == 1.0 && x.is_finite() {
                 x.clamp(-1.0, 1.0)
             } else {
@@ -711,6 +852,57 @@ fn prefix_gains(e: ModelError, from: &str, to: &str) -> ModelError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_sampled_boundary_layer_caps_the_robust_slope_and_keeps_the_paper_where_it_fits() {
+        // ϖ_j = max(ϖ, f² h/(β M_j)): the linear zone's slope f²/ϖ_j is at most β M_j/h, and
+        // where the paper's ϖ already meets that the law keeps it (docs/smooth-nn.md).
+        let plant = Plant::new(&crate::presets::paper()).unwrap();
+        let k_c = Vector3::repeat(0.35);
+        let fu = FuBound::from_model(&plant, k_c, [0.02, 0.02, 0.0], 1.5).unwrap();
+        let h = 1e-3;
+        let sampled = NnGains {
+            smoothing: Smoothing::Sampled,
+            ..NnGains::tuned()
+        };
+        let mut nn = AdaptiveNn::<3>::new(&sampled, k_c, fu.clone(), h).unwrap();
+        // Before the inertia is known, and with the paper's form: ϖ.
+        assert_eq!(nn.varpi_at(0, 100.0), 0.05);
+        let m = [2.0, 3.0, 0.5];
+        nn.set_sampling_inertia(m);
+        for (j, &mj) in m.iter().enumerate() {
+            for f in [0.1, 1.0, 10.0, 164.0, 1e4] {
+                let v = nn.varpi_at(j, f);
+                assert!(v >= 0.05);
+                let slope = f * f / v;
+                assert!(
+                    slope <= SAMPLED_BETA * mj / h * (1.0 + 1e-12),
+                    "{j} {f}: {slope}"
+                );
+                // Paper's ϖ kept exactly where its slope fits.
+                if f * f / 0.05 <= SAMPLED_BETA * mj / h {
+                    assert_eq!(v, 0.05);
+                }
+            }
+        }
+        // The paper form ignores the inertia.
+        let mut paper = AdaptiveNn::<3>::new(&NnGains::tuned(), k_c, fu, h).unwrap();
+        paper.set_sampling_inertia(m);
+        assert_eq!(paper.smoothing(), Smoothing::Paper);
+        assert_eq!(paper.varpi_at(1, 164.0), 0.05);
+        // The lightest effective inertias over the box are positive and finite, and no more
+        // than the row-norm bound of (14)'s 𝓜 that `f^U`'s c_j carries.
+        let fu = FuBound::from_model(&plant, k_c, [0.02, 0.02, 0.0], 1.0).unwrap();
+        let light = FuBound::lightest_inertia(&plant, k_c);
+        for j in 0..3 {
+            assert!(light[j] > 0.0 && light[j].is_finite(), "{light:?}");
+            assert!(
+                light[j] <= fu.c[j] * (1.0 + 1e-12),
+                "{light:?} vs {:?}",
+                fu.c
+            );
+        }
+    }
 
     #[test]
     fn recorded_weight_norms_equal_the_exact_norms() {

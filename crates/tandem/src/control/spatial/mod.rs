@@ -377,7 +377,7 @@ impl SpatialController {
         // The path inside every arm's reach and limits (IK by continuation), and the chart-space
         // inertia along it (for the gain check).
         let obj_model = ObjectModel::new(model)?;
-        let (q_start, path_inertia) =
+        let (q_start, path_inertia, light_inertia) =
             check_path_reach(&plant, &obj_model, &chart, &path, duration, q_guess)?;
         // Posture of redundant arms.
         let q_rest = match &p.posture.q_rest {
@@ -490,6 +490,9 @@ impl SpatialController {
                     }
                 }
                 let mut nn = AdaptiveNn::<6>::new(g, k_c, fu, h)?;
+                // The sampled-data boundary layer of the robust term on the lightest effective
+                // chart-space inertia along the path (`docs/smooth-nn.md`).
+                nn.set_sampling_inertia(std::array::from_fn(|j| light_inertia[j]));
                 // Anti-windup on the chart-space inertia along the path (the z2 loop's).
                 if p.actuator.anti_windup_on() {
                     nn.set_anti_windup_inertia(std::array::from_fn(|j| path_inertia[j]));
@@ -1052,8 +1055,10 @@ fn path_centre(path: &Se3Path, duration: f64) -> Vector3<f64> {
 
 /// The arms reach the desired path within their joint limits and away from singularities:
 /// inverse kinematics of the closed chain by continuation along the path (every 50 ms, at most
-/// 4000 samples), from `q_guess` at `t = 0`. Returns the configuration at `t = 0` and the
-/// largest diagonal entries of the chart-space inertia along the path.
+/// 4000 samples), from `q_guess` at `t = 0`. Returns the configuration at `t = 0`, the
+/// largest diagonal entries of the chart-space inertia `M_x` along the path, and the smallest
+/// effective inertias `1/(M_x⁻¹)_jj` along it (the lightest each output can be when the others
+/// move freely; `docs/smooth-nn.md`).
 fn check_path_reach(
     plant: &SpatialPlant,
     model: &ObjectModel,
@@ -1061,7 +1066,7 @@ fn check_path_reach(
     path: &Se3Path,
     duration: f64,
     q_guess: &[f64],
-) -> Result<(Vec<f64>, Vector6<f64>), ModelError> {
+) -> Result<PathReach, ModelError> {
     let n = ((duration / PATH_CHECK_STEP).ceil() as usize).clamp(1, MAX_PATH_SAMPLES);
     let mut q = q_guess.to_vec();
     let zero = vec![0.0; q.len()];
@@ -1069,6 +1074,7 @@ fn check_path_reach(
     let mut mws = model.workspace();
     let mut q0 = None;
     let mut inertia = Vector6::zeros();
+    let mut light = Vector6::repeat(f64::INFINITY);
     for k in 0..=n {
         let t = duration * k as f64 / n as f64;
         let s = path.sample(t);
@@ -1099,13 +1105,20 @@ fn check_path_reach(
             let ei = chart.sample(&PoseSample::at_rest(s.p, s.r)).jac.e_inv();
             let mx = ei.transpose() * d.m * ei;
             inertia = inertia.sup(&mx.diagonal());
+            if let Some(inv) = mx.try_inverse() {
+                light = light.inf(&inv.diagonal().map(|d| 1.0 / d));
+            }
         }
         if q0.is_none() {
             q0 = Some(q.clone());
         }
     }
-    Ok((q0.unwrap_or_else(|| q_guess.to_vec()), inertia))
+    Ok((q0.unwrap_or_else(|| q_guess.to_vec()), inertia, light))
 }
+
+/// What [`check_path_reach`] returns: the configuration at `t = 0`, the largest diagonal of
+/// the chart-space inertia along the path, and the smallest effective inertias `1/(M_x⁻¹)_jj`.
+type PathReach = (Vec<f64>, Vector6<f64>, Vector6<f64>);
 
 /// A posture must be finite and inside every joint's limits.
 fn check_posture(plant: &SpatialPlant, q: &[f64]) -> Result<(), ModelError> {

@@ -15,7 +15,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::control::Scheme;
 use crate::control::law::Law;
-use crate::control::law::adaptive::NnGains;
+use crate::control::law::adaptive::{NnGains, Smoothing};
 use crate::control::law::pd::PdGains;
 use crate::control::rbf::structured::NetworkStructure;
 use crate::reference::spatial::admittance::AdmittanceSe3Params;
@@ -25,6 +25,18 @@ use crate::reference::spatial::admittance::AdmittanceSe3Params;
 fn per_axis_norm2() -> f64 {
     crate::control::rbf::structured::grid_norm2_at_zero(&[-1.0, 1.0], 50.0, 4)
 }
+
+/// Switching inner radius `d1` of the spatial design (paper (38), SPEC §3.4's default is 1):
+/// `Ω1` must hold the inputs the designed loop reaches from the S6 start, or `Q` drops below 1
+/// in the start transient and the robust term switches on (`docs/smooth-nn.md`, "Radii"). The
+/// largest input there is `α̇` along gravity, `|α̇_z| ≈ K1 (K1 |z1(0)| + m_o g/(M_z ω_n))` while
+/// the network has not yet learned the box's weight: `8 (0.08 + 29.4/(11 · 20)) = 1.71` on the
+/// dual-UR5 set-up, 1.67 on the dual-Franka one (measured 1.45 and 1.53 with `Q ≡ 1`);
+/// rounded up to 2.
+pub const SPATIAL_D1: f64 = 2.0;
+
+/// Switching outer radius `d2` of the spatial design: `1.5 d1`, SPEC §3.4's ratio.
+pub const SPATIAL_D2: f64 = 3.0;
 
 /// The spatial presets of the NN law on six outputs (SPEC-spatial S5, S6), designed per axis
 /// (module doc).
@@ -46,10 +58,24 @@ impl NnGains<6> {
         Self::from_design([26.0, 12.0, 12.0, 0.7, 2.2, 0.2], 8.0, 20.0, 0.8)
     }
 
+    /// These gains with the paper's switching and robust term as SPEC §3.4 gives them
+    /// (`smoothing = "paper"`, `d1 = 1`, `d2 = 1.5`): the spatial presets as they were before the
+    /// smooth default (`docs/smooth-nn.md`), for comparisons and the issue-24 measurements.
+    pub fn with_paper_switching(self) -> Self {
+        NnGains {
+            smoothing: Smoothing::Paper,
+            d1: 1.0,
+            d2: 1.5,
+            ..self
+        }
+    }
+
     /// The per-axis design of the module doc: for inertia `m[j]` (kg or kg m², chart axes),
     /// `K1 = k1`, `γ_j = m_j ω_n²`, `K2_j = 2 ζ m_j ω_n`, `Θ_j = γ_j / ‖S_j(0)‖²` on the default
-    /// per-axis network; `K_r = 0.001`, `ϖ = 0.05`, `ϑ² = 50`, levels `±1`, `d1 = 1`,
-    /// `d2 = 1.5`, `ω = 1`, `f^U` safety 1.5 (SPEC §3.4 defaults).
+    /// per-axis network; `K_r = 0.001`, `ϖ = 0.05`, `ϑ² = 50`, levels `±1`, `ω = 1`, `f^U`
+    /// safety 1.5 (SPEC §3.4 defaults); the switching radii [`SPATIAL_D1`], [`SPATIAL_D2`]
+    /// (`d1 = 2`, `d2 = 3`: Ω1 holds the start transient) and the robust term's sampled-data
+    /// boundary layer ([`Smoothing::Sampled`]), the smooth default of `docs/smooth-nn.md`.
     ///
     /// `σ` is the planar `0.001` scaled by `‖S_j(0)‖² / ‖S_grid(0)‖² = 13.6/2535`: at the
     /// σ-modification's equilibrium `Ŵ_j = −Q S z_2j/σ_j`, so the network leaves
@@ -69,10 +95,11 @@ impl NnGains<6> {
             fu_safety: 1.5,
             width2: 50.0,
             levels: vec![-1.0, 1.0],
-            d1: 1.0,
-            d2: 1.5,
+            d1: SPATIAL_D1,
+            d2: SPATIAL_D2,
             omega: 1.0,
             network: NetworkStructure::per_axis(),
+            smoothing: Smoothing::Sampled,
         }
     }
 }
@@ -184,5 +211,15 @@ impl SpatialControllerParams {
             disturbance_bound: [0.5, 0.5, 0.5, 0.05, 0.05, 0.05],
             posture: PostureParams::default(),
         }
+    }
+
+    /// [`SpatialControllerParams::spec_s6`] on Franka arms: the actuator stage's rate limit at
+    /// the Franka Control Interface's published 1000 N m/s
+    /// ([`crate::model::spatial::urdf::FRANKA_TORQUE_RATE_LIMIT`]), the default of a scenario
+    /// with Franka arms (the `dual-franka` preset).
+    pub fn spec_s6_franka(law: Law<6>) -> Self {
+        let mut p = Self::spec_s6(law);
+        p.actuator.rate_limit = Some(crate::model::spatial::urdf::FRANKA_TORQUE_RATE_LIMIT);
+        p
     }
 }

@@ -97,6 +97,14 @@ pub const FRANKA_URDF: &str = include_str!("../../../models/franka.urdf");
 pub const FRANKA_BASE: &str = "panda_link0";
 /// Tool link of [`FRANKA_URDF`] (`panda_link8`: the flange, Craig frame 8).
 pub const FRANKA_TOOL: &str = "panda_link8";
+/// The joint torque-rate limit of a Franka arm, N m/s, every joint: the Franka Control
+/// Interface's `τ̇_j,max = 1000` N m/s ("Robot and interface specifications", limits for
+/// Panda and for Franka Research 3, <https://frankaemika.github.io/docs/control_parameters.html>;
+/// a command changing faster aborts the motion with `controller_torque_discontinuity`). The
+/// default `rate_limit` of the actuator stage for a scenario with a Franka arm (issue 24).
+/// Universal Robots publish no torque-rate figure for the UR5 (searched: user manual and
+/// datasheet, the ROS driver's docs), so the UR5 model has no default.
+pub const FRANKA_TORQUE_RATE_LIMIT: f64 = 1000.0;
 
 /// The UR5-class chain [`UR5_BASE`] → [`UR5_TOOL`] from [`UR5_URDF`] (6 revolute joints; no
 /// warnings).
