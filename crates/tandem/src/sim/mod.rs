@@ -349,7 +349,7 @@ impl<P: ClosedChain> Stepped<P> {
                 .sim
                 .act(self.k)
                 .and_then(|()| {
-                    if k1 % 10 == 0 {
+                    if k1.is_multiple_of(10) {
                         self.sim.check_chain(k1).map(|_| ())
                     } else {
                         Ok(())
