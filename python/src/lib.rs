@@ -2046,6 +2046,16 @@ impl PyRun {
             let name = &kind.src().name;
             let fin = match live {
                 Some(f) => f,
+                None if expected.get("controller").and_then(Json::as_str)
+                    == Some(tandem_cli::run::planar::EXTERNAL) =>
+                {
+                    return Err(Error::Other(
+                        "this unpickled run was driven by your own law (Scenario.run(controller=...)), \
+                         which tandem cannot run again to rebuild its outputs: write() it in the \
+                         process that ran it"
+                            .into(),
+                    ));
+                }
                 None => {
                     let f = kind.execute()?;
                     let mut again = f.summary(name);

@@ -217,3 +217,24 @@ def test_plant_bad_input_changes_nothing_and_faults_are_reported(ur5):
         p.step(np.zeros(12))
     p.reset()
     p.step(np.zeros(12))
+
+
+def test_an_external_run_writes_its_outputs_and_pickles(ur5, tmp_path):
+    import json
+    import pickle
+
+    plant = ur5.plant()
+    q0, hold = plant.state["q"].copy(), plant.holding_torques()
+    law = tandem.JointPD(np.full(12, 100.0), np.full(12, 10.0), q0, hold)
+    run = ur5.run(duration=0.5, controller=law)
+    out = run.write(tmp_path / "ext", False, True)
+    summary = json.loads((tmp_path / "ext" / "summary.json").read_text())
+    assert summary["controller"] == "external" and (tmp_path / "ext" / "path.png").exists()
+    assert str(out).endswith("ext")
+    back = pickle.loads(pickle.dumps(run))
+    assert back.summary["controller"] == "external"
+    assert np.array_equal(back.timeseries["tau_q1"], run.timeseries["tau_q1"])
+    # tandem cannot run your law again to rebuild the figures of an unpickled run: it says so.
+    with pytest.raises(RuntimeError, match="driven by your own law"):
+        back.write(tmp_path / "again", False, True)
+    assert not (tmp_path / "again").exists()
