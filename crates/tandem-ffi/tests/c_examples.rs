@@ -92,6 +92,11 @@ fn reference(n: usize) -> (Vec<Vec<u64>>, Vec<u64>) {
 #[test]
 fn c_and_cpp_examples_match_the_rust_tick_bit_for_bit() {
     if !have("cc") {
+        // .ci/run installs the compilers and sets TANDEM_REQUIRE_CC: there, a missing one fails.
+        assert!(
+            std::env::var_os("TANDEM_REQUIRE_CC").is_none(),
+            "TANDEM_REQUIRE_CC is set but there is no `cc`"
+        );
         println!("skipped: no C compiler");
         return;
     }
@@ -136,6 +141,10 @@ fn c_and_cpp_examples_match_the_rust_tick_bit_for_bit() {
 
     // C++, linked against the shared library, 1000 ticks paced at 1 kHz.
     if !have("c++") {
+        assert!(
+            std::env::var_os("TANDEM_REQUIRE_CC").is_none(),
+            "TANDEM_REQUIRE_CC is set but there is no `c++`"
+        );
         println!("skipped the C++ example: no C++ compiler");
         return;
     }

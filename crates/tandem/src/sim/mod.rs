@@ -350,7 +350,7 @@ impl<P: ClosedChain> Stepped<P> {
                 .act(self.k)
                 .and_then(|()| {
                     if k1.is_multiple_of(10) {
-                        self.sim.check_chain(k1).map(|_| ())
+                        self.sim.check_chain(k1).1
                     } else {
                         Ok(())
                     }
@@ -858,8 +858,10 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
     }
 
     /// The chain's health at the start of tick `k` (SPEC §3 step 4): constraint drift within
-    /// `max_drift`, no arm within `min_sigma` of a singularity. `Ok((drift, rotation drift))`.
-    fn check_chain(&mut self, k: usize) -> Result<(f64, f64), Fault> {
+    /// `max_drift`, no arm within `min_sigma` of a singularity. The drift `(position,
+    /// rotation)` measured, whether or not it faults (the run's maxima include the drift that
+    /// stopped it).
+    fn check_chain(&mut self, k: usize) -> ((f64, f64), Result<(), Fault>) {
         let t = k as f64 * self.params.control_period;
         let ((d, r), s) = self
             .plant
@@ -867,13 +869,14 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
         if d > self.params.max_drift || r > self.params.max_drift {
             self.y_prev.copy_from_slice(&self.y);
             let rotation = (self.seg.drift > 1).then_some(r);
-            return Err(self.fault(t, FaultKind::ConstraintDrift { drift: d, rotation }));
+            let f = self.fault(t, FaultKind::ConstraintDrift { drift: d, rotation });
+            return ((d, r), Err(f));
         }
         if s < self.params.min_sigma {
             self.y_prev.copy_from_slice(&self.y);
-            return Err(self.fault(t, FaultKind::Singular { sigma: s }));
+            return ((d, r), Err(self.fault(t, FaultKind::Singular { sigma: s })));
         }
-        Ok((d, r))
+        ((d, r), Ok(()))
     }
 
     /// Run to the end (or the first fault). `progress(fraction)` is called about 200 times.
@@ -892,15 +895,12 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             k += 1;
             // Drift and singularity checks every 10 ticks (kinematics only, once for both).
             if k % 10 == 0 {
-                match self.check_chain(k) {
-                    Ok((d, r)) => {
-                        max_drift = max_drift.max(d);
-                        max_drift_rot = max_drift_rot.max(r);
-                    }
-                    Err(f) => {
-                        fault = Some(f);
-                        break;
-                    }
+                let ((d, r), health) = self.check_chain(k);
+                max_drift = max_drift.max(d);
+                max_drift_rot = max_drift_rot.max(r);
+                if let Err(f) = health {
+                    fault = Some(f);
+                    break;
                 }
             }
             if k % every == 0 {
