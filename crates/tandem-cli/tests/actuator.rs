@@ -153,6 +153,37 @@ fn bad_actuator_values_name_the_field_and_line() {
             "controller.actuator.effort[10] = 0",
         ),
         ("paper", "rate = 5.0", "rate"),
+        // Issue 24, "Bad input": zero, negative and NaN limits, and a filter faster than a tick.
+        (
+            "paper",
+            "rate_limit = 0.0",
+            "controller.actuator.rate_limit = 0: must be finite and > 0",
+        ),
+        (
+            "paper",
+            "effort = [8.0, -8.0, 8.0, 8.0]",
+            "controller.actuator.effort[1] = -8: must be > 0",
+        ),
+        (
+            "paper",
+            "effort = [8.0, 8.0, nan, 8.0]",
+            "controller.actuator.effort[2] = NaN: must be > 0",
+        ),
+        (
+            "dual-franka",
+            "filter_time_constant = nan",
+            "controller.actuator.filter_time_constant = NaN: must be finite and > 0",
+        ),
+        (
+            "dual-franka",
+            "filter_time_constant = 0.0",
+            "controller.actuator.filter_time_constant = 0: must be finite and > 0",
+        ),
+        (
+            "dual-ur5",
+            "filter_time_constant = 0.0002",
+            "controller.actuator.filter_time_constant = 0.0002: must be at least the control period",
+        ),
     ] {
         let f = with_actuator(&dir, scenario, "bad.toml", table);
         let o = tandem(&dir, &["validate", &f]);
@@ -160,5 +191,73 @@ fn bad_actuator_values_name_the_field_and_line() {
         let e = stderr(&o);
         assert!(e.contains(want), "{table}: {e}");
         assert!(e.contains("(line "), "{table}: {e}");
+    }
+}
+
+/// Issue 24, "Bad input": an effort limit below the torque a joint needs to hold the start pose
+/// at rest is refused at validation, naming the limit's field, the arm and URDF joint, and both
+/// torques (dual-UR5: the shoulder-lift joints hold 34.254 N m of arm and box).
+#[test]
+fn an_effort_limit_that_cannot_hold_the_start_pose_names_the_joint_and_the_torques() {
+    let dir = scratch("actuator_hold");
+    let o = tandem(&dir, &["scenario", "show", "dual-ur5"]);
+    ok(&o);
+    let base = stdout(&o);
+    let check = |name: &str, text: String, want: &[&str]| {
+        std::fs::write(dir.join(name), text).unwrap();
+        let o = tandem(&dir, &["validate", name]);
+        exit(&o, 2);
+        let e = stderr(&o);
+        for w in want {
+            assert!(e.contains(w), "{name}: {w}: {e}");
+        }
+        assert!(e.contains("(line "), "{name}: {e}");
+    };
+    // [controller.actuator] effort: the element that is too low.
+    check(
+        "effort.toml",
+        format!(
+            "{base}\n[controller.actuator]\neffort = [150.0, 20.0, 150.0, 28.0, 28.0, 28.0, 150.0, \
+             150.0, 150.0, 28.0, 28.0, 28.0]\n"
+        ),
+        &[
+            "controller.actuator.effort[1] = 20:",
+            "arms[0] joint `shoulder_lift_joint` (joint 1) needs 34.254 N m to hold the start pose",
+            "more than its effort limit 20 N m",
+        ],
+    );
+    // controller.torque_limit.
+    check(
+        "limit.toml",
+        base.replacen("[controller]\n", "[controller]\ntorque_limit = 10.0\n", 1),
+        &[
+            "controller.torque_limit = 10:",
+            "needs 34.254 N m",
+            "its effort limit 10 N m",
+        ],
+    );
+    // A URDF's own `effort`: the arm's urdf field.
+    let urdf = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tandem/models/ur5.urdf"),
+    )
+    .unwrap()
+    .replace("effort=\"150\"", "effort=\"20\"");
+    std::fs::write(dir.join("weak_ur5.urdf"), urdf).unwrap();
+    check(
+        "urdf.toml",
+        base.replacen(
+            "\nmodel = \"ur5\"\n",
+            "\nurdf = \"weak_ur5.urdf\"\nbase_link = \"base_link\"\ntool_link = \"tool0\"\n",
+            1,
+        ),
+        &[
+            "arms[0].urdf: the URDF `effort` of joint `shoulder_lift_joint`",
+            "needs 34.254 N m",
+            "its effort limit 20 N m",
+        ],
+    );
+    // The limits the presets ship with hold their starts.
+    for s in ["dual-ur5", "dual-franka"] {
+        ok(&tandem(&dir, &["validate", s]));
     }
 }

@@ -222,6 +222,10 @@ impl Actuator {
     pub fn last(&self) -> &[f64] {
         &self.last
     }
+    /// The effort limits `E_j` in force, N m, one per joint (`+∞` where there is none).
+    pub fn effort(&self) -> &[f64] {
+        &self.effort
+    }
     /// The ticks on which each limit acted.
     pub fn counts(&self) -> &ActuatorCounts {
         &self.counts
