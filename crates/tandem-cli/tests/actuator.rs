@@ -21,6 +21,28 @@ fn summary(dir: &std::path::Path, args: &[&str]) -> serde_json::Value {
     read_json(&dir.join(out).join("summary.json"))
 }
 
+/// `joint_limits` of a summary: per joint (`n`), the ticks each limit acted on, consistent with
+/// the tick counts of `events` (a tick counts there when the limit acted on any joint). Returns
+/// the per-joint (rate-limited, effort-clipped) counts.
+fn per_joint(s: &serde_json::Value, n: usize) -> (Vec<u64>, Vec<u64>) {
+    let list = |k: &str| -> Vec<u64> {
+        let a = s["joint_limits"][k].as_array().expect(k);
+        assert_eq!(a.len(), n, "{k}: {}", s["joint_limits"]);
+        a.iter().map(|c| c.as_u64().unwrap()).collect()
+    };
+    let (r, e) = (list("rate_limited"), list("effort_clipped"));
+    for (per, total) in [
+        (&r, s["events"]["rate_limited"].as_u64().unwrap()),
+        (&e, s["events"]["torque_clips"].as_u64().unwrap()),
+    ] {
+        // Each joint's count is at most the ticks the limit acted on, and together the joints
+        // account for every such tick.
+        assert!(per.iter().all(|c| *c <= total), "{per:?} vs {total}");
+        assert!(per.iter().sum::<u64>() >= total, "{per:?} vs {total}");
+    }
+    (r, e)
+}
+
 #[test]
 fn a_rate_limit_bounds_the_measured_torque_rate() {
     let dir = scratch("actuator_rate");
@@ -56,6 +78,11 @@ fn a_rate_limit_bounds_the_measured_torque_rate() {
         s["events"]
     );
     assert_eq!(s["events"]["filtered"], 0);
+    // Per joint: the rate limit acted on several joints; the paper form's saturated robust term
+    // also drives the first wrist joints (q4, q10) into their URDF effort of 28 N m.
+    let (r, e) = per_joint(&s, 12);
+    assert!(r.iter().filter(|c| **c > 0).count() >= 2, "{r:?}");
+    assert!(e[3] > 0 && e[9] > 0, "{e:?}");
     // Computed torque at 1000 N m/s meets the S5 claims (its start needs 353 N m/s).
     let s = summary(
         &dir,
@@ -116,6 +143,43 @@ fn a_filter_and_an_effort_limit_count_their_ticks() {
     assert_eq!(s["completed"], true);
     assert_eq!(s["events"]["filtered"], 2000, "{}", s["events"]);
     assert!(s["peak_joint_torque"].as_f64().unwrap() <= 8.0);
+    // Per joint: the effort limit clipped some joints; nothing was rate-limited.
+    let (r, e) = per_joint(&s, 4);
+    assert_eq!(r, vec![0; 4]);
+    assert!(e.iter().any(|c| *c > 0), "{e:?}");
+    // The terminal table shows the per-joint counts when a limit acted.
+    let o = tandem(
+        &dir,
+        &["run", &f, "--duration", "2", "--no-figures", "--out", "p2"],
+    );
+    assert!(
+        stdout(&o).contains("rate-limited / effort-clipped ticks by joint"),
+        "{}",
+        stdout(&o)
+    );
+    // A torque replay has no actuator stage: `null`, with the reason.
+    let o = tandem(
+        &dir,
+        &[
+            "run",
+            "paper",
+            "--replay",
+            "p/timeseries.csv",
+            "--duration",
+            "0.5",
+            "--no-figures",
+            "--out",
+            "r",
+        ],
+    );
+    assert!(code(&o) == 0 || code(&o) == 1, "{}", stderr(&o));
+    let s = read_json(&dir.join("r/summary.json"));
+    assert!(s["joint_limits"].is_null(), "{}", s["joint_limits"]);
+    assert!(
+        s["unavailable"]["joint_limits"].is_string(),
+        "{}",
+        s["unavailable"]
+    );
     // The written scenario keeps the table; a scenario without it writes none.
     let text = std::fs::read_to_string(dir.join("p/scenario.toml")).unwrap();
     assert!(text.contains("[controller.actuator]"), "{text}");
