@@ -185,6 +185,10 @@ pub struct Actuator {
 }
 
 impl Actuator {
+    /// The largest command magnitude the stage takes, N m (`1e300`; larger ones, `±∞` among
+    /// them, are taken as `±1e300`): the filter's `u − y` then never overflows.
+    pub const COMMAND_MAX: f64 = 1e300;
+
     /// The stage for `n` joints at control period `h` (s); errors name the field (see
     /// [`ActuatorParams::validate`]).
     pub fn new(p: &ActuatorParams, n: usize, h: f64) -> Result<Self, ModelError> {
@@ -232,7 +236,8 @@ impl Actuator {
     }
 
     /// Start from a known torque `tau0` (N m): the filter state and the last applied torque
-    /// become `tau0` clamped to the effort limits (the clamp is not counted). No allocation.
+    /// become `tau0` clamped to the effort limits and to `±`[`Actuator::COMMAND_MAX`], a NaN
+    /// zero (the clamp is not counted). No allocation.
     pub fn start(&mut self, tau0: &[f64]) {
         assert_eq!(tau0.len(), self.n(), "one torque per joint");
         for (((y, l), &t), &e) in self
@@ -242,7 +247,8 @@ impl Actuator {
             .zip(tau0)
             .zip(&self.effort)
         {
-            *l = t.clamp(-e, e);
+            let t = if t.is_nan() { 0.0 } else { t };
+            *l = t.clamp(-e, e).clamp(-Self::COMMAND_MAX, Self::COMMAND_MAX);
             *y = *l;
         }
         self.started = true;
@@ -263,8 +269,14 @@ impl Actuator {
     }
 
     /// One tick: the `commanded` torques (N m, one per joint) → the `applied` ones (filter,
-    /// then rate limit, then effort clamp; see the module doc). No allocation. A non-finite
-    /// command gives a non-finite torque (the loop stops on it) and is not counted.
+    /// then rate limit, then effort clamp; see the module doc). No allocation.
+    ///
+    /// Any command gives a finite torque within the limits, and the stage's state stays finite:
+    /// a NaN command holds the last applied torque (zero on the first tick), and a command beyond
+    /// `±`[`Actuator::COMMAND_MAX`] (`±∞` too) is taken as `±COMMAND_MAX` before the filter (an
+    /// infinite command would otherwise leave the filter state infinite, and the next finite
+    /// command would make it NaN). Neither is counted here (the controllers' `actuate` counts a
+    /// non-finite command as a clipped torque).
     pub fn apply(&mut self, commanded: &[f64], applied: &mut [f64]) {
         let n = self.n();
         assert!(
@@ -276,6 +288,11 @@ impl Actuator {
         let (mut rate_any, mut effort_any) = (false, false);
         for j in 0..n {
             let u = commanded[j];
+            let u = if u.is_nan() {
+                self.last[j]
+            } else {
+                u.clamp(-Self::COMMAND_MAX, Self::COMMAND_MAX)
+            };
             // 1. Filter (the first tick without a start passes the command through).
             let y = match self.alpha {
                 Some(a) if !first => self.y[j] + a * (u - self.y[j]),
@@ -310,10 +327,10 @@ impl Actuator {
 }
 
 /// The actuator stage of a tick, shared by the planar and spatial controllers: `tau` holds the
-/// commanded torques on entry (`cmd` receives them, a NaN replaced by zero) and the applied ones
-/// on exit (a non-finite one replaced by zero). Counts the ticks each limit acted on into
-/// `events`; returns whether a torque was clipped (the effort limit acted, or a NaN was
-/// replaced). No allocation.
+/// commanded torques on entry (`cmd` receives them, a non-finite one replaced by zero) and the
+/// applied ones on exit (a non-finite one replaced by zero). Counts the ticks each limit acted
+/// on into `events`; returns whether a torque was clipped (the effort limit acted, or a
+/// non-finite command was replaced). No allocation.
 pub(crate) fn actuate(
     act: &mut Actuator,
     tau: &mut [f64],
@@ -322,9 +339,10 @@ pub(crate) fn actuate(
 ) -> bool {
     let mut clipped = false;
     for (c, v) in cmd.iter_mut().zip(tau.iter()) {
-        // A NaN counts as clipped and becomes zero (as the symmetric clamp did).
-        clipped |= v.is_nan();
-        *c = if v.is_nan() { 0.0 } else { *v };
+        // A non-finite command counts as clipped and becomes zero (as the symmetric clamp did
+        // with a NaN).
+        clipped |= !v.is_finite();
+        *c = if v.is_finite() { *v } else { 0.0 };
     }
     let (rate0, effort0) = (act.counts().rate, act.counts().effort);
     act.apply(cmd, tau);
