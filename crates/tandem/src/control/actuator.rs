@@ -31,7 +31,11 @@
 //!
 //! **Counts.** Each limit counts the ticks on which it changed the torque of at least one joint
 //! (the value it received lay strictly outside its window), and per joint the ticks on which it
-//! changed that joint's torque. The filter acts on every tick and is not counted.
+//! changed that joint's torque. The filter acts on every tick and is not counted. The
+//! controllers report the per-joint counts through
+//! [`Drive::joint_limit_counts`](crate::drive::Drive::joint_limit_counts), and a run's
+//! [`Outcome::joint_limits`](crate::sim::Outcome::joint_limits) carries them (`summary.json`'s
+//! `joint_limits`).
 //!
 //! The law should adapt on what was applied, not on what it asked for (the NN update must not
 //! wind up against a saturated actuator): the applied torque is the `applied` output, the
