@@ -448,6 +448,31 @@ mod tests {
     }
 
     #[test]
+    fn actuate_zeroes_a_non_finite_command_and_counts_it_clipped() {
+        let p = ActuatorParams {
+            rate_limit: Some(1000.0),
+            ..Default::default()
+        };
+        let mut a = Actuator::new(&p, 3, 1e-3).unwrap();
+        let mut ev = crate::drive::ControlEvents::default();
+        let mut cmd = [0.0; 3];
+        let mut tau = [0.5, 0.2, -0.3];
+        assert!(!actuate(&mut a, &mut tau, &mut cmd, &mut ev));
+        assert_eq!(tau, [0.5, 0.2, -0.3]);
+        // ±∞ and NaN become zero commands (clipped), then the rate limit acts from the last
+        // torque: 1 N m per tick at most.
+        let mut tau = [f64::INFINITY, f64::NAN, f64::NEG_INFINITY];
+        assert!(actuate(&mut a, &mut tau, &mut cmd, &mut ev));
+        assert_eq!(cmd, [0.0; 3]);
+        assert_eq!(tau, [0.0; 3]);
+        let mut tau = [f64::INFINITY, 5.0, -5.0];
+        assert!(actuate(&mut a, &mut tau, &mut cmd, &mut ev));
+        assert_eq!(tau, [0.0, 1.0, -1.0]);
+        assert_eq!(ev.rate_limited, 1);
+        assert_eq!(a.counts().rate_per_joint, vec![0, 1, 1]);
+    }
+
+    #[test]
     fn off_passes_through() {
         let mut a = Actuator::new(&ActuatorParams::default(), 2, 1e-3).unwrap();
         let mut out = [0.0; 2];
