@@ -21,6 +21,28 @@ fn summary(dir: &std::path::Path, args: &[&str]) -> serde_json::Value {
     read_json(&dir.join(out).join("summary.json"))
 }
 
+/// `joint_limits` of a summary: per joint (`n`), the ticks each limit acted on, consistent with
+/// the tick counts of `events` (a tick counts there when the limit acted on any joint). Returns
+/// the per-joint (rate-limited, effort-clipped) counts.
+fn per_joint(s: &serde_json::Value, n: usize) -> (Vec<u64>, Vec<u64>) {
+    let list = |k: &str| -> Vec<u64> {
+        let a = s["joint_limits"][k].as_array().expect(k);
+        assert_eq!(a.len(), n, "{k}: {}", s["joint_limits"]);
+        a.iter().map(|c| c.as_u64().unwrap()).collect()
+    };
+    let (r, e) = (list("rate_limited"), list("effort_clipped"));
+    for (per, total) in [
+        (&r, s["events"]["rate_limited"].as_u64().unwrap()),
+        (&e, s["events"]["torque_clips"].as_u64().unwrap()),
+    ] {
+        // Each joint's count is at most the ticks the limit acted on, and together the joints
+        // account for every such tick.
+        assert!(per.iter().all(|c| *c <= total), "{per:?} vs {total}");
+        assert!(per.iter().sum::<u64>() >= total, "{per:?} vs {total}");
+    }
+    (r, e)
+}
+
 #[test]
 fn a_rate_limit_bounds_the_measured_torque_rate() {
     let dir = scratch("actuator_rate");
@@ -56,6 +78,11 @@ fn a_rate_limit_bounds_the_measured_torque_rate() {
         s["events"]
     );
     assert_eq!(s["events"]["filtered"], 0);
+    // Per joint: the rate limit acted on several joints; the paper form's saturated robust term
+    // also drives the first wrist joints (q4, q10) into their URDF effort of 28 N m.
+    let (r, e) = per_joint(&s, 12);
+    assert!(r.iter().filter(|c| **c > 0).count() >= 2, "{r:?}");
+    assert!(e[3] > 0 && e[9] > 0, "{e:?}");
     // Computed torque at 1000 N m/s meets the S5 claims (its start needs 353 N m/s).
     let s = summary(
         &dir,
@@ -116,6 +143,43 @@ fn a_filter_and_an_effort_limit_count_their_ticks() {
     assert_eq!(s["completed"], true);
     assert_eq!(s["events"]["filtered"], 2000, "{}", s["events"]);
     assert!(s["peak_joint_torque"].as_f64().unwrap() <= 8.0);
+    // Per joint: the effort limit clipped some joints; nothing was rate-limited.
+    let (r, e) = per_joint(&s, 4);
+    assert_eq!(r, vec![0; 4]);
+    assert!(e.iter().any(|c| *c > 0), "{e:?}");
+    // The terminal table shows the per-joint counts when a limit acted.
+    let o = tandem(
+        &dir,
+        &["run", &f, "--duration", "2", "--no-figures", "--out", "p2"],
+    );
+    assert!(
+        stdout(&o).contains("rate-limited / effort-clipped ticks by joint"),
+        "{}",
+        stdout(&o)
+    );
+    // A torque replay has no actuator stage: `null`, with the reason.
+    let o = tandem(
+        &dir,
+        &[
+            "run",
+            "paper",
+            "--replay",
+            "p/timeseries.csv",
+            "--duration",
+            "0.5",
+            "--no-figures",
+            "--out",
+            "r",
+        ],
+    );
+    assert!(code(&o) == 0 || code(&o) == 1, "{}", stderr(&o));
+    let s = read_json(&dir.join("r/summary.json"));
+    assert!(s["joint_limits"].is_null(), "{}", s["joint_limits"]);
+    assert!(
+        s["unavailable"]["joint_limits"].is_string(),
+        "{}",
+        s["unavailable"]
+    );
     // The written scenario keeps the table; a scenario without it writes none.
     let text = std::fs::read_to_string(dir.join("p/scenario.toml")).unwrap();
     assert!(text.contains("[controller.actuator]"), "{text}");
@@ -153,6 +217,37 @@ fn bad_actuator_values_name_the_field_and_line() {
             "controller.actuator.effort[10] = 0",
         ),
         ("paper", "rate = 5.0", "rate"),
+        // Issue 24, "Bad input": zero, negative and NaN limits, and a filter faster than a tick.
+        (
+            "paper",
+            "rate_limit = 0.0",
+            "controller.actuator.rate_limit = 0: must be finite and > 0",
+        ),
+        (
+            "paper",
+            "effort = [8.0, -8.0, 8.0, 8.0]",
+            "controller.actuator.effort[1] = -8: must be > 0",
+        ),
+        (
+            "paper",
+            "effort = [8.0, 8.0, nan, 8.0]",
+            "controller.actuator.effort[2] = NaN: must be > 0",
+        ),
+        (
+            "dual-franka",
+            "filter_time_constant = nan",
+            "controller.actuator.filter_time_constant = NaN: must be finite and > 0",
+        ),
+        (
+            "dual-franka",
+            "filter_time_constant = 0.0",
+            "controller.actuator.filter_time_constant = 0: must be finite and > 0",
+        ),
+        (
+            "dual-ur5",
+            "filter_time_constant = 0.0002",
+            "controller.actuator.filter_time_constant = 0.0002: must be at least the control period",
+        ),
     ] {
         let f = with_actuator(&dir, scenario, "bad.toml", table);
         let o = tandem(&dir, &["validate", &f]);
@@ -160,5 +255,73 @@ fn bad_actuator_values_name_the_field_and_line() {
         let e = stderr(&o);
         assert!(e.contains(want), "{table}: {e}");
         assert!(e.contains("(line "), "{table}: {e}");
+    }
+}
+
+/// Issue 24, "Bad input": an effort limit below the torque a joint needs to hold the start pose
+/// at rest is refused at validation, naming the limit's field, the arm and URDF joint, and both
+/// torques (dual-UR5: the shoulder-lift joints hold 34.254 N m of arm and box).
+#[test]
+fn an_effort_limit_that_cannot_hold_the_start_pose_names_the_joint_and_the_torques() {
+    let dir = scratch("actuator_hold");
+    let o = tandem(&dir, &["scenario", "show", "dual-ur5"]);
+    ok(&o);
+    let base = stdout(&o);
+    let check = |name: &str, text: String, want: &[&str]| {
+        std::fs::write(dir.join(name), text).unwrap();
+        let o = tandem(&dir, &["validate", name]);
+        exit(&o, 2);
+        let e = stderr(&o);
+        for w in want {
+            assert!(e.contains(w), "{name}: {w}: {e}");
+        }
+        assert!(e.contains("(line "), "{name}: {e}");
+    };
+    // [controller.actuator] effort: the element that is too low.
+    check(
+        "effort.toml",
+        format!(
+            "{base}\n[controller.actuator]\neffort = [150.0, 20.0, 150.0, 28.0, 28.0, 28.0, 150.0, \
+             150.0, 150.0, 28.0, 28.0, 28.0]\n"
+        ),
+        &[
+            "controller.actuator.effort[1] = 20:",
+            "arms[0] joint `shoulder_lift_joint` (joint 1) needs 34.254 N m to hold the start pose",
+            "more than its effort limit 20 N m",
+        ],
+    );
+    // controller.torque_limit.
+    check(
+        "limit.toml",
+        base.replacen("[controller]\n", "[controller]\ntorque_limit = 10.0\n", 1),
+        &[
+            "controller.torque_limit = 10:",
+            "needs 34.254 N m",
+            "its effort limit 10 N m",
+        ],
+    );
+    // A URDF's own `effort`: the arm's urdf field.
+    let urdf = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tandem/models/ur5.urdf"),
+    )
+    .unwrap()
+    .replace("effort=\"150\"", "effort=\"20\"");
+    std::fs::write(dir.join("weak_ur5.urdf"), urdf).unwrap();
+    check(
+        "urdf.toml",
+        base.replacen(
+            "\nmodel = \"ur5\"\n",
+            "\nurdf = \"weak_ur5.urdf\"\nbase_link = \"base_link\"\ntool_link = \"tool0\"\n",
+            1,
+        ),
+        &[
+            "arms[0].urdf: the URDF `effort` of joint `shoulder_lift_joint`",
+            "needs 34.254 N m",
+            "its effort limit 20 N m",
+        ],
+    );
+    // The limits the presets ship with hold their starts.
+    for s in ["dual-ur5", "dual-franka"] {
+        ok(&tandem(&dir, &["validate", s]));
     }
 }

@@ -118,6 +118,12 @@ pub trait Drive<P: ClosedChain> {
     fn events(&self) -> ControlEvents {
         ControlEvents::default()
     }
+    /// Per joint (all arms stacked in joint order), the ticks on which the actuator stage's
+    /// torque-rate limit and effort limit changed that joint's torque since start, as
+    /// `(rate_limited, effort_clipped)` (default: `None`, a driver without an actuator stage).
+    fn joint_limit_counts(&self) -> Option<(&[u64], &[u64])> {
+        None
+    }
     /// Output-bound margin `1 − max_j |x_1j|/k_cj` of the TRUE plant state `y` (`None`: the
     /// driver has no bounds). Called every tick (and once at set-up on the start state, to
     /// know whether the driver has bounds).
@@ -131,6 +137,18 @@ pub trait Drive<P: ClosedChain> {
     fn record_truth(&self, plant: &P, y: &[f64], rec: &mut Self::Record) {
         let _ = (plant, y, rec);
     }
+}
+
+/// Per joint, all arms stacked in joint order, the ticks on which the actuator stage's limits
+/// changed that joint's torque (issue 24): [`Drive::joint_limit_counts`] copied out once at the
+/// end of a run (the stage counts into buffers sized when it is built; the tick allocates
+/// nothing).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct JointLimitCounts {
+    /// Ticks on which the torque-rate limit changed the joint's torque.
+    pub rate_limited: Vec<u64>,
+    /// Ticks on which the effort limit clipped the joint's torque.
+    pub effort_clipped: Vec<u64>,
 }
 
 /// Counters of events since the start (SPEC §3.3: a barrier hit is recorded and counted).

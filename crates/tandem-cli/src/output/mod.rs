@@ -8,6 +8,12 @@ pub mod table;
 use serde_json::{Value, json};
 use tandem::report::TorqueRate;
 
+/// The table row of [`joint_limits_row`].
+pub const JOINT_LIMITS_ROW: &str = "rate-limited / effort-clipped ticks by joint";
+
+/// Why `joint_limits` is `null` in `summary.json`: the run had no actuator stage.
+pub const NO_ACTUATOR: &str = "no actuator stage: the torques came from a replay or a user's law, not through tandem's limits";
+
 /// The `torque_rate` block of `summary.json`, the same for planar and spatial runs (issue 24):
 /// the applied joint torques of **every control tick** (not the logged rows), per joint the peak
 /// `|Δτ|/Δt` (N m/s) and its time, and the chattering count: ticks whose torque step reverses the
@@ -40,6 +46,46 @@ pub fn torque_rate_json(tr: &TorqueRate) -> Value {
                 })
             })
             .collect::<Vec<_>>(),
+    })
+}
+
+/// The table cell of a `joint_limits` block of `summary.json` (issue 24): per joint the ticks
+/// the actuator stage's rate limit and effort limit acted on, joints with none left out:
+/// `"q2 36, q8 30 / none"` (rate-limited / effort-clipped); `—` without the stage.
+pub fn joint_limits_row(v: &Value) -> String {
+    let list = |key: &str| {
+        let v: Vec<String> = v[key]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .enumerate()
+                    .filter_map(|(j, c)| {
+                        c.as_u64()
+                            .filter(|c| *c > 0)
+                            .map(|c| format!("q{} {c}", j + 1))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        if v.is_empty() {
+            "none".to_string()
+        } else {
+            v.join(", ")
+        }
+    };
+    if v.is_null() {
+        return "—".into();
+    }
+    format!("{} / {}", list("rate_limited"), list("effort_clipped"))
+}
+
+/// Whether the actuator stage's limits acted on any joint of a run (`joint_limits` of
+/// `summary.json`): the tables show [`joint_limits_row`] only then.
+pub fn joint_limits_acted(v: &Value) -> bool {
+    ["rate_limited", "effort_clipped"].iter().any(|k| {
+        v[*k]
+            .as_array()
+            .is_some_and(|a| a.iter().any(|c| c.as_u64().unwrap_or(0) > 0))
     })
 }
 

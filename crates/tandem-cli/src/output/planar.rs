@@ -67,7 +67,12 @@ pub fn summary_json(f: &Finished, scenario: &str, output_time: Option<f64>) -> V
         "torque_rate".into(),
         super::torque_rate_json(&f.summary.torque_rate),
     );
+    // Per joint, the ticks each limit of the actuator stage acted on.
+    head.insert("joint_limits".into(), json!(f.outcome.joint_limits));
     let mut reasons = serde_json::Map::new();
+    if f.outcome.joint_limits.is_none() {
+        reasons.insert("joint_limits".into(), json!(super::NO_ACTUATOR));
+    }
     for (k, why) in gaps {
         reasons.insert(k.into(), json!(why));
     }

@@ -137,6 +137,15 @@ pub fn rows(runs: &[(&str, &Summary)]) -> Vec<(String, Vec<String>)> {
         row(&peak, &|s| tr(s)[0].1.clone());
         row(&chatter, &|s| tr(s)[1].1.clone());
     }
+    let jl = |s: &Summary| serde_json::json!(s.joint_limits);
+    if runs
+        .iter()
+        .any(|(_, s)| crate::output::joint_limits_acted(&jl(s)))
+    {
+        row(crate::output::JOINT_LIMITS_ROW, &|s| {
+            crate::output::joint_limits_row(&jl(s))
+        });
+    }
     row("grasp force range", &|s| {
         format!(
             "{} … {} N",

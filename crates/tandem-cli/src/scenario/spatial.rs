@@ -1515,7 +1515,9 @@ fn make(
                 w.iter()
                     .map(|w| control_warning(src, w, |p| file_path(sc, &dofs, p))),
             );
+            let effort = c.actuator().effort().to_vec();
             let sim = simulation(plant, b, c).map_err(start_error)?;
+            start_hold_check(sc, b, src, sim.plant(), sim.state(), &effort)?;
             (SpatialSim::Control(sim), Some(cp))
         }
         (Some(file), None) => {
@@ -1536,6 +1538,61 @@ fn make(
         k_c,
         chart,
     })
+}
+
+/// Bad input (issue 24): an effort limit below the torque a joint needs to hold the start pose
+/// at rest ([`SpatialPlant::holding_torques`]: the arm's gravity and its equal share of the
+/// object's weight, no internal wrench) is refused, naming the limit's field
+/// (`controller.actuator.effort[k]`, `controller.torque_limit`, or the arm's URDF `effort`
+/// through `arms[i].model` / `arms[i].urdf`), the joint (arm and URDF name) and both torques.
+/// `effort` is the actuator stage's, one per joint (`+∞` where there is none).
+fn start_hold_check(
+    sc: &SpatialScenario,
+    b: &SpatialBuilt,
+    src: &Source,
+    plant: &SpatialPlant,
+    y: &[f64],
+    effort: &[f64],
+) -> Result<(), ScenarioError> {
+    let mut tau = vec![0.0; plant.n_q()];
+    let mut ws = plant.workspace();
+    plant.holding_torques(y, &mut ws, &mut tau);
+    let mut k = 0;
+    for (i, arm) in b.plant.arms.iter().enumerate() {
+        for joint in &arm.chain.joints {
+            let (t, e) = (tau[k], effort[k]);
+            if t.is_finite() && t.abs() > e {
+                let field = if sc.controller.actuator.effort.is_some() {
+                    format!("controller.actuator.effort[{k}]")
+                } else if sc.controller.torque_limit.is_some() {
+                    "controller.torque_limit".to_string()
+                } else if sc.arms[i].urdf.is_some() {
+                    format!("arms[{i}].urdf")
+                } else {
+                    format!("arms[{i}].model")
+                };
+                let whose = if field.starts_with("arms[") {
+                    format!("{field}: the URDF `effort` of joint `{}`", joint.name)
+                } else {
+                    format!("{field} = {}", num(e))
+                };
+                return Err(src.error_at(
+                    &field,
+                    format!(
+                        "{whose}: arms[{i}] joint `{}` (joint {k}) needs {} N m to hold the start \
+                         pose at rest (its arm's gravity and its share of the object's weight), \
+                         more than its effort limit {} N m; raise the limit, or start where the \
+                         arms can hold the object",
+                        joint.name,
+                        num_short(t.abs()),
+                        num_short(e)
+                    ),
+                ));
+            }
+            k += 1;
+        }
+    }
+    Ok(())
 }
 
 impl SpatialScenario {

@@ -31,7 +31,11 @@
 //!
 //! **Counts.** Each limit counts the ticks on which it changed the torque of at least one joint
 //! (the value it received lay strictly outside its window), and per joint the ticks on which it
-//! changed that joint's torque. The filter acts on every tick and is not counted.
+//! changed that joint's torque. The filter acts on every tick and is not counted. The
+//! controllers report the per-joint counts through
+//! [`Drive::joint_limit_counts`](crate::drive::Drive::joint_limit_counts), and a run's
+//! [`Outcome::joint_limits`](crate::sim::Outcome::joint_limits) carries them (`summary.json`'s
+//! `joint_limits`).
 //!
 //! The law should adapt on what was applied, not on what it asked for (the NN update must not
 //! wind up against a saturated actuator): the applied torque is the `applied` output, the
@@ -185,6 +189,10 @@ pub struct Actuator {
 }
 
 impl Actuator {
+    /// The largest command magnitude the stage takes, N m (`1e300`; larger ones, `±∞` among
+    /// them, are taken as `±1e300`): the filter's `u − y` then never overflows.
+    pub const COMMAND_MAX: f64 = 1e300;
+
     /// The stage for `n` joints at control period `h` (s); errors name the field (see
     /// [`ActuatorParams::validate`]).
     pub fn new(p: &ActuatorParams, n: usize, h: f64) -> Result<Self, ModelError> {
@@ -222,13 +230,18 @@ impl Actuator {
     pub fn last(&self) -> &[f64] {
         &self.last
     }
+    /// The effort limits `E_j` in force, N m, one per joint (`+∞` where there is none).
+    pub fn effort(&self) -> &[f64] {
+        &self.effort
+    }
     /// The ticks on which each limit acted.
     pub fn counts(&self) -> &ActuatorCounts {
         &self.counts
     }
 
     /// Start from a known torque `tau0` (N m): the filter state and the last applied torque
-    /// become `tau0` clamped to the effort limits (the clamp is not counted). No allocation.
+    /// become `tau0` clamped to the effort limits and to `±`[`Actuator::COMMAND_MAX`], a NaN
+    /// zero (the clamp is not counted). No allocation.
     pub fn start(&mut self, tau0: &[f64]) {
         assert_eq!(tau0.len(), self.n(), "one torque per joint");
         for (((y, l), &t), &e) in self
@@ -238,7 +251,8 @@ impl Actuator {
             .zip(tau0)
             .zip(&self.effort)
         {
-            *l = t.clamp(-e, e);
+            let t = if t.is_nan() { 0.0 } else { t };
+            *l = t.clamp(-e, e).clamp(-Self::COMMAND_MAX, Self::COMMAND_MAX);
             *y = *l;
         }
         self.started = true;
@@ -259,8 +273,14 @@ impl Actuator {
     }
 
     /// One tick: the `commanded` torques (N m, one per joint) → the `applied` ones (filter,
-    /// then rate limit, then effort clamp; see the module doc). No allocation. A non-finite
-    /// command gives a non-finite torque (the loop stops on it) and is not counted.
+    /// then rate limit, then effort clamp; see the module doc). No allocation.
+    ///
+    /// Any command gives a finite torque within the limits, and the stage's state stays finite:
+    /// a NaN command holds the last applied torque (zero on the first tick), and a command beyond
+    /// `±`[`Actuator::COMMAND_MAX`] (`±∞` too) is taken as `±COMMAND_MAX` before the filter (an
+    /// infinite command would otherwise leave the filter state infinite, and the next finite
+    /// command would make it NaN). Neither is counted here (the controllers' `actuate` counts a
+    /// non-finite command as a clipped torque).
     pub fn apply(&mut self, commanded: &[f64], applied: &mut [f64]) {
         let n = self.n();
         assert!(
@@ -272,6 +292,11 @@ impl Actuator {
         let (mut rate_any, mut effort_any) = (false, false);
         for j in 0..n {
             let u = commanded[j];
+            let u = if u.is_nan() {
+                self.last[j]
+            } else {
+                u.clamp(-Self::COMMAND_MAX, Self::COMMAND_MAX)
+            };
             // 1. Filter (the first tick without a start passes the command through).
             let y = match self.alpha {
                 Some(a) if !first => self.y[j] + a * (u - self.y[j]),
@@ -306,10 +331,10 @@ impl Actuator {
 }
 
 /// The actuator stage of a tick, shared by the planar and spatial controllers: `tau` holds the
-/// commanded torques on entry (`cmd` receives them, a NaN replaced by zero) and the applied ones
-/// on exit (a non-finite one replaced by zero). Counts the ticks each limit acted on into
-/// `events`; returns whether a torque was clipped (the effort limit acted, or a NaN was
-/// replaced). No allocation.
+/// commanded torques on entry (`cmd` receives them, a non-finite one replaced by zero) and the
+/// applied ones on exit (a non-finite one replaced by zero). Counts the ticks each limit acted
+/// on into `events`; returns whether a torque was clipped (the effort limit acted, or a
+/// non-finite command was replaced). No allocation.
 pub(crate) fn actuate(
     act: &mut Actuator,
     tau: &mut [f64],
@@ -318,9 +343,10 @@ pub(crate) fn actuate(
 ) -> bool {
     let mut clipped = false;
     for (c, v) in cmd.iter_mut().zip(tau.iter()) {
-        // A NaN counts as clipped and becomes zero (as the symmetric clamp did).
-        clipped |= v.is_nan();
-        *c = if v.is_nan() { 0.0 } else { *v };
+        // A non-finite command counts as clipped and becomes zero (as the symmetric clamp did
+        // with a NaN).
+        clipped |= !v.is_finite();
+        *c = if v.is_finite() { *v } else { 0.0 };
     }
     let (rate0, effort0) = (act.counts().rate, act.counts().effort);
     act.apply(cmd, tau);
@@ -419,6 +445,31 @@ mod tests {
             1e-3,
         )
         .unwrap();
+    }
+
+    #[test]
+    fn actuate_zeroes_a_non_finite_command_and_counts_it_clipped() {
+        let p = ActuatorParams {
+            rate_limit: Some(1000.0),
+            ..Default::default()
+        };
+        let mut a = Actuator::new(&p, 3, 1e-3).unwrap();
+        let mut ev = crate::drive::ControlEvents::default();
+        let mut cmd = [0.0; 3];
+        let mut tau = [0.5, 0.2, -0.3];
+        assert!(!actuate(&mut a, &mut tau, &mut cmd, &mut ev));
+        assert_eq!(tau, [0.5, 0.2, -0.3]);
+        // ±∞ and NaN become zero commands (clipped), then the rate limit acts from the last
+        // torque: 1 N m per tick at most.
+        let mut tau = [f64::INFINITY, f64::NAN, f64::NEG_INFINITY];
+        assert!(actuate(&mut a, &mut tau, &mut cmd, &mut ev));
+        assert_eq!(cmd, [0.0; 3]);
+        assert_eq!(tau, [0.0; 3]);
+        let mut tau = [f64::INFINITY, 5.0, -5.0];
+        assert!(actuate(&mut a, &mut tau, &mut cmd, &mut ev));
+        assert_eq!(tau, [0.0, 1.0, -1.0]);
+        assert_eq!(ev.rate_limited, 1);
+        assert_eq!(a.counts().rate_per_joint, vec![0, 1, 1]);
     }
 
     #[test]

@@ -1106,6 +1106,10 @@ impl Drive<Plant> for Controller {
     fn events(&self) -> ControlEvents {
         Controller::events(self)
     }
+    fn joint_limit_counts(&self) -> Option<(&[u64], &[u64])> {
+        let c = self.actuator.counts();
+        Some((&c.rate_per_joint, &c.effort_per_joint))
+    }
     fn truth_margin(&self, plant: &Plant, y: &[f64]) -> Option<f64> {
         Some(planar_margin(plant, y, &self.k_c()))
     }

@@ -98,6 +98,10 @@ pub struct Summary {
     /// adds its keys.
     #[serde(skip)]
     pub torque_rate: TorqueRate,
+    /// Per joint, the ticks the actuator stage's limits acted on ([`Outcome::joint_limits`];
+    /// `None` without the stage). Not serialized here: the CLI writes it as `joint_limits`.
+    #[serde(skip)]
+    pub joint_limits: Option<crate::drive::JointLimitCounts>,
 }
 
 fn col<'a>(log: &'a Log, name: &str) -> &'a [f64] {
@@ -309,5 +313,6 @@ fn summarize_inner(
             f64::INFINITY
         },
         torque_rate: out.torque_rate.clone(),
+        joint_limits: out.joint_limits.clone(),
     }
 }

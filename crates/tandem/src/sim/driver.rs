@@ -57,6 +57,12 @@ impl Drive<Plant> for Driver {
             Driver::Replay(_) | Driver::External(_) => ControlEvents::default(),
         }
     }
+    fn joint_limit_counts(&self) -> Option<(&[u64], &[u64])> {
+        match self {
+            Driver::Controller(c) => <Controller as Drive<Plant>>::joint_limit_counts(c),
+            Driver::Replay(_) | Driver::External(_) => None,
+        }
+    }
     fn truth_margin(&self, plant: &Plant, y: &[f64]) -> Option<f64> {
         match self {
             Driver::Controller(c) => Some(planar_margin(plant, y, &c.k_c())),

@@ -67,7 +67,7 @@ impl<P: ClosedChain> Drive<P> for External {
 }
 
 /// Joint torques set by the caller between ticks and held over each (a plant stepped from
-/// outside, [`Simulation::step_held`](crate::sim::Simulation::step_held)).
+/// outside, [`Stepped`](crate::sim::Stepped)).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Held {
     /// The torques the next tick applies, N m (`n_q`).

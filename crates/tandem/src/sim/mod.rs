@@ -39,7 +39,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::drive::ControlEvents;
+use crate::drive::{ControlEvents, JointLimitCounts};
 use crate::drive::{Drive, Measurements, Record};
 use crate::error::{ModelError, positive};
 use crate::model::disturbance::Disturbance;
@@ -216,6 +216,10 @@ pub struct Outcome {
     /// Torque rate and chattering of the applied joint torques, from every control tick (not
     /// only logged rows); see [`torque_rate`].
     pub torque_rate: TorqueRate,
+    /// Per joint, the ticks on which the actuator stage's rate and effort limits acted
+    /// ([`Drive::joint_limit_counts`]); `None` for a driver without the stage (a replay, a
+    /// user's law).
+    pub joint_limits: Option<JointLimitCounts>,
 }
 
 /// Lengths of the log row's segments (see [`log::layout`]).
@@ -921,6 +925,13 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             min_margin: self.has_bounds.then_some(self.min_margin),
             violation_ticks: self.violation_ticks,
             torque_rate: self.torque_rate.take(),
+            joint_limits: self
+                .driver
+                .joint_limit_counts()
+                .map(|(r, e)| JointLimitCounts {
+                    rate_limited: r.to_vec(),
+                    effort_clipped: e.to_vec(),
+                }),
         };
         (out, self)
     }

@@ -91,6 +91,11 @@ pub fn summary_json(
             "degenerate": o.events.degenerate,
         }),
     );
+    // Per joint (all arms in joint order), the ticks each limit of the actuator stage acted on.
+    match &o.joint_limits {
+        Some(c) => s.put("joint_limits", json!(c)),
+        None => s.null("joint_limits", crate::output::NO_ACTUATOR),
+    }
     s.put("violation_ticks", json!(r.violations));
     s.put(
         "torque_rate",

@@ -169,6 +169,14 @@ pub fn rows(runs: &[(&str, &Value)]) -> Vec<(String, Vec<String>)> {
         row(&peak, &|s| tr(s)[0].1.clone());
         row(&chatter, &|s| tr(s)[1].1.clone());
     }
+    if runs
+        .iter()
+        .any(|(_, s)| crate::output::joint_limits_acted(&s["joint_limits"]))
+    {
+        row(crate::output::JOINT_LIMITS_ROW, &|s| {
+            crate::output::joint_limits_row(&s["joint_limits"])
+        });
+    }
     row("barrier hits / torque clips (ticks)", &|s| {
         format!(
             "{} / {}",

@@ -1003,6 +1003,10 @@ impl Drive<SpatialPlant> for SpatialController {
     fn events(&self) -> ControlEvents {
         self.events
     }
+    fn joint_limit_counts(&self) -> Option<(&[u64], &[u64])> {
+        let c = self.actuator.counts();
+        Some((&c.rate_per_joint, &c.effort_per_joint))
+    }
     fn truth_margin(&self, plant: &SpatialPlant, y: &[f64]) -> Option<f64> {
         let (_, o, _) = plant.split(y);
         let x = self.chart.coords(&o.p, &o.q);
