@@ -95,7 +95,7 @@ fn an_object_no_arm_can_carry_is_refused_by_its_field_and_line() {
         ("1e308", true),
         ("1e300", true),
         ("5e7", true),
-        ("1e4", false),
+        ("20", false),
     ] {
         fs::write(
             d.join("m.toml"),
@@ -117,6 +117,17 @@ fn an_object_no_arm_can_carry_is_refused_by_its_field_and_line() {
             assert!(e.lines().all(|l| l.len() < 600), "{e}");
         }
     }
+    // A box the arms' joints cannot hold at rest (issue 24): refused at validation, naming the
+    // limit's source, the joint and both torques.
+    fs::write(d.join("m.toml"), text.replacen(&line, "mass = 1e4", 1)).unwrap();
+    let o = tandem(&d, &["validate", "m.toml"]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(
+        e.contains("arms[0] joint `shoulder_lift_joint` (joint 1) needs 28288.567 N m to hold the start pose")
+            && e.contains("more than its effort limit 150 N m"),
+        "{e}"
+    );
     let _ = fs::remove_dir_all(&d);
 }
 
