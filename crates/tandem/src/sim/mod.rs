@@ -272,6 +272,9 @@ pub struct Simulation<P: ClosedChain = Plant, D: Drive<P> = Driver> {
     torque_rate: TorqueRateMonitor,
     /// Whether ticks write log rows (off for a plant stepped from outside, which has no end).
     logging: bool,
+    /// The per-joint limit counts' buffers, sized at set-up, filled and moved out at the end
+    /// of [`run`](Simulation::run) (so that the run allocates nothing after its set-up).
+    joint_limits: Option<JointLimitCounts>,
 }
 
 impl<D: Drive<Plant>> Simulation<Plant, D> {
@@ -575,7 +578,15 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             faults: None,
             torque_rate,
             logging: true,
+            joint_limits: None,
         };
+        sim.joint_limits = sim
+            .driver
+            .joint_limit_counts()
+            .map(|(r, e)| JointLimitCounts {
+                rate_limited: vec![0; r.len()],
+                effort_clipped: vec![0; e.len()],
+            });
         // Initial wrenches with zero torque held (the object hanging in the arms' grasp).
         let _ = sim.eval_wrenches();
         if let Some(i) = (0..n_arms).find(|&i| {
@@ -883,6 +894,20 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
         ((d, r), Ok(()))
     }
 
+    /// The driver's per-joint limit counts, copied into the buffers sized at set-up and moved
+    /// out (no allocation; `None` when the driver has no actuator stage or the counts changed
+    /// length, which a driver does not do).
+    fn take_joint_limits(&mut self) -> Option<JointLimitCounts> {
+        let (r, e) = self.driver.joint_limit_counts()?;
+        let mut out = self.joint_limits.take()?;
+        if out.rate_limited.len() != r.len() || out.effort_clipped.len() != e.len() {
+            return None;
+        }
+        out.rate_limited.copy_from_slice(r);
+        out.effort_clipped.copy_from_slice(e);
+        Some(out)
+    }
+
     /// Run to the end (or the first fault). `progress(fraction)` is called about 200 times.
     pub fn run(mut self, mut progress: impl FnMut(f64)) -> (Outcome, Self) {
         let start = Instant::now();
@@ -925,13 +950,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             min_margin: self.has_bounds.then_some(self.min_margin),
             violation_ticks: self.violation_ticks,
             torque_rate: self.torque_rate.take(),
-            joint_limits: self
-                .driver
-                .joint_limit_counts()
-                .map(|(r, e)| JointLimitCounts {
-                    rate_limited: r.to_vec(),
-                    effort_clipped: e.to_vec(),
-                }),
+            joint_limits: self.take_joint_limits(),
         };
         (out, self)
     }
