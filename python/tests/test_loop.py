@@ -208,8 +208,10 @@ def test_plant_bad_input_changes_nothing_and_faults_are_reported(ur5):
         assert p.time == 0.0 and np.array_equal(p.state["q"], before)
     p.step(np.zeros(12), dt=0.002)
     assert abs(p.time - 0.002) < 1e-15
-    # A torque that tears the chain apart: PlantFault with the time; then the plant refuses.
-    with pytest.raises(tandem.PlantFault, match="grasp constraint drift") as e:
+    # A torque that tears the chain apart: PlantFault with the time (the state diverges before
+    # the drift check every 10 periods sees it); the state shown is the last good one, finite;
+    # then the plant refuses.
+    with pytest.raises(tandem.PlantFault, match="non-finite|grasp constraint drift") as e:
         p.step(np.full(12, 1e6), dt=0.5)
     assert 0.002 < e.value.t < 0.5
     assert np.isfinite(p.state["q"]).all()

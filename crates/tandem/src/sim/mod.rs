@@ -341,8 +341,8 @@ impl<P: ClosedChain> Stepped<P> {
         self.fault.as_ref()
     }
     /// Apply `tau` (`n_q`, N m, finite: the caller checks) for `periods` control periods. `Err`
-    /// with the fault (its time and last good state) when the plant fails; it then stays
-    /// failed.
+    /// with the fault (its time and last good state) when the plant fails; the state is then
+    /// the fault's last good one, and the plant stays failed.
     pub fn step(&mut self, tau: &[f64], periods: usize) -> Result<(), Fault> {
         if let Some(f) = &self.fault {
             return Err(f.clone());
@@ -364,6 +364,8 @@ impl<P: ClosedChain> Stepped<P> {
                 })
                 .and_then(|()| self.sim.sense(k1));
             if let Err(f) = r {
+                // Back to the last good state (the fault's): never a non-finite state shown.
+                self.sim.y.copy_from_slice(&self.sim.y_prev);
                 self.fault = Some(f.clone());
                 return Err(f);
             }
