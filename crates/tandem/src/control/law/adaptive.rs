@@ -291,6 +291,43 @@ fn grid(i: usize, m: usize, k: f64) -> f64 {
     k * (2.0 * i as f64 / (m - 1) as f64 - 1.0)
 }
 
+/// Call `f(x, object-space terms, ws)` on every pose of the constraint box's 13 × 13 × 5 grid
+/// that the reduced model (14) evaluates and where every arm's `σ_min ≥ 0.05 m/rad` (kinematics
+/// left in `ws`): the poses [`FuBound::from_model`] and [`FuBound::lightest_inertia`] use.
+fn usable_poses(
+    model: &Plant,
+    k_c: Vector3<f64>,
+    ws: &mut crate::plant::planar::PlantWorkspace,
+    mut f: impl FnMut(
+        &Vector3<f64>,
+        &crate::plant::planar::reduced::ObjectSpace,
+        &mut crate::plant::planar::PlantWorkspace,
+    ),
+) {
+    let (n, nt) = (13, 5);
+    for ix in 0..n {
+        for iy in 0..n {
+            for it in 0..nt {
+                let x = Vector3::new(grid(ix, n, k_c.x), grid(iy, n, k_c.y), grid(it, nt, k_c.z));
+                let Ok(os) = model.object_space(&x, &Vector3::zeros(), ws) else {
+                    continue;
+                };
+                // Conditioning of every arm at this pose (kinematics left in ws).
+                let sig = model
+                    .arms()
+                    .iter()
+                    .enumerate()
+                    .map(|(i, arm)| arm.min_singular_value(&ws.terms[i]))
+                    .fold(f64::INFINITY, f64::min);
+                if sig < 0.05 {
+                    continue;
+                }
+                f(&x, &os, ws);
+            }
+        }
+    }
+}
+
 impl FuBound {
     fn finish(mut self, safety: f64, dist: &[f64]) -> Result<Self, ModelError> {
         if self.poses == 0 {
@@ -330,47 +367,23 @@ impl FuBound {
         for j in 0..3 {
             fu.d[j] = co.row(j).norm();
         }
-        let (n, nt) = (13, 5);
-        for ix in 0..n {
-            for iy in 0..n {
-                for it in 0..nt {
-                    let x =
-                        Vector3::new(grid(ix, n, k_c.x), grid(iy, n, k_c.y), grid(it, nt, k_c.z));
-                    let Ok(os) = model.object_space(&x, &Vector3::zeros(), &mut ws) else {
-                        continue;
-                    };
-                    // Conditioning of every arm at this pose (kinematics left in ws).
-                    let sig = model
-                        .arms()
-                        .iter()
-                        .enumerate()
-                        .map(|(i, arm)| arm.min_singular_value(&ws.terms[i]))
-                        .fold(f64::INFINITY, f64::min);
-                    if sig < 0.05 {
-                        continue;
-                    }
-                    let mut ck = [nalgebra::Matrix3::zeros(); 3];
-                    let mut ok = true;
-                    for (k, ckk) in ck.iter_mut().enumerate() {
-                        let mut e = Vector3::zeros();
-                        e[k] = 1.0;
-                        match model.object_space(&x, &e, &mut ws) {
-                            Ok(o) => *ckk = o.C - co,
-                            Err(_) => ok = false,
-                        }
-                    }
-                    if !ok {
-                        continue;
-                    }
-                    fu.poses += 1;
-                    for j in 0..3 {
-                        fu.a[j] = fu.a[j].max(os.G[j].abs());
-                        fu.c[j] = fu.c[j].max(os.M.row(j).norm());
-                        fu.b[j] = fu.b[j].max(ck.iter().map(|m| m.row(j).norm()).sum());
-                    }
+        usable_poses(model, k_c, &mut ws, |x, os, ws| {
+            let mut ck = [nalgebra::Matrix3::zeros(); 3];
+            for (k, ckk) in ck.iter_mut().enumerate() {
+                let mut e = Vector3::zeros();
+                e[k] = 1.0;
+                match model.object_space(x, &e, ws) {
+                    Ok(o) => *ckk = o.C - co,
+                    Err(_) => return,
                 }
             }
-        }
+            fu.poses += 1;
+            for j in 0..3 {
+                fu.a[j] = fu.a[j].max(os.G[j].abs());
+                fu.c[j] = fu.c[j].max(os.M.row(j).norm());
+                fu.b[j] = fu.b[j].max(ck.iter().map(|m| m.row(j).norm()).sum());
+            }
+        });
         fu.finish(safety, &dist)
     }
 
@@ -436,34 +449,15 @@ impl FuBound {
     pub fn lightest_inertia(model: &Plant, k_c: Vector3<f64>) -> [f64; 3] {
         let mut ws = model.workspace();
         let mut light = [f64::INFINITY; 3];
-        let (n, nt) = (13, 5);
-        for ix in 0..n {
-            for iy in 0..n {
-                for it in 0..nt {
-                    let x =
-                        Vector3::new(grid(ix, n, k_c.x), grid(iy, n, k_c.y), grid(it, nt, k_c.z));
-                    let Ok(os) = model.object_space(&x, &Vector3::zeros(), &mut ws) else {
-                        continue;
-                    };
-                    let sig = model
-                        .arms()
-                        .iter()
-                        .enumerate()
-                        .map(|(i, arm)| arm.min_singular_value(&ws.terms[i]))
-                        .fold(f64::INFINITY, f64::min);
-                    if sig < 0.05 {
-                        continue;
-                    }
-                    if let Some(inv) = os.M.try_inverse() {
-                        for (j, l) in light.iter_mut().enumerate() {
-                            if inv[(j, j)] > 0.0 {
-                                *l = l.min(1.0 / inv[(j, j)]);
-                            }
-                        }
+        usable_poses(model, k_c, &mut ws, |_, os, _| {
+            if let Some(inv) = os.M.try_inverse() {
+                for (j, l) in light.iter_mut().enumerate() {
+                    if inv[(j, j)] > 0.0 {
+                        *l = l.min(1.0 / inv[(j, j)]);
                     }
                 }
             }
-        }
+        });
         light
     }
 
