@@ -863,7 +863,7 @@ impl PyScenario {
                 py.detach(move || k.execute_external(Box::new(law)))
             }
             Some(c) => {
-                let (law, raised) = PyLaw::new(py, &c, p.wrench_dim())?;
+                let (law, raised) = PyLaw::new(&c, p.wrench_dim())?;
                 let fin = py.detach(move || k.execute_external(Box::new(law)));
                 let e = raised.lock().ok().and_then(|mut r| r.take());
                 if let Some(e) = e {
@@ -1431,7 +1431,7 @@ struct PyLaw {
 impl PyLaw {
     /// The law of `obj` (a callable, or an object with a callable `tick`), or TypeError naming
     /// the argument.
-    fn new(py: Python<'_>, obj: &Bound<'_, PyAny>, w: usize) -> PyResult<(Self, Raised)> {
+    fn new(obj: &Bound<'_, PyAny>, w: usize) -> PyResult<(Self, Raised)> {
         let (tick, start) = match obj.getattr_opt("tick")? {
             Some(t) if t.is_callable() => {
                 let start = obj.getattr_opt("start")?.filter(|s| s.is_callable());
@@ -1447,7 +1447,6 @@ impl PyLaw {
             }
         };
         let raised: Raised = Arc::default();
-        let _ = py;
         Ok((
             PyLaw {
                 tick,
