@@ -89,6 +89,7 @@ fn a_users_drive_gets_the_summary_figures_and_viewer() {
         k_c: [0.167, 0.167, 0.1, 0.29, 0.29, 0.29],
         chart: Chart::new(p0, r0),
         warnings: Vec::new(),
+        contacts: None,
     };
     let dir = scratch("custom_drive");
     let (summary, _, problems) = write(&dir, "hold", &f, true).unwrap();

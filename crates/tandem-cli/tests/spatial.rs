@@ -228,6 +228,7 @@ fn finished(franka: bool, law: Law<6>, duration: f64) -> Finished {
         k_c: [k[0], k[1], k[2], k[3], k[4], k[5]],
         chart: *sim.driver().chart(),
         warnings: vec![],
+        contacts: None,
     }
 }
 

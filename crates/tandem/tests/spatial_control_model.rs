@@ -132,6 +132,7 @@ fn model_matches_the_closed_chain_plant() {
                 let mut input = SpatialInput {
                     tau: vec![0.0; n_q],
                     f_d: rand_v6(&mut rng, 2.0, 0.5),
+                    grip: Vec::new(),
                 };
                 for i in 0..m {
                     let n = model.arms()[i].chain.dof();
@@ -212,6 +213,7 @@ fn gravity_split_holds_the_chain_at_rest() {
             let mut input = SpatialInput {
                 tau: vec![0.0; n_q],
                 f_d,
+                grip: Vec::new(),
             };
             for i in 0..m {
                 let (s0, n) = (model.offset(i), model.arms()[i].chain.dof());

@@ -114,6 +114,22 @@ pub fn write(s: &Setup) -> String {
             "damping": damping.as_slice(),
             "axes": "the grasp frame's",
         }),
+        GraspModel::Contact(c) => json!({
+            "model": "contact",
+            "mu": c.mu,
+            "torsion": c.torsion,
+            "normal_stiffness": c.normal_stiffness,
+            "normal_damping": c.normal_damping,
+            "tangential_stiffness": c.tangential_stiffness,
+            "tangential_damping": c.tangential_damping,
+            "grip": c.grip,
+            "pads": c.pads.iter().map(|list| list.iter().map(|p| json!({
+                "position": p.position.as_slice(),
+                "normal": p.normal.as_slice(),
+                "radius": p.radius,
+            })).collect::<Vec<_>>()).collect::<Vec<_>>(),
+            "axes": "the tool frame's",
+        }),
     };
     let sc = &s.scenario;
     let mut q_start: Vec<f64> = Vec::new();

@@ -132,6 +132,14 @@ fn check(s: &Setup) -> Result<(), String> {
                 .into(),
         );
     }
+    if let GraspModel::Contact(_) = s.grasp_model {
+        return Err(
+            "mjcf export: plant.contact_grasps: the pads' compliant contact and friction anchors \
+             are tandem's model, not MuJoCo's soft contacts; export the welded set-up or use \
+             --format json, which gives the pads"
+                .into(),
+        );
+    }
     let d = &s.object.damping;
     if d.iter().any(|v| *v != d[0]) {
         return Err(format!(

@@ -6,7 +6,7 @@
 
 use anyhow::{Context, Result};
 use tandem::control::spatial::chart::Chart;
-use tandem::plant::spatial::SpatialPlant;
+use tandem::plant::spatial::{ContactLog, SpatialPlant};
 use tandem::reference::spatial::path::Se3Path;
 use tandem::report::spatial::SpatialRun;
 use tandem::sim::{External, ExternalLaw, Outcome};
@@ -40,6 +40,9 @@ pub struct Finished {
     pub chart: Chart,
     /// Set-up warnings.
     pub warnings: Vec<String>,
+    /// Contact grasps: the pads' record (slip, events, cone margins); `None` for welds and
+    /// compliant grasps.
+    pub contacts: Option<ContactLog>,
 }
 
 impl Finished {
@@ -183,9 +186,10 @@ pub fn run(name: &str, duration: f64) -> Result<Finished> {
 /// Run a prepared scenario, reporting progress in [0, 1].
 pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Result<Finished> {
     let label = label_of(&p);
-    let outcome = p.ready.sim.run(progress);
+    let (outcome, contacts) = p.ready.sim.run(progress);
     Ok(Finished {
         outcome,
+        contacts,
         plant: SpatialPlant::new(&p.built.plant).context("spatial plant")?,
         box_size: p.built.box_size,
         path: p.built.path.clone(),

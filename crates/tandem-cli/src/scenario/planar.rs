@@ -869,6 +869,13 @@ pub fn build(sc: &PlanarScenario, src: &Source) -> Result<Built, ScenarioError> 
              plant's, SPEC-spatial)",
         ));
     }
+    if sc.plant.contact_grasps.is_some() {
+        return Err(src.error_at(
+            "plant.contact_grasps",
+            "plant.contact_grasps: planar grasps are welds (contact grasps held by friction are \
+             the spatial plant's)",
+        ));
+    }
     let sensors = sc.sensors.params(sc.run.seed);
     sensors
         .validate()

@@ -107,6 +107,12 @@ pub const EMBEDDED: &[Embedded] = &[
         summary: "two 7-DOF Franka-class arms grasp the box from above and carry it on the S6 path (NN law)",
         text: include_str!("../../scenarios/dual-franka.toml"),
     },
+    Embedded {
+        kind: Kind::Spatial,
+        name: "dual-ur5-grip",
+        summary: "dual-ur5 held by friction: two-pad grippers (μ = 0.3, 60 N) instead of welds; slip, events and cone margins",
+        text: include_str!("../../scenarios/dual-ur5-grip.toml"),
+    },
 ];
 
 /// The embedded scenarios of one kind, in catalogue order.

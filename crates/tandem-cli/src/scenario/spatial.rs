@@ -40,7 +40,7 @@ use tandem::model::disturbance::SpatialDisturbance;
 use tandem::model::spatial::SpatialArm;
 use tandem::model::spatial::SpatialObjectParams;
 use tandem::model::spatial::urdf;
-use tandem::plant::spatial::SpatialPlant;
+use tandem::plant::spatial::{ContactLog, SpatialPlant};
 use tandem::plant::spatial::{GraspModel, SpatialPlantParams};
 use tandem::reference::spatial::admittance::AdmittanceSe3Params;
 use tandem::reference::spatial::path::{AxisFrame, CircleParams, Se3Path, Se3Waypoint};
@@ -526,7 +526,22 @@ fn file_path(sc: &SpatialScenario, dofs: &[usize], param: &str) -> String {
             format!("run.{param}")
         }
         "gravity" | "baumgarte" => format!("plant.{param}"),
-        // The library's grasp model is the file's `plant.compliant_grasps`.
+        // The library's grasp model is the file's `plant.compliant_grasps` or
+        // `plant.contact_grasps` (whose pads and grip are the same on every arm:
+        // `grasp_model.pads[i][j].radius` → `plant.contact_grasps.pads[j].radius`).
+        "grasp_model" if sc.plant.contact_grasps.is_some() => {
+            if let Some(r) = rest.strip_prefix(".pads[")
+                && let Some((_, tail)) = r.split_once("][")
+            {
+                format!("plant.contact_grasps.pads[{tail}")
+            } else if rest.starts_with(".grip[") {
+                "plant.contact_grasps.grip".into()
+            } else if rest.starts_with(".half_extents") {
+                "object.size".into()
+            } else {
+                format!("plant.contact_grasps{rest}")
+            }
+        }
         "grasp_model" => format!("plant.compliant_grasps{rest}"),
         "grasps" => {
             // `grasps[i]...` → `arms[i].grasp...`
@@ -633,6 +648,132 @@ fn grasp_step_check(
             sig3(h),
             sig3(hw),
             sig3(1.0 / w)
+        )]
+    } else {
+        Vec::new()
+    })
+}
+
+/// The library's contact parameters from `[plant.contact_grasps]` (the same pads on every
+/// grasp; the box's half extents from `object.size`). The library checks the values by their
+/// fields; here only what the file's shape says: a torsion coefficient without `mu`.
+fn contact_params(
+    src: &Source,
+    c: &super::tables::ContactConfig,
+    n_grasps: usize,
+    size: [f64; 3],
+) -> Result<tandem::plant::spatial::ContactParams, ScenarioError> {
+    use tandem::plant::spatial::{ContactParams, Pad};
+    let Some(mu) = c.mu else {
+        let why = if c.torsion.is_some() {
+            "plant.contact_grasps.torsion: a torsion coefficient needs a friction coefficient: \
+             give `mu` too (torsional friction is μ_τ N on top of Coulomb's μ N)"
+        } else {
+            "plant.contact_grasps.mu: contact grasps need a friction coefficient `mu` (e.g. 0.3, \
+             silicone fingertips on steel)"
+        };
+        let field = if c.torsion.is_some() {
+            "plant.contact_grasps.torsion"
+        } else {
+            "plant.contact_grasps"
+        };
+        return Err(src.error_at(field, why));
+    };
+    let pads: Vec<Pad> = c
+        .pads
+        .iter()
+        .map(|p| Pad {
+            position: Vector3::from(p.position),
+            normal: Vector3::from(p.normal),
+            radius: p.radius,
+        })
+        .collect();
+    Ok(ContactParams {
+        pads: vec![pads; n_grasps],
+        grip: vec![c.grip; n_grasps],
+        mu,
+        torsion: c.torsion.unwrap_or(0.0),
+        normal_stiffness: c.normal_stiffness,
+        normal_damping: c.normal_damping,
+        tangential_stiffness: c.tangential_stiffness.unwrap_or(c.normal_stiffness),
+        tangential_damping: c.tangential_damping.unwrap_or(c.normal_damping),
+        half_extents: Vector3::new(0.5 * size[0], 0.5 * size[1], 0.5 * size[2]),
+    })
+}
+
+/// The plant step against the contact grasps' fastest modes, as [`grasp_step_check`] for
+/// compliant grasps: the tool link on its pads, translating (`Σ k` over the pads on its mass)
+/// and rotating (`Σ k |p|²` over the pads, `p` each pad's place from the tool origin, on its
+/// smallest principal inertia), and the pads' dampers on the same (`h c/m` beyond 2.8 makes RK4
+/// unstable as surely as a stiff spring).
+fn contact_step_check(
+    src: &Source,
+    arms: &[SpatialArm],
+    c: &super::tables::ContactConfig,
+    h: f64,
+) -> Result<Vec<String>, ScenarioError> {
+    let k = c
+        .normal_stiffness
+        .max(c.tangential_stiffness.unwrap_or(0.0));
+    let d = c.normal_damping.max(c.tangential_damping.unwrap_or(0.0));
+    if !(k.is_finite() && k > 0.0 && d.is_finite() && d >= 0.0 && h.is_finite() && h > 0.0) {
+        return Ok(Vec::new());
+    }
+    let n = c.pads.len() as f64;
+    let r2: f64 = c
+        .pads
+        .iter()
+        .map(|p| Vector3::from(p.position).norm_squared())
+        .sum();
+    if !(r2.is_finite() && n > 0.0) {
+        return Ok(Vec::new());
+    }
+    // (h ω, h c/m, arm, link).
+    let mut worst: Option<(f64, f64, usize, String)> = None;
+    for (i, a) in arms.iter().enumerate() {
+        let Some(b) = a.chain.bodies.last() else {
+            continue;
+        };
+        let i_min = b.inertia.symmetric_eigenvalues().min();
+        let (mut w, mut rate) = (0.0f64, 0.0f64);
+        if b.mass > 0.0 {
+            w = w.max((n * k / b.mass).sqrt());
+            rate = rate.max(n * d / b.mass);
+        }
+        if i_min > 0.0 {
+            w = w.max((k * r2 / i_min).sqrt());
+            rate = rate.max(d * r2 / i_min);
+        }
+        let score = (h * w).max(h * rate / 2.0);
+        if score.is_finite() && worst.as_ref().is_none_or(|x| score > x.0.max(x.1 / 2.0)) {
+            worst = Some((h * w, h * rate, i, b.name.clone()));
+        }
+    }
+    let Some((hw, hr, i, link)) = worst else {
+        return Ok(Vec::new());
+    };
+    let what = format!(
+        "arms[{i}]'s tool link `{link}` on its pads, the contact grasps' fastest mode (h ω = {}, \
+         h c/m = {}; plant.contact_grasps stiffness and damping)",
+        sig3(hw),
+        sig3(hr)
+    );
+    if hw > 2.0 * std::f64::consts::SQRT_2 || hr > 2.78 {
+        return Err(src.error_at(
+            "run.plant_step",
+            format!(
+                "run.plant_step = {} s is too long: {what}, and RK4 is unstable beyond h ω = 2.83 \
+                 or h c/m = 2.78; use plant_step ≤ {} s, or softer or less damped pads",
+                sig3(h),
+                sig3(h / hw.max(hr))
+            ),
+        ));
+    }
+    Ok(if hw > 1.0 || hr > 1.0 {
+        vec![format!(
+            "run.plant_step = {} s resolves {what} poorly; plant_step ≤ {} s resolves it",
+            sig3(h),
+            sig3(h / hw.max(hr))
         )]
     } else {
         Vec::new()
@@ -851,13 +992,35 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
 
     warnings.extend(plausibility(src, &arms, &grasps, o.size));
 
-    let grasp_model = match &sc.plant.compliant_grasps {
-        None => GraspModel::Weld,
-        Some(c) => GraspModel::Compliant {
+    let grasp_model = match (&sc.plant.compliant_grasps, &sc.plant.contact_grasps) {
+        (Some(_), Some(_)) => {
+            return Err(src.error_at(
+                "plant.contact_grasps",
+                "plant.contact_grasps: the grasps are either compliant ([plant.compliant_grasps]) \
+                 or held by friction ([plant.contact_grasps]), not both",
+            ));
+        }
+        (None, None) => GraspModel::Weld,
+        (Some(c), None) => GraspModel::Compliant {
             stiffness: six(c.stiffness),
             damping: six(c.damping),
         },
+        (None, Some(c)) => {
+            let g = contact_params(src, c, grasps.len(), o.size)?;
+            warnings.extend(contact_step_check(src, &arms, c, sc.run.plant_step())?);
+            GraspModel::Contact(g)
+        }
     };
+    if sc.plant.contact_grasps.is_some()
+        && let Some(d) = sc.run.max_drift.filter(|d| *d < 1e-3)
+    {
+        warnings.push(format!(
+            "run.max_drift = {} stops the run when a pad deflects or slips that far, but contact \
+             grasps deflect by design; leave it out (0.05 m and rad: a grasp that slipped off) or \
+             raise it",
+            num(d)
+        ));
+    }
     if let Some(c) = &sc.plant.compliant_grasps {
         warnings.extend(grasp_step_check(src, &arms, c, sc.run.plant_step())?);
         if let Some(d) = sc.run.max_drift.filter(|d| *d < 1e-3) {
@@ -1001,13 +1164,13 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
         // Welds hold to 1e-6 (m and rad) or the run has lost its constraint; a compliant grasp
         // deflects by design, and has slipped at 0.05 m or 0.05 rad (`tandem robustness`'s
         // grasp-slip family uses the same).
-        max_drift: r
-            .max_drift
-            .unwrap_or(if sc.plant.compliant_grasps.is_some() {
+        max_drift: r.max_drift.unwrap_or(
+            if sc.plant.compliant_grasps.is_some() || sc.plant.contact_grasps.is_some() {
                 0.05
             } else {
                 1e-6
-            }),
+            },
+        ),
         min_sigma: r.min_sigma.unwrap_or(1e-3),
     };
     // Start: the desired pose at t = 0, offset (world axes).
@@ -1295,11 +1458,24 @@ pub enum SpatialSim {
 
 impl SpatialSim {
     /// Run to the end (or a fault), reporting progress in [0, 1].
-    pub fn run(self, progress: impl FnMut(f64)) -> Outcome {
+    /// Returns the outcome and, for contact grasps, the pads' record (slip, events, margins).
+    pub fn run(self, progress: impl FnMut(f64)) -> (Outcome, Option<ContactLog>) {
+        fn contacts(ws: &tandem::plant::spatial::SpatialWorkspace) -> Option<ContactLog> {
+            (!ws.contacts.readings.is_empty()).then(|| ws.contacts.clone())
+        }
         match self {
-            SpatialSim::Control(s) => s.run(progress).0,
-            SpatialSim::Replay(s) => s.run(progress).0,
-            SpatialSim::External(s) => s.run(progress).0,
+            SpatialSim::Control(s) => {
+                let (o, s) = s.run(progress);
+                (o, contacts(s.workspace()))
+            }
+            SpatialSim::Replay(s) => {
+                let (o, s) = s.run(progress);
+                (o, contacts(s.workspace()))
+            }
+            SpatialSim::External(s) => {
+                let (o, s) = s.run(progress);
+                (o, contacts(s.workspace()))
+            }
         }
     }
 

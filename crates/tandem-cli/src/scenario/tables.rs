@@ -475,6 +475,9 @@ pub struct PlantConfig<G: Gravity> {
     /// (spatial; planar grasps are welds).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub compliant_grasps: Option<ComplianceConfig>,
+    /// Contact grasps held by friction: pads on each tool pressing on the box's faces (spatial).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_grasps: Option<ContactConfig>,
 }
 
 fn default_baumgarte() -> f64 {
@@ -487,6 +490,7 @@ impl<G: Gravity> Default for PlantConfig<G> {
             gravity: G::standard(),
             baumgarte: default_baumgarte(),
             compliant_grasps: None,
+            contact_grasps: None,
         }
     }
 }
@@ -499,6 +503,61 @@ pub struct ComplianceConfig {
     pub stiffness: [f64; 6],
     /// Damping, (N s/m ×3, N m s/rad ×3).
     pub damping: [f64; 6],
+}
+
+/// Contact grasps (every grasp the same pads, in its tool frame): `[plant.contact_grasps]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactConfig {
+    /// Coulomb friction coefficient (required; optional here so that a torsion coefficient
+    /// without it gets its own message).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mu: Option<f64>,
+    /// Torsional friction coefficient, m (MuJoCo's condim 4); absent: none (condim 3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub torsion: Option<f64>,
+    /// Grip force: each pad's normal preload, N.
+    pub grip: f64,
+    /// Pad normal stiffness, N/m.
+    #[serde(default = "default_pad_stiffness")]
+    pub normal_stiffness: f64,
+    /// Pad normal damping, N s/m.
+    #[serde(default = "default_pad_damping")]
+    pub normal_damping: f64,
+    /// Pad tangential stiffness, N/m (default: the normal one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tangential_stiffness: Option<f64>,
+    /// Pad tangential damping, N s/m (default: the normal one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tangential_damping: Option<f64>,
+    /// The pads, in the tool frame (the same on every arm).
+    pub pads: Vec<PadConfig>,
+}
+
+/// Default pad stiffness, N/m: a silicone fingertip on an industrial gripper's finger.
+pub const DEFAULT_PAD_STIFFNESS: f64 = 1e5;
+/// Default pad damping, N s/m (about a fifth of critical against a UR5's 0.2 kg wrist at the
+/// default stiffness).
+pub const DEFAULT_PAD_DAMPING: f64 = 50.0;
+
+fn default_pad_stiffness() -> f64 {
+    DEFAULT_PAD_STIFFNESS
+}
+
+fn default_pad_damping() -> f64 {
+    DEFAULT_PAD_DAMPING
+}
+
+/// One pad: `{ position = [x, y, z], normal = [x, y, z], radius = r }` in the tool frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PadConfig {
+    /// Centre of the pad's face, tool frame, m.
+    pub position: [f64; 3],
+    /// The direction the pad presses in (into the object), tool axes.
+    pub normal: [f64; 3],
+    /// Pad radius, m.
+    pub radius: f64,
 }
 
 /// Timing, start and determinism. The start is said per kind: a planar object's start pose at

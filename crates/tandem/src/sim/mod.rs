@@ -626,6 +626,11 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
     pub fn state(&self) -> &[f64] {
         &self.y
     }
+    /// The plant's workspace after the last evaluation (for the spatial plant, its contact
+    /// grasps' record).
+    pub fn workspace(&self) -> &P::Workspace {
+        &self.ws
+    }
     /// Total number of control ticks in the run.
     pub fn total_ticks(&self) -> usize {
         self.ticks

@@ -102,6 +102,13 @@ pub fn summary_json(
         crate::output::torque_rate_json(&r.torque_rate),
     );
     s.put("regularised", json!(o.regularised));
+    match &f.contacts {
+        Some(c) => s.put("contacts", contacts_json(c)),
+        None => s.null(
+            "contacts",
+            "the grasps are welds or springs (plant.contact_grasps gives pads held by friction)",
+        ),
+    }
     s.num(
         "min_margin",
         r.min_margin,
@@ -386,4 +393,62 @@ pub fn summary_json(
     }
     m.insert("timing".into(), Value::Object(timing));
     Value::Object(m)
+}
+
+/// Most contact events `summary.json` lists (all are counted).
+pub const LISTED_CONTACT_EVENTS: usize = 100;
+
+fn status_name(s: tandem::plant::spatial::PadStatus) -> &'static str {
+    use tandem::plant::spatial::PadStatus;
+    match s {
+        PadStatus::Stick => "stick",
+        PadStatus::Slip => "slip",
+        PadStatus::Separated => "separated",
+    }
+}
+
+/// The contact grasps' record: slip per grasp, per pad the smallest cone margins and when, the
+/// final status, and the status changes (slip onset and end, separation) with their times.
+fn contacts_json(c: &tandem::plant::spatial::ContactLog) -> Value {
+    let mut pads = Vec::new();
+    for (k, (i, j)) in c.pads.iter().enumerate() {
+        let r = &c.readings[k];
+        let (m, t) = c.min_margin[k];
+        let (mt, tt) = c.min_torsion_margin[k];
+        pads.push(json!({
+            "arm": i,
+            "pad": j,
+            "min_margin_N": jn(m),
+            "min_margin_t_s": if m.is_finite() { json!(t) } else { Value::Null },
+            "min_torsion_margin_Nm": jn(mt),
+            "min_torsion_margin_t_s": if mt.is_finite() { json!(tt) } else { Value::Null },
+            "final_status": status_name(r.status),
+            "final_normal_N": jn(r.normal),
+        }));
+    }
+    let events: Vec<Value> = c
+        .events
+        .iter()
+        .take(LISTED_CONTACT_EVENTS)
+        .map(|e| {
+            json!({
+                "t_s": e.t, "arm": e.grasp, "pad": e.pad,
+                "from": status_name(e.from), "to": status_name(e.to),
+            })
+        })
+        .collect();
+    let onset = c
+        .events
+        .iter()
+        .find(|e| e.to == tandem::plant::spatial::PadStatus::Slip)
+        .map(|e| e.t);
+    json!({
+        "slipped": c.slip_distance.iter().any(|d| *d > 0.0) || c.slip_angle.iter().any(|d| *d > 0.0),
+        "first_slip_t_s": onset,
+        "slip_distance_m": c.slip_distance.iter().map(|v| jn(*v)).collect::<Vec<_>>(),
+        "slip_angle_rad": c.slip_angle.iter().map(|v| jn(*v)).collect::<Vec<_>>(),
+        "pads": pads,
+        "events_total": c.events.len() as u64 + c.dropped,
+        "events": events,
+    })
 }

@@ -103,6 +103,9 @@ pub(super) fn derivative(
         GraspModel::Compliant { stiffness, damping } => {
             compliant_wrenches(p, &o, stiffness, damping, qd, ws);
         }
+        GraspModel::Contact(_) => {
+            contact_wrenches(p, y, &o, qd, input, ws);
+        }
     }
 
     // 4. Accelerations: q̈_i = L⁻ᵀ(u_i + Z_i F_i); the object takes −F_i at the points
@@ -147,6 +150,8 @@ pub(super) fn derivative(
     dy[n_q + 5] = 0.5 * (wy * w0 + wz * x0 - wx * z0);
     dy[n_q + 6] = 0.5 * (wz * w0 + wx * y0 - wy * x0);
     dy[2 * n_q + 7..2 * n_q + 13].copy_from_slice(ws.a_o.as_slice());
+    // Contact anchors are held through the step (updated after it).
+    dy[2 * n_q + 13..].iter_mut().for_each(|v| *v = 0.0);
     true
 }
 
@@ -396,6 +401,30 @@ fn compliant_wrenches(
             &r_wg.transform_vector(&w_g.fixed_rows::<3>(0).into_owned()),
             &r_wg.transform_vector(&w_g.fixed_rows::<3>(3).into_owned()),
         );
+        ws.r[i] = rp;
+    }
+}
+
+/// Contact grasps: the pads' wrench on each tool into `ws.wrenches`, and `ws.r[i]` set to the
+/// tool origins (where `−F_i` acts on the object).
+fn contact_wrenches(
+    p: &SpatialPlant,
+    y: &[f64],
+    o: &ObjectState,
+    qd: &[f64],
+    input: &SpatialInput,
+    ws: &mut SpatialWorkspace,
+) {
+    let Some(c) = p.contact() else { return };
+    let x_wo = o.pose();
+    let base = p.anchor_offset();
+    for i in 0..p.arms.len() {
+        let g = p.grasp_kin(i, &x_wo, o, qd, ws);
+        let f_g = input.grip.get(i).copied().unwrap_or(c.grip(i));
+        let r = c.pads_of(i);
+        let w = c.grasp_wrench(i, &g, f_g, &y[base + 3 * r.start..base + 3 * r.end]);
+        let rp = ws.data[i].X_WT.translation.vector - o.p;
+        ws.wrenches[i] = w;
         ws.r[i] = rp;
     }
 }

@@ -59,8 +59,13 @@
 
 #![allow(non_snake_case)]
 
+pub mod contact;
 #[allow(non_snake_case)]
 mod kkt;
+
+pub use contact::{
+    ContactEvent, ContactLog, ContactModel, ContactParams, Pad, PadReading, PadStatus,
+};
 
 use nalgebra::{
     DVector, Isometry3, Matrix3, Matrix6, Quaternion, Translation3, UnitQuaternion, Vector3,
@@ -89,6 +94,8 @@ pub enum GraspModel {
         /// Damping, (N s/m ×3, N m s/rad ×3), ≥ 0.
         damping: Vector6<f64>,
     },
+    /// Pads pressing on the box's faces, held by friction ([`contact`]).
+    Contact(ContactParams),
 }
 
 /// Heaviest object the spatial plant accepts, as a multiple of the arms' total link mass (1e6:
@@ -120,6 +127,9 @@ pub struct SpatialInput {
     /// Environment disturbance `F_d = [f; τ]` on the object about its centre of mass, world
     /// axes (subtracted), (N, N m).
     pub f_d: Vector6<f64>,
+    /// Contact grasps: the grip force of each grasp, N (one per arm; empty or shorter: the
+    /// model's nominal grip for the rest). Ignored by welds and compliant grasps.
+    pub grip: Vec<f64>,
 }
 
 /// A validated, immutable spatial plant.
@@ -131,6 +141,8 @@ pub struct SpatialPlant {
     g_W: Vector3<f64>,
     baumgarte: f64,
     grasp_model: GraspModel,
+    /// The validated contact grasps, for [`GraspModel::Contact`].
+    contact: Option<ContactModel>,
     offsets: Vec<usize>,
     n_q: usize,
 }
@@ -179,6 +191,9 @@ pub struct SpatialWorkspace {
     cache_regularised: bool,
     /// Per arm `u = L⁻¹(τ − b)` scratch (cache hits).
     u: Vec<Vec<f64>>,
+    /// Contact grasps: the pads' readings, events, slip totals and margin minima, updated
+    /// after every step (empty for other grasp models).
+    pub contacts: ContactLog,
 }
 
 impl SpatialWorkspace {
@@ -352,6 +367,10 @@ impl SpatialPlant {
                 non_negative(&format!("grasp_model.damping[{k}]"), damping[k])?;
             }
         }
+        let contact = match &p.grasp_model {
+            GraspModel::Contact(c) => Some(ContactModel::new(c, &p.grasps)?),
+            _ => None,
+        };
         Ok(SpatialPlant {
             arms: p.arms.clone(),
             grasps: p.grasps.clone(),
@@ -359,6 +378,7 @@ impl SpatialPlant {
             g_W: p.gravity,
             baumgarte: p.baumgarte,
             grasp_model: p.grasp_model.clone(),
+            contact,
             offsets,
             n_q,
         })
@@ -392,9 +412,18 @@ impl SpatialPlant {
     pub fn offset(&self, i: usize) -> usize {
         self.offsets[i]
     }
-    /// Flat state dimension `2 n_q + 13`.
-    pub fn state_dim(&self) -> usize {
+    /// The validated contact grasps ([`GraspModel::Contact`]).
+    pub fn contact(&self) -> Option<&ContactModel> {
+        self.contact.as_ref()
+    }
+    /// Index of the first pad anchor in the flat state (`2 n_q + 13`; three numbers a pad,
+    /// contact grasps only).
+    pub fn anchor_offset(&self) -> usize {
         2 * self.n_q + 13
+    }
+    /// Flat state dimension `2 n_q + 13`, plus `3` per pad for contact grasps.
+    pub fn state_dim(&self) -> usize {
+        2 * self.n_q + 13 + 3 * self.contact.as_ref().map_or(0, |c| c.n_pads())
     }
 
     /// A workspace sized for this plant (the only allocation).
@@ -431,6 +460,10 @@ impl SpatialPlant {
             cache_valid: false,
             cache_regularised: false,
             u: self.arms.iter().map(|a| vec![0.0; a.chain.dof()]).collect(),
+            contacts: match &self.contact {
+                Some(c) => ContactLog::new(c),
+                None => ContactLog::empty(),
+            },
         }
     }
 
@@ -439,6 +472,7 @@ impl SpatialPlant {
         SpatialInput {
             tau: vec![0.0; self.n_q],
             f_d: Vector6::zeros(),
+            grip: self.contact.as_ref().map_or(Vec::new(), |c| c.grip.clone()),
         }
     }
 
@@ -588,10 +622,76 @@ impl SpatialPlant {
                 }
             }
         }
+        if let Some(c) = &self.contact {
+            let x_wo = o.pose();
+            let base = self.anchor_offset();
+            for i in 0..self.arms.len() {
+                let g = self.grasp_kin(i, &x_wo, &o, qd, ws);
+                let r = c.pads_of(i);
+                v += c.energy(i, &g, &y[base + 3 * r.start..base + 3 * r.end]);
+            }
+        }
         Energy {
             kinetic: t,
             potential: v,
         }
+    }
+
+    /// Grasp `i`'s relative kinematics for the contact model (the arm's kinematics, with its
+    /// Jacobian, must be in `ws.data[i]`).
+    pub(crate) fn grasp_kin<'a>(
+        &'a self,
+        i: usize,
+        x_wo: &'a Isometry3<f64>,
+        o: &ObjectState,
+        qd: &[f64],
+        ws: &'a SpatialWorkspace,
+    ) -> contact::GraspKin<'a> {
+        let n = self.arms[i].chain.dof();
+        let s = self.offsets[i];
+        let d = &ws.data[i];
+        let vt = kkt::tool_twist(d, &qd[s..s + n]);
+        contact::GraspKin {
+            x_wo,
+            v_o: o.v,
+            w_o: o.w,
+            x_wt: &d.X_WT,
+            v_t: vt.fixed_rows::<3>(0).into_owned(),
+            w_t: vt.fixed_rows::<3>(3).into_owned(),
+            r_og: &self.grasps[i].rotation,
+        }
+    }
+
+    /// After a step to `(t, y)`: the contact grasps' anchor update (stick, slip, separation)
+    /// and their record in `ws.contacts`. Runs the arms' kinematics into `ws.data`.
+    fn contact_update(
+        &self,
+        t: f64,
+        y: &mut [f64],
+        input: &SpatialInput,
+        ws: &mut SpatialWorkspace,
+    ) {
+        let Some(c) = &self.contact else { return };
+        ws.cache_valid = false;
+        let n_q = self.n_q;
+        let base = self.anchor_offset();
+        let (q_all, rest) = y.split_at_mut(base);
+        let (q, o, qd) = self.split(q_all);
+        let x_wo = o.pose();
+        for (i, arm) in self.arms.iter().enumerate() {
+            let n = arm.chain.dof();
+            let s = self.offsets[i];
+            spatial::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
+        }
+        let _ = n_q;
+        let mut log = std::mem::replace(&mut ws.contacts, ContactLog::empty());
+        for i in 0..self.arms.len() {
+            let g = self.grasp_kin(i, &x_wo, &o, qd, ws);
+            let f_g = input.grip.get(i).copied().unwrap_or(c.grip[i]);
+            let r = c.pads_of(i);
+            c.update(i, &g, f_g, &mut rest[3 * r.start..3 * r.end], t, &mut log);
+        }
+        ws.contacts = log;
     }
 
     /// Compliant-grasp error in `G_i` axes: `[R_WGᵀ(p_T − p_G); Log(R_WGᵀ R_WT)]`.
@@ -660,6 +760,7 @@ impl SpatialPlant {
                 y.copy_from_slice(&ws.y_prev);
                 return Err(StepFault::NonFinite { t: tk });
             }
+            self.contact_update(tk + h, y, input, ws);
             if ws.regularised > before {
                 let ev = &mut ws.locked;
                 ev.steps += 1;

@@ -1,0 +1,254 @@
+//! Contact grasps in scenario files (issue 25): `[plant.contact_grasps]` builds the library's
+//! contact model, a run's `summary.json` reports the pads (slip, events, cone margins), and every
+//! bad value gets an error naming the field with its line.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use tandem_cli::scenario::spatial as sp;
+use tandem_cli::scenario::{EMBEDDED, embedded_source};
+
+fn tandem(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tandem"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("tandem runs")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("tandem-contact-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn grip_text() -> &'static str {
+    EMBEDDED
+        .iter()
+        .find(|e| e.name == "dual-ur5-grip")
+        .expect("embedded")
+        .text
+}
+
+/// The embedded preset builds the library's contact model: four pads, μ = 0.3, 60 N, on the
+/// box's half extents; and its plant is the dual-UR5 preset's but for the grasps.
+#[test]
+fn the_grip_preset_builds_contact_grasps() {
+    let src = embedded_source(EMBEDDED.iter().find(|e| e.name == "dual-ur5-grip").unwrap());
+    let sc = sp::parse(&src).unwrap();
+    let b = sp::build(&sc, &src).unwrap();
+    let tandem::plant::spatial::GraspModel::Contact(c) = &b.plant.grasp_model else {
+        panic!("contact grasps");
+    };
+    assert_eq!(
+        (c.mu, c.torsion, c.grip.clone()),
+        (0.3, 0.002, vec![60.0; 2])
+    );
+    assert_eq!(c.pads.len(), 2);
+    assert!(c.pads.iter().all(|p| p.len() == 2));
+    assert_eq!(c.half_extents, nalgebra::Vector3::new(0.2, 0.1, 0.1));
+    let mut weld = tandem::presets::dual_ur5().params;
+    weld.grasp_model = b.plant.grasp_model.clone();
+    assert_eq!(b.plant, weld);
+    assert!(b.warnings.is_empty(), "{:?}", b.warnings);
+}
+
+/// A short run of the preset with PD + gravity: the box is held (no slip, every pad in contact
+/// with a positive margin) and the summary says so; a welded run's summary has `contacts: null`
+/// with the reason.
+#[test]
+fn a_run_reports_the_pads() {
+    let d = tmp("run");
+    let o = tandem(
+        &[
+            "run",
+            "dual-ur5-grip",
+            "--controller",
+            "pd-gravity",
+            "--duration",
+            "1",
+            "--out",
+            "grip",
+        ],
+        &d,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("grip/summary.json")).unwrap()).unwrap();
+    let c = &s["contacts"];
+    assert_eq!(c["slipped"], false, "{c}");
+    assert_eq!(c["events_total"], 0, "{c}");
+    assert_eq!(c["slip_distance_m"], serde_json::json!([0.0, 0.0]));
+    let pads = c["pads"].as_array().unwrap();
+    assert_eq!(pads.len(), 4);
+    for p in pads {
+        assert_eq!(p["final_status"], "stick", "{p}");
+        let m = p["min_margin_N"].as_f64().unwrap();
+        // Measured 4.5–9.8 N: the path's accelerations take at most half the friction.
+        assert!(m > 2.0 && m < 0.3 * 60.0 * 1.5, "{p}");
+        assert!(p["min_margin_t_s"].as_f64().unwrap() <= 1.0);
+        // The bottom pads carry the weight: 60 N ± the gripper's share of 29.4 N.
+        let n = p["final_normal_N"].as_f64().unwrap();
+        assert!((n - 60.0).abs() < 20.0, "{p}");
+    }
+    // A welded run: `contacts` is null with the reason.
+    let o = tandem(
+        &["run", "dual-ur5", "--duration", "0.05", "--out", "weld"],
+        &d,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("weld/summary.json")).unwrap()).unwrap();
+    assert!(s["contacts"].is_null());
+    assert!(
+        s["unavailable"]["contacts"]
+            .as_str()
+            .unwrap()
+            .contains("contact_grasps")
+    );
+}
+
+/// The grip scenario with `edits` applied, validated: exit 2 and every fragment of `want` in
+/// the error.
+fn bad(d: &Path, edits: &[(&str, &str)], want: &[&str]) {
+    let mut text = grip_text().to_string();
+    for (a, b) in edits {
+        assert!(text.contains(a), "edit `{a}` not in the preset");
+        text = text.replacen(a, b, 1);
+    }
+    let file = d.join("grip.toml");
+    std::fs::write(&file, &text).unwrap();
+    let o = tandem(&["validate", file.to_str().unwrap()], d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{edits:?}: {err}");
+    for w in want {
+        assert!(err.contains(w), "{edits:?}: `{w}` not in:\n{err}");
+    }
+}
+
+fn line_of(needle: &str) -> String {
+    let at = grip_text().find(needle).unwrap();
+    format!("line {}", grip_text()[..at].matches('\n').count() + 1)
+}
+
+#[test]
+fn bad_contact_values_name_the_field_and_line() {
+    let d = tmp("bad");
+    let mu = line_of("mu = 0.3");
+    bad(
+        &d,
+        &[("mu = 0.3", "mu = 0.0")],
+        &["plant.contact_grasps.mu", "positive", &mu],
+    );
+    bad(
+        &d,
+        &[("mu = 0.3", "mu = nan")],
+        &["plant.contact_grasps.mu", "NaN"],
+    );
+    bad(
+        &d,
+        &[("mu = 0.3", "mu = -0.3")],
+        &["plant.contact_grasps.mu"],
+    );
+    // A torsion coefficient without a friction coefficient.
+    bad(
+        &d,
+        &[("mu = 0.3\n", "")],
+        &[
+            "plant.contact_grasps.torsion",
+            "needs a friction coefficient",
+        ],
+    );
+    bad(
+        &d,
+        &[("torsion = 0.002", "torsion = -0.002")],
+        &["plant.contact_grasps.torsion"],
+    );
+    bad(
+        &d,
+        &[("grip = 60.0", "grip = -5.0")],
+        &["plant.contact_grasps.grip", &line_of("grip = 60.0")],
+    );
+    bad(
+        &d,
+        &[("normal_stiffness = 1e5", "normal_stiffness = 0.0")],
+        &["plant.contact_grasps.normal_stiffness"],
+    );
+    // A pad that does not touch its face at the start pose (1 mm off the top face).
+    bad(
+        &d,
+        &[(
+            "position = [-0.1, 0.0, 0.03]",
+            "position = [-0.101, 0.0, 0.03]",
+        )],
+        &[
+            "plant.contact_grasps.pads[0].position",
+            "does not touch",
+            "1.0000 mm",
+        ],
+    );
+    // A pad outside its face (a 12 cm pad on a 20 cm wide face, 3 cm from its end).
+    bad(
+        &d,
+        &[(
+            "normal = [1.0, 0.0, 0.0], radius = 0.01",
+            "normal = [1.0, 0.0, 0.0], radius = 0.06",
+        )],
+        &["plant.contact_grasps.pads[0]", "outside the face"],
+    );
+    // A pad pressing at a slant.
+    bad(
+        &d,
+        &[("normal = [1.0, 0.0, 0.0]", "normal = [1.0, 0.1, 0.0]")],
+        &["plant.contact_grasps.pads[0].normal", "off the normal"],
+    );
+    // Compliant and contact grasps at once.
+    bad(
+        &d,
+        &[(
+            "\n[plant.contact_grasps]",
+            "\n[plant.compliant_grasps]\nstiffness = [1e5, 1e5, 1e5, 100.0, 100.0, 100.0]\ndamping = [1.0, 1.0, 1.0, 0.1, 0.1, 0.1]\n\n[plant.contact_grasps]",
+        )],
+        &["plant.contact_grasps", "not both"],
+    );
+    // A step the pads' fastest mode cannot take.
+    bad(
+        &d,
+        &[("plant_step = 0.0001", "plant_step = 0.001")],
+        &["run.plant_step", "wrist_3_link", "unstable"],
+    );
+    // An unknown key.
+    bad(
+        &d,
+        &[("grip = 60.0", "grip = 60.0\nfriction = 0.3")],
+        &["friction", "unknown field"],
+    );
+}
+
+/// Planar grasps are welds: a planar file with contact grasps is refused by the field.
+#[test]
+fn planar_contact_grasps_are_refused() {
+    let d = tmp("planar");
+    let paper = EMBEDDED.iter().find(|e| e.name == "paper").unwrap().text;
+    let text = format!("{paper}\n[plant.contact_grasps]\nmu = 0.5\ngrip = 10.0\npads = []\n");
+    // The planar file may already have a [plant] table: append into it instead.
+    let text = if paper.contains("\n[plant]\n") {
+        paper.replacen(
+            "\n[plant]\n",
+            "\n[plant.contact_grasps]\nmu = 0.5\ngrip = 10.0\npads = []\n\n[plant]\n",
+            1,
+        )
+    } else {
+        text
+    };
+    let file = d.join("p.toml");
+    std::fs::write(&file, text).unwrap();
+    let o = tandem(&["validate", file.to_str().unwrap()], &d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("plant.contact_grasps") && err.contains("planar grasps are welds"),
+        "{err}"
+    );
+}
