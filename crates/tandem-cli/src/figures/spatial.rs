@@ -14,6 +14,7 @@
 //! | `joint_limits` | joint positions scaled to their limits, `(q − q_min)/(q_max − q_min)` |
 //! | `weights` | switching value `Q` and weight norms `‖Ŵ_j‖` (NN only) |
 //! | `margins` | constraint margin, closest joint-limit distance and the tool Jacobians' σ_min |
+//! | `contacts` | contact grasps: each pad's cone margin `μ N − |f_t|`, normal force and friction |
 //!
 //! Figures are drawn in parallel (`crate::figures::planar::run_jobs`); the plot module min/max
 //! decimates long series, so a 60 s run is drawn as fast as a short one.
@@ -397,6 +398,46 @@ pub fn run_figures(dir: &Path, scenario: &str, f: &Finished, d: &Derived) -> Res
                     );
                     for (i, v) in sg.iter().enumerate() {
                         p = p.with(Series::new(format!("arm {}", i + 1), t, v, Style::solid(i)));
+                    }
+                    panels.push(p);
+                }
+                plot::panels(&path, &ttl, &panels, 1)
+            }),
+        ));
+    }
+    // Contact grasps: per pad its cone margin, normal force and friction.
+    let pads: Vec<String> = log
+        .columns
+        .iter()
+        .filter_map(|c| c.name.strip_suffix(".margin").map(str::to_string))
+        .filter(|p| p.starts_with("pad"))
+        .collect();
+    if !pads.is_empty() {
+        let path = dir.join("contacts");
+        let ttl = title("contact pads: friction-cone margins, normal forces, friction");
+        jobs.push((
+            "contacts".into(),
+            Box::new(move || {
+                let mut panels = Vec::new();
+                for (q, name, unit, line) in [
+                    (
+                        "margin",
+                        "cone margin μ N − |f_t| (below 0: slipping)",
+                        "N",
+                        true,
+                    ),
+                    ("normal", "normal force N (0: separated)", "N", false),
+                    ("friction", "friction |f_t|", "N", false),
+                ] {
+                    let mut p = Panel::new(name, "t [s]", format!("{q} [{unit}]"));
+                    for (k, pad) in pads.iter().enumerate() {
+                        let v = col(log, &format!("{pad}.{q}"));
+                        if v.len() == t.len() {
+                            p = p.with(Series::new(pad.clone(), t, v, Style::solid(k)));
+                        }
+                    }
+                    if line {
+                        p = p.hline(0.0, "slip");
                     }
                     panels.push(p);
                 }

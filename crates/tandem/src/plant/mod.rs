@@ -247,6 +247,18 @@ pub trait ClosedChain {
     /// The object's pose and twist in a state: planar `(x, y, θ)` and `(ẋ, ẏ, θ̇)`; spatial
     /// `(p, q = (w, x, y, z))` and `(v, ω)` (world axes).
     fn object_state<'a>(&self, y: &'a [f64]) -> (&'a [f64], &'a [f64]);
+    /// Columns of the plant's contacts, after the drift columns (spatial contact grasps: per
+    /// pad its normal force, friction, torsion, cone margin and state); none by default.
+    fn contact_columns(&self) -> Vec<ColumnSpec> {
+        Vec::new()
+    }
+    /// The contact columns' values after the last step (as many as [`contact_columns`]).
+    ///
+    /// [`contact_columns`]: ClosedChain::contact_columns
+    fn write_contacts(&self, _ws: &Self::Workspace, _out: &mut [f64]) {}
+    /// Set the workspace's per-state record from the start state (spatial contact grasps:
+    /// the pads' readings at `t = 0`); nothing by default.
+    fn prime(&self, _y: &mut [f64], _ws: &mut Self::Workspace) {}
 }
 
 const AX3: [&str; 3] = ["x", "y", "theta"];
@@ -711,6 +723,43 @@ impl ClosedChain for spatial::SpatialPlant {
     fn object_state<'a>(&self, y: &'a [f64]) -> (&'a [f64], &'a [f64]) {
         let n = SpatialPlant::n_q(self);
         (&y[n..n + 7], &y[2 * n + 7..2 * n + 13])
+    }
+    /// Per pad `pad{i}.{j}.*` (arm `i`, pad `j`, from 1): `normal` (N), `friction` (`|f_t|`,
+    /// N), `torsion` (N m), `margin` (`μ N − |f_t|`, N) and `state` (0 stick, 1 slip, 2
+    /// separated).
+    fn contact_columns(&self) -> Vec<ColumnSpec> {
+        let Some(c) = self.contact() else {
+            return Vec::new();
+        };
+        let mut out = Vec::with_capacity(5 * c.n_pads());
+        for i in 0..self.arms().len() {
+            for j in 0..c.pads_of(i).len() {
+                let p = format!("pad{}.{}", i + 1, j + 1);
+                out.push(col(format!("{p}.normal"), "N"));
+                out.push(col(format!("{p}.friction"), "N"));
+                out.push(col(format!("{p}.torsion"), "N m"));
+                out.push(col(format!("{p}.margin"), "N"));
+                out.push(col(format!("{p}.state"), "1"));
+            }
+        }
+        out
+    }
+    fn prime(&self, y: &mut [f64], ws: &mut Self::Workspace) {
+        self.prime_contacts(y, ws);
+    }
+    fn write_contacts(&self, ws: &Self::Workspace, out: &mut [f64]) {
+        for (k, r) in ws.contacts.readings.iter().enumerate() {
+            let o = &mut out[5 * k..5 * k + 5];
+            o[0] = r.normal;
+            o[1] = (r.tangential[0] * r.tangential[0] + r.tangential[1] * r.tangential[1]).sqrt();
+            o[2] = r.torsion;
+            o[3] = r.margin;
+            o[4] = match r.status {
+                spatial::PadStatus::Stick => 0.0,
+                spatial::PadStatus::Slip => 1.0,
+                spatial::PadStatus::Separated => 2.0,
+            };
+        }
     }
 }
 

@@ -62,7 +62,8 @@ impl Log {
 /// `x_o.{x,y,theta}`); the driver record's head (planar `x_hat … w_norm`); the joint torques
 /// `tau_q*`; the plant's true joint state (planar `q*`; spatial `q*`, `qd*`); the grasp wrenches
 /// `F{i}.*` (world axes); the wrist readings `F_meas{i}.*` (planar world axes, spatial tool
-/// axes); the record's tail (planar `Q`, `margin`); the plant's drift columns.
+/// axes); the record's tail (planar `Q`, `margin`); the plant's drift columns; the plant's
+/// contact columns (spatial contact grasps' pads).
 pub fn layout<P: ClosedChain, R: Record>(plant: &P, rec: &R) -> Vec<(String, String)> {
     let mut l: Vec<(String, String)> = vec![("t".into(), "s".into())];
     l.extend(plant.object_columns());
@@ -81,5 +82,6 @@ pub fn layout<P: ClosedChain, R: Record>(plant: &P, rec: &R) -> Vec<(String, Str
     }
     l.extend(rec.tail_columns());
     l.extend(plant.drift_columns());
+    l.extend(plant.contact_columns());
     l
 }

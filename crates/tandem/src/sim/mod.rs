@@ -230,6 +230,7 @@ struct Segments {
     joints: usize,
     tail: usize,
     drift: usize,
+    contacts: usize,
 }
 
 /// The planar simulation the CLI runs: the planar plant driven by a [`Driver`].
@@ -508,8 +509,9 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
         let (substeps, per_log, ticks) = params.validate()?;
         plant.check_disturbance(&disturbance)?;
         let stepper = plant.stepper(params.formulation)?;
-        let y = plant.start_state(start)?;
+        let mut y = plant.start_state(start)?;
         let mut ws = plant.workspace();
+        plant.prime(&mut y, &mut ws);
         let sigma = plant.min_singular_value(&y, &mut ws);
         if sigma < params.min_sigma {
             return Err(ModelError::invalid(
@@ -548,6 +550,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
             joints: plant.joint_columns().len(),
             tail: rec.tail_columns().len(),
             drift: plant.drift_columns().len(),
+            contacts: plant.contact_columns().len(),
         };
         let has_bounds = driver.truth_margin(&plant, &y).is_some();
         let torque_rate =
@@ -874,6 +877,9 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
         c += s.tail;
         let d = [drift.0, drift.1];
         row[c..c + s.drift].copy_from_slice(&d[..s.drift]);
+        c += s.drift;
+        self.plant
+            .write_contacts(&self.ws, &mut row[c..c + s.contacts]);
         for (col, v) in self.log.columns.iter_mut().zip(row.iter()) {
             col.data.push(*v);
         }

@@ -10,7 +10,7 @@ use super::{Derived, Finished, col, six};
 use crate::view::spatial::{ScalarTrack, scene_from_states, write_snapshots, write_viewer_file};
 
 /// The flat plant states of the logged rows `rows` (`[q; X_WO (p, quaternion w x y z); qd;
-/// twist]`, the twist left zero: the viewer draws poses only).
+/// twist]`, the twist and contact grasps' pad anchors left zero: the viewer draws poses only).
 fn states(f: &Finished, rows: &[usize]) -> Vec<Vec<f64>> {
     let log = &f.outcome.log;
     let nq = f.plant.n_q();
@@ -28,7 +28,7 @@ fn states(f: &Finished, rows: &[usize]) -> Vec<Vec<f64>> {
                 .iter()
                 .map(|c| c.get(k).copied().unwrap_or(0.0))
                 .collect();
-            y.resize(2 * nq + 13, 0.0);
+            y.resize(f.plant.state_dim(), 0.0);
             y
         })
         .collect()

@@ -662,6 +662,17 @@ impl SpatialPlant {
         }
     }
 
+    /// The contact grasps' readings at the start state `y` (`t = 0`, the nominal grip), so
+    /// that a log's first row has them: the anchor update of [`step`](Self::step) at `t = 0`
+    /// (a start at rest sticks: its anchors do not move). Nothing for other grasp models.
+    pub fn prime_contacts(&self, y: &mut [f64], ws: &mut SpatialWorkspace) {
+        if self.contact.is_none() {
+            return;
+        }
+        let input = self.zero_input();
+        self.contact_update(0.0, y, &input, ws);
+    }
+
     /// After a step to `(t, y)`: the contact grasps' anchor update (stick, slip, separation)
     /// and their record in `ws.contacts`. Runs the arms' kinematics into `ws.data`.
     fn contact_update(
