@@ -48,9 +48,12 @@ fn the_grip_preset_builds_contact_grasps() {
     assert_eq!(c.pads.len(), 2);
     assert!(c.pads.iter().all(|p| p.len() == 2));
     assert_eq!(c.half_extents, nalgebra::Vector3::new(0.2, 0.1, 0.1));
-    let mut weld = tandem::presets::dual_ur5().params;
-    weld.grasp_model = b.plant.grasp_model.clone();
-    assert_eq!(b.plant, weld);
+    // The library's preset, bit for bit; the controller's friction model is its pads.
+    assert_eq!(b.plant, tandem::presets::dual_ur5_grip().params);
+    assert_eq!(
+        b.controller.friction,
+        Some(tandem::control::spatial::distribute::friction::FrictionParams::from_contact(c, 2.0))
+    );
     assert!(b.warnings.is_empty(), "{:?}", b.warnings);
 }
 
@@ -78,6 +81,16 @@ fn a_run_reports_the_pads() {
         serde_json::from_slice(&std::fs::read(d.join("grip/summary.json")).unwrap()).unwrap();
     let c = &s["contacts"];
     assert_eq!(c["slipped"], false, "{c}");
+    // The friction-aware distribution ran every tick, converged, never fell back.
+    let dist = &c["distribution"];
+    assert_eq!(dist["mode"], "friction", "{dist}");
+    assert_eq!(dist["ticks"], 1000, "{dist}");
+    assert_eq!(dist["fallbacks"], 0, "{dist}");
+    assert_eq!(dist["unconverged"], 0, "{dist}");
+    assert!(
+        dist["min_planned_margin_N"].as_f64().unwrap() >= 1.0,
+        "{dist}"
+    );
     assert_eq!(c["events_total"], 0, "{c}");
     assert_eq!(c["slip_distance_m"], serde_json::json!([0.0, 0.0]));
     let pads = c["pads"].as_array().unwrap();
@@ -218,6 +231,22 @@ fn bad_contact_values_name_the_field_and_line() {
         &[("plant_step = 0.0001", "plant_step = 0.001")],
         &["run.plant_step", "wrist_3_link", "unstable"],
     );
+    // The distribution's settings.
+    bad(
+        &d,
+        &[("friction_margin = 2.0", "friction_margin = -1.0")],
+        &["controller.friction_margin", "≥ 0"],
+    );
+    bad(
+        &d,
+        &[("distribution = \"friction\"", "distribution = \"weld\"")],
+        &["controller.friction_margin", "distribution = \"friction\""],
+    );
+    bad(
+        &d,
+        &[("distribution = \"friction\"", "distribution = \"magic\"")],
+        &["distribution", "magic"],
+    );
     // An unknown key.
     bad(
         &d,
@@ -249,6 +278,27 @@ fn planar_contact_grasps_are_refused() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
         err.contains("plant.contact_grasps") && err.contains("planar grasps are welds"),
+        "{err}"
+    );
+}
+
+/// The friction-aware distribution needs contact grasps.
+#[test]
+fn the_friction_distribution_needs_contact_grasps() {
+    let d = tmp("dist");
+    let ur5 = EMBEDDED.iter().find(|e| e.name == "dual-ur5").unwrap().text;
+    let text = ur5.replacen(
+        "kind = \"nn\"",
+        "kind = \"nn\"\ndistribution = \"friction\"",
+        1,
+    );
+    let file = d.join("u.toml");
+    std::fs::write(&file, text).unwrap();
+    let o = tandem(&["validate", file.to_str().unwrap()], &d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("controller.distribution") && err.contains("[plant.contact_grasps]"),
         "{err}"
     );
 }

@@ -90,6 +90,7 @@ fn a_users_drive_gets_the_summary_figures_and_viewer() {
         chart: Chart::new(p0, r0),
         warnings: Vec::new(),
         contacts: None,
+        friction: None,
     };
     let dir = scratch("custom_drive");
     let (summary, _, problems) = write(&dir, "hold", &f, true).unwrap();

@@ -229,6 +229,7 @@ fn finished(franka: bool, law: Law<6>, duration: f64) -> Finished {
         chart: *sim.driver().chart(),
         warnings: vec![],
         contacts: None,
+        friction: None,
     }
 }
 

@@ -656,3 +656,38 @@ fn external_law_ticks_and_stepped_plant_steps_allocate_nothing() {
     assert_eq!(n, 0, "stepped plant allocated {n} times");
     assert!((st.time() - 0.101).abs() < 1e-12);
 }
+
+/// Contact grasps with the friction-aware distribution: the simulation's ticks (controller with
+/// the cone program, plant with the pads) allocate nothing.
+#[test]
+fn contact_grasp_ticks_with_the_friction_distribution_allocate_nothing() {
+    use tandem::control::law::pd::PdGains;
+    use tandem::control::spatial::SpatialControllerParams;
+    use tandem::control::spatial::distribute::friction::FrictionParams;
+    use tandem::plant::spatial::GraspModel;
+    let s = presets::dual_ur5_grip();
+    let GraspModel::Contact(c) = &s.params.grasp_model else {
+        panic!("contact grasps")
+    };
+    let mut g = PdGains::<6>::paper();
+    g.gravity_compensation = true;
+    let mut p = SpatialControllerParams::spec_s6(Law::Pd(g));
+    p.friction = Some(FrictionParams::from_contact(c, 2.0));
+    let (mut sim, _) =
+        presets::spatial_s6_simulation_with(&s.params, &s, &p, 1.0, 1e-4, 0.05).unwrap();
+    for k in 0..5 {
+        sim.tick(k).unwrap();
+    }
+    let n = count(|| {
+        for k in 5..200 {
+            sim.tick(k).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "contact-grasp ticks allocated {n} times");
+    let st = sim
+        .driver()
+        .friction_stats()
+        .expect("friction distribution");
+    assert_eq!(st.fallbacks, 0, "{st:?}");
+    assert!(st.solves >= 200);
+}

@@ -43,6 +43,8 @@ pub struct Finished {
     /// Contact grasps: the pads' record (slip, events, cone margins); `None` for welds and
     /// compliant grasps.
     pub contacts: Option<ContactLog>,
+    /// What the friction-aware distribution did (`controller.distribution = "friction"`).
+    pub friction: Option<tandem::control::spatial::distribute::friction::FrictionStats>,
 }
 
 impl Finished {
@@ -186,10 +188,11 @@ pub fn run(name: &str, duration: f64) -> Result<Finished> {
 /// Run a prepared scenario, reporting progress in [0, 1].
 pub fn execute(p: Prepared, progress: impl FnMut(f64)) -> Result<Finished> {
     let label = label_of(&p);
-    let (outcome, contacts) = p.ready.sim.run(progress);
+    let (outcome, contacts, friction) = p.ready.sim.run(progress);
     Ok(Finished {
         outcome,
         contacts,
+        friction,
         plant: SpatialPlant::new(&p.built.plant).context("spatial plant")?,
         box_size: p.built.box_size,
         path: p.built.path.clone(),

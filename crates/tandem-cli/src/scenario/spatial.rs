@@ -33,6 +33,7 @@ use tandem::control::law::ctc::CtcGains;
 use tandem::control::law::pd::PdGains;
 use tandem::control::spatial::SpatialController;
 use tandem::control::spatial::chart::Chart;
+use tandem::control::spatial::distribute::friction::FrictionStats;
 use tandem::control::spatial::{PostureParams, SpatialControllerParams};
 use tandem::control::{ControlWarning, Scheme};
 use tandem::drive::Drive;
@@ -311,7 +312,29 @@ pub struct ControllerConfig {
     /// torque column per joint).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub replay_columns: Option<Vec<String>>,
+    /// The load distribution: `weld` (the minimum-norm share, as if the grasps were welds; the
+    /// default) or `friction` (contact grasps: the nearest share that keeps every pad inside its
+    /// friction cone by `friction_margin`, docs/friction-grasps.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distribution: Option<DistributionConfig>,
+    /// How far inside its cone the friction-aware distribution keeps each pad, N of normal
+    /// force (default 2 N).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction_margin: Option<f64>,
 }
+
+/// `controller.distribution`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DistributionConfig {
+    /// The minimum-norm share, as if the grasps were welds.
+    Weld,
+    /// The friction-aware share (contact grasps).
+    Friction,
+}
+
+/// Default `controller.friction_margin`, N.
+pub const DEFAULT_FRICTION_MARGIN: f64 = 2.0;
 
 fn default_squeeze() -> f64 {
     5.0
@@ -699,6 +722,46 @@ fn contact_params(
         tangential_damping: c.tangential_damping.unwrap_or(c.normal_damping),
         half_extents: Vector3::new(0.5 * size[0], 0.5 * size[1], 0.5 * size[2]),
     })
+}
+
+/// The friction-aware distribution's model of the grasps, from the plant's contact grasps,
+/// when `controller.distribution = "friction"`.
+fn friction_params(
+    src: &Source,
+    sc: &SpatialScenario,
+    plant: &SpatialPlantParams,
+) -> Result<Option<tandem::control::spatial::distribute::friction::FrictionParams>, ScenarioError> {
+    use tandem::control::spatial::distribute::friction::FrictionParams;
+    let c = &sc.controller;
+    let on = c.distribution == Some(DistributionConfig::Friction);
+    if !on {
+        if c.friction_margin.is_some() {
+            return Err(src.error_at(
+                "controller.friction_margin",
+                "controller.friction_margin: the margin is the friction-aware distribution's; \
+                 set `distribution = \"friction\"` too",
+            ));
+        }
+        return Ok(None);
+    }
+    let GraspModel::Contact(g) = &plant.grasp_model else {
+        return Err(src.error_at(
+            "controller.distribution",
+            "controller.distribution = \"friction\" keeps contact pads inside their friction \
+             cones: it needs contact grasps ([plant.contact_grasps])",
+        ));
+    };
+    let margin = c.friction_margin.unwrap_or(DEFAULT_FRICTION_MARGIN);
+    if !(margin.is_finite() && margin >= 0.0) {
+        return Err(src.error_at(
+            "controller.friction_margin",
+            format!(
+                "controller.friction_margin = {}: must be ≥ 0 and finite, N",
+                num(margin)
+            ),
+        ));
+    }
+    Ok(Some(FrictionParams::from_contact(g, margin)))
 }
 
 /// The plant step against the contact grasps' fastest modes, as [`grasp_step_check`] for
@@ -1131,6 +1194,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             actuator: actuator_params(&sc.arms, &c.actuator),
             disturbance_bound: c.disturbance_bound,
             posture,
+            friction: friction_params(src, sc, &plant)?,
         }
     };
     let replay = if c.kind == ControllerKind::Replay {
@@ -1458,23 +1522,27 @@ pub enum SpatialSim {
 
 impl SpatialSim {
     /// Run to the end (or a fault), reporting progress in [0, 1].
-    /// Returns the outcome and, for contact grasps, the pads' record (slip, events, margins).
-    pub fn run(self, progress: impl FnMut(f64)) -> (Outcome, Option<ContactLog>) {
+    /// Returns the outcome and, for contact grasps, the pads' record (slip, events, margins)
+    /// and what the friction-aware distribution did.
+    pub fn run(
+        self,
+        progress: impl FnMut(f64),
+    ) -> (Outcome, Option<ContactLog>, Option<FrictionStats>) {
         fn contacts(ws: &tandem::plant::spatial::SpatialWorkspace) -> Option<ContactLog> {
             (!ws.contacts.readings.is_empty()).then(|| ws.contacts.clone())
         }
         match self {
             SpatialSim::Control(s) => {
                 let (o, s) = s.run(progress);
-                (o, contacts(s.workspace()))
+                (o, contacts(s.workspace()), s.driver().friction_stats())
             }
             SpatialSim::Replay(s) => {
                 let (o, s) = s.run(progress);
-                (o, contacts(s.workspace()))
+                (o, contacts(s.workspace()), None)
             }
             SpatialSim::External(s) => {
                 let (o, s) = s.run(progress);
-                (o, contacts(s.workspace()))
+                (o, contacts(s.workspace()), None)
             }
         }
     }

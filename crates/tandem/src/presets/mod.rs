@@ -21,6 +21,6 @@ pub mod spatial;
 
 pub use planar::{paper, paper_simulation, paper_start, redundant_pair, three_arms};
 pub use spatial::{
-    SpatialSetup, dual_franka, dual_ur5, franka_arm, spatial_s6_simulation,
+    SpatialSetup, dual_franka, dual_ur5, dual_ur5_grip, franka_arm, spatial_s6_simulation,
     spatial_s6_simulation_with, three_ur5, ur5_arm,
 };

@@ -104,6 +104,39 @@ pub fn dual_ur5() -> SpatialSetup {
     }
 }
 
+/// [`dual_ur5`] held by friction (the `dual-ur5-grip` scenario): each UR5 has a parallel-jaw
+/// gripper whose two pads (10 mm radius) squeeze the box's top and bottom faces 3 cm in from
+/// its end, μ = 0.3 (silicone fingertips on steel, the Robotiq Hand-E manual's tested value),
+/// torsion 0.002 m, 60 N grip, pads of 1e5 N/m and 30 N s/m.
+pub fn dual_ur5_grip() -> SpatialSetup {
+    use crate::plant::spatial::{ContactParams, GraspModel, Pad};
+    let mut s = dual_ur5();
+    let pads = vec![
+        Pad {
+            position: nalgebra::Vector3::new(-0.1, 0.0, 0.03),
+            normal: nalgebra::Vector3::new(1.0, 0.0, 0.0),
+            radius: 0.01,
+        },
+        Pad {
+            position: nalgebra::Vector3::new(0.1, 0.0, 0.03),
+            normal: nalgebra::Vector3::new(-1.0, 0.0, 0.0),
+            radius: 0.01,
+        },
+    ];
+    s.params.grasp_model = GraspModel::Contact(ContactParams {
+        pads: vec![pads; 2],
+        grip: vec![60.0; 2],
+        mu: 0.3,
+        torsion: 0.002,
+        normal_stiffness: 1e5,
+        normal_damping: 30.0,
+        tangential_stiffness: 1e5,
+        tangential_damping: 30.0,
+        half_extents: nalgebra::Vector3::new(0.2, 0.1, 0.1),
+    });
+    s
+}
+
 /// [`dual_ur5`] plus a third UR5-class arm at `(0, −0.70, 0)` facing +y, holding the middle of
 /// the box's −y face (tool z into the box, tool x down).
 pub fn three_ur5() -> SpatialSetup {

@@ -103,7 +103,23 @@ pub fn summary_json(
     );
     s.put("regularised", json!(o.regularised));
     match &f.contacts {
-        Some(c) => s.put("contacts", contacts_json(c)),
+        Some(c) => {
+            let mut v = contacts_json(c);
+            v["distribution"] = match &f.friction {
+                Some(st) => json!({
+                    "mode": "friction",
+                    "ticks": st.solves,
+                    "fallbacks": st.fallbacks,
+                    "unconverged": st.unconverged,
+                    "first_fallback_t_s": st.first_fallback_t,
+                    "mean_iterations": if st.solves > 0 { json!(st.iterations as f64 / st.solves as f64) } else { Value::Null },
+                    "max_iterations": st.max_iterations,
+                    "min_planned_margin_N": jn(st.min_margin),
+                }),
+                None => json!({ "mode": "weld" }),
+            };
+            s.put("contacts", v)
+        }
         None => s.null(
             "contacts",
             "the grasps are welds or springs (plant.contact_grasps gives pads held by friction)",

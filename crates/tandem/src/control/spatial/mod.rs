@@ -48,7 +48,7 @@ use crate::control::{ControlWarning, Scheme};
 use crate::drive::ControlEvents;
 use crate::drive::{Drive, Measurements, Record};
 use crate::error::{ModelError, non_negative, positive};
-use crate::geometry::motion::stack;
+use crate::geometry::motion::{ang, lin, stack};
 use crate::geometry::so3::log_quat;
 use crate::math::linalg::finite_slice;
 use crate::model::spatial::object::RigidObject;
@@ -59,6 +59,7 @@ use crate::reference::spatial::admittance::{
 };
 use crate::reference::spatial::path::Se3Path;
 
+use distribute::friction::{FrictionDistribution, FrictionStats};
 use distribute::{Distribution, PostureTask, joint_torques};
 use model::{ModelWorkspace, ObjectModel};
 
@@ -248,6 +249,8 @@ pub struct SpatialController {
     model: ObjectModel,
     ws: ModelWorkspace,
     dist: Distribution,
+    /// The friction-aware distribution (contact grasps), after the weld-assuming one.
+    friction: Option<Box<FrictionDistribution>>,
     chart: Chart,
     path: Se3Path,
     object: RigidObject,
@@ -279,6 +282,9 @@ pub struct SpatialController {
     gx: Vec<Vector6<f64>>,
     r: Vec<Vector3<f64>>,
     r_d: Vec<Vector3<f64>>,
+    rot: Vec<UnitQuaternion<f64>>,
+    /// The object-level dynamics of the tick (when the full model runs).
+    last_dyn: Option<model::ObjectDynamics>,
 }
 
 /// Sampling step of the set-up checks along the path, s (at most [`MAX_PATH_SAMPLES`]).
@@ -410,6 +416,18 @@ impl SpatialController {
         let actuator = Actuator::new(&act, plant.n_q(), h)?;
         let ws = obj_model.workspace();
         let dist = Distribution::new(m, p.metric_length).map_err(|e| rename(e, "metric_length"))?;
+        let friction = match &p.friction {
+            Some(f) => {
+                if f.pads.len() != m {
+                    return Err(ModelError::geometry(
+                        "friction.pads",
+                        format!("{} pad lists for {m} grasps", f.pads.len()),
+                    ));
+                }
+                Some(Box::new(FrictionDistribution::new(f, p.metric_length)?))
+            }
+            None => None,
+        };
         let adm = match &p.admittance {
             Some(a) => {
                 let (g, w) = AdmittanceSe3::new(a, h)?;
@@ -508,6 +526,7 @@ impl SpatialController {
                 model: obj_model,
                 ws,
                 dist,
+                friction,
                 chart,
                 path,
                 object,
@@ -536,6 +555,8 @@ impl SpatialController {
                 gx: vec![z6; m],
                 r: vec![Vector3::zeros(); m],
                 r_d: vec![Vector3::zeros(); m],
+                rot: vec![UnitQuaternion::identity(); m],
+                last_dyn: None,
             },
             warnings,
         ))
@@ -544,6 +565,10 @@ impl SpatialController {
     /// Control period, s.
     pub fn period(&self) -> f64 {
         self.h
+    }
+    /// What the friction-aware distribution did (`None` without one).
+    pub fn friction_stats(&self) -> Option<FrictionStats> {
+        self.friction.as_ref().map(|f| f.stats)
     }
     /// Event counters since the start.
     pub fn events(&self) -> ControlEvents {
@@ -771,11 +796,10 @@ impl SpatialController {
         // gravity (the feed-forward of step 5 and PD's gravity term), five times cheaper.
         let full = self.needs_full_model();
         if full {
-            if self
-                .model
-                .dynamics(meas.q, meas.qd, &obj.pose(), &obj.twist, &mut self.ws)
-                .is_none()
-            {
+            self.last_dyn =
+                self.model
+                    .dynamics(meas.q, meas.qd, &obj.pose(), &obj.twist, &mut self.ws);
+            if self.last_dyn.is_none() {
                 self.events.degenerate += 1;
                 tau.fill(0.0);
                 return;
@@ -863,6 +887,37 @@ impl SpatialController {
                     *wi += gi;
                 }
             }
+            // Contact grasps: the nearest wrenches that keep every pad inside its cone
+            // (unchanged, and counted, when none exists). The pads carry what the arm puts on
+            // the object, `w_i − g_x,i` (the rest holds the arm's own weight).
+            if let (Some(fd), Some(nd)) = (&mut self.friction, &self.last_dyn) {
+                for (q, tool) in self.rot.iter_mut().zip(&self.tools) {
+                    *q = tool.q;
+                }
+                // The object's acceleration under these wrenches (the model's (14)), then what
+                // each arm's own dynamics take of its wrench, `Λ_i (G_i V̇ + Ġ_i V) + μ_i`: the
+                // rest, `w_i` less that, is what its pads carry to the object.
+                let net = Distribution::net(&self.r, &self.w);
+                let vdot = nd
+                    .acceleration(&net, &Vector6::zeros())
+                    .unwrap_or_else(Vector6::zeros);
+                let w_o = ang(&obj.twist);
+                for i in 0..self.w.len() {
+                    let r = self.r[i];
+                    let a = stack(
+                        &(lin(&vdot) + ang(&vdot).cross(&r) + w_o.cross(&w_o.cross(&r))),
+                        &ang(&vdot),
+                    );
+                    let arm = &self.ws.arms[i];
+                    self.gx[i] = arm.lambda * a + arm.mu;
+                    self.w2[i] = self.w[i] - self.gx[i];
+                }
+                if fd.solve(t, &self.r, &self.rot, &mut self.w2) {
+                    for ((wi, t2), own) in self.w.iter_mut().zip(&self.w2).zip(&self.gx) {
+                        *wi = t2 + own;
+                    }
+                }
+            }
         }
         // Record the internal part of the commands.
         if !self.dist.internal_part(&self.r, &self.w, &mut rec.internal) {
@@ -946,7 +1001,9 @@ impl SpatialController {
     /// Whether the tick needs the full object-level model ([`ObjectModel::dynamics`]): computed
     /// torque, or an arm that is not square (its null-space projector needs `M_i` and `Λ_i`).
     fn needs_full_model(&self) -> bool {
-        matches!(self.law, Active::Ctc(..)) || self.model.arms().iter().any(|a| a.chain.dof() != 6)
+        matches!(self.law, Active::Ctc(..))
+            || self.friction.is_some()
+            || self.model.arms().iter().any(|a| a.chain.dof() != 6)
     }
 
     /// `𝓖 = [−m g; 0] + Σ G_iᵀ g_x,i`: the object's and the arms' weight as an object wrench, at

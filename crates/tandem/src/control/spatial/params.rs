@@ -187,6 +187,9 @@ pub struct SpatialControllerParams {
     pub disturbance_bound: [f64; 6],
     /// Posture task of redundant arms.
     pub posture: PostureParams,
+    /// The friction-aware load distribution for grasps held by friction
+    /// ([`super::distribute::friction`]); `None`: the weld-assuming one alone.
+    pub friction: Option<super::distribute::friction::FrictionParams>,
 }
 
 impl SpatialControllerParams {
@@ -210,6 +213,7 @@ impl SpatialControllerParams {
             actuator: Default::default(),
             disturbance_bound: [0.5, 0.5, 0.5, 0.05, 0.05, 0.05],
             posture: PostureParams::default(),
+            friction: None,
         }
     }
 

@@ -61,6 +61,8 @@
 //! [`PostureTask::franka`].
 #![allow(non_snake_case)]
 
+pub mod friction;
+
 use nalgebra::{Vector3, Vector6};
 
 use super::model::{ModelWorkspace, ObjectModel, RHS};
