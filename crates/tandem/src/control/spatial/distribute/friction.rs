@@ -12,16 +12,22 @@
 //! `w_i = Σ_j B_j x_j`, `B_j = [[n̂, μ ê₁, μ ê₂, 0], [p×n̂, μ p×ê₁, μ p×ê₂, μ_τ n̂]]`.
 //!
 //! ```text
-//! minimise   ½ Σ_i ‖w_i(x) − w_i⁰‖²_W + ½ ε ‖x − x_ref‖²
+//! x⁰ = argmin_x Σ_i ‖w_i(x) − w_i⁰‖²_W + ε ‖x − x_ref‖²   (the pads' share of the plan)
+//! minimise   ½ ‖x − x⁰‖²
 //! subject to Σ_i G_iᵀ w_i(x) = Σ_i G_iᵀ w_i⁰                (the same object wrench)
 //!            U_iᵀ N_i = U_iᵀ 1 F_g,i                          (the grip: see below)
 //!            ‖(t₁/μ, t₂/μ, τ/μ_τ)_j‖ ≤ N_j − δ               (each pad δ inside its cone)
 //! ```
 //!
-//! `w⁰` is the weld-assuming distribution (minimum-norm share + squeeze), `W` its metric
-//! (forces and torques over the length `L`), so that where the welds' answer is feasible the
-//! result is that answer. `ε = 1e-6` (relative) picks, among the pad splits that give the same
-//! wrenches, the one nearest the nominal `x_ref = (F_g, 0, 0, 0)`.
+//! `w⁰` is what the pads must carry under the weld-assuming plan (the minimum-norm share plus
+//! squeeze, less each arm's own dynamics: the controller passes `w_i − Λ_i(G_i V̇ + Ġ_i V) − μ_i`,
+//! and adds it back); `W` the share's metric (forces, and torques over the length `L`). `x⁰` is
+//! its decomposition into pad forces (`ε = 1e-6` relative picks, among the splits that give the
+//! same wrenches, the one nearest the nominal `x_ref = (F_g, 0, 0, 0)`), and the result is the
+//! point nearest `x⁰` that meets the constraints: where the plan is already inside the cones it is
+//! the plan (to the solver's tolerance); otherwise the least change of pad forces, in the scaled
+//! variables, that keeps the object wrench. The internal force changes only as much as the cones
+//! ask.
 //!
 //! **The grip.** A gripper's pads are pressed by its grip `F_g` and move with its tool: a rigid
 //! displacement `Δx` of the tool changes pad `j`'s normal force by `k_n a_jᵀ Δx` with
@@ -31,15 +37,17 @@
 //! along the jaw axis loads one pad and unloads the other); a single pad (a suction cup) is free.
 //!
 //! # The solver
-//! ADMM (Boyd et al., 2011, §5; the OSQP/SCS splitting) on `x` (equality-constrained quadratic
-//! step) and `y` (the cones), with over-relaxation 1.6: each iteration is one solve with the
-//! tick's factors (`K = H + ρ I` and the Schur complement `M K⁻¹ Mᵀ`, both Cholesky) and one
-//! projection onto each pad's cone (closed form). The factors are built once a tick, the
-//! iterates are warm-started from the last tick, and every buffer is sized at set-up: no
-//! allocation. It stops when the primal and dual residuals are below `1e-7 × (1 + F_g)` N, or
-//! after [`MAX_ITERATIONS`]; a result whose pads are not inside their cones by half the margin
-//! (infeasible: no distribution exists, or the iterations ran out) falls back to the
-//! weld-assuming wrenches, and the tick is counted in [`FrictionStats`].
+//! ADMM (Boyd et al., 2011, §5; the OSQP/SCS splitting) on `x` (the equality-constrained step,
+//! a projection onto the equalities with the tick's factor of `M Mᵀ`) and `y` (the cones, a
+//! closed-form projection per pad), over-relaxed by 1.6, `ρ` balanced against the residuals every
+//! 25 iterations. The factor is built once a tick, the iterates are warm-started from the last
+//! tick, and every buffer is sized at set-up: no allocation. It stops when the primal and dual
+//! residuals are below `1e-7 × (1 + F_g)`, or after [`MAX_ITERATIONS`]. The iterate `x` meets the
+//! equalities exactly; it is used when its pads are inside their cones by half the margin.
+//! Otherwise no distribution was found (none exists, or the iterations ran out): the tick falls
+//! back to the pad forces nearest the plan that the grip and the cones allow (the same projection
+//! with the object-wrench rows let go), so the object gets less than the law asked rather than a
+//! plan the pads cannot carry, and the tick is counted in [`FrictionStats`] with the first time.
 
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 
