@@ -293,6 +293,29 @@ def run_all(condim, **kw):
             "D": torsion_onset(condim, **kw)}
 
 
+def rotation_under(condim, torque, start, end, grip=20.0, **kw):
+    """The box's rotation about y (rad, positive with the torque) from `start` to `end` s under
+    the torque about y `torque(t)` (N m, held over each step; the same history a tandem run is
+    given, for `test_friction_vs_mujoco.py`), its angular speed about y at `end` and its
+    downward travel over the same interval (m)."""
+    dt = kw.get("timestep", TIMESTEP)
+    m = mujoco.MjModel.from_xml_string(mjcf(grip, condim, **kw))
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, 0)
+    box = m.body("box").id
+    n = int(round(end / dt))
+    i0 = int(round(start / dt))
+    theta0 = z0 = 0.0
+    for k in range(n):
+        if k == i0:
+            theta0, z0 = 2 * np.arctan2(d.qpos[5], d.qpos[3]), d.qpos[2]
+        d.xfrc_applied[box, 4] = torque(k * dt)
+        mujoco.mj_step(m, d)
+    theta = 2 * np.arctan2(d.qpos[5], d.qpos[3])
+    return {"rotation": float(theta - theta0), "final_speed": float(abs(d.qvel[4])),
+            "travel": float(z0 - d.qpos[2])}
+
+
 if __name__ == "__main__":  # pragma: no cover
     import time
 

@@ -101,6 +101,9 @@ fn a_run_reports_the_pads() {
         // Measured 4.5–9.8 N: the path's accelerations take at most half the friction.
         assert!(m > 2.0 && m < 0.3 * 60.0 * 1.5, "{p}");
         assert!(p["min_margin_t_s"].as_f64().unwrap() <= 1.0);
+        // The elliptic cone's margin (N of normal force) is at most the tangential one / μ.
+        let mc = p["min_cone_margin_N"].as_f64().unwrap();
+        assert!(mc > 0.0 && mc <= m / 0.3 + 1e-9, "{p}");
         // The bottom pads carry the weight: 60 N ± the gripper's share of 29.4 N.
         let n = p["final_normal_N"].as_f64().unwrap();
         assert!((n - 60.0).abs() < 20.0, "{p}");

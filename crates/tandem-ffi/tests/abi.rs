@@ -402,7 +402,7 @@ fn bad_names_and_scenarios_are_refused() {
     expect(
         tandem_controller_new_preset(c"dual-ur6".as_ptr(), null(), &mut h),
         TANDEM_ERR_ARGUMENT,
-        "not an embedded scenario (one of paper, push, lemniscate, dual-ur5, dual-franka)",
+        "not an embedded scenario (one of paper, push, lemniscate, dual-ur5, dual-franka, dual-ur5-grip)",
     );
     // TOML that does not parse: the message has the line.
     let broken = c"[run]\nduration = 5\ncontrol_period = \n";

@@ -43,7 +43,10 @@ fn bench(c: &mut Criterion) {
     let GraspModel::Contact(contact) = &s.params.grasp_model else {
         unreachable!()
     };
-    for (name, friction) in [("weld_distribution", false), ("friction_distribution", true)] {
+    for (name, friction) in [
+        ("weld_distribution", false),
+        ("friction_distribution", true),
+    ] {
         let mut g = PdGains::<6>::paper();
         g.gravity_compensation = true;
         let mut p = SpatialControllerParams::spec_s6(Law::Pd(g));

@@ -192,6 +192,9 @@ fn a_box_held_below_its_friction_capacity_never_slips() {
     // The margins: μ N − |f_t| = 0.5·12 − 9.81/2 at rest.
     let m = ws.contacts.readings[0].margin;
     assert!((m - (0.5 * 12.0 - 0.5 * M_BOX * G)).abs() < 1e-6, "{m}");
+    // The elliptic margin in normal force: N − |f_t|/μ = 12 − 4.905/0.5.
+    let mc = ws.contacts.readings[0].cone_margin;
+    assert!((mc - (12.0 - 0.5 * M_BOX * G / 0.5)).abs() < 1e-5, "{mc}");
     println!("smallest margin {:?} N", ws.contacts.min_margin[0]);
     assert!(ws.contacts.min_margin[0].0 > 0.0);
 }
@@ -263,8 +266,14 @@ fn a_sliding_box_accelerates_as_coulomb_says() {
             .iter()
             .all(|p| p.status == PadStatus::Slip)
     );
-    // The friction sits on the cone: margin 0.
+    // The friction sits on the cone: margin 0, to the tangential limit and the elliptic cone.
     assert!(ws.contacts.readings.iter().all(|p| p.margin.abs() < 1e-9));
+    assert!(
+        ws.contacts
+            .readings
+            .iter()
+            .all(|p| p.cone_margin.abs() < 1e-9)
+    );
     // Slip distance: both pads' anchors moved by the box's fall.
     let fall = -(box_z(&plant, &y).0 - 0.5);
     let slip = ws.contacts.slip_distance[0];

@@ -431,6 +431,7 @@ fn contacts_json(c: &tandem::plant::spatial::ContactLog) -> Value {
         let r = &c.readings[k];
         let (m, t) = c.min_margin[k];
         let (mt, tt) = c.min_torsion_margin[k];
+        let (mc, tc) = c.min_cone_margin[k];
         pads.push(json!({
             "arm": i,
             "pad": j,
@@ -438,6 +439,8 @@ fn contacts_json(c: &tandem::plant::spatial::ContactLog) -> Value {
             "min_margin_t_s": if m.is_finite() { json!(t) } else { Value::Null },
             "min_torsion_margin_Nm": jn(mt),
             "min_torsion_margin_t_s": if mt.is_finite() { json!(tt) } else { Value::Null },
+            "min_cone_margin_N": jn(mc),
+            "min_cone_margin_t_s": if mc.is_finite() { json!(tc) } else { Value::Null },
             "final_status": status_name(r.status),
             "final_normal_N": jn(r.normal),
         }));

@@ -159,8 +159,13 @@ pub struct PadReading {
     pub torsion: f64,
     /// Margin to the tangential cone, `μ N − |f_t|`, N.
     pub margin: f64,
-    /// Margin to the torsional limit, `μ_τ N − |τ|`, N m (0 without torsional friction).
+    /// Margin to the torsional limit alone, `μ_τ N − |τ|`, N m (0 without torsional
+    /// friction).
     pub torsion_margin: f64,
+    /// Margin to the elliptic cone, `N − √((|f_t|/μ)² + (τ/μ_τ)²)`, N of normal force: 0 on
+    /// the cone, whichever of friction and torsion loads it (the two margins above each ignore
+    /// the other).
+    pub cone_margin: f64,
     /// Stick, slip or separated.
     pub status: PadStatus,
 }
@@ -187,6 +192,8 @@ pub struct ContactLog {
     pub min_margin: Vec<(f64, f64)>,
     /// Per pad, the smallest torsional margin seen and its time.
     pub min_torsion_margin: Vec<(f64, f64)>,
+    /// Per pad, the smallest elliptic-cone margin seen and its time.
+    pub min_cone_margin: Vec<(f64, f64)>,
 }
 
 impl ContactLog {
@@ -204,6 +211,7 @@ impl ContactLog {
                     torsion: 0.0,
                     margin: 0.0,
                     torsion_margin: 0.0,
+                    cone_margin: 0.0,
                     status: PadStatus::Stick,
                 };
                 p
@@ -214,6 +222,7 @@ impl ContactLog {
             slip_angle: vec![0.0; g],
             min_margin: vec![(f64::INFINITY, 0.0); p],
             min_torsion_margin: vec![(f64::INFINITY, 0.0); p],
+            min_cone_margin: vec![(f64::INFINITY, 0.0); p],
         }
     }
 
@@ -228,6 +237,7 @@ impl ContactLog {
             slip_angle: Vec::new(),
             min_margin: Vec::new(),
             min_torsion_margin: Vec::new(),
+            min_cone_margin: Vec::new(),
         }
     }
 
@@ -241,6 +251,9 @@ impl ContactLog {
             .iter_mut()
             .for_each(|v| *v = (f64::INFINITY, 0.0));
         self.min_torsion_margin
+            .iter_mut()
+            .for_each(|v| *v = (f64::INFINITY, 0.0));
+        self.min_cone_margin
             .iter_mut()
             .for_each(|v| *v = (f64::INFINITY, 0.0));
         for r in &mut self.readings {
@@ -731,6 +744,13 @@ impl ContactModel {
             let (f, tau, _) = self.project_to_cone(pad, trial, tau_trial, n_damped);
             let margin = self.mu * n_damped - (f[0] * f[0] + f[1] * f[1]).sqrt();
             let torsion_margin = self.torsion * n_damped - tau.abs();
+            let ft2 = (f[0] * f[0] + f[1] * f[1]) / (self.mu * self.mu);
+            let tt2 = if self.torsion > 0.0 {
+                tau * tau / (self.torsion * self.torsion)
+            } else {
+                0.0
+            };
+            let cone_margin = n_damped - (ft2 + tt2).sqrt();
             let r = &mut log.readings[pi];
             let before = r.status;
             *r = PadReading {
@@ -739,10 +759,14 @@ impl ContactModel {
                 torsion: tau,
                 margin,
                 torsion_margin,
+                cone_margin,
                 status,
             };
             if margin < log.min_margin[pi].0 {
                 log.min_margin[pi] = (margin, t);
+            }
+            if cone_margin < log.min_cone_margin[pi].0 {
+                log.min_cone_margin[pi] = (cone_margin, t);
             }
             if self.torsion > 0.0 && torsion_margin < log.min_torsion_margin[pi].0 {
                 log.min_torsion_margin[pi] = (torsion_margin, t);
