@@ -31,7 +31,7 @@ fn grip_text() -> &'static str {
         .text
 }
 
-/// The embedded preset builds the library's contact model: four pads, μ = 0.3, 60 N, on the
+/// The embedded preset builds the library's contact model: four pads, μ = 0.3, 100 N, on the
 /// box's half extents; and its plant is the dual-UR5 preset's but for the grasps.
 #[test]
 fn the_grip_preset_builds_contact_grasps() {
@@ -43,7 +43,7 @@ fn the_grip_preset_builds_contact_grasps() {
     };
     assert_eq!(
         (c.mu, c.torsion, c.grip.clone()),
-        (0.3, 0.002, vec![60.0; 2])
+        (0.3, 0.002, vec![100.0; 2])
     );
     assert_eq!(c.pads.len(), 2);
     assert!(c.pads.iter().all(|p| p.len() == 2));
@@ -98,15 +98,30 @@ fn a_run_reports_the_pads() {
     for p in pads {
         assert_eq!(p["final_status"], "stick", "{p}");
         let m = p["min_margin_N"].as_f64().unwrap();
-        // Measured 4.5–9.8 N: the path's accelerations take at most half the friction.
-        assert!(m > 2.0 && m < 0.3 * 60.0 * 1.5, "{p}");
+        // The path's accelerations take a fraction of the friction (0.3 × 100 N a pad).
+        assert!(m > 10.0 && m < 0.3 * 100.0 * 1.5, "{p}");
         assert!(p["min_margin_t_s"].as_f64().unwrap() <= 1.0);
         // The elliptic cone's margin (N of normal force) is at most the tangential one / μ.
         let mc = p["min_cone_margin_N"].as_f64().unwrap();
         assert!(mc > 0.0 && mc <= m / 0.3 + 1e-9, "{p}");
-        // The bottom pads carry the weight: 60 N ± the gripper's share of 29.4 N.
+        // The bottom pads carry the weight: 100 N ± the gripper's share of 29.4 N.
         let n = p["final_normal_N"].as_f64().unwrap();
-        assert!((n - 60.0).abs() < 20.0, "{p}");
+        assert!((n - 100.0).abs() < 20.0, "{p}");
+    }
+    // The viewer draws the four pads with their cones and states (0: stick), and the time
+    // series has their columns.
+    let html = std::fs::read_to_string(d.join("grip/viewer.html")).unwrap();
+    let at = html.find("\"pads\":[{").expect("pads in the viewer's data");
+    let pads_json = &html[at..at + 2000.min(html.len() - at)];
+    assert!(
+        pads_json.contains("\"arm\":0") && pads_json.contains("\"mu\":0.3"),
+        "{pads_json}"
+    );
+    assert!(pads_json.contains("\"state\":[0,0,"), "{pads_json}");
+    let csv = std::fs::read_to_string(d.join("grip/timeseries.csv")).unwrap();
+    let head = csv.lines().next().unwrap();
+    for c in ["pad1.1.normal [N]", "pad2.2.margin [N]", "pad1.2.state [1]"] {
+        assert!(head.contains(c), "{c} not in {head}");
     }
     // A welded run: `contacts` is null with the reason.
     let o = tandem(
@@ -183,8 +198,8 @@ fn bad_contact_values_name_the_field_and_line() {
     );
     bad(
         &d,
-        &[("grip = 60.0", "grip = -5.0")],
-        &["plant.contact_grasps.grip", &line_of("grip = 60.0")],
+        &[("grip = 100.0", "grip = -5.0")],
+        &["plant.contact_grasps.grip", &line_of("grip = 100.0")],
     );
     bad(
         &d,
@@ -253,7 +268,7 @@ fn bad_contact_values_name_the_field_and_line() {
     // An unknown key.
     bad(
         &d,
-        &[("grip = 60.0", "grip = 60.0\nfriction = 0.3")],
+        &[("grip = 100.0", "grip = 100.0\nfriction = 0.3")],
         &["friction", "unknown field"],
     );
 }

@@ -107,7 +107,8 @@ pub fn dual_ur5() -> SpatialSetup {
 /// [`dual_ur5`] held by friction (the `dual-ur5-grip` scenario): each UR5 has a parallel-jaw
 /// gripper whose two pads (10 mm radius) squeeze the box's top and bottom faces 3 cm in from
 /// its end, μ = 0.3 (silicone fingertips on steel, the Robotiq Hand-E manual's tested value),
-/// torsion 0.002 m, 60 N grip, pads of 1e5 N/m and 30 N s/m.
+/// torsion 0.002 m, 100 N grip (a safety factor of 4.1 on the weight: the NN law's start
+/// transient slips at 60 N), pads of 1e5 N/m and 30 N s/m.
 pub fn dual_ur5_grip() -> SpatialSetup {
     use crate::plant::spatial::{ContactParams, GraspModel, Pad};
     let mut s = dual_ur5();
@@ -125,7 +126,7 @@ pub fn dual_ur5_grip() -> SpatialSetup {
     ];
     s.params.grasp_model = GraspModel::Contact(ContactParams {
         pads: vec![pads; 2],
-        grip: vec![60.0; 2],
+        grip: vec![100.0; 2],
         mu: 0.3,
         torsion: 0.002,
         normal_stiffness: 1e5,

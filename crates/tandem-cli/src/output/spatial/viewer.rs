@@ -61,6 +61,28 @@ pub(super) fn write_viewer(dir: &Path, scenario: &str, f: &Finished, d: &Derived
             [p.x, p.y, p.z]
         })
         .collect();
+    // Contact grasps: the pads, their cones, their state per frame.
+    if let Some(c) = f.plant.contact()
+        && let tandem::plant::spatial::GraspModel::Contact(cp) = f.plant.grasp_model()
+    {
+        for (i, list) in cp.pads.iter().enumerate() {
+            for (j, pad) in list.iter().enumerate() {
+                let col = log
+                    .get(&format!("pad{}.{}.state", i + 1, j + 1))
+                    .map(pick)
+                    .unwrap_or_default();
+                let nn = pad.normal.normalize();
+                scene.pads.push(crate::view::spatial::PadTrack {
+                    arm: i,
+                    position: [pad.position.x, pad.position.y, pad.position.z],
+                    normal: [nn.x, nn.y, nn.z],
+                    radius: pad.radius,
+                    mu: c.mu(),
+                    state: col,
+                });
+            }
+        }
+    }
     let n_arms = f.plant.arms().len();
     let fcols: Option<Vec<[&[f64]; 6]>> = (1..=n_arms)
         .map(|i| six(log, &format!("F{i}"), &WRENCH_AXES))

@@ -55,6 +55,26 @@ pub struct Scene3d {
     pub scalars: Vec<ScalarTrack>,
     /// Free-form notes shown in the HUD (e.g. "kinematic playback").
     pub notes: Vec<String>,
+    /// Contact grasps' pads, drawn with their friction cones and coloured by state. Empty:
+    /// none.
+    pub pads: Vec<PadTrack>,
+}
+
+/// A contact pad on a tool and its state over the frames.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PadTrack {
+    /// The arm (0-based) whose tool carries it.
+    pub arm: usize,
+    /// Centre, tool frame, m.
+    pub position: [f64; 3],
+    /// Pressing direction (into the object), tool axes.
+    pub normal: [f64; 3],
+    /// Radius, m.
+    pub radius: f64,
+    /// Friction coefficient (the cone's half angle is `atan μ`).
+    pub mu: f64,
+    /// Per frame: 0 stick, 1 slip, 2 separated (NaN: unknown).
+    pub state: Vec<f64>,
 }
 
 /// One arm's motion.
@@ -308,6 +328,14 @@ pub fn scene_json(scene: &Scene3d) -> Value {
         "wrenches": wrenches,
         "scalars": scalars,
         "notes": notes,
+        "pads": scene.pads.iter().map(|p| json!({
+            "arm": p.arm,
+            "p": p.position.iter().map(|v| fixed(*v, 5)).collect::<Vec<_>>(),
+            "n": p.normal.iter().map(|v| fixed(*v, 5)).collect::<Vec<_>>(),
+            "r": fixed(p.radius, 5),
+            "mu": sig(p.mu, 4),
+            "state": (0..n).map(|k| p.state.get(k).map_or(Value::Null, |v| fixed(*v, 0))).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
     })
 }
 

@@ -24,6 +24,7 @@
   var ARM_COLOURS = [[148, 103, 189], [188, 189, 34], [127, 127, 127], [227, 119, 194]];
   var C = {
     box: [140, 86, 75], desired: [255, 127, 14], traced: [31, 119, 180], joint: [70, 70, 74],
+    stick: [46, 160, 67], slip: [255, 152, 0], separated: [150, 150, 150],
     base: [110, 110, 116], force: [200, 20, 150], torque: [0, 128, 128],
     x: [214, 39, 40], y: [44, 160, 44], z: [40, 70, 235], grid: [190, 196, 205], grid10: [160, 166, 176]
   };
@@ -455,6 +456,19 @@
           arrow(tool.p, scl([ws[3], ws[4], ws[5]], 0.1 / tPer01), 0.005, C.torque);
         }
       });
+      // Contact pads: a disc on the face and its friction cone (half angle atan μ) opening out
+      // of the box, green while it sticks, orange while it slips, grey once separated.
+      (S.pads || []).forEach(function (pd) {
+        var tool = tools[pd.arm];
+        if (!tool) return;
+        var st = pd.state[frame.k], col = st === 1 ? C.slip : (st === 2 ? C.separated : C.stick);
+        var at = add(tool.p, qrot(tool.q, pd.p)), out = scl(unit(qrot(tool.q, pd.n)), -1);
+        cylinder(at, add(at, scl(out, 0.004)), pd.r, col);
+        var L = 0.04, e = perp(out), rb = L * Math.min(pd.mu, 3);
+        gl.enable(gl.BLEND); gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA); gl.depthMask(false);
+        drawMesh(CONE, basis(add(at, scl(out, L)), scl(e[0], rb), scl(e[1], rb), scl(out, -L)), col, 0.45);
+        gl.depthMask(true); gl.disable(gl.BLEND);
+      });
     }
     // The paths after the box too: they run through its centre.
     gl.useProgram(lineProg.p);
@@ -512,6 +526,11 @@
     var items = [];
     S.arms.forEach(function (a, i) { items.push([ARM_COLOURS[i % ARM_COLOURS.length], a.name]); });
     items.push([C.box, 'object box ' + S.box.map(function (v) { return v; }).join(' × ') + ' m']);
+    if (S.pads && S.pads.length) {
+      items.push([C.stick, 'pad sticking (friction cone)']);
+      items.push([C.slip, 'pad slipping']);
+      items.push([C.separated, 'pad separated']);
+    }
     items.push([C.desired, 'desired path']);
     items.push([C.traced, 'object path (traced)']);
     if (hasWrench) { items.push([C.force, 'grasp force on the tool']); if (tMax > 0) items.push([C.torque, 'grasp torque on the tool']); }
