@@ -409,7 +409,7 @@ impl ContactModel {
                     ));
                 }
                 let t = [(k + 1) % 3, (k + 2) % 3];
-                for (a, &ax) in t.iter().enumerate() {
+                for &ax in &t {
                     if c[ax].abs() + pad.radius > h[ax] + TOUCH_TOLERANCE {
                         return Err(bad(
                             format!("{at}.position"),
@@ -422,7 +422,6 @@ impl ContactModel {
                             ),
                         ));
                     }
-                    let _ = a;
                 }
                 let rho2 = 0.5 * pad.radius * pad.radius;
                 pads.push(PadGeom {

@@ -684,7 +684,6 @@ impl SpatialPlant {
     ) {
         let Some(c) = &self.contact else { return };
         ws.cache_valid = false;
-        let n_q = self.n_q;
         let base = self.anchor_offset();
         let (q_all, rest) = y.split_at_mut(base);
         let (q, o, qd) = self.split(q_all);
@@ -694,7 +693,6 @@ impl SpatialPlant {
             let s = self.offsets[i];
             spatial::kinematics(arm, &q[s..s + n], None, &mut ws.data[i]);
         }
-        let _ = n_q;
         let mut log = std::mem::replace(&mut ws.contacts, ContactLog::empty());
         for i in 0..self.arms.len() {
             let g = self.grasp_kin(i, &x_wo, &o, qd, ws);

@@ -381,7 +381,6 @@ impl FrictionDistribution {
         // The iterate `x` meets the equalities exactly (to round-off); it is accepted when its
         // pads are inside their cones by half the margin, converged or not (an unconverged
         // iterate is feasible but not the nearest: counted in `unconverged`).
-        let _ = ok;
         if !ok {
             self.stats.unconverged += 1;
         }
