@@ -628,6 +628,22 @@ impl ContactModel {
         ([f[0] * sa, f[1] * sa], tau * sb, true)
     }
 
+    /// The friction `(f₁, f₂, τ)` the pad transmits: the damped trial `(−k_t s − d_t ṡ,
+    /// −k_r φ − d_r φ̇)` brought into the cone of normal force `n`.
+    fn friction(&self, pad: &PadGeom, pk: &PadKin, n: f64) -> ([f64; 2], f64) {
+        let trial = [
+            -self.k_t * pk.s[0] - self.d_t * pk.s_dot[0],
+            -self.k_t * pk.s[1] - self.d_t * pk.s_dot[1],
+        ];
+        let tau_trial = if self.torsion > 0.0 {
+            -pad.k_r * pk.phi - pad.d_r * pk.phi_dot
+        } else {
+            0.0
+        };
+        let (f, tau, _) = self.project_to_cone(pad, trial, tau_trial, n);
+        (f, tau)
+    }
+
     /// The wrench of grasp `i`'s pads on the tool (about the tool origin, world axes), with grip
     /// `f_g`, anchors `anchors` (3 per pad of this grasp, in order).
     pub(crate) fn grasp_wrench(
@@ -645,16 +661,7 @@ impl ContactModel {
             let pad = &self.pads[pi];
             let pk = self.pad_kin(pad, g, &theta, &anchors[3 * jj..3 * jj + 3]);
             let n = self.normal_force(pad, &pk, f_g, true);
-            let trial = [
-                -self.k_t * pk.s[0] - self.d_t * pk.s_dot[0],
-                -self.k_t * pk.s[1] - self.d_t * pk.s_dot[1],
-            ];
-            let tau_trial = if self.torsion > 0.0 {
-                -pad.k_r * pk.phi - pad.d_r * pk.phi_dot
-            } else {
-                0.0
-            };
-            let (f, tau, _) = self.project_to_cone(pad, trial, tau_trial, n);
+            let (f, tau) = self.friction(pad, &pk, n);
             let mut fo = Vector3::zeros();
             fo[pad.k] = pad.sign * n;
             fo[pad.t[0]] = f[0];
@@ -731,16 +738,7 @@ impl ContactModel {
             log.slip_angle[i] += d_ang;
             // The reading: the force the pad transmits now (damped normal, clamped friction).
             let pk = self.pad_kin(pad, g, &theta, an);
-            let trial = [
-                -self.k_t * pk.s[0] - self.d_t * pk.s_dot[0],
-                -self.k_t * pk.s[1] - self.d_t * pk.s_dot[1],
-            ];
-            let tau_trial = if self.torsion > 0.0 {
-                -pad.k_r * pk.phi - pad.d_r * pk.phi_dot
-            } else {
-                0.0
-            };
-            let (f, tau, _) = self.project_to_cone(pad, trial, tau_trial, n_damped);
+            let (f, tau) = self.friction(pad, &pk, n_damped);
             let margin = self.mu * n_damped - (f[0] * f[0] + f[1] * f[1]).sqrt();
             let torsion_margin = self.torsion * n_damped - tau.abs();
             let ft2 = (f[0] * f[0] + f[1] * f[1]) / (self.mu * self.mu);
