@@ -357,6 +357,18 @@ fn bad_contact_parameters_name_the_field() {
     check(&|c| c.mu = -0.3, "grasp_model.mu");
     check(&|c| c.mu = f64::NAN, "grasp_model.mu");
     check(&|c| c.torsion = -1e-3, "grasp_model.torsion");
+    // Beyond any contact, and beyond what the cone's scaling keeps digits for.
+    check(&|c| c.mu = 1e308, "grasp_model.mu");
+    check(&|c| c.torsion = 1e308, "grasp_model.torsion");
+    check(&|c| c.grip[0] = 1e308, "grasp_model.grip[0]");
+    check(
+        &|c| c.pads[0][0].radius = 1e308,
+        "grasp_model.pads[0][0].position",
+    );
+    check(
+        &|c| c.pads[0][0].position.x = 1e308,
+        "grasp_model.pads[0][0].position",
+    );
     check(&|c| c.grip[0] = -5.0, "grasp_model.grip[0]");
     check(&|c| c.grip[0] = f64::NAN, "grasp_model.grip[0]");
     check(

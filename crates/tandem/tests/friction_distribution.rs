@@ -120,6 +120,28 @@ fn an_impossible_wrench_falls_back_and_is_counted() {
     assert!(lift < 69.6 + 1e-6 && lift > 40.0, "{lift}");
 }
 
+/// A non-finite input (a NaN lever arm) is a fallback, counted, never a stale plan: the
+/// wrenches come back as they went in, and the next finite tick is solved again.
+#[test]
+fn a_non_finite_input_falls_back_and_the_next_tick_recovers() {
+    let p = params(2, 0.3, 0.002, 60.0, 2.0);
+    let mut d = FrictionDistribution::new(&p, 0.2).unwrap();
+    let r = [Vector3::new(-0.2, 0.0, 0.0), Vector3::new(0.2, 0.0, 0.0)];
+    let rot = [UnitQuaternion::identity(); 2];
+    let w0 = [Vector6::new(0.0, 0.0, 14.7, 0.0, 0.0, 0.0); 2];
+    let mut w = w0;
+    assert!(d.solve(0.0, &r, &rot, &mut w));
+    let bad = [Vector3::new(f64::NAN, 0.0, 0.0), r[1]];
+    let mut w = w0;
+    assert!(!d.solve(0.001, &bad, &rot, &mut w));
+    assert_eq!(w, w0, "a failed tick leaves the wrenches as they came");
+    assert_eq!(d.stats.fallbacks, 1);
+    assert_eq!(d.stats.first_fallback_t, Some(0.001));
+    let mut w = w0;
+    assert!(d.solve(0.002, &r, &rot, &mut w));
+    assert!((w[0] - w0[0]).norm() < 1e-9);
+}
+
 /// Bad parameters name the field.
 #[test]
 fn bad_parameters_name_the_field() {
@@ -132,6 +154,9 @@ fn bad_parameters_name_the_field() {
     check(&|p| p.mu = 0.0, "friction.mu");
     check(&|p| p.mu = f64::NAN, "friction.mu");
     check(&|p| p.torsion = -1.0, "friction.torsion");
+    check(&|p| p.mu = 1e308, "friction.mu");
+    check(&|p| p.torsion = 1e308, "friction.torsion");
+    check(&|p| p.grip[0] = 1e308, "friction.grip[0]");
     check(&|p| p.margin = f64::INFINITY, "friction.margin");
     check(&|p| p.grip[1] = -1.0, "friction.grip[1]");
     check(&|p| p.pads[0].clear(), "friction.pads[0]");

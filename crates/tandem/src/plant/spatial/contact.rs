@@ -87,6 +87,12 @@ pub struct ContactParams {
 /// How close (m) a pad must be to a face at the start pose to touch it, and how far (rad) its
 /// pressing direction may be from the face's inward normal.
 pub const TOUCH_TOLERANCE: f64 = 1e-6;
+/// Largest friction or torsion coefficient accepted (μ, and μ_τ in m): far above any real
+/// contact (μ ≈ 0.1–2), and the cone's scaling `μ²` keeps its digits below it.
+pub const MAX_COEFFICIENT: f64 = 1e6;
+/// Largest grip force accepted, N (industrial grippers squeeze with up to ~1e4 N).
+pub const MAX_GRIP: f64 = 1e6;
+
 /// Angular tolerance of a pad's pressing direction against the face normal, rad.
 pub const NORMAL_TOLERANCE: f64 = 1e-6;
 
@@ -240,26 +246,6 @@ impl ContactLog {
             min_cone_margin: Vec::new(),
         }
     }
-
-    /// Forget the record (keeps its buffers).
-    pub fn clear(&mut self) {
-        self.events.clear();
-        self.dropped = 0;
-        self.slip_distance.iter_mut().for_each(|v| *v = 0.0);
-        self.slip_angle.iter_mut().for_each(|v| *v = 0.0);
-        self.min_margin
-            .iter_mut()
-            .for_each(|v| *v = (f64::INFINITY, 0.0));
-        self.min_torsion_margin
-            .iter_mut()
-            .for_each(|v| *v = (f64::INFINITY, 0.0));
-        self.min_cone_margin
-            .iter_mut()
-            .for_each(|v| *v = (f64::INFINITY, 0.0));
-        for r in &mut self.readings {
-            r.status = PadStatus::Stick;
-        }
-    }
 }
 
 fn bad(field: String, msg: impl Into<String>) -> ModelError {
@@ -284,6 +270,17 @@ impl ContactModel {
                 p.torsion,
                 "must be ≥ 0 and finite (a length, m)",
             ));
+        }
+        for (name, v) in [("grasp_model.mu", p.mu), ("grasp_model.torsion", p.torsion)] {
+            if v > MAX_COEFFICIENT {
+                return Err(ModelError::invalid(
+                    name,
+                    v,
+                    format!(
+                        "must be ≤ {MAX_COEFFICIENT:e} (no contact has more friction; beyond it the cone's scaling loses its digits)"
+                    ),
+                ));
+            }
         }
         positive("grasp_model.normal_stiffness", p.normal_stiffness)?;
         positive("grasp_model.tangential_stiffness", p.tangential_stiffness)?;
@@ -327,11 +324,11 @@ impl ContactModel {
             ));
         }
         for (i, g) in p.grip.iter().enumerate() {
-            if !(g.is_finite() && *g >= 0.0) {
+            if !(g.is_finite() && *g >= 0.0 && *g <= MAX_GRIP) {
                 return Err(ModelError::invalid(
                     format!("grasp_model.grip[{i}]"),
                     *g,
-                    "must be ≥ 0 and finite (a force, N)",
+                    format!("must be ≥ 0 and ≤ {MAX_GRIP:e} (a force, N)"),
                 ));
             }
         }

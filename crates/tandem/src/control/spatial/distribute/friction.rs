@@ -55,6 +55,8 @@ use crate::error::{ModelError, positive};
 use crate::geometry::motion::{ang, lin};
 use crate::math::linalg::{backward_rows, cholesky_rows, forward_rows};
 
+use crate::plant::spatial::contact::{MAX_COEFFICIENT, MAX_GRIP};
+
 /// Iterations of one tick's solve before it gives up.
 pub const MAX_ITERATIONS: usize = 400;
 /// ADMM over-relaxation.
@@ -127,8 +129,8 @@ pub struct FrictionStats {
     pub unconverged: u64,
     /// Time of the first fallback, s.
     pub first_fallback_t: Option<f64>,
-    /// Smallest cone margin `N − δ − ‖(t/μ, τ/μ_τ)‖ + δ` over the accepted ticks' pads, N
-    /// (≥ δ/2 by construction).
+    /// Smallest cone margin `N − ‖(t/μ, τ/μ_τ)‖` of the planned pad forces over the ticks
+    /// whose plan was accepted, N of normal force (≥ δ/2 by construction).
     pub min_margin: f64,
 }
 
@@ -159,8 +161,7 @@ pub struct FrictionDistribution {
     // Per tick.
     /// `B` per pad, world: 6 × 4, row-major.
     b: Vec<[f64; 24]>,
-    /// `H` (full, row-major), then `K = H + ρ I` factored in `k`.
-    hfull: Vec<f64>,
+    /// `H`, then its Cholesky factor (for `x⁰`).
     k: Vec<f64>,
     q: Vec<f64>,
     mm: Vec<f64>,
@@ -179,9 +180,6 @@ pub struct FrictionDistribution {
     /// The first equality row the projection keeps (0: all; 6: the grip rows alone, the
     /// fallback).
     first: usize,
-    primed: bool,
-    /// This tick's problem was built (finite, factored).
-    primed_ok: bool,
     /// What it did so far.
     pub stats: FrictionStats,
 }
@@ -201,6 +199,17 @@ impl FrictionDistribution {
     /// name the field (`friction.mu`, `friction.pads[i][j].normal`, …).
     pub fn new(p: &FrictionParams, metric_length: f64) -> Result<Self, ModelError> {
         positive("friction.mu", p.mu)?;
+        for (name, v) in [("friction.mu", p.mu), ("friction.torsion", p.torsion)] {
+            if v > MAX_COEFFICIENT {
+                return Err(ModelError::invalid(
+                    name,
+                    v,
+                    format!(
+                        "must be ≤ {MAX_COEFFICIENT:e} (no contact has more friction; beyond it the cone's scaling loses its digits)"
+                    ),
+                ));
+            }
+        }
         if !(p.torsion.is_finite() && p.torsion >= 0.0) {
             return Err(ModelError::invalid(
                 "friction.torsion",
@@ -224,11 +233,11 @@ impl FrictionDistribution {
             ));
         }
         for (i, g) in p.grip.iter().enumerate() {
-            if !(g.is_finite() && *g >= 0.0) {
+            if !(g.is_finite() && *g >= 0.0 && *g <= MAX_GRIP) {
                 return Err(ModelError::invalid(
                     format!("friction.grip[{i}]"),
                     *g,
-                    "must be ≥ 0 and finite",
+                    format!("must be ≥ 0 and ≤ {MAX_GRIP:e} N"),
                 ));
             }
         }
@@ -298,7 +307,6 @@ impl FrictionDistribution {
             nv,
             ne,
             b: vec![[0.0; 24]; np],
-            hfull: vec![0.0; nv * nv],
             k: vec![0.0; nv * nv],
             q: vec![0.0; nv],
             mm: vec![0.0; ne * nv],
@@ -313,8 +321,6 @@ impl FrictionDistribution {
             ytmp: vec![0.0; nv],
             rho: 1.0,
             first: 0,
-            primed: false,
-            primed_ok: false,
             stats: FrictionStats {
                 min_margin: f64::INFINITY,
                 ..FrictionStats::default()
@@ -369,7 +375,6 @@ impl FrictionDistribution {
     ) -> bool {
         self.stats.solves += 1;
         let built = self.build(r, rot, w);
-        self.primed_ok = built;
         let (iters, ok) = if built { self.iterate() } else { (0, false) };
         self.stats.iterations += iters as u64;
         self.stats.max_iterations = self.stats.max_iterations.max(iters as u64);
@@ -384,15 +389,18 @@ impl FrictionDistribution {
         if !ok {
             self.stats.unconverged += 1;
         }
-        let accept =
-            worst.is_finite() && worst >= 0.5 * self.margin - 1e-9 * (1.0 + self.grip_max());
+        // (A problem that could not be built, a non-finite input, is never accepted: `x` is then
+        // the last tick's.)
+        let accept = built
+            && worst.is_finite()
+            && worst >= 0.5 * self.margin - 1e-9 * (1.0 + self.grip_max());
         if !accept {
             // No distribution inside the cones realises the object wrench: the pads take the
             // nearest forces they can carry (the cone-side iterate `y`, inside every cone by
             // the margin), and the object gets less than the law asked for. Counted.
             self.stats.fallbacks += 1;
             self.stats.first_fallback_t.get_or_insert(t);
-            if !self.primed_ok {
+            if !built {
                 self.reset_iterates();
                 return false;
             }
@@ -525,7 +533,9 @@ impl FrictionDistribution {
         for i in 0..nv {
             self.k[i * nv + i] += eps;
         }
-        self.hfull.copy_from_slice(&self.k);
+        if !self.k.iter().all(|v| v.is_finite()) {
+            return false;
+        }
         // x⁰ = H⁻¹ q: the pad forces nearest the weld-assuming wrenches.
         if cholesky_rows(&mut self.k, nv).is_err() {
             return false;
@@ -533,10 +543,6 @@ impl FrictionDistribution {
         self.x0.copy_from_slice(&self.q);
         forward_rows(&self.k, nv, &mut self.x0, 1);
         backward_rows(&self.k, nv, &mut self.x0);
-        if !self.primed {
-            self.rho = 1.0;
-            self.primed = true;
-        }
         // M: the net wrench rows and the grip rows; b.
         self.mm.fill(0.0);
         let mut net = Vector6::zeros();
@@ -568,10 +574,7 @@ impl FrictionDistribution {
             }
             self.rhs_b[6 + e] = *rhs;
         }
-        if !(self.hfull.iter().all(|v| v.is_finite())
-            && self.mm.iter().all(|v| v.is_finite())
-            && self.rhs_b.iter().all(|v| v.is_finite()))
-        {
+        if !(self.mm.iter().all(|v| v.is_finite()) && self.rhs_b.iter().all(|v| v.is_finite())) {
             return false;
         }
         self.factor()
