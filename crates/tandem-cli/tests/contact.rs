@@ -249,6 +249,17 @@ fn bad_contact_values_name_the_field_and_line() {
         &[("plant_step = 0.0001", "plant_step = 0.001")],
         &["run.plant_step", "wrist_3_link", "unstable"],
     );
+    // No pads at all: the file's list is named.
+    let pads = grip_text()
+        .split_once("pads = [\n")
+        .and_then(|(_, rest)| rest.split_once("\n]\n"))
+        .map(|(body, _)| format!("pads = [\n{body}\n]\n"))
+        .unwrap();
+    bad(
+        &d,
+        &[(pads.as_str(), "pads = []\n")],
+        &["plant.contact_grasps.pads:", "at least one pad"],
+    );
     // The distribution's settings.
     bad(
         &d,

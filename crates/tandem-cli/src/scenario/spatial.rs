@@ -557,6 +557,9 @@ fn file_path(sc: &SpatialScenario, dofs: &[usize], param: &str) -> String {
                 && let Some((_, tail)) = r.split_once("][")
             {
                 format!("plant.contact_grasps.pads[{tail}")
+            } else if rest.starts_with(".pads[") {
+                // `grasp_model.pads[i]` (arm i's list, e.g. empty): the file's one list.
+                "plant.contact_grasps.pads".into()
             } else if rest.starts_with(".grip[") {
                 "plant.contact_grasps.grip".into()
             } else if rest.starts_with(".half_extents") {
