@@ -105,6 +105,7 @@ fn rig_params(r: &Rig) -> SpatialPlantParams {
         gravity: Vector3::new(0.0, 0.0, -G),
         baumgarte: 0.0,
         grasp_model: GraspModel::Contact(contact(r, vec![two_pads(0.01)], vec![r.grip], HALF)),
+        pad_gauge: None,
     }
 }
 

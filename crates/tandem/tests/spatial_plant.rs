@@ -583,6 +583,7 @@ fn a_locked_chain_is_a_counted_event_with_time_and_state() {
         gravity: Vector3::new(0.0, 0.0, -9.81),
         baumgarte: 20.0,
         grasp_model: GraspModel::Weld,
+        pad_gauge: None,
     };
     let plant = SpatialPlant::new(&params).unwrap();
     let mut y = plant

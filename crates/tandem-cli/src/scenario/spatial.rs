@@ -747,12 +747,17 @@ fn friction_params(
         }
         return Ok(None);
     }
-    let GraspModel::Contact(g) = &plant.grasp_model else {
-        return Err(src.error_at(
-            "controller.distribution",
-            "controller.distribution = \"friction\" keeps contact pads inside their friction \
-             cones: it needs contact grasps ([plant.contact_grasps])",
-        ));
+    // The pads of contact grasps, or those gauging welds or springs (the plan then keeps
+    // the pads the run gauges inside their cones).
+    let g = match (&plant.grasp_model, &plant.pad_gauge) {
+        (GraspModel::Contact(g), _) | (_, Some(g)) => g,
+        _ => {
+            return Err(src.error_at(
+                "controller.distribution",
+                "controller.distribution = \"friction\" keeps contact pads inside their friction \
+                 cones: it needs pads ([plant.contact_grasps])",
+            ));
+        }
     };
     let margin = c.friction_margin.unwrap_or(DEFAULT_FRICTION_MARGIN);
     if !(margin.is_finite() && margin >= 0.0) {
@@ -1058,12 +1063,16 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
 
     warnings.extend(plausibility(src, &arms, &grasps, o.size));
 
-    let grasp_model = match (&sc.plant.compliant_grasps, &sc.plant.contact_grasps) {
+    // The pads hold the object (contact grasps), or only gauge welds or springs.
+    let gauge = sc.plant.contact_grasps.as_ref().filter(|c| c.gauge_only);
+    let held = sc.plant.contact_grasps.as_ref().filter(|c| !c.gauge_only);
+    let grasp_model = match (&sc.plant.compliant_grasps, held) {
         (Some(_), Some(_)) => {
             return Err(src.error_at(
                 "plant.contact_grasps",
                 "plant.contact_grasps: the grasps are either compliant ([plant.compliant_grasps]) \
-                 or held by friction ([plant.contact_grasps]), not both",
+                 or held by friction ([plant.contact_grasps]), not both (`gauge_only = true` \
+                 keeps the springs and gauges the friction they would need)",
             ));
         }
         (None, None) => GraspModel::Weld,
@@ -1077,7 +1086,11 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
             GraspModel::Contact(g)
         }
     };
-    if sc.plant.contact_grasps.is_some()
+    let pad_gauge = match gauge {
+        Some(c) => Some(contact_params(src, c, grasps.len(), o.size)?),
+        None => None,
+    };
+    if held.is_some()
         && let Some(d) = sc.run.max_drift.filter(|d| *d < 1e-3)
     {
         warnings.push(format!(
@@ -1105,6 +1118,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
         gravity: Vector3::from(sc.plant.gravity),
         baumgarte: sc.plant.baumgarte,
         grasp_model,
+        pad_gauge,
     };
 
     let path = build_path(&sc.path, src)?;

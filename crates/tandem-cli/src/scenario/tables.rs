@@ -532,6 +532,11 @@ pub struct ContactConfig {
     pub tangential_damping: Option<f64>,
     /// The pads, in the tool frame (the same on every arm).
     pub pads: Vec<PadConfig>,
+    /// The pads only gauge the grasps: the grasps stay welds (or the springs of
+    /// `[plant.compliant_grasps]`), and the run reports the force each pad would carry and its
+    /// friction-cone margins.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub gauge_only: bool,
 }
 
 /// Default pad stiffness, N/m: a silicone fingertip on an industrial gripper's finger.

@@ -259,6 +259,10 @@ pub trait ClosedChain {
     /// Set the workspace's per-state record from the start state (spatial contact grasps:
     /// the pads' readings at `t = 0`); nothing by default.
     fn prime(&self, _y: &mut [f64], _ws: &mut Self::Workspace) {}
+    /// After the grasp wrenches of the state `y` at `t` were evaluated: the pads that gauge
+    /// weld or compliant grasps (spatial [`spatial::SpatialPlantParams::pad_gauge`]); nothing
+    /// by default. No allocation.
+    fn gauge(&self, _t: f64, _y: &[f64], _ws: &mut Self::Workspace) {}
 }
 
 const AX3: [&str; 3] = ["x", "y", "theta"];
@@ -728,7 +732,7 @@ impl ClosedChain for spatial::SpatialPlant {
     /// N), `torsion` (N m), `margin` (`μ N − |f_t|`, N) and `state` (0 stick, 1 slip, 2
     /// separated).
     fn contact_columns(&self) -> Vec<ColumnSpec> {
-        let Some(c) = self.contact() else {
+        let Some(c) = self.pads() else {
             return Vec::new();
         };
         let mut out = Vec::with_capacity(5 * c.n_pads());
@@ -746,6 +750,9 @@ impl ClosedChain for spatial::SpatialPlant {
     }
     fn prime(&self, y: &mut [f64], ws: &mut Self::Workspace) {
         self.prime_contacts(y, ws);
+    }
+    fn gauge(&self, t: f64, y: &[f64], ws: &mut Self::Workspace) {
+        self.gauge_pads(t, y, ws);
     }
     fn write_contacts(&self, ws: &Self::Workspace, out: &mut [f64]) {
         for (k, r) in ws.contacts.readings.iter().enumerate() {

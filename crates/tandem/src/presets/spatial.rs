@@ -93,6 +93,7 @@ pub fn dual_ur5() -> SpatialSetup {
         gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),
         baumgarte: 20.0,
         grasp_model: GraspModel::Weld,
+        pad_gauge: None,
     };
     SpatialSetup {
         params,
@@ -187,6 +188,7 @@ pub fn dual_franka() -> SpatialSetup {
         gravity: nalgebra::Vector3::new(0.0, 0.0, -9.81),
         baumgarte: 20.0,
         grasp_model: GraspModel::Weld,
+        pad_gauge: None,
     };
     let ready = [0.0, 0.3, 0.0, -2.0, 0.0, 2.3, 0.785];
     let mut q_guess = ready.to_vec();

@@ -722,6 +722,7 @@ impl<P: ClosedChain, D: Drive<P>> Simulation<P, D> {
         if let Err(e) = self.eval_wrenches() {
             return Err(self.fault(t, chain_fault(e)));
         }
+        self.plant.gauge(t, &self.y, &mut self.ws);
         let (q, qd) = self.plant.joints(&self.y);
         self.sensors.sample_flat(q, qd, &self.sensor_truth);
         self.sensors.read_wrenches(&mut self.meas);

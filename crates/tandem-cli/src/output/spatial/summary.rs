@@ -115,6 +115,9 @@ pub fn summary_json(
                     "mean_iterations": if st.solves > 0 { json!(st.iterations as f64 / st.solves as f64) } else { Value::Null },
                     "max_iterations": st.max_iterations,
                     "min_planned_margin_N": jn(st.min_margin),
+                    "effort_limited_ticks": st.torque_limited,
+                    "effort_unmet_ticks": st.torque_unmet,
+                    "first_effort_unmet_t_s": st.first_torque_unmet_t,
                 }),
                 None => json!({ "mode": "weld" }),
             };

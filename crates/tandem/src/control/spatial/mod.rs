@@ -424,7 +424,20 @@ impl SpatialController {
                         format!("{} pad lists for {m} grasps", f.pads.len()),
                     ));
                 }
-                Some(Box::new(FrictionDistribution::new(f, p.metric_length)?))
+                let mut fd = FrictionDistribution::new(f, p.metric_length)?;
+                // The arms' effort limits (the actuator stage's) as constraints of the plan.
+                let e = actuator.effort();
+                if e.iter().any(|v| v.is_finite()) {
+                    let per_arm: Vec<Vec<f64>> = (0..m)
+                        .map(|i| {
+                            let s = obj_model.offset(i);
+                            e[s..s + obj_model.arms()[i].chain.dof()].to_vec()
+                        })
+                        .collect();
+                    fd.set_effort(&per_arm)
+                        .map_err(|e| rename(e, "controller.actuator.effort"))?;
+                }
+                Some(Box::new(fd))
             }
             None => None,
         };
@@ -911,6 +924,26 @@ impl SpatialController {
                     let arm = &self.ws.arms[i];
                     self.gx[i] = arm.lambda * a + arm.mu;
                     self.w2[i] = self.w[i] - self.gx[i];
+                    // The arm's Jacobian and its torques besides the pads' share (its own
+                    // share and posture task), for the effort limits.
+                    if fd.arm_rows(i).is_some() {
+                        joint_torques(
+                            &self.model,
+                            &mut self.ws,
+                            i,
+                            &self.gx[i],
+                            meas.q,
+                            meas.qd,
+                            Some(&self.posture),
+                            tau,
+                        );
+                        let n = self.model.arms()[i].chain.dof();
+                        let s = self.model.offset(i);
+                        if let Some((jac, tau0)) = fd.arm_rows(i) {
+                            jac.copy_from_slice(&self.ws.data[i].J.as_slice()[..6 * n]);
+                            tau0.copy_from_slice(&tau[s..s + n]);
+                        }
+                    }
                 }
                 if fd.solve(t, &self.r, &self.rot, &mut self.w2) {
                     for ((wi, t2), own) in self.w.iter_mut().zip(&self.w2).zip(&self.gx) {

@@ -736,47 +736,65 @@ impl ContactModel {
             // The reading: the force the pad transmits now (damped normal, clamped friction).
             let pk = self.pad_kin(pad, g, &theta, an);
             let (f, tau) = self.friction(pad, &pk, n_damped);
-            let margin = self.mu * n_damped - (f[0] * f[0] + f[1] * f[1]).sqrt();
-            let torsion_margin = self.torsion * n_damped - tau.abs();
-            let ft2 = (f[0] * f[0] + f[1] * f[1]) / (self.mu * self.mu);
-            let tt2 = if self.torsion > 0.0 {
-                tau * tau / (self.torsion * self.torsion)
+            self.record(log, pi, (i, jj), t, n_damped, f, tau, status);
+        }
+    }
+
+    /// Pad `pi` (`jj` of grasp `i`) at `t`: its reading (normal force `n`, friction `f`,
+    /// torsion `tau` on the tool, and `status`), the margins to its cone, their minima and a
+    /// status change as an event, into `log`.
+    #[allow(clippy::too_many_arguments)]
+    fn record(
+        &self,
+        log: &mut ContactLog,
+        pi: usize,
+        (i, jj): (usize, usize),
+        t: f64,
+        n: f64,
+        f: [f64; 2],
+        tau: f64,
+        status: PadStatus,
+    ) {
+        let margin = self.mu * n - (f[0] * f[0] + f[1] * f[1]).sqrt();
+        let torsion_margin = self.torsion * n - tau.abs();
+        let ft2 = (f[0] * f[0] + f[1] * f[1]) / (self.mu * self.mu);
+        let tt2 = if self.torsion > 0.0 {
+            tau * tau / (self.torsion * self.torsion)
+        } else {
+            0.0
+        };
+        let cone_margin = n - (ft2 + tt2).sqrt();
+        let r = &mut log.readings[pi];
+        let before = r.status;
+        *r = PadReading {
+            normal: n,
+            tangential: f,
+            torsion: tau,
+            margin,
+            torsion_margin,
+            cone_margin,
+            status,
+        };
+        if margin < log.min_margin[pi].0 {
+            log.min_margin[pi] = (margin, t);
+        }
+        if cone_margin < log.min_cone_margin[pi].0 {
+            log.min_cone_margin[pi] = (cone_margin, t);
+        }
+        if self.torsion > 0.0 && torsion_margin < log.min_torsion_margin[pi].0 {
+            log.min_torsion_margin[pi] = (torsion_margin, t);
+        }
+        if before != status {
+            if log.events.len() < MAX_EVENTS {
+                log.events.push(ContactEvent {
+                    t,
+                    grasp: i,
+                    pad: jj,
+                    from: before,
+                    to: status,
+                });
             } else {
-                0.0
-            };
-            let cone_margin = n_damped - (ft2 + tt2).sqrt();
-            let r = &mut log.readings[pi];
-            let before = r.status;
-            *r = PadReading {
-                normal: n_damped,
-                tangential: f,
-                torsion: tau,
-                margin,
-                torsion_margin,
-                cone_margin,
-                status,
-            };
-            if margin < log.min_margin[pi].0 {
-                log.min_margin[pi] = (margin, t);
-            }
-            if cone_margin < log.min_cone_margin[pi].0 {
-                log.min_cone_margin[pi] = (cone_margin, t);
-            }
-            if self.torsion > 0.0 && torsion_margin < log.min_torsion_margin[pi].0 {
-                log.min_torsion_margin[pi] = (torsion_margin, t);
-            }
-            if before != status {
-                if log.events.len() < MAX_EVENTS {
-                    log.events.push(ContactEvent {
-                        t,
-                        grasp: i,
-                        pad: jj,
-                        from: before,
-                        to: status,
-                    });
-                } else {
-                    log.dropped += 1;
-                }
+                log.dropped += 1;
             }
         }
     }
@@ -802,5 +820,143 @@ impl ContactModel {
             }
         }
         e
+    }
+}
+
+/// Pads declared on weld or compliant grasps: **the friction a grasp would need**. The plant
+/// keeps its welds (or springs); each tick the grasp wrench it carries is shared among the pads
+/// as stuck pads of the given stiffness share it, and each pad's force is gauged against its
+/// cone. So every grasp model reports cone margins, and a weld's result says whether a
+/// gripper of that μ and grip would have held it.
+///
+/// # The share (object axes, about the tool origin `g`)
+/// A small displacement `δ = (u, θ)` of the tool against the object moves pad `j`'s centre by
+/// `d_j = u + θ × ρ_j` (`ρ_j = c_j − g`), and the stuck contact model answers with the force
+/// on the tool `σ e_k F_g − K d_j` (`K = k_n` along the face normal `e_k`, `k_t` across) and
+/// the moment `−k_r θ_k e_k`: the grasp's wrench is `W_pre − S δ`, with `W_pre` the pads'
+/// preload (zero for opposing pads) and `S = Σ_j Aᵀ diag(K, k_r e_k e_kᵀ) A`, `A = [I, −[ρ]×]`.
+/// The weld's wrench `W` gives `δ = S⁻¹ (W_pre − W)`, and so each pad's normal force, friction
+/// and torsion, exactly those of the contact model stuck at `δ` (its limit as the pads stiffen,
+/// [`crate::plant::spatial::GraspModel::Contact`]). A pad whose normal force would be ≤ 0 is
+/// reported separated, one outside its cone slipping: what the contact grasp would do.
+#[derive(Clone, Debug)]
+pub struct PadGauge {
+    pub(crate) model: ContactModel,
+    /// The parameters it was made from.
+    pub(crate) params: ContactParams,
+    /// Per grasp, the tool origin in `O` (the grasp frame's, `X_OG`).
+    origin: Vec<Vector3<f64>>,
+    /// Per grasp, `S⁻¹` (object axes).
+    s_inv: Vec<nalgebra::Matrix6<f64>>,
+}
+
+impl PadGauge {
+    /// Validate the pads as [`ContactModel::new`] does (errors name `grasp_model.*`), and
+    /// refuse pads that cannot carry a six-axis wrench (a single pad carries no moment across
+    /// its normal).
+    pub(crate) fn new(p: &ContactParams, grasps: &[Isometry3<f64>]) -> Result<Self, ModelError> {
+        let model = ContactModel::new(p, grasps)?;
+        let mut origin = Vec::with_capacity(grasps.len());
+        let mut s_inv = Vec::with_capacity(grasps.len());
+        for (i, x_og) in grasps.iter().enumerate() {
+            let g = x_og.translation.vector;
+            let mut s = nalgebra::Matrix6::<f64>::zeros();
+            for pi in model.pads_of(i) {
+                let pad = &model.pads[pi];
+                let mut k = nalgebra::Matrix3::from_diagonal_element(model.k_t);
+                k[(pad.k, pad.k)] = model.k_n;
+                let rx = (pad.c - g).cross_matrix();
+                // A = [I, −[ρ]×]: S += Aᵀ K A, and the torsion k_r along e_k.
+                let a = nalgebra::Matrix3x6::from_columns(&[
+                    Vector3::x(),
+                    Vector3::y(),
+                    Vector3::z(),
+                    -rx.column(0),
+                    -rx.column(1),
+                    -rx.column(2),
+                ]);
+                s += a.transpose() * k * a;
+                s[(3 + pad.k, 3 + pad.k)] += pad.k_r;
+            }
+            let sv = s.singular_values();
+            let (lo, hi) = (sv.min(), sv.max());
+            match s.try_inverse() {
+                Some(inv) if lo > 1e-9 * hi && inv.iter().all(|v| v.is_finite()) => {
+                    s_inv.push(inv);
+                }
+                _ => {
+                    return Err(ModelError::geometry(
+                        format!("grasp_model.pads[{i}]"),
+                        "these pads cannot carry every component of a grasp's wrench (one pad \
+                         carries no moment across its normal): give at least two pads apart, \
+                         e.g. a parallel-jaw gripper's two opposing pads",
+                    ));
+                }
+            }
+            origin.push(g);
+        }
+        Ok(PadGauge {
+            model,
+            params: p.clone(),
+            origin,
+            s_inv,
+        })
+    }
+
+    /// Grasp `i` at `t`: `w` is the wrench the object puts on the tool (about the tool origin,
+    /// world axes), `r_wo` the object's orientation. Writes the pads' readings, margins,
+    /// minima and events into `log`. No allocation.
+    pub(crate) fn update(
+        &self,
+        i: usize,
+        w: &Vector6<f64>,
+        r_wo: &UnitQuaternion<f64>,
+        t: f64,
+        log: &mut ContactLog,
+    ) {
+        let m = &self.model;
+        let g = self.origin[i];
+        let f_g = m.grip[i];
+        // The wrench in object axes, and the preload.
+        let f_o = r_wo.inverse_transform_vector(&Vector3::new(w[0], w[1], w[2]));
+        let t_o = r_wo.inverse_transform_vector(&Vector3::new(w[3], w[4], w[5]));
+        let mut pre = Vector6::zeros();
+        for pi in m.pads_of(i) {
+            let pad = &m.pads[pi];
+            let mut f = Vector3::zeros();
+            f[pad.k] = pad.sign * f_g;
+            let mo = (pad.c - g).cross(&f);
+            pre += Vector6::new(f.x, f.y, f.z, mo.x, mo.y, mo.z);
+        }
+        let delta = self.s_inv[i] * (pre - Vector6::new(f_o.x, f_o.y, f_o.z, t_o.x, t_o.y, t_o.z));
+        let (u, th) = (
+            Vector3::new(delta[0], delta[1], delta[2]),
+            Vector3::new(delta[3], delta[4], delta[5]),
+        );
+        for (jj, pi) in m.pads_of(i).enumerate() {
+            let pad = &m.pads[pi];
+            let d = u + th.cross(&(pad.c - g));
+            let n = f_g - m.k_n * pad.sign * d[pad.k];
+            let f = [-m.k_t * d[pad.t[0]], -m.k_t * d[pad.t[1]]];
+            let tau = if m.torsion > 0.0 {
+                -pad.k_r * pad.sign * th[pad.k]
+            } else {
+                0.0
+            };
+            let ft2 = (f[0] * f[0] + f[1] * f[1]) / (m.mu * m.mu);
+            let tt2 = if m.torsion > 0.0 {
+                tau * tau / (m.torsion * m.torsion)
+            } else {
+                0.0
+            };
+            let status = if !(n > 0.0) {
+                PadStatus::Separated
+            } else if (ft2 + tt2).sqrt() > n {
+                PadStatus::Slip
+            } else {
+                PadStatus::Stick
+            };
+            m.record(log, pi, (i, jj), t, n, f, tau, status);
+        }
     }
 }

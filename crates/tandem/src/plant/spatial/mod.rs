@@ -64,7 +64,7 @@ pub mod contact;
 mod kkt;
 
 pub use contact::{
-    ContactEvent, ContactLog, ContactModel, ContactParams, Pad, PadReading, PadStatus,
+    ContactEvent, ContactLog, ContactModel, ContactParams, Pad, PadGauge, PadReading, PadStatus,
 };
 
 use nalgebra::{
@@ -115,8 +115,13 @@ pub struct SpatialPlantParams {
     pub gravity: Vector3<f64>,
     /// Baumgarte natural frequency `ω_b` (critically damped), rad/s; 0 disables.
     pub baumgarte: f64,
-    /// Welds or compliant grasps.
+    /// Welds, compliant grasps or contact grasps.
     pub grasp_model: GraspModel,
+    /// Pads declared on weld or compliant grasps, to gauge the friction each grasp would need
+    /// ([`contact::PadGauge`]): the plant keeps its welds or springs and reports, per pad, the
+    /// force stuck pads of this stiffness would carry and its cone margins. `None` for contact
+    /// grasps (their pads report themselves).
+    pub pad_gauge: Option<ContactParams>,
 }
 
 /// Joint torques and the environment wrench on the object, held over a step (ZOH).
@@ -143,6 +148,8 @@ pub struct SpatialPlant {
     grasp_model: GraspModel,
     /// The validated contact grasps, for [`GraspModel::Contact`].
     contact: Option<ContactModel>,
+    /// Pads gauging weld or compliant grasps ([`SpatialPlantParams::pad_gauge`]).
+    gauge: Option<PadGauge>,
     offsets: Vec<usize>,
     n_q: usize,
 }
@@ -371,6 +378,17 @@ impl SpatialPlant {
             GraspModel::Contact(c) => Some(ContactModel::new(c, &p.grasps)?),
             _ => None,
         };
+        let gauge = match (&p.pad_gauge, &contact) {
+            (None, _) => None,
+            (Some(_), Some(_)) => {
+                return Err(ModelError::geometry(
+                    "pad_gauge",
+                    "contact grasps report their own pads: declare pads to gauge only on weld \
+                     or compliant grasps",
+                ));
+            }
+            (Some(g), None) => Some(PadGauge::new(g, &p.grasps)?),
+        };
         Ok(SpatialPlant {
             arms: p.arms.clone(),
             grasps: p.grasps.clone(),
@@ -379,6 +397,7 @@ impl SpatialPlant {
             baumgarte: p.baumgarte,
             grasp_model: p.grasp_model.clone(),
             contact,
+            gauge,
             offsets,
             n_q,
         })
@@ -415,6 +434,42 @@ impl SpatialPlant {
     /// The validated contact grasps ([`GraspModel::Contact`]).
     pub fn contact(&self) -> Option<&ContactModel> {
         self.contact.as_ref()
+    }
+    /// The pads the run reports: the contact grasps', or those gauging weld or compliant
+    /// grasps ([`SpatialPlantParams::pad_gauge`]).
+    pub fn pads(&self) -> Option<&ContactModel> {
+        self.contact
+            .as_ref()
+            .or(self.gauge.as_ref().map(|g| &g.model))
+    }
+    /// The parameters of the pads the run reports ([`pads`](Self::pads)).
+    pub fn pad_params(&self) -> Option<&ContactParams> {
+        match (&self.grasp_model, &self.gauge) {
+            (GraspModel::Contact(c), _) => Some(c),
+            (_, Some(g)) => Some(&g.params),
+            _ => None,
+        }
+    }
+    /// Whether the pads only gauge weld or compliant grasps (they hold nothing).
+    pub fn pads_gauge_only(&self) -> bool {
+        self.gauge.is_some()
+    }
+    /// Pads gauging weld or compliant grasps: their readings, margins and events at `t` from
+    /// the grasp wrenches of the last evaluation (`ws.wrenches`) and the object's orientation
+    /// in `y`, into `ws.contacts`. Nothing for other plants. No allocation.
+    pub fn gauge_pads(&self, t: f64, y: &[f64], ws: &mut SpatialWorkspace) {
+        let Some(g) = &self.gauge else { return };
+        let n = self.n_q;
+        let q = UnitQuaternion::from_quaternion(Quaternion::new(
+            y[n + 3],
+            y[n + 4],
+            y[n + 5],
+            y[n + 6],
+        ));
+        for i in 0..self.arms.len() {
+            let w = ws.wrenches[i];
+            g.update(i, &w, &q, t, &mut ws.contacts);
+        }
     }
     /// Index of the first pad anchor in the flat state (`2 n_q + 13`; three numbers a pad,
     /// contact grasps only).
@@ -460,7 +515,7 @@ impl SpatialPlant {
             cache_valid: false,
             cache_regularised: false,
             u: self.arms.iter().map(|a| vec![0.0; a.chain.dof()]).collect(),
-            contacts: match &self.contact {
+            contacts: match self.pads() {
                 Some(c) => ContactLog::new(c),
                 None => ContactLog::empty(),
             },

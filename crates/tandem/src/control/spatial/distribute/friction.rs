@@ -63,6 +63,15 @@ pub const MAX_ITERATIONS: usize = 400;
 const ALPHA: f64 = 1.6;
 /// The tie-break weight `ε`, relative to the mean of `H`'s diagonal.
 const EPS: f64 = 1e-6;
+/// Iterations of a tick's solve with the effort limits (its ADMM is slower: up to ~1000 where
+/// several limits and cones are active together; 190 on average where one to three joints are
+/// at their limit).
+pub const MAX_LIMITED_ITERATIONS: usize = 1000;
+/// The limits are sought at `e (1 − EFFORT_TARGET)` ...
+const EFFORT_TARGET: f64 = 1e-4;
+/// ... and a plan is accepted up to `e (1 + EFFORT_ACCEPT)` (the actuator stage clips the rest,
+/// at most 0.1 % of a joint's torque).
+const EFFORT_ACCEPT: f64 = 1e-3;
 
 /// One pad in the tool frame, as the controller knows it.
 #[derive(Clone, Debug, PartialEq)]
@@ -132,6 +141,15 @@ pub struct FrictionStats {
     /// Smallest cone margin `N − ‖(t/μ, τ/μ_τ)‖` of the planned pad forces over the ticks
     /// whose plan was accepted, N of normal force (≥ δ/2 by construction).
     pub min_margin: f64,
+    /// Ticks whose plan inside the cones asked an arm for more than a joint's effort limit,
+    /// and that were solved again with the limits as constraints
+    /// ([`FrictionDistribution::set_effort`]).
+    pub torque_limited: u64,
+    /// Of those, the ticks where no plan met the cones and the limits together (the plan
+    /// inside the cones is kept, and the actuator stage clips it).
+    pub torque_unmet: u64,
+    /// Time of the first such tick, s.
+    pub first_torque_unmet_t: Option<f64>,
 }
 
 /// A pad, precomputed.
@@ -180,8 +198,45 @@ pub struct FrictionDistribution {
     /// The first equality row the projection keeps (0: all; 6: the grip rows alone, the
     /// fallback).
     first: usize,
+    /// The arms' effort limits as rows of the program (none until
+    /// [`FrictionDistribution::set_effort`]).
+    limits: Option<Box<TorqueRows>>,
     /// What it did so far.
     pub stats: FrictionStats,
+}
+
+/// The arms' effort limits as rows of the cone program: arm `i`'s joint torques are affine in
+/// its pads' forces, `τ_i = τ⁰_i + J_iᵀ Σ_j B_j x_j` (`τ⁰_i` the torques of the arm's own share
+/// and posture task), so `|τ_i,k| ≤ e_i,k` is a pair of linear bounds `l ≤ C x ≤ u`.
+#[derive(Clone, Debug)]
+struct TorqueRows {
+    /// Per arm: its first row and its joint count.
+    arms: Vec<(usize, usize)>,
+    /// Effort limit per joint (arms stacked), N m (`∞`: none).
+    effort: Vec<f64>,
+    /// Per joint its Jacobian column (world axes, about the tool origin, `[v; ω]`), set each
+    /// tick.
+    jac: Vec<f64>,
+    /// `τ⁰` per joint, set each tick.
+    tau0: Vec<f64>,
+    /// `C` (rows × nv, each row scaled to unit norm), and the bounds in the scaled rows.
+    c: Vec<f64>,
+    /// Each row's norm before scaling (0: no row).
+    norm: Vec<f64>,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    /// The box iterate, its dual and scratch (rows).
+    z: Vec<f64>,
+    u: Vec<f64>,
+    zold: Vec<f64>,
+    cx: Vec<f64>,
+    /// The factor of `K = I + ρ (I + CᵀC)` (nv × nv), `K⁻¹ Mᵀ` (one row of nv per equality).
+    kf: Vec<f64>,
+    km: Vec<f64>,
+    /// Scratch (nv).
+    r: Vec<f64>,
+    /// The cone-only plan, kept while the limited one is sought (x, y, u).
+    save: Vec<f64>,
 }
 
 fn tangents(n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
@@ -321,6 +376,7 @@ impl FrictionDistribution {
             ytmp: vec![0.0; nv],
             rho: 1.0,
             first: 0,
+            limits: None,
             stats: FrictionStats {
                 min_margin: f64::INFINITY,
                 ..FrictionStats::default()
@@ -331,6 +387,70 @@ impl FrictionDistribution {
     /// Number of grasps.
     pub fn m(&self) -> usize {
         self.m
+    }
+
+    /// Respect the arms' effort limits: `effort[i][k]` is arm `i`'s joint `k` limit, N m
+    /// (`∞`: none), one list per grasp. Each tick the caller then gives every arm's Jacobian
+    /// and its torques without the pads' share ([`arm_rows`](Self::arm_rows)). A plan inside
+    /// the cones that asks a joint for more than its limit is solved again with
+    /// `|τ⁰_i + J_iᵀ Σ_j B_j x_j| ≤ e_i` as constraints; if none meets both, the plan inside
+    /// the cones is kept (the actuator stage clips it) and the tick is counted
+    /// ([`FrictionStats::torque_unmet`]). Errors name `effort[i][k]`.
+    pub fn set_effort(&mut self, effort: &[Vec<f64>]) -> Result<(), ModelError> {
+        if effort.len() != self.m {
+            return Err(ModelError::geometry(
+                "effort",
+                format!("{} arms' limits for {} grasps", effort.len(), self.m),
+            ));
+        }
+        let mut arms = Vec::with_capacity(self.m);
+        let mut flat = Vec::new();
+        for (i, e) in effort.iter().enumerate() {
+            arms.push((flat.len(), e.len()));
+            for (k, v) in e.iter().enumerate() {
+                if v.is_nan() || *v <= 0.0 {
+                    return Err(ModelError::invalid(
+                        format!("effort[{i}][{k}]"),
+                        *v,
+                        "must be > 0 (∞: no limit)",
+                    ));
+                }
+                flat.push(*v);
+            }
+        }
+        let (n, nv) = (flat.len(), self.nv);
+        self.limits = Some(Box::new(TorqueRows {
+            arms,
+            effort: flat,
+            jac: vec![0.0; 6 * n],
+            tau0: vec![0.0; n],
+            c: vec![0.0; n * nv],
+            norm: vec![0.0; n],
+            lo: vec![0.0; n],
+            hi: vec![0.0; n],
+            z: vec![0.0; n],
+            u: vec![0.0; n],
+            zold: vec![0.0; n],
+            cx: vec![0.0; n],
+            kf: vec![0.0; nv * nv],
+            km: vec![0.0; self.ne * nv],
+            r: vec![0.0; nv],
+            save: vec![0.0; 3 * nv],
+        }));
+        Ok(())
+    }
+
+    /// Arm `i`'s rows for this tick (after [`set_effort`](Self::set_effort); `None` without
+    /// limits): its Jacobian, one column of 6 per joint (world axes, about the tool origin,
+    /// `[v; ω]`, as `J_iᵀ w` maps a tool wrench to joint torques), and `τ⁰_i`, the torques it
+    /// gets besides its pads' share. No allocation.
+    pub fn arm_rows(&mut self, i: usize) -> Option<(&mut [f64], &mut [f64])> {
+        let l = self.limits.as_mut()?;
+        let (first, n) = *l.arms.get(i)?;
+        Some((
+            &mut l.jac[6 * first..6 * (first + n)],
+            &mut l.tau0[first..first + n],
+        ))
     }
 
     /// Project `v` (one pad's 4 scaled numbers) onto its cone shifted by the margin.
@@ -429,11 +549,223 @@ impl FrictionDistribution {
             }
             self.write_wrenches(w);
             return false;
-        } else {
-            self.stats.min_margin = self.stats.min_margin.min(worst);
         }
+        if self.limits.is_some() && self.build_torque_rows() {
+            self.stats.torque_limited += 1;
+            if !self.limit_torques() {
+                self.stats.torque_unmet += 1;
+                self.stats.first_torque_unmet_t.get_or_insert(t);
+            }
+            worst = (0..self.pads.len())
+                .map(|j| self.cone_margin(&self.x[4 * j..4 * j + 4]))
+                .fold(f64::INFINITY, f64::min);
+        }
+        self.stats.min_margin = self.stats.min_margin.min(worst);
         self.write_wrenches(w);
         true
+    }
+
+    /// The torque rows `C`, `l`, `u` of this tick (scaled rows), from the arms' Jacobians,
+    /// `τ⁰` and `B`; `true` when the plan `x` asks a joint for more than its limit (and the
+    /// rows are finite).
+    fn build_torque_rows(&mut self) -> bool {
+        let nv = self.nv;
+        let Some(l) = self.limits.as_mut() else {
+            return false;
+        };
+        let mut over = false;
+        l.c.fill(0.0);
+        for (j, pad) in self.pads.iter().enumerate() {
+            let (first, n) = l.arms[pad.grasp];
+            let b = &self.b[j];
+            for k in first..first + n {
+                let col = &l.jac[6 * k..6 * k + 6];
+                for c in 0..4 {
+                    l.c[k * nv + 4 * j + c] = (0..6).map(|a| col[a] * b[4 * a + c]).sum::<f64>();
+                }
+            }
+        }
+        for k in 0..l.effort.len() {
+            let row = &mut l.c[k * nv..(k + 1) * nv];
+            let tau = l.tau0[k] + row.iter().zip(&self.x).map(|(a, b)| a * b).sum::<f64>();
+            let e = l.effort[k];
+            if !(tau.is_finite() && row.iter().all(|v| v.is_finite())) {
+                return false;
+            }
+            over |= tau.abs() > e;
+            let norm = row.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if norm > 0.0 && e.is_finite() {
+                l.norm[k] = norm;
+                row.iter_mut().for_each(|v| *v /= norm);
+                let es = e * (1.0 - EFFORT_TARGET);
+                l.lo[k] = (-es - l.tau0[k]) / norm;
+                l.hi[k] = (es - l.tau0[k]) / norm;
+            } else {
+                // No limit, or a joint the pads' forces cannot move: no row.
+                row.fill(0.0);
+                l.norm[k] = 0.0;
+                l.lo[k] = f64::NEG_INFINITY;
+                l.hi[k] = f64::INFINITY;
+            }
+        }
+        over
+    }
+
+    /// The plan nearest `x⁰` inside the cones **and** the effort limits (ADMM as
+    /// [`iterate`](Self::iterate), with the box `l ≤ C x ≤ u` as a second block of the
+    /// splitting: the OSQP form, its x-step the equality-constrained solve with
+    /// `K = I + ρ (I + CᵀC)`). Warm-started from the plan inside the cones; `true` when it
+    /// meets the cones by half the margin and every limit (to 1e-6 relative), else the plan
+    /// inside the cones is restored. No allocation.
+    fn limit_torques(&mut self) -> bool {
+        let nv = self.nv;
+        let mut l = self.limits.take().expect("torque rows");
+        l.save[..nv].copy_from_slice(&self.x);
+        l.save[nv..2 * nv].copy_from_slice(&self.y);
+        l.save[2 * nv..].copy_from_slice(&self.u);
+        let rows = l.effort.len();
+        for k in 0..rows {
+            let cx = (0..nv).map(|i| l.c[k * nv + i] * self.x[i]).sum::<f64>();
+            l.z[k] = cx.clamp(l.lo[k], l.hi[k]);
+        }
+        l.u.fill(0.0);
+        let tol = 1e-7 * (1.0 + self.grip_max());
+        let mut ok = self.factor_limited(&mut l);
+        let mut iters = 0;
+        while ok && iters < MAX_LIMITED_ITERATIONS {
+            iters += 1;
+            // x-step: K x + Mᵀλ = x⁰ + ρ(y − u) + ρ Cᵀ(z − u_z), M x = b.
+            for i in 0..nv {
+                l.r[i] = self.x0[i] + self.rho * (self.y[i] - self.u[i]);
+            }
+            for k in 0..rows {
+                let zk = self.rho * (l.z[k] - l.u[k]);
+                for i in 0..nv {
+                    l.r[i] += l.c[k * nv + i] * zk;
+                }
+            }
+            forward_rows(&l.kf, nv, &mut l.r, 1);
+            backward_rows(&l.kf, nv, &mut l.r);
+            for e in 0..self.ne {
+                let mut sum = -self.rhs_b[e];
+                for i in 0..nv {
+                    sum += self.mm[e * nv + i] * l.r[i];
+                }
+                self.lam[e] = sum;
+            }
+            forward_rows(&self.s, self.ne, &mut self.lam, 1);
+            backward_rows(&self.s, self.ne, &mut self.lam);
+            for i in 0..nv {
+                let mut zl = 0.0;
+                for e in 0..self.ne {
+                    zl += l.km[e * nv + i] * self.lam[e];
+                }
+                self.x[i] = l.r[i] - zl;
+            }
+            // The cones' block.
+            self.ytmp.copy_from_slice(&self.y);
+            for i in 0..nv {
+                let relaxed = ALPHA * self.x[i] + (1.0 - ALPHA) * self.ytmp[i];
+                self.g[i] = relaxed;
+                self.y[i] = relaxed + self.u[i];
+            }
+            for j in 0..self.pads.len() {
+                let mut v = [
+                    self.y[4 * j],
+                    self.y[4 * j + 1],
+                    self.y[4 * j + 2],
+                    self.y[4 * j + 3],
+                ];
+                self.project(&mut v);
+                self.y[4 * j..4 * j + 4].copy_from_slice(&v);
+            }
+            let (mut rp, mut rd) = (0.0f64, 0.0f64);
+            for i in 0..nv {
+                self.u[i] += self.g[i] - self.y[i];
+                rp = rp.max((self.x[i] - self.y[i]).abs());
+                rd = rd.max(self.rho * (self.y[i] - self.ytmp[i]).abs());
+            }
+            // The limits' block.
+            l.zold.copy_from_slice(&l.z);
+            for k in 0..rows {
+                let cx = (0..nv).map(|i| l.c[k * nv + i] * self.x[i]).sum::<f64>();
+                l.cx[k] = cx;
+                let relaxed = ALPHA * cx + (1.0 - ALPHA) * l.zold[k];
+                l.z[k] = (relaxed + l.u[k]).clamp(l.lo[k], l.hi[k]);
+                l.u[k] += relaxed - l.z[k];
+                rp = rp.max((cx - l.z[k]).abs());
+                rd = rd.max(self.rho * (l.z[k] - l.zold[k]).abs());
+            }
+            if !(rp.is_finite() && rd.is_finite()) {
+                ok = false;
+                break;
+            }
+            if rp <= tol && rd <= tol {
+                break;
+            }
+            if iters % 25 == 0 && rp > 0.0 && rd > 0.0 {
+                let ratio = (rp / rd).sqrt();
+                if !(0.2..=5.0).contains(&ratio) {
+                    let new = (self.rho * ratio.clamp(1e-2, 1e2)).clamp(1e-8, 1e8);
+                    let scale = self.rho / new;
+                    self.rho = new;
+                    self.u.iter_mut().for_each(|v| *v *= scale);
+                    l.u.iter_mut().for_each(|v| *v *= scale);
+                    ok = self.factor_limited(&mut l);
+                }
+            }
+        }
+        self.stats.iterations += iters as u64;
+        self.stats.max_iterations = self.stats.max_iterations.max(iters as u64);
+        // Accept when inside the cones by half the margin and inside every limit.
+        let slack = 1e-9 * (1.0 + self.grip_max());
+        let met = ok
+            && self.x.iter().all(|v| v.is_finite())
+            && (0..self.pads.len())
+                .all(|j| self.cone_margin(&self.x[4 * j..4 * j + 4]) >= 0.5 * self.margin - slack)
+            && (0..rows).all(|k| {
+                let cx = (0..nv).map(|i| l.c[k * nv + i] * self.x[i]).sum::<f64>();
+                let tau = l.tau0[k] + l.norm[k] * cx;
+                !l.effort[k].is_finite() || tau.abs() <= l.effort[k] * (1.0 + EFFORT_ACCEPT)
+            });
+        if !met {
+            self.x.copy_from_slice(&l.save[..nv]);
+            self.y.copy_from_slice(&l.save[nv..2 * nv]);
+            self.u.copy_from_slice(&l.save[2 * nv..]);
+        }
+        self.limits = Some(l);
+        met
+    }
+
+    /// `K = I + ρ (I + CᵀC)` factored, `K⁻¹ Mᵀ`, and `S = M K⁻¹ Mᵀ` factored (into `s`, which
+    /// the next tick's [`build`](Self::build) sets again). `false` on a singular factor.
+    fn factor_limited(&mut self, l: &mut TorqueRows) -> bool {
+        let (nv, ne, rows) = (self.nv, self.ne, l.effort.len());
+        for a in 0..nv {
+            for b in 0..nv {
+                let ctc = (0..rows)
+                    .map(|k| l.c[k * nv + a] * l.c[k * nv + b])
+                    .sum::<f64>();
+                l.kf[a * nv + b] = self.rho * ctc + if a == b { 1.0 + self.rho } else { 0.0 };
+            }
+        }
+        if cholesky_rows(&mut l.kf, nv).is_err() {
+            return false;
+        }
+        for e in 0..ne {
+            let row = &mut l.km[e * nv..(e + 1) * nv];
+            row.copy_from_slice(&self.mm[e * nv..(e + 1) * nv]);
+            forward_rows(&l.kf, nv, row, 1);
+            backward_rows(&l.kf, nv, row);
+        }
+        for a in 0..ne {
+            for c in 0..ne {
+                self.s[a * ne + c] = (0..nv)
+                    .map(|i| self.mm[a * nv + i] * l.km[c * nv + i])
+                    .sum::<f64>();
+            }
+        }
+        cholesky_rows(&mut self.s, ne).is_ok()
     }
 
     /// `w_i = Σ_j B_j x_j`.
