@@ -331,3 +331,103 @@ fn the_friction_distribution_needs_contact_grasps() {
         "{err}"
     );
 }
+
+/// `gauge_only = true`: the grasps stay welds (or springs) and the pads report the force each
+/// would carry. On the grip preset the gauged welds give the held pads' normal forces (the
+/// box's weight and the grip: the same statics) to 0.2 N of 100 N after the start's
+/// transient, say `held_by = "gauge"`, and name the first tick a weaker grip would slip; the
+/// JSON export carries the pads; springs take a gauge too.
+#[test]
+fn gauged_welds_and_springs_report_the_friction_they_would_need() {
+    let d = tmp("gauge");
+    let gauged = grip_text().replacen("grip = 100.0", "gauge_only = true\ngrip = 100.0", 1);
+    let weak = gauged.replacen("grip = 100.0", "grip = 8.0", 1);
+    let springs = gauged.replacen(
+        "\n[plant.contact_grasps]\n",
+        "\n[plant.compliant_grasps]\nstiffness = [1e5, 1e5, 1e5, 1e3, 1e3, 1e3]\ndamping = [200.0, 200.0, 200.0, 0.3, 0.3, 0.3]\n\n[plant.contact_grasps]\n",
+        1,
+    );
+    for (name, text) in [("gauged", &gauged), ("weak", &weak), ("springs", &springs)] {
+        std::fs::write(d.join(format!("{name}.toml")), text).unwrap();
+    }
+    let run = |file: &str, out: &str, law: &str| -> serde_json::Value {
+        let o = tandem(
+            &[
+                "run",
+                file,
+                "--controller",
+                law,
+                "--duration",
+                "1",
+                "--out",
+                out,
+            ],
+            &d,
+        );
+        assert!(
+            o.status.success(),
+            "{file}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let s: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(out).join("summary.json")).unwrap())
+                .unwrap();
+        assert_eq!(s["status"], "completed", "{file}");
+        s["contacts"].clone()
+    };
+    let held = run("dual-ur5-grip", "held", "pd-gravity");
+    let gauge = run("gauged.toml", "gauged", "pd-gravity");
+    assert_eq!(held["held_by"], "friction");
+    assert_eq!(gauge["held_by"], "gauge", "{gauge}");
+    assert_eq!(gauge["would_slip"], false, "{gauge}");
+    assert!(gauge.get("slip_distance_m").is_none(), "{gauge}");
+    assert_eq!(gauge["distribution"]["mode"], "friction");
+    assert_eq!(gauge["distribution"]["fallbacks"], 0);
+    let (hp, gp) = (
+        held["pads"].as_array().unwrap(),
+        gauge["pads"].as_array().unwrap(),
+    );
+    assert_eq!(gp.len(), 4);
+    for (h, g) in hp.iter().zip(gp) {
+        let (nh, ng) = (
+            h["final_normal_N"].as_f64().unwrap(),
+            g["final_normal_N"].as_f64().unwrap(),
+        );
+        assert!((nh - ng).abs() < 0.2, "held {h}\ngauged {g}");
+        assert_eq!(g["final_status"], "stick", "{g}");
+        assert!(g["min_cone_margin_N"].as_f64().unwrap() > 0.0, "{g}");
+    }
+    // 8 N a pad cannot hold the 3 kg box's 29.4 N by friction (4 × 0.3 × 8 = 9.6 N): the
+    // welds carry it, and the gauge says the pads would have slipped from the first ticks.
+    let w = run("weak.toml", "weak", "pd-gravity");
+    assert_eq!(w["would_slip"], true, "{w}");
+    assert!(w["first_would_slip_t_s"].as_f64().unwrap() < 0.01, "{w}");
+    assert!(w["events_total"].as_u64().unwrap() >= 1, "{w}");
+    // Springs gauged (under the NN law: PD + gravity chatters on these wrist springs, and
+    // the gauge then reports pads far outside their cones, issue 24): the same statics.
+    let s = run("springs.toml", "springs", "nn");
+    assert_eq!(s["held_by"], "gauge", "{s}");
+    assert_eq!(s["would_slip"], false, "{s}");
+    for (h, g) in hp.iter().zip(s["pads"].as_array().unwrap()) {
+        let (nh, ng) = (
+            h["final_normal_N"].as_f64().unwrap(),
+            g["final_normal_N"].as_f64().unwrap(),
+        );
+        assert!((nh - ng).abs() < 0.5, "held {h}\nsprings {g}");
+    }
+    // The terminal table says so.
+    let o = tandem(
+        &["run", "gauged.toml", "--duration", "0.05", "--out", "t"],
+        &d,
+    );
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(table.contains("gauged: pads would hold"), "{table}");
+    assert!(table.contains("min friction-cone margin"), "{table}");
+    // The JSON export carries the gauge's pads; the grasps are welds.
+    let o = tandem(&["export", "gauged.toml", "--format", "json"], &d);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["grasps"]["model"], "weld", "{}", j["grasps"]);
+    assert_eq!(j["pad_gauge"]["model"], "gauge");
+    assert_eq!(j["pad_gauge"]["grip"], serde_json::json!([100.0, 100.0]));
+}

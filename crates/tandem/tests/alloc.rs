@@ -691,3 +691,57 @@ fn contact_grasp_ticks_with_the_friction_distribution_allocate_nothing() {
     assert_eq!(st.fallbacks, 0, "{st:?}");
     assert!(st.solves >= 200);
 }
+
+/// The friction-aware distribution under an effort limit it must meet by internal force (the
+/// ADMM on the cone plan), and pads gauging welds: neither allocates on a tick.
+#[test]
+fn effort_limited_friction_plans_and_pad_gauges_allocate_nothing() {
+    use tandem::control::law::pd::PdGains;
+    use tandem::control::spatial::SpatialControllerParams;
+    use tandem::control::spatial::distribute::friction::FrictionParams;
+    use tandem::plant::spatial::GraspModel;
+    let grip = presets::dual_ur5_grip();
+    let GraspModel::Contact(c) = &grip.params.grasp_model else {
+        panic!("contact grasps")
+    };
+    let mut g = PdGains::<6>::paper();
+    g.gravity_compensation = true;
+    let mut p = SpatialControllerParams::spec_s6(Law::Pd(g));
+    p.friction = Some(FrictionParams::from_contact(c, 2.0));
+    p.actuator.effort = Some(vec![
+        150.0, 34.5, 150.0, 28.0, 28.0, 28.0, 150.0, 34.5, 150.0, 28.0, 28.0, 28.0,
+    ]);
+    // Welds gauged by the grip preset's pads.
+    let mut weld = presets::dual_ur5();
+    weld.params.pad_gauge = Some(c.clone());
+    for (name, s) in [("contact, effort-limited", &grip), ("weld gauged", &weld)] {
+        let (mut sim, _) =
+            presets::spatial_s6_simulation_with(&s.params, s, &p, 1.0, 1e-4, 0.05).unwrap();
+        for k in 0..5 {
+            sim.tick(k).unwrap();
+        }
+        let n = count(|| {
+            for k in 5..200 {
+                sim.tick(k).unwrap();
+            }
+        });
+        assert_eq!(n, 0, "{name}: ticks allocated {n} times");
+        let st = sim
+            .driver()
+            .friction_stats()
+            .expect("friction distribution");
+        assert!(
+            st.torque_limited > 0,
+            "{name}: the limit never acted: {st:?}"
+        );
+        assert_eq!(st.fallbacks, 0, "{name}: {st:?}");
+        let log = &sim.workspace().contacts;
+        assert_eq!(log.readings.len(), 4, "{name}");
+        assert_eq!(log.gauged, name.starts_with("weld"));
+        assert!(
+            log.readings.iter().all(|r| r.normal > 50.0),
+            "{name}: {:?}",
+            log.readings
+        );
+    }
+}

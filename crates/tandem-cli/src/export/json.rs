@@ -114,22 +114,11 @@ pub fn write(s: &Setup) -> String {
             "damping": damping.as_slice(),
             "axes": "the grasp frame's",
         }),
-        GraspModel::Contact(c) => json!({
-            "model": "contact",
-            "mu": c.mu,
-            "torsion": c.torsion,
-            "normal_stiffness": c.normal_stiffness,
-            "normal_damping": c.normal_damping,
-            "tangential_stiffness": c.tangential_stiffness,
-            "tangential_damping": c.tangential_damping,
-            "grip": c.grip,
-            "pads": c.pads.iter().map(|list| list.iter().map(|p| json!({
-                "position": p.position.as_slice(),
-                "normal": p.normal.as_slice(),
-                "radius": p.radius,
-            })).collect::<Vec<_>>()).collect::<Vec<_>>(),
-            "axes": "the tool frame's",
-        }),
+        GraspModel::Contact(c) => pads_json("contact", c),
+    };
+    let pad_gauge = match &s.pad_gauge {
+        Some(c) => pads_json("gauge", c),
+        None => Value::Null,
     };
     let sc = &s.scenario;
     let mut q_start: Vec<f64> = Vec::new();
@@ -184,6 +173,7 @@ pub fn write(s: &Setup) -> String {
             "pose_start": pose(&s.object_pose),
         },
         "grasps": grasps,
+        "pad_gauge": pad_gauge,
         "start": {
             "q": q_start,
             "qd": vec![0.0; s.n_q()],
@@ -202,4 +192,25 @@ pub fn write(s: &Setup) -> String {
     let mut t = serde_json::to_string_pretty(&v).unwrap_or_default();
     t.push('\n');
     t
+}
+
+/// Pads: those of contact grasps (`model = "contact"`) or those gauging welds or springs
+/// (`model = "gauge"`).
+fn pads_json(model: &str, c: &tandem::plant::spatial::ContactParams) -> Value {
+    json!({
+        "model": model,
+        "mu": c.mu,
+        "torsion": c.torsion,
+        "normal_stiffness": c.normal_stiffness,
+        "normal_damping": c.normal_damping,
+        "tangential_stiffness": c.tangential_stiffness,
+        "tangential_damping": c.tangential_damping,
+        "grip": c.grip,
+        "pads": c.pads.iter().map(|list| list.iter().map(|p| json!({
+            "position": p.position.as_slice(),
+            "normal": p.normal.as_slice(),
+            "radius": p.radius,
+        })).collect::<Vec<_>>()).collect::<Vec<_>>(),
+        "axes": "the tool frame's",
+    })
 }

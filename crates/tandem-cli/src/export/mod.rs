@@ -135,6 +135,9 @@ pub struct Setup {
     pub baumgarte: f64,
     /// Welds or compliant grasps.
     pub grasp_model: GraspModel,
+    /// Pads that only gauge the welds or springs (`gauge_only = true`): no physics, exported
+    /// so that a peer can report the same cone margins.
+    pub pad_gauge: Option<tandem::plant::spatial::ContactParams>,
     /// The plant's RK4 step, s.
     pub plant_step: f64,
     /// The control period (torques held over it), s.
@@ -233,6 +236,7 @@ pub fn setup(sc: Scenario, src: &Source, format: Format) -> Result<Setup> {
         gravity: b.plant.gravity,
         baumgarte: b.plant.baumgarte,
         grasp_model: b.plant.grasp_model.clone(),
+        pad_gauge: b.plant.pad_gauge.clone(),
         plant_step: b.sim.plant_step,
         control_period: b.sim.control_period,
         log_period: b.sim.log_period,

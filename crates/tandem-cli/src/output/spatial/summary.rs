@@ -125,7 +125,7 @@ pub fn summary_json(
         }
         None => s.null(
             "contacts",
-            "the grasps are welds or springs (plant.contact_grasps gives pads held by friction)",
+            "the grasps are welds or springs (plant.contact_grasps gives pads held by friction, or with gauge_only = true pads that gauge them)",
         ),
     }
     s.num(
@@ -459,18 +459,36 @@ fn contacts_json(c: &tandem::plant::spatial::ContactLog) -> Value {
             })
         })
         .collect();
-    let onset = c
-        .events
-        .iter()
-        .find(|e| e.to == tandem::plant::spatial::PadStatus::Slip)
-        .map(|e| e.t);
-    json!({
-        "slipped": c.slip_distance.iter().any(|d| *d > 0.0) || c.slip_angle.iter().any(|d| *d > 0.0),
-        "first_slip_t_s": onset,
-        "slip_distance_m": c.slip_distance.iter().map(|v| jn(*v)).collect::<Vec<_>>(),
-        "slip_angle_rad": c.slip_angle.iter().map(|v| jn(*v)).collect::<Vec<_>>(),
-        "pads": pads,
-        "events_total": c.events.len() as u64 + c.dropped,
-        "events": events,
-    })
+    use tandem::plant::spatial::PadStatus;
+    let mut v = if c.gauged {
+        // Welds or springs gauged by pads: nothing slips; a pad out of its cone (or with no
+        // pressure left) says the grasp needs more friction or grip than the pads give.
+        let onset = c
+            .events
+            .iter()
+            .find(|e| e.to != PadStatus::Stick)
+            .map(|e| e.t);
+        json!({
+            "held_by": "gauge",
+            "would_slip": onset.is_some(),
+            "first_would_slip_t_s": onset,
+        })
+    } else {
+        let onset = c
+            .events
+            .iter()
+            .find(|e| e.to == PadStatus::Slip)
+            .map(|e| e.t);
+        json!({
+            "held_by": "friction",
+            "slipped": c.slip_distance.iter().any(|d| *d > 0.0) || c.slip_angle.iter().any(|d| *d > 0.0),
+            "first_slip_t_s": onset,
+            "slip_distance_m": c.slip_distance.iter().map(|v| jn(*v)).collect::<Vec<_>>(),
+            "slip_angle_rad": c.slip_angle.iter().map(|v| jn(*v)).collect::<Vec<_>>(),
+        })
+    };
+    v["pads"] = json!(pads);
+    v["events_total"] = json!(c.events.len() as u64 + c.dropped);
+    v["events"] = json!(events);
+    v
 }

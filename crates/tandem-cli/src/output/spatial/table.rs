@@ -177,6 +177,9 @@ pub fn rows(runs: &[(&str, &Value)]) -> Vec<(String, Vec<String>)> {
             crate::output::joint_limits_row(&s["joint_limits"])
         });
     }
+    if runs.iter().any(|(_, s)| s["contacts"].is_object()) {
+        contact_rows(&mut row);
+    }
     row("barrier hits / torque clips (ticks)", &|s| {
         format!(
             "{} / {}",
@@ -203,4 +206,68 @@ pub fn text(runs: &[(&str, &Value)]) -> String {
 pub fn markdown(runs: &[(&str, &Value)]) -> String {
     let names: Vec<&str> = runs.iter().map(|(n, _)| *n).collect();
     crate::output::table::render_markdown(&names, &rows(runs))
+}
+
+/// What adds a row: its name and the cell of one run's summary.
+type AddRow<'a> = dyn FnMut(&str, &dyn Fn(&Value) -> String) + 'a;
+
+/// Rows for pads (held by friction, or gauging welds and springs): slip, the tightest cone
+/// margin, and what the friction-aware distribution did. "—" for a run without pads.
+fn contact_rows(row: &mut AddRow<'_>) {
+    row("slip per arm (first at)", &|s| {
+        let c = &s["contacts"];
+        match c["held_by"].as_str() {
+            Some("friction") => {
+                let d: Vec<String> = c["slip_distance_m"]
+                    .as_array()
+                    .map(|a| {
+                        a.iter()
+                            .map(|v| format!("{} mm", num(v.as_f64().unwrap_or(f64::NAN) * 1e3, 3)))
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                match c["first_slip_t_s"].as_f64() {
+                    Some(t) => format!("{} ({} s)", d.join(", "), num(t, 4)),
+                    None => "none".into(),
+                }
+            }
+            Some("gauge") => match c["first_would_slip_t_s"].as_f64() {
+                Some(t) => format!("gauged: pads would slip ({} s)", num(t, 4)),
+                None => "gauged: pads would hold".into(),
+            },
+            _ => "—".into(),
+        }
+    });
+    row("min friction-cone margin (arm, pad, t)", &|s| {
+        let pads = s["contacts"]["pads"].as_array();
+        let worst = pads.and_then(|p| {
+            p.iter()
+                .filter_map(|x| Some((x["min_cone_margin_N"].as_f64()?, x)))
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+        });
+        match worst {
+            Some((m, x)) => format!(
+                "{} N ({}, {}, {} s)",
+                num(m, 3),
+                x["arm"].as_u64().map_or(0, |v| v + 1),
+                x["pad"].as_u64().map_or(0, |v| v + 1),
+                num(x["min_cone_margin_t_s"].as_f64().unwrap_or(f64::NAN), 4)
+            ),
+            None => "—".into(),
+        }
+    });
+    row(
+        "friction plan: fallbacks / effort-limited / unmet (ticks)",
+        &|s| {
+            let d = &s["contacts"]["distribution"];
+            if d["mode"] == json!("friction") {
+                format!(
+                    "{} / {} / {}",
+                    d["fallbacks"], d["effort_limited_ticks"], d["effort_unmet_ticks"]
+                )
+            } else {
+                "—".into()
+            }
+        },
+    );
 }

@@ -61,10 +61,8 @@ pub(super) fn write_viewer(dir: &Path, scenario: &str, f: &Finished, d: &Derived
             [p.x, p.y, p.z]
         })
         .collect();
-    // Contact grasps: the pads, their cones, their state per frame.
-    if let Some(c) = f.plant.contact()
-        && let tandem::plant::spatial::GraspModel::Contact(cp) = f.plant.grasp_model()
-    {
+    // Pads (holding the box, or gauging welds or springs): their cones, their state per frame.
+    if let (Some(c), Some(cp)) = (f.plant.pads(), f.plant.pad_params()) {
         for (i, list) in cp.pads.iter().enumerate() {
             for (j, pad) in list.iter().enumerate() {
                 let col = log

@@ -200,6 +200,10 @@ pub struct ContactLog {
     pub min_torsion_margin: Vec<(f64, f64)>,
     /// Per pad, the smallest elliptic-cone margin seen and its time.
     pub min_cone_margin: Vec<(f64, f64)>,
+    /// The pads only gauge weld or compliant grasps ([`PadGauge`]): a `Slip` or `Separated`
+    /// status says the grasp would need more friction or grip than the pads give, nothing
+    /// moved, and the slip totals stay zero.
+    pub gauged: bool,
 }
 
 impl ContactLog {
@@ -229,6 +233,7 @@ impl ContactLog {
             min_margin: vec![(f64::INFINITY, 0.0); p],
             min_torsion_margin: vec![(f64::INFINITY, 0.0); p],
             min_cone_margin: vec![(f64::INFINITY, 0.0); p],
+            gauged: false,
         }
     }
 
@@ -244,6 +249,7 @@ impl ContactLog {
             min_margin: Vec::new(),
             min_torsion_margin: Vec::new(),
             min_cone_margin: Vec::new(),
+            gauged: false,
         }
     }
 }
@@ -854,7 +860,7 @@ impl PadGauge {
     /// Validate the pads as [`ContactModel::new`] does (errors name `grasp_model.*`), and
     /// refuse pads that cannot carry a six-axis wrench (a single pad carries no moment across
     /// its normal).
-    pub(crate) fn new(p: &ContactParams, grasps: &[Isometry3<f64>]) -> Result<Self, ModelError> {
+    pub fn new(p: &ContactParams, grasps: &[Isometry3<f64>]) -> Result<Self, ModelError> {
         let model = ContactModel::new(p, grasps)?;
         let mut origin = Vec::with_capacity(grasps.len());
         let mut s_inv = Vec::with_capacity(grasps.len());
@@ -903,10 +909,27 @@ impl PadGauge {
         })
     }
 
+    /// An empty record for these pads ([`ContactLog::gauged`] set).
+    pub fn log(&self) -> ContactLog {
+        ContactLog {
+            gauged: true,
+            ..ContactLog::new(&self.model)
+        }
+    }
+
+    /// The parameters the gauge was made from.
+    pub fn params(&self) -> &ContactParams {
+        &self.params
+    }
+
     /// Grasp `i` at `t`: `w` is the wrench the object puts on the tool (about the tool origin,
     /// world axes), `r_wo` the object's orientation. Writes the pads' readings, margins,
-    /// minima and events into `log`. No allocation.
-    pub(crate) fn update(
+    /// minima and events into `log` (from [`log`](Self::log)). No allocation.
+    ///
+    /// Outside a simulation this gauges measured wrenches: a wrist F/T sensor's reading
+    /// (object on tool, moved to the tool origin) tells how close a parallel-jaw grasp of
+    /// these pads is to slipping.
+    pub fn update(
         &self,
         i: usize,
         w: &Vector6<f64>,

@@ -516,7 +516,10 @@ impl SpatialPlant {
             cache_regularised: false,
             u: self.arms.iter().map(|a| vec![0.0; a.chain.dof()]).collect(),
             contacts: match self.pads() {
-                Some(c) => ContactLog::new(c),
+                Some(c) => ContactLog {
+                    gauged: self.gauge.is_some(),
+                    ..ContactLog::new(c)
+                },
                 None => ContactLog::empty(),
             },
         }
