@@ -512,3 +512,59 @@ fn a_stiff_frictional_grasp_converges_to_the_weld() {
     );
     assert!(errs[2] < 2e-4, "{errs:?}");
 }
+
+/// The grip is an input of every step: opening the jaws from 12 N to 4 N (capacity
+/// 2 μ F_g = 4 N against the 9.81 N weight) drops the box at that step and not before; a grip
+/// that is not a pressing force (NaN, negative, beyond MAX_GRIP, or for a grasp that does not
+/// exist) refuses the step, naming the entry, with the state untouched.
+#[test]
+fn the_grip_is_a_per_step_input_and_a_bad_one_refuses_the_step() {
+    use tandem::plant::spatial::StepFault;
+    let r = Rig::default();
+    let (plant, mut y) = rig(&r);
+    let h = 1e-4;
+    let mut ws = plant.workspace();
+    let mut rk = Rk4::new(plant.state_dim());
+    let mut input = plant.zero_input();
+    input.tau[0] = M_C * G + M_BOX * G;
+    let mut first_slip = None;
+    for k in 0..10_000 {
+        let t = k as f64 * h;
+        input.grip = vec![if t < 0.5 { r.grip } else { 4.0 }];
+        plant
+            .step(&mut rk, t, &mut y, &input, &mut ws, h, 1)
+            .unwrap();
+        if first_slip.is_none() && ws.contacts.slip_distance[0] > 0.0 {
+            first_slip = Some(t + h);
+        }
+    }
+    let t = first_slip.expect("the box slips once the grip drops");
+    assert!((0.5..0.5 + 1e-3).contains(&t), "slip at {t}");
+    let (z, _) = box_z(&plant, &y);
+    assert!(
+        z < 0.5 - 0.5 * 0.5 * (G - 4.0 / M_BOX) * 0.25,
+        "the box fell only to {z}"
+    );
+    for (grip, index) in [
+        (vec![f64::NAN], 0),
+        (vec![-1.0], 0),
+        (vec![2e6], 0),
+        (vec![f64::INFINITY], 0),
+        (vec![10.0, 10.0], 1),
+    ] {
+        let before = y.clone();
+        input.grip = grip.clone();
+        let e = plant
+            .step(&mut rk, 1.0, &mut y, &input, &mut ws, h, 1)
+            .unwrap_err();
+        let StepFault::BadGrip { index: i, t, .. } = e else {
+            panic!("{grip:?}: {e:?}")
+        };
+        assert_eq!((i, t), (index, 1.0), "{grip:?}");
+        assert!(
+            e.to_string().contains(&format!("input.grip[{index}]")),
+            "{e}"
+        );
+        assert_eq!(y, before, "{grip:?}: the state moved");
+    }
+}

@@ -133,7 +133,9 @@ pub struct SpatialInput {
     /// axes (subtracted), (N, N m).
     pub f_d: Vector6<f64>,
     /// Contact grasps: the grip force of each grasp, N (one per arm; empty or shorter: the
-    /// model's nominal grip for the rest). Ignored by welds and compliant grasps.
+    /// model's nominal grip for the rest), each in `[0, MAX_GRIP]` (else
+    /// [`SpatialPlant::step`] refuses the step with [`StepFault::BadGrip`]). Ignored by welds
+    /// and compliant grasps (and by pads that only gauge them).
     pub grip: Vec<f64>,
 }
 
@@ -226,6 +228,16 @@ pub enum StepFault {
         /// Start of the failed step, s.
         t: f64,
     },
+    /// `input.grip[index]` was not a grip force in `[0, MAX_GRIP]` N (or the list was longer
+    /// than the grasps); nothing was stepped.
+    BadGrip {
+        /// When the step would have started, s.
+        t: f64,
+        /// The entry of `SpatialInput::grip`.
+        index: usize,
+        /// Its value (`NaN` for an entry past the grasps).
+        value: f64,
+    },
 }
 
 impl std::fmt::Display for StepFault {
@@ -235,6 +247,14 @@ impl std::fmt::Display for StepFault {
                 write!(
                     f,
                     "the spatial plant state became non-finite in the step at t = {t:.4} s"
+                )
+            }
+            StepFault::BadGrip { t, index, value } => {
+                write!(
+                    f,
+                    "input.grip[{index}] = {value} at t = {t:.4} s: a grip is a pressing force \
+                     in [0, {}] N, one per grasp",
+                    contact::MAX_GRIP
                 )
             }
         }
@@ -810,6 +830,17 @@ impl SpatialPlant {
         h: f64,
         n: usize,
     ) -> Result<(), StepFault> {
+        if !input.grip.is_empty() {
+            let g = self.arms.len();
+            for (index, &value) in input.grip.iter().enumerate() {
+                let ok =
+                    index < g && value.is_finite() && (0.0..=contact::MAX_GRIP).contains(&value);
+                if !ok {
+                    let value = if index < g { value } else { f64::NAN };
+                    return Err(StepFault::BadGrip { t, index, value });
+                }
+            }
+        }
         for k in 0..n {
             let tk = t + k as f64 * h;
             ws.y_prev.copy_from_slice(y);
