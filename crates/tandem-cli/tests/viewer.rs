@@ -347,3 +347,40 @@ fn renders_in_headless_chromium() {
         }
     }
 }
+
+/// Pads in the snapshots: the end pose's pads outlined and grouped by their state then (a
+/// legend entry per state present), on the tool they ride; a pad of an arm that does not exist
+/// or without a state is skipped, not drawn at the origin.
+#[test]
+fn snapshots_draw_the_pads_by_state() {
+    let mut scene = ur5_scene(1.0, 10.0);
+    let frames = scene.times.len();
+    let pad = |arm: usize, n: f64, last: f64| viewer::PadTrack {
+        arm,
+        position: [0.0, 0.0, 0.0],
+        normal: [0.0, 0.0, n],
+        radius: 0.01,
+        mu: 0.3,
+        state: {
+            let mut s = vec![0.0; frames];
+            *s.last_mut().unwrap() = last;
+            s
+        },
+    };
+    scene.pads = vec![pad(0, 1.0, 0.0), pad(1, 1.0, 1.0), pad(5, 1.0, 2.0)];
+    scene.pads.push(viewer::PadTrack {
+        state: Vec::new(),
+        ..pad(0, -1.0, 0.0)
+    });
+    let (html_path, _) = write_all(&scene, "pads");
+    let dir = html_path.parent().unwrap();
+    let svg = fs::read_to_string(dir.join("snapshot_front.svg")).unwrap();
+    assert!(
+        svg.contains("pads: stick") && svg.contains("pads: slip"),
+        "legend"
+    );
+    assert!(
+        !svg.contains("pads: separated"),
+        "arm 6 does not exist: nothing drawn"
+    );
+}

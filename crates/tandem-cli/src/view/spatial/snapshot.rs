@@ -125,6 +125,44 @@ fn arm_points(scene: &Scene3d, a: usize, k: usize) -> Vec<[f64; 3]> {
     pts
 }
 
+/// A pad's disc outline (16 segments) and its pressing direction, drawn from the face out
+/// (3 cm), world frame, as one run; `p`, `q`: the tool frame.
+fn pad_outline(pd: &super::PadTrack, p: [f64; 3], q: &[f64; 4]) -> Vec<[f64; 3]> {
+    let c = rotate(q, pd.position);
+    let c = [c[0] + p[0], c[1] + p[1], c[2] + p[2]];
+    let n = rotate(q, pd.normal);
+    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-12);
+    let n = [n[0] / len, n[1] / len, n[2] / len];
+    // Two unit tangents: n × (the axis least aligned with n), then n × u.
+    let k = (0..3)
+        .min_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
+        .unwrap_or(0);
+    let mut e = [0.0; 3];
+    e[k] = 1.0;
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let u = cross(n, e);
+    let ul = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt().max(1e-12);
+    let u = [u[0] / ul, u[1] / ul, u[2] / ul];
+    let w = cross(n, u);
+    let mut pts: Vec<[f64; 3]> = (0..=16)
+        .map(|j| {
+            let a = std::f64::consts::TAU * f64::from(j) / 16.0;
+            let (s, co) = a.sin_cos();
+            std::array::from_fn(|i| c[i] + pd.radius * (co * u[i] + s * w[i]))
+        })
+        .collect();
+    // Back to the centre, then out along −n (the finger's side).
+    pts.push(c);
+    pts.push(std::array::from_fn(|i| c[i] - 0.03 * n[i]));
+    pts
+}
+
 /// See [`super::write_snapshots`].
 pub fn write(scene: &Scene3d, dir: &Path) -> Result<()> {
     let valid: Vec<usize> = (0..scene.times.len())
@@ -248,6 +286,37 @@ pub fn write(scene: &Scene3d, dir: &Path) -> Result<()> {
                     width: 2,
                 },
             ));
+        }
+        // Pads of the end pose, grouped by their state then: each an outline of its disc
+        // (true size) and its pressing direction (3 cm, out of the face toward the finger).
+        for (code, name, rgb) in [
+            (0.0, "pads: stick", (0u8, 110u8, 60u8)),
+            (1.0, "pads: slip", (255, 127, 14)),
+            (2.0, "pads: separated", (214, 39, 40)),
+        ] {
+            let mut l = Lines::default();
+            for pd in &scene.pads {
+                let Some(arm) = scene.arms.get(pd.arm) else {
+                    continue;
+                };
+                let state = pd.state.get(k1).copied().unwrap_or(f64::NAN);
+                if state != code {
+                    continue;
+                }
+                let (p, q) = arm.tool[k1];
+                l.push_run(&pad_outline(pd, p, &q), h, v);
+            }
+            if !l.x.is_empty() {
+                bufs.push((
+                    name.into(),
+                    l,
+                    Style {
+                        colour: Colour::Rgb(rgb.0, rgb.1, rgb.2),
+                        dashed: false,
+                        width: 3,
+                    },
+                ));
+            }
         }
         let mut panel = Panel::new(view.title, view.h.1, view.v.1).equal_aspect();
         for (label, l, style) in &bufs {
