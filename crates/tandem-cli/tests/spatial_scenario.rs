@@ -477,6 +477,17 @@ fn bad_input_names_the_field_and_the_urdf_line() {
         &[("[1.0, 0.0, 0.0]] }", "[1.0, 0.0, nan]] }")],
         &["arms[0].grasp.axes[2][2]: must be finite", "line 27"],
     );
+    // A start guess no joint can take is blamed, before the inverse kinematics fails from it
+    // and blames the base (it did, for 1e308).
+    bad(
+        &d,
+        &[("q_guess = [-0.212431,", "q_guess = [1e308,")],
+        &[
+            "arms[0].q_guess[0] = 1e308",
+            "shoulder_pan_joint",
+            "(line 29, column 12)",
+        ],
+    );
     // A non-finite number in a law this run does not use (`tandem compare` runs them all).
     bad(
         &d,
@@ -574,4 +585,41 @@ fn a_urdf_chain_longer_than_any_arm_is_refused_before_the_plant_exists() {
         ],
         &["arms[0].urdf", "40 moving joints", "at most 16"],
     );
+}
+
+/// A start guess outside a joint's limits that no whole turn brings inside is refused naming
+/// the guess and the joint's limits (Franka's elbow, [−3.07, −0.07] rad: 2.0 − 2π = −4.28 is
+/// outside too); a guess one turn off the limits is the same pose and is taken.
+#[test]
+fn a_start_guess_outside_the_limits_is_refused_unless_a_turn_brings_it_in() {
+    let d = tmp("guess");
+    let text = EMBEDDED
+        .iter()
+        .find(|e| e.name == "dual-franka")
+        .unwrap()
+        .text;
+    let at = "q_guess = [0.0, 0.3, 0.0, -2.0, 0.0, 2.3, 0.785]";
+    assert!(text.contains(at));
+    for (guess, ok) in [("2.0", false), ("4.283185307179586", true)] {
+        let t = text.replacen(
+            at,
+            &format!("q_guess = [0.0, 0.3, 0.0, {guess}, 0.0, 2.3, 0.785]"),
+            1,
+        );
+        let file = d.join("f.toml");
+        std::fs::write(&file, t).unwrap();
+        let o = tandem(&["validate", file.to_str().unwrap()], &d);
+        let err = String::from_utf8_lossy(&o.stderr);
+        if ok {
+            assert!(!err.contains("q_guess"), "{guess}: {err}");
+        } else {
+            assert_eq!(o.status.code(), Some(2), "{err}");
+            assert!(
+                err.contains("arms[0].q_guess[3] = 2")
+                    && err.contains("outside joint `panda_joint4`'s limits")
+                    && err.contains("whole turns"),
+                "{err}"
+            );
+        }
+    }
 }

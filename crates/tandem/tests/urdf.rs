@@ -1289,3 +1289,46 @@ fn lines_are_right_with_crlf_line_ends() {
         "{e}"
     );
 }
+
+/// A mass or inertia no robot link has (a typo in the exponent) is refused on its line when
+/// the file is read, printed short, instead of failing later on whatever the arm cannot do; a
+/// number that does not parse is echoed as an excerpt, not whole.
+#[test]
+fn absurd_masses_and_inertias_are_refused_on_their_line() {
+    let text = two_link("").replace(r#"<mass value="0.85"/>"#, r#"<mass value="1e308"/>"#);
+    let e = Urdf::parse(&text).unwrap_err();
+    assert!(
+        matches!(&e, UrdfError::BadMass { link, line, .. }
+            if link == "link2" && *line == line_of(&text, r#"<mass value="1e308"/>"#)),
+        "{e:?}"
+    );
+    let msg = e.to_string();
+    assert!(
+        msg.contains("mass 1e308 kg") && msg.contains("1e6 kg"),
+        "{msg}"
+    );
+    // A heavy but real link (a 2 t boom) is taken.
+    let text = two_link("").replace(r#"<mass value="0.85"/>"#, r#"<mass value="2000"/>"#);
+    assert!(load_chain(&text, "base", "tool0").is_ok());
+    let text = two_link("").replace(
+        r#"<inertia ixx="0.001" iyy="0.019" izz="0.019"/>"#,
+        r#"<inertia ixx="1e300" iyy="1e300" izz="1e300"/>"#,
+    );
+    let e = load_chain(&text, "base", "tool0").unwrap_err();
+    assert!(
+        matches!(&e, UrdfError::BadInertia { link, reason, .. }
+            if link == "link2" && reason.contains("beyond 1e6 kg m²")),
+        "{e:?}"
+    );
+    let long = "9".repeat(5000);
+    let text = two_link("").replace(
+        r#"<mass value="0.85"/>"#,
+        &format!(r#"<mass value="{long}x"/>"#),
+    );
+    let msg = Urdf::parse(&text).unwrap_err().to_string();
+    assert!(
+        msg.len() < 400 && msg.contains("(5001 characters)"),
+        "{}",
+        msg.len()
+    );
+}

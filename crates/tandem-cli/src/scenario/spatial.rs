@@ -611,22 +611,56 @@ fn file_path(sc: &SpatialScenario, dofs: &[usize], param: &str) -> String {
     }
 }
 
-/// The plant step against the fastest mode of a compliant grasp: the tool link (the lightest
-/// body on the grasp spring) oscillating on it at `ω = max(√(k/m), √(k_rot/I_min))` (`m` its
-/// mass, `I_min` its smallest principal inertia, `k` the largest stiffness). RK4 is unstable on an
-/// undamped oscillator beyond `h ω = 2√2 ≈ 2.83`: a longer step is refused by `run.plant_step`
-/// (the run would only fault); above `h ω = 1` the mode is resolved poorly, a warning (`tandem
-/// robustness` steps its grasp-slip runs at `h ω ≤ 1`).
-fn grasp_step_check(
-    src: &Source,
+/// Largest start guess taken for a joint without position limits (rad or m): beyond it a value
+/// is a typo, not an angle or a stroke.
+const MAX_GUESS: f64 = 1e3;
+
+/// Why a start guess cannot be a pose of joint `j`, if it cannot: outside the limits (a
+/// revolute joint's guess also after wrapping by whole turns), or beyond [`MAX_GUESS`] for a
+/// joint without limits. Checked before the inverse kinematics, so that the guess is blamed,
+/// not the base the solver then fails to reach from it.
+fn guess_outside(j: &tandem::model::spatial::ChainJoint, v: f64) -> Option<String> {
+    use std::f64::consts::TAU;
+    use tandem::model::spatial::JointKind;
+    let (lo, hi) = (j.limits.lower, j.limits.upper);
+    let unit = match j.kind {
+        JointKind::Revolute => "rad",
+        JointKind::Prismatic => "m",
+    };
+    if v.abs() > MAX_GUESS {
+        return Some(format!(
+            "a start guess for joint `{}` beyond ±{MAX_GUESS} {unit} is not a pose of it",
+            j.name
+        ));
+    }
+    if !(lo.is_finite() && hi.is_finite()) || (lo - 1e-9..=hi + 1e-9).contains(&v) {
+        return None;
+    }
+    if j.kind == JointKind::Revolute {
+        let turns = ((lo - v) / TAU).ceil();
+        if v + turns * TAU <= hi + 1e-9 {
+            return None;
+        }
+    }
+    let wrap = if j.kind == JointKind::Revolute {
+        " (also after wrapping by whole turns)"
+    } else {
+        ""
+    };
+    Some(format!(
+        "outside joint `{}`'s limits [{}, {}] {unit}{wrap}",
+        j.name,
+        sig3(lo),
+        sig3(hi)
+    ))
+}
+
+/// The fastest mode of compliant grasps `(ω rad/s, arm, tool link)`: the tool link (the
+/// lightest body on the grasp spring) oscillating on it at `ω = max(√(k/m), √(k_rot/I_min))`.
+fn grasp_fastest_mode(
     arms: &[SpatialArm],
     c: &super::tables::ComplianceConfig,
-    h: f64,
-) -> Result<Vec<String>, ScenarioError> {
-    // A stiffness that is not a positive number is the library's to refuse, by its field.
-    if !(c.stiffness.iter().all(|k| k.is_finite() && *k > 0.0) && h.is_finite() && h > 0.0) {
-        return Ok(Vec::new());
-    }
+) -> Option<(f64, usize, String)> {
     let k = c.stiffness[..3].iter().copied().fold(0.0f64, f64::max);
     let k_rot = c.stiffness[3..].iter().copied().fold(0.0f64, f64::max);
     let mut worst: Option<(f64, usize, String)> = None;
@@ -646,7 +680,63 @@ fn grasp_step_check(
             worst = Some((w, i, b.name.clone()));
         }
     }
-    let Some((w, i, link)) = worst else {
+    worst
+}
+
+/// Compliant grasps whose fastest mode the control loop cannot resolve (`ω T_c > 1`) and no
+/// output filter: a law that assumes welds feeds the tool link's spring mode back tick to tick,
+/// a period-2 oscillation through the light wrist (measured: dual-UR5, PD + gravity, 1e5 N/m and
+/// 1e3 N m/rad, `ω T_c` = 3.2: 3800 chattering ticks, effort-clipped wrists from 12 ms, the box
+/// rolled 2 rad by 3.81 s). The actuator stage's first-order filter at 5 control periods
+/// attenuates that mode ~16× at the loop's Nyquist frequency and removes it (0 chattering
+/// ticks, S5 met, `docs/robot-ready.md`).
+fn grasp_filter_check(
+    arms: &[SpatialArm],
+    c: &super::tables::ComplianceConfig,
+    control_period: f64,
+    filter: Option<f64>,
+) -> Option<String> {
+    if filter.is_some()
+        || !(c.stiffness.iter().all(|k| k.is_finite() && *k > 0.0)
+            && control_period.is_finite()
+            && control_period > 0.0)
+    {
+        return None;
+    }
+    let (w, i, link) = grasp_fastest_mode(arms, c)?;
+    let wt = w * control_period;
+    (wt > 1.0).then(|| {
+        format!(
+            "plant.compliant_grasps: the grasps' fastest mode, arms[{i}]'s tool link `{link}` on \
+             the grasp spring (ω = {} rad/s), is faster than the control loop resolves (ω × \
+             run.control_period = {} > 1); the law assumes welds and can chatter through it (dual-UR5, \
+             PD + gravity at 1e5 N/m and 1e3 N m/rad: 3800 chattering ticks and the box rolled \
+             off by 3.81 s); set [controller.actuator] filter_time_constant = {} (5 control \
+             periods: 0 chattering ticks, S5 met)",
+            sig3(w),
+            sig3(wt),
+            sig3(5.0 * control_period)
+        )
+    })
+}
+
+/// The plant step against the fastest mode of a compliant grasp: the tool link (the lightest
+/// body on the grasp spring) oscillating on it at `ω = max(√(k/m), √(k_rot/I_min))` (`m` its
+/// mass, `I_min` its smallest principal inertia, `k` the largest stiffness). RK4 is unstable on an
+/// undamped oscillator beyond `h ω = 2√2 ≈ 2.83`: a longer step is refused by `run.plant_step`
+/// (the run would only fault); above `h ω = 1` the mode is resolved poorly, a warning (`tandem
+/// robustness` steps its grasp-slip runs at `h ω ≤ 1`).
+fn grasp_step_check(
+    src: &Source,
+    arms: &[SpatialArm],
+    c: &super::tables::ComplianceConfig,
+    h: f64,
+) -> Result<Vec<String>, ScenarioError> {
+    // A stiffness that is not a positive number is the library's to refuse, by its field.
+    if !(c.stiffness.iter().all(|k| k.is_finite() && *k > 0.0) && h.is_finite() && h > 0.0) {
+        return Ok(Vec::new());
+    }
+    let Some((w, i, link)) = grasp_fastest_mode(arms, c) else {
         return Ok(Vec::new());
     };
     let hw = h * w;
@@ -1022,6 +1112,12 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
                             format!("{here}.q_guess[{k}]: must be finite"),
                         ));
                     }
+                    if let Some(msg) = guess_outside(&chain.joints[k], *v) {
+                        return Err(src.error_at(
+                            &format!("{here}.q_guess[{k}]"),
+                            format!("{here}.q_guess[{k}] = {}: {msg}", sig3(*v)),
+                        ));
+                    }
                 }
                 q_guess.extend_from_slice(g);
             }
@@ -1102,6 +1198,12 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
     }
     if let Some(c) = &sc.plant.compliant_grasps {
         warnings.extend(grasp_step_check(src, &arms, c, sc.run.plant_step())?);
+        warnings.extend(grasp_filter_check(
+            &arms,
+            c,
+            sc.run.control_period(),
+            sc.controller.actuator.filter_time_constant,
+        ));
         if let Some(d) = sc.run.max_drift.filter(|d| *d < 1e-3) {
             warnings.push(format!(
                 "run.max_drift = {} stops the run when a grasp deflects that far, but compliant \

@@ -169,7 +169,7 @@ pub enum UrdfError {
     },
     /// An attribute whose value cannot be used (not a number, not finite, wrong count, out of
     /// range, unknown joint type, ...).
-    #[error("URDF line {line}: {owner}: <{element} {attr}=\"{value}\">: {reason}")]
+    #[error("URDF line {line}: {owner}: <{element} {attr}=\"{}\">: {reason}", excerpt(.value))]
     BadAttribute {
         /// The link or joint it belongs to, e.g. `link forearm` (or `robot`).
         owner: String,
@@ -284,7 +284,7 @@ pub enum UrdfError {
         line: u32,
     },
     /// A negative mass anywhere, or a moving body whose mass (after merging) is not > 0.
-    #[error("URDF line {line}: link {link}: mass {value} kg: {reason}")]
+    #[error("URDF line {line}: link {link}: mass {} kg: {reason}", short(*.value))]
     BadMass {
         /// The link (for a moving body: the link that carries its frame).
         link: String,
@@ -521,7 +521,7 @@ impl Ctx {
                     attr,
                     owner,
                     text,
-                    &format!("`{word}` is not a number"),
+                    &format!("`{}` is not a number", excerpt(word)),
                 )
             })?;
             if !v.is_finite() {
@@ -1073,6 +1073,16 @@ impl Urdf {
                 reason: format!("inertia is not finite{merged}"),
             });
         }
+        if inertia.iter().any(|v| v.abs() > MAX_LINK_MASS) {
+            return Err(UrdfError::BadInertia {
+                link: link.name.clone(),
+                line: inertia_line,
+                reason: format!(
+                    "an inertia entry beyond {MAX_LINK_MASS:e} kg m²{merged}: no robot link has \
+                     one; check the exponent and the unit"
+                ),
+            });
+        }
         let ev = inertia.symmetric_eigenvalues();
         let (lo, hi) = (ev.min(), ev.max());
         if !(lo > 1e-12 * hi.max(f64::MIN_POSITIVE)) {
@@ -1093,6 +1103,30 @@ impl Urdf {
         })
     }
 }
+
+/// A value as written, for a message: whole up to 40 characters, else its first 40 and how
+/// long it was (a 300-digit literal or a megabyte attribute is not echoed).
+fn excerpt(v: &str) -> String {
+    const KEEP: usize = 40;
+    match v.char_indices().nth(KEEP) {
+        None => v.to_string(),
+        Some((end, _)) => format!("{}… ({} characters)", &v[..end], v.chars().count()),
+    }
+}
+
+/// A number for a message: as Rust prints it between 1e-4 and 1e6 (`3.7`), in scientific
+/// notation outside (`1e308`, not 309 digits).
+fn short(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Largest link mass the loader takes, kg: checked when the file is read, so that a typo
+/// (1e308) is blamed on its line rather than on whatever the arm then cannot do.
+pub const MAX_LINK_MASS: f64 = 1e6;
 
 /// Read `<inertial>` into the link frame: `com = p_LC`, `I_L = R_LC I_C R_LCᵀ`.
 fn read_inertial(cx: &Ctx, node: Node, owner: &str, link: &str) -> Result<Inertial, UrdfError> {
@@ -1117,6 +1151,17 @@ fn read_inertial(cx: &Ctx, node: Node, owner: &str, link: &str) -> Result<Inerti
             value: mass,
             line: mass_line,
             reason: "a mass must not be negative".into(),
+        });
+    }
+    if mass > MAX_LINK_MASS {
+        return Err(UrdfError::BadMass {
+            link: link.to_string(),
+            value: mass,
+            line: mass_line,
+            reason: format!(
+                "beyond {MAX_LINK_MASS:e} kg no link is a robot's (the heaviest industrial \
+                 arms weigh a few tonnes in all); check the exponent and the unit"
+            ),
         });
     }
     let (i_c, inertia_line) = match child(node, "inertia") {
