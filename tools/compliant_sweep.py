@@ -11,6 +11,7 @@ tables), OUT_DIR/compliant_sweep.svg (the figure) and OUT_DIR/compliant_sweep.js
 numbers). Needs only the standard library.
 """
 import csv
+import math
 import json
 import subprocess
 import sys
@@ -21,6 +22,7 @@ from pathlib import Path
 STIFFNESS = [(1e4, 1e2), (1e5, 1e3), (1e6, 1e4)]
 DAMPING = [(90.0, 0.2), (283.0, 0.632), (900.0, 2.0)]
 LAWS = ["nn", "pd", "ctc"]
+LAW_NAMES = {"nn": "NN", "pd": "PD + g", "ctc": "CTC"}
 ROBOTS = ["dual-ur5", "dual-franka"]
 FILTERS = [None, 0.005]
 PLANT_STEP = 5e-5  # h ω ≤ 1 on the stiffest level's flange mode (UR5: 10 900 rad/s → 0.55)
@@ -37,6 +39,7 @@ def base_text(bin_: str, robot: str) -> str:
         1,
     )
     t = t.replace("gravity_compensation = false", "gravity_compensation = true", 1)
+    t = t.replace("plant_step = 0.001 ", f"plant_step = {PLANT_STEP} ", 1)
     lines = [l for l in t.splitlines() if not l.startswith("max_drift")]
     t = "\n".join(lines) + "\n"
     assert "[plant.compliant_grasps]" in t and "gravity_compensation = true" in t
@@ -49,7 +52,6 @@ def vec(a: float, b: float) -> str:
 
 def sweep_text(base: str, duration: str, filt) -> str:
     s = [f'base = "{base}"', f"duration = {duration}", "seed = 1", "", "[set]"]
-    s.append(f'"run.plant_step" = {PLANT_STEP}')
     if filt is not None:
         s.append(f'"controller.actuator.filter_time_constant" = {filt}')
     s += ["", "[vary]"]
@@ -111,7 +113,7 @@ def table(rows) -> str:
         for filt in FILTERS:
             what = f"filter {filt * 1e3:g} ms" if filt else "no filter"
             md.append(f"\n**{robot}, {what}** (violating ticks / chattering ticks, S5 after 2 s)\n")
-            md.append("| stiffness (N/m, N m/rad) | damping (N s/m, N m s/rad) | " + " | ".join(LAWS) + " |")
+            md.append("| stiffness (N/m, N m/rad) | damping (N s/m, N m s/rad) | " + " | ".join(LAW_NAMES[l] for l in LAWS) + " |")
             md.append("|---|---|" + "---|" * len(LAWS))
             for k in STIFFNESS:
                 for d in DAMPING:
@@ -123,14 +125,19 @@ def table(rows) -> str:
                             and x["stiffness"] == list(k) and x["damping"] == list(d)
                         )
                         cells.append(cell(r))
-                    md.append(f"| {k[0]:g}, {k[1]:g} | {d[0]:g}, {d[1]:g} | " + " | ".join(cells) + " |")
+                    md.append(f"| {e10(k[0])}, {e10(k[1])} | {d[0]:g}, {d[1]:g} | " + " | ".join(cells) + " |")
     return "\n".join(md) + "\n"
+
+
+def e10(v: float) -> str:
+    """1e5 for 100000.0 (the stiffness levels are powers of ten)."""
+    return f"1e{round(math.log10(v))}"
 
 
 def svg(rows) -> str:
     """One panel per robot × filter: rows stiffness × damping, columns laws; green = completed
     without violation or chatter, amber = completed with chatter, red = violations or a fault."""
-    cw, ch, left, top, gap = 70, 22, 150, 60, 30
+    cw, ch, left, top, gap = 70, 22, 175, 60, 30
     pw = left + cw * len(LAWS)
     ph = top + ch * len(STIFFNESS) * len(DAMPING)
     W, H = 2 * pw + gap + 20, 2 * ph + gap + 60
@@ -146,12 +153,12 @@ def svg(rows) -> str:
             what = f"filter {filt * 1e3:g} ms" if filt else "no filter"
             out.append(f'<text x="{x0 + left}" y="{y0 + 20}" font-size="12">{robot}, {what}</text>')
             for li, law in enumerate(LAWS):
-                out.append(f'<text x="{x0 + left + cw * li + cw / 2}" y="{y0 + top - 6}" text-anchor="middle">{law}</text>')
+                out.append(f'<text x="{x0 + left + cw * li + cw / 2}" y="{y0 + top - 6}" text-anchor="middle">{LAW_NAMES[law]}</text>')
             for ki, k in enumerate(STIFFNESS):
                 for di, d in enumerate(DAMPING):
                     y = y0 + top + ch * (ki * len(DAMPING) + di)
                     out.append(
-                        f'<text x="{x0 + left - 6}" y="{y + 15}" text-anchor="end">k {k[0]:g}/{k[1]:g}, d {d[0]:g}/{d[1]:g}</text>'
+                        f'<text x="{x0 + left - 6}" y="{y + 15}" text-anchor="end">k {e10(k[0])} / {e10(k[1])}, d {d[0]:g} / {d[1]:g}</text>'
                     )
                     for li, law in enumerate(LAWS):
                         r = next(
