@@ -593,3 +593,47 @@ fn shards_record_their_kernel_and_a_mixed_merge_is_warned() {
     }
     let _ = fs::remove_dir_all(&d);
 }
+
+/// A base that only runs with a fixed override (compliant grasps too stiff for the base's plant
+/// step, made runnable by `[set] "run.plant_step"`) is not refused for its `duration`: the
+/// duration is checked after the overrides (it was checked before, and blamed).
+#[test]
+fn the_duration_is_checked_after_the_fixed_overrides() {
+    let d = scratch("duration-after-set");
+    let o = tandem(&d, &["scenario", "show", "dual-ur5"]);
+    ok(&o);
+    let base = String::from_utf8_lossy(&o.stdout).replacen(
+        "\n[path]\n",
+        "\n[plant.compliant_grasps]\nstiffness = [1e5, 1e5, 1e5, 1e3, 1e3, 1e3]\n\
+         damping = [283.0, 283.0, 283.0, 0.632, 0.632, 0.632]\n\n[path]\n",
+        1,
+    );
+    let base: String = base
+        .lines()
+        .filter(|l| !l.starts_with("max_drift"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    fs::write(d.join("stiff.toml"), base).unwrap();
+    let sweep = "base = \"stiff.toml\"\nduration = 0.01\n[set]\n\"run.plant_step\" = 0.00025\n\
+                 [vary]\n\"controller.kind\" = { grid = [\"nn\", \"ctc\"] }\n";
+    fs::write(d.join("s.toml"), sweep).unwrap();
+    ok(&tandem(
+        &d,
+        &["sweep", "s.toml", "--out", "o", "--no-figures"],
+    ));
+    let table = fs::read_to_string(d.join("o/runs.csv")).unwrap();
+    assert_eq!(table.matches(",completed,").count(), 2, "{table}");
+    // Without the override the base is refused, naming the plant step.
+    fs::write(
+        d.join("s2.toml"),
+        sweep.replace("\"run.plant_step\" = 0.00025\n", ""),
+    )
+    .unwrap();
+    let o = tandem(&d, &["sweep", "s2.toml", "--out", "o2", "--no-figures"]);
+    let e = bad(&o);
+    assert!(
+        e.contains("run.plant_step") && e.contains("too long"),
+        "{e}"
+    );
+    let _ = fs::remove_dir_all(&d);
+}
