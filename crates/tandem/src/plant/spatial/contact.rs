@@ -857,7 +857,7 @@ pub struct PadGauge {
 }
 
 impl PadGauge {
-    /// Validate the pads as [`ContactModel::new`] does (errors name `grasp_model.*`), and
+    /// Validate the pads as contact grasps are (errors name `grasp_model.*`), and
     /// refuse pads that cannot carry a six-axis wrench (a single pad carries no moment across
     /// its normal).
     pub fn new(p: &ContactParams, grasps: &[Isometry3<f64>]) -> Result<Self, ModelError> {
