@@ -611,6 +611,35 @@ impl FrictionDistribution {
         over
     }
 
+    /// The cones' block of an ADMM iteration, after the x-step: `y = Π(α x + (1 − α) y + u)`,
+    /// `u += α x + (1 − α) y − y_new`. Returns the primal and dual residuals (max norms).
+    fn cone_block(&mut self) -> (f64, f64) {
+        let nv = self.nv;
+        self.ytmp.copy_from_slice(&self.y);
+        for i in 0..nv {
+            let relaxed = ALPHA * self.x[i] + (1.0 - ALPHA) * self.ytmp[i];
+            self.g[i] = relaxed;
+            self.y[i] = relaxed + self.u[i];
+        }
+        for j in 0..self.pads.len() {
+            let mut v = [
+                self.y[4 * j],
+                self.y[4 * j + 1],
+                self.y[4 * j + 2],
+                self.y[4 * j + 3],
+            ];
+            self.project(&mut v);
+            self.y[4 * j..4 * j + 4].copy_from_slice(&v);
+        }
+        let (mut rp, mut rd) = (0.0f64, 0.0f64);
+        for i in 0..nv {
+            self.u[i] += self.g[i] - self.y[i];
+            rp = rp.max((self.x[i] - self.y[i]).abs());
+            rd = rd.max(self.rho * (self.y[i] - self.ytmp[i]).abs());
+        }
+        (rp, rd)
+    }
+
     /// The plan nearest `x⁰` inside the cones **and** the effort limits (ADMM as
     /// [`iterate`](Self::iterate), with the box `l ≤ C x ≤ u` as a second block of the
     /// splitting: the OSQP form, its x-step the equality-constrained solve with
@@ -663,28 +692,7 @@ impl FrictionDistribution {
                 self.x[i] = l.r[i] - zl;
             }
             // The cones' block.
-            self.ytmp.copy_from_slice(&self.y);
-            for i in 0..nv {
-                let relaxed = ALPHA * self.x[i] + (1.0 - ALPHA) * self.ytmp[i];
-                self.g[i] = relaxed;
-                self.y[i] = relaxed + self.u[i];
-            }
-            for j in 0..self.pads.len() {
-                let mut v = [
-                    self.y[4 * j],
-                    self.y[4 * j + 1],
-                    self.y[4 * j + 2],
-                    self.y[4 * j + 3],
-                ];
-                self.project(&mut v);
-                self.y[4 * j..4 * j + 4].copy_from_slice(&v);
-            }
-            let (mut rp, mut rd) = (0.0f64, 0.0f64);
-            for i in 0..nv {
-                self.u[i] += self.g[i] - self.y[i];
-                rp = rp.max((self.x[i] - self.y[i]).abs());
-                rd = rd.max(self.rho * (self.y[i] - self.ytmp[i]).abs());
-            }
+            let (mut rp, mut rd) = self.cone_block();
             // The limits' block.
             l.zold.copy_from_slice(&l.z);
             for k in 0..rows {
@@ -958,28 +966,7 @@ impl FrictionDistribution {
                 self.x[i] = self.g[i] - zl;
             }
             // y = Π(α x + (1 − α) y + u); u += α x + (1 − α) y − y_new.
-            self.ytmp.copy_from_slice(&self.y);
-            for i in 0..nv {
-                let relaxed = ALPHA * self.x[i] + (1.0 - ALPHA) * self.ytmp[i];
-                self.g[i] = relaxed;
-                self.y[i] = relaxed + self.u[i];
-            }
-            for j in 0..self.pads.len() {
-                let mut v = [
-                    self.y[4 * j],
-                    self.y[4 * j + 1],
-                    self.y[4 * j + 2],
-                    self.y[4 * j + 3],
-                ];
-                self.project(&mut v);
-                self.y[4 * j..4 * j + 4].copy_from_slice(&v);
-            }
-            let (mut rp, mut rd) = (0.0f64, 0.0f64);
-            for i in 0..nv {
-                self.u[i] += self.g[i] - self.y[i];
-                rp = rp.max((self.x[i] - self.y[i]).abs());
-                rd = rd.max(self.rho * (self.y[i] - self.ytmp[i]).abs());
-            }
+            let (rp, rd) = self.cone_block();
             if !(rp.is_finite() && rd.is_finite()) {
                 return (it, false);
             }
