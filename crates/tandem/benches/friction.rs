@@ -1,7 +1,8 @@
 //! Contact grasps (issue 25): the spatial plant's RK4 step with pads against welds, and the
 //! closed-loop tick of `dual-ur5-grip` (PD + gravity, 0.1 ms plant step: ten steps a tick) with
-//! the friction-aware load distribution against the weld-assuming one. The distribution's own
-//! cost is the difference of the two ticks.
+//! the friction-aware load distribution against the weld-assuming one, and with effort limits
+//! the plan must meet by internal force. The distribution's own cost is the difference of the
+//! ticks.
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use nalgebra::Vector6;
 use std::hint::black_box;
@@ -43,15 +44,38 @@ fn bench(c: &mut Criterion) {
     let GraspModel::Contact(contact) = &s.params.grasp_model else {
         unreachable!()
     };
-    for (name, friction) in [
-        ("weld_distribution", false),
-        ("friction_distribution", true),
+    // Shoulder-lift efforts of 34.5 N m (150 in the URDF): the plan needs the limits on these
+    // ticks, and the effort-limited ADMM runs (checked before timing).
+    let tight = vec![
+        150.0, 34.5, 150.0, 28.0, 28.0, 28.0, 150.0, 34.5, 150.0, 28.0, 28.0, 28.0,
+    ];
+    for (name, friction, effort) in [
+        ("weld_distribution", false, None),
+        ("friction_distribution", true, None),
+        ("friction_distribution_effort_limited", true, Some(tight)),
     ] {
         let mut g = PdGains::<6>::paper();
         g.gravity_compensation = true;
         let mut p = SpatialControllerParams::spec_s6(Law::Pd(g));
         if friction {
             p.friction = Some(FrictionParams::from_contact(contact, 2.0));
+        }
+        if let Some(e) = effort {
+            p.actuator.effort = Some(e);
+            let (mut sim, _) =
+                presets::spatial_s6_simulation_with(&s.params, &s, &p, 1.0, 1e-4, 0.05).unwrap();
+            for k in 0..100 {
+                sim.tick(k).unwrap();
+            }
+            let before = sim.driver().friction_stats().unwrap().torque_limited;
+            for k in 100..150 {
+                sim.tick(k).unwrap();
+            }
+            let st = sim.driver().friction_stats().unwrap();
+            assert!(
+                st.torque_limited >= before + 40 && st.torque_unmet == 0,
+                "the limits must act on the timed ticks: {st:?} (from {before})"
+            );
         }
         let mut group = c.benchmark_group("friction/closed_loop_50_ticks");
         group.sample_size(10);
