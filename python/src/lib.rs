@@ -763,8 +763,10 @@ impl PyScenario {
 
     /// A new scenario with fields set by their paths, as in a sweep's `[set]`:
     /// `sc.with_(**{"controller.nn.k1": [8, 8, 8], "object.mass": 1.2})` or
-    /// `sc.with_({"run.duration": 10})`. Each value is checked by every validation of a run, in
-    /// the order given; a rejected value raises ScenarioError with its `path`.
+    /// `sc.with_({"run.duration": 10})`. The values are checked together by every validation of
+    /// a run, so their order does not matter; a rejected value raises ScenarioError with its
+    /// `path` (the field without which the others are valid, else the first that fails in the
+    /// order given).
     #[pyo3(signature = (overrides=None, /, **fields))]
     fn with_(
         &self,
@@ -787,9 +789,58 @@ impl PyScenario {
             let bsrc = base.src();
             let mut doc = base.doc().clone();
             let known = sweep::known_paths(&doc, bsrc);
-            for (path, v) in &items {
-                doc = sweep::check_field(&doc, bsrc, &bsrc.display, path, v, &known)
-                    .map_err(|m| bad(Some(path), m))?;
+            // The fields together first: the order of the keys does not matter (`kind =
+            // "replay"` is only valid with its `replay` file, whichever comes first).
+            let apply = |skip: Option<usize>| -> Option<Table> {
+                let mut d = doc.clone();
+                for (k, (path, v)) in items.iter().enumerate() {
+                    if Some(k) != skip {
+                        sweep::fields::set(&mut d, path, v.clone()).ok()?;
+                    }
+                }
+                Some(d)
+            };
+            let together = apply(None).map(|d| {
+                let r = sweep::check_doc(&d, bsrc, &bsrc.display);
+                (d, r)
+            });
+            if let Some((d, Ok(()))) = together {
+                doc = d;
+            } else {
+                // Blame the field the loader's message names (the longest such path); else the
+                // one field without which the rest is valid; else the first that fails in the
+                // order given.
+                if let Some((_, Err(e))) = &together
+                    && let Some(k) = (0..items.len())
+                        .filter(|&k| e.contains(items[k].0.as_str()))
+                        .max_by_key(|&k| items[k].0.len())
+                {
+                    // Its message as a sweep gives it: the field set on all the others.
+                    let (path, v) = &items[k];
+                    let rest = apply(Some(k)).unwrap_or_else(|| doc.clone());
+                    let m = match sweep::check_field(&rest, bsrc, &bsrc.display, path, v, &known) {
+                        Err(m) => m,
+                        Ok(_) => e.clone(),
+                    };
+                    return Err(bad(Some(path), m));
+                }
+                for k in 0..items.len() {
+                    if items.len() < 2 {
+                        break;
+                    }
+                    let Some(rest) =
+                        apply(Some(k)).filter(|d| sweep::check_doc(d, bsrc, &bsrc.display).is_ok())
+                    else {
+                        continue;
+                    };
+                    let (path, v) = &items[k];
+                    sweep::check_field(&rest, bsrc, &bsrc.display, path, v, &known)
+                        .map_err(|m| bad(Some(path), m))?;
+                }
+                for (path, v) in &items {
+                    doc = sweep::check_field(&doc, bsrc, &bsrc.display, path, v, &known)
+                        .map_err(|m| bad(Some(path), m))?;
+                }
             }
             let text = toml::to_string(&doc).map_err(|e| Error::Other(e.to_string()))?;
             let src = Source {

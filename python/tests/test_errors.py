@@ -83,3 +83,23 @@ def test_rollout_bad_input_names_the_scenario():
         tandem.rollout([sc, sc], duration=0.01)
     assert str(e.value).startswith("scenarios[0]: embedded scenario `paper`: run.log_period")
     assert e.value.path == "run.log_period"
+
+
+def test_with_is_independent_of_the_order_of_its_keys(tmp_path):
+    """`kind = "replay"` is only valid with its file: both orders of the two keys give the same
+    scenario (the first order used to fail), and a bad file is blamed on `controller.replay`,
+    not on the kind, in either order."""
+    r = tmp_path / "tau.csv"
+    r.write_text("t,tau1,tau2,tau3,tau4\n0,0,0,0,0\n")
+    sc = tandem.Scenario.preset("paper")
+    a = sc.with_(**{"controller.kind": "replay", "controller.replay": str(r)})
+    b = sc.with_(**{"controller.replay": str(r), "controller.kind": "replay"})
+    assert a.get("controller.kind") == b.get("controller.kind") == "replay"
+    assert a.to_toml() == b.to_toml()
+    for order in (
+        {"controller.kind": "replay", "controller.replay": str(tmp_path / "missing.csv")},
+        {"controller.replay": str(tmp_path / "missing.csv"), "controller.kind": "replay"},
+    ):
+        with pytest.raises(tandem.ScenarioError) as e:
+            sc.with_(**order)
+        assert e.value.path == "controller.replay", (order, e.value.path, str(e.value))
