@@ -210,3 +210,43 @@ fn one_pad_cannot_gauge_a_grasp() {
         "{e}"
     );
 }
+
+/// A non-finite wrench (a faulted sensor) reads as separated pads, never as a margin: the
+/// minima keep the last finite reading.
+#[test]
+fn a_non_finite_wrench_reads_as_separated() {
+    let g = gauge0();
+    let mut log = g.log();
+    g.update(
+        0,
+        &Vector6::new(0.0, 30.0, 0.0, 0.0, 0.0, 0.0),
+        &UnitQuaternion::identity(),
+        0.0,
+        &mut log,
+    );
+    let before = log.min_cone_margin.clone();
+    for w in [f64::NAN, f64::INFINITY, 1e308] {
+        g.update(
+            0,
+            &Vector6::new(w, w, 0.0, 0.0, 0.0, 0.0),
+            &UnitQuaternion::identity(),
+            1.0,
+            &mut log,
+        );
+        if !w.is_finite() {
+            assert!(
+                log.readings
+                    .iter()
+                    .all(|r| r.status == PadStatus::Separated),
+                "{w}: {:?}",
+                log.readings
+            );
+        }
+    }
+    assert!(
+        log.min_cone_margin.iter().all(|(m, _)| !m.is_nan()),
+        "{:?}",
+        log.min_cone_margin
+    );
+    assert!(before[0].0 > 0.0);
+}

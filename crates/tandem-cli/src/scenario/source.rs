@@ -110,7 +110,7 @@ pub const EMBEDDED: &[Embedded] = &[
     Embedded {
         kind: Kind::Spatial,
         name: "dual-ur5-grip",
-        summary: "dual-ur5 held by friction: two-pad grippers (μ = 0.3, 60 N) instead of welds; slip, events and cone margins",
+        summary: "dual-ur5 held by friction: two-pad grippers (μ = 0.3, 100 N a pad) instead of welds; slip, events and cone margins",
         text: include_str!("../../scenarios/dual-ur5-grip.toml"),
     },
 ];

@@ -928,7 +928,11 @@ impl PadGauge {
     ///
     /// Outside a simulation this gauges measured wrenches: a wrist F/T sensor's reading
     /// (object on tool, moved to the tool origin) tells how close a parallel-jaw grasp of
-    /// these pads is to slipping.
+    /// these pads is to slipping. A non-finite wrench reads as separated pads.
+    ///
+    /// # Panics
+    /// If `i` is not one of the gauge's grasps, or `log` is not this gauge's
+    /// ([`log`](Self::log)).
     pub fn update(
         &self,
         i: usize,

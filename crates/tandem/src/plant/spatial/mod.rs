@@ -479,13 +479,8 @@ impl SpatialPlant {
     /// in `y`, into `ws.contacts`. Nothing for other plants. No allocation.
     pub fn gauge_pads(&self, t: f64, y: &[f64], ws: &mut SpatialWorkspace) {
         let Some(g) = &self.gauge else { return };
-        let n = self.n_q;
-        let q = UnitQuaternion::from_quaternion(Quaternion::new(
-            y[n + 3],
-            y[n + 4],
-            y[n + 5],
-            y[n + 6],
-        ));
+        let (_, o, _) = self.split(y);
+        let q = o.pose().rotation;
         for i in 0..self.arms.len() {
             let w = ws.wrenches[i];
             g.update(i, &w, &q, t, &mut ws.contacts);

@@ -550,9 +550,15 @@ impl FrictionDistribution {
             self.write_wrenches(w);
             return false;
         }
-        if self.limits.is_some() && self.build_torque_rows() {
+        let (over, hopeless) = if self.limits.is_some() {
+            self.build_torque_rows()
+        } else {
+            (false, false)
+        };
+        if over {
             self.stats.torque_limited += 1;
-            if !self.limit_torques() {
+            // A joint over its limit that no pad force moves: no plan helps; skip the solve.
+            if hopeless || !self.limit_torques() {
                 self.stats.torque_unmet += 1;
                 self.stats.first_torque_unmet_t.get_or_insert(t);
             }
@@ -566,14 +572,15 @@ impl FrictionDistribution {
     }
 
     /// The torque rows `C`, `l`, `u` of this tick (scaled rows), from the arms' Jacobians,
-    /// `τ⁰` and `B`; `true` when the plan `x` asks a joint for more than its limit (and the
-    /// rows are finite).
-    fn build_torque_rows(&mut self) -> bool {
+    /// `τ⁰` and `B`. Returns `(over, hopeless)`: the plan `x` asks a joint for more than its
+    /// limit (and the rows are finite); such a joint has no row (the pads' forces do not move
+    /// it), so no plan can meet its limit.
+    fn build_torque_rows(&mut self) -> (bool, bool) {
         let nv = self.nv;
         let Some(l) = self.limits.as_mut() else {
-            return false;
+            return (false, false);
         };
-        let mut over = false;
+        let (mut over, mut hopeless) = (false, false);
         l.c.fill(0.0);
         for (j, pad) in self.pads.iter().enumerate() {
             let (first, n) = l.arms[pad.grasp];
@@ -590,10 +597,11 @@ impl FrictionDistribution {
             let tau = l.tau0[k] + row.iter().zip(&self.x).map(|(a, b)| a * b).sum::<f64>();
             let e = l.effort[k];
             if !(tau.is_finite() && row.iter().all(|v| v.is_finite())) {
-                return false;
+                return (false, false);
             }
             over |= tau.abs() > e;
             let norm = row.iter().map(|v| v * v).sum::<f64>().sqrt();
+            hopeless |= norm == 0.0 && tau.abs() > e;
             if norm > 0.0 && e.is_finite() {
                 l.norm[k] = norm;
                 row.iter_mut().for_each(|v| *v /= norm);
@@ -608,7 +616,7 @@ impl FrictionDistribution {
                 l.hi[k] = f64::INFINITY;
             }
         }
-        over
+        (over, hopeless)
     }
 
     /// The cones' block of an ADMM iteration, after the x-step: `y = Π(α x + (1 − α) y + u)`,
