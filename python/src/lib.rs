@@ -348,6 +348,9 @@ struct Spatial {
     sc: SpatialScenario,
     /// Set-up warnings (the command line prints them before a run).
     warnings: Vec<String>,
+    /// The law's gains as the controller resolved them (the NN design's inertia filled in),
+    /// for `get`; `None` for a replay.
+    law: Option<tandem::control::law::Law<6>>,
 }
 
 /// What a scenario is: planar or spatial. The Python API (`preset`, `from_toml`, `with_`,
@@ -413,6 +416,23 @@ impl Fin {
 }
 
 impl Kind {
+    /// The law's gains as the controller runs with them, under the law's key in
+    /// `[controller]` (`nn`, `pd`, `ctc`): planar, the NN preset with the file's overrides
+    /// (whatever the law: `gains` names a preset); spatial, the law's (the NN design's inertia
+    /// filled in). `None` for a spatial replay.
+    fn resolved_gains(&self) -> Result<Option<(String, Value)>, toml::ser::Error> {
+        use tandem::control::law::Law;
+        Ok(match self {
+            Kind::Planar(p) => Some(("nn".into(), Value::try_from(p.sc.nn_gains())?)),
+            Kind::Spatial(p) => match &p.law {
+                None => None,
+                Some(law @ Law::Nn(g)) => Some((law.name().into(), Value::try_from(g)?)),
+                Some(law @ Law::Pd(g)) => Some((law.name().into(), Value::try_from(g)?)),
+                Some(law @ Law::Ctc(g)) => Some((law.name().into(), Value::try_from(g)?)),
+            },
+        })
+    }
+
     fn src(&self) -> &Source {
         match self {
             Kind::Planar(p) => &p.src,
@@ -515,6 +535,7 @@ fn spatial_from(src: Source, sc: SpatialScenario) -> Res<Spatial> {
     let doc: Table = toml::from_str(&src.text).map_err(|e| bad(None, e.to_string()))?;
     let prepared = spatial::prepare(sc, &src)?;
     Ok(Spatial {
+        law: prepared.ready.controller.as_ref().map(|c| c.law.clone()),
         warnings: prepared.ready.warnings.clone(),
         sc: prepared.sc,
         src,
@@ -869,7 +890,9 @@ impl PyScenario {
     }
 
     /// The value of a field of the resolved scenario, by path (`"controller.nn.k1"`,
-    /// `"arms[0].links[1].mass"`); KeyError if there is none.
+    /// `"arms[0].links[1].mass"`); KeyError if there is none. A gain the file leaves to a
+    /// preset (`gains = "tuned"`) or to the spatial NN design reads as the value the
+    /// controller runs with.
     fn get(&self, py: Python<'_>, path: &str) -> PyResult<Py<PyAny>> {
         let resolved = match &*self.kind {
             Kind::Planar(p) => toml::Value::try_from(p.sc.resolved()),
@@ -877,8 +900,24 @@ impl PyScenario {
         }
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         let from_resolved = resolved.as_table().and_then(|t| get_path(t, path));
-        match from_resolved.or_else(|| get_path(self.kind.doc(), path)) {
-            Some(v) => Ok(toml_to_py(py, v)?.unbind()),
+        if let Some(v) = from_resolved.or_else(|| get_path(self.kind.doc(), path)) {
+            return Ok(toml_to_py(py, v)?.unbind());
+        }
+        // A law's gain the file leaves to a preset (`gains = "tuned"`) or to the spatial design:
+        // the value the controller runs with.
+        let gains = self
+            .kind
+            .resolved_gains()
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        match gains.as_ref().and_then(|(key, t)| {
+            let rest = path.strip_prefix("controller.")?.strip_prefix(key.as_str())?;
+            match rest.strip_prefix('.') {
+                Some(field) => t.as_table().and_then(|t| get_path(t, field)).cloned(),
+                None if rest.is_empty() => Some(t.clone()),
+                None => None,
+            }
+        }) {
+            Some(v) => Ok(toml_to_py(py, &v)?.unbind()),
             None => Err(pyo3::exceptions::PyKeyError::new_err(path.to_string())),
         }
     }

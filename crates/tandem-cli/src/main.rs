@@ -185,9 +185,12 @@ struct RobustnessArgs {
     /// Replace the output folder if tandem wrote it.
     #[arg(long)]
     force: bool,
-    /// Simulated time of each run, s.
-    #[arg(long, value_name = "S", default_value_t = 20.0)]
-    duration: f64,
+    /// Simulated time of each run, s [default: 20 for a planar scenario, 4 for a spatial one].
+    #[arg(long, value_name = "S")]
+    duration: Option<f64>,
+    /// Worker threads [default: every core].
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
 }
 
 #[derive(Args)]
@@ -841,8 +844,13 @@ fn report_md(
 }
 
 fn cmd_robustness(a: RobustnessArgs) -> Result<ExitCode> {
+    let threads = tandem_cli::threads(a.threads, "--threads")?;
+    let src = scenario::resolve(a.scenario.as_deref())?;
+    if let Scenario::Spatial(sc) = scenario::parse(&src)? {
+        return cmd_robustness_spatial(&a, src, sc, threads);
+    }
     let o = Overrides {
-        duration: Some(a.duration),
+        duration: Some(a.duration.unwrap_or(20.0)),
         ..Overrides::default()
     };
     let (src, base) = load_planar(a.scenario.as_deref(), &o, "tandem robustness")?;
@@ -853,7 +861,6 @@ fn cmd_robustness(a: RobustnessArgs) -> Result<ExitCode> {
     let protected = scenario::inputs(&src, &base);
     check_out(&out_dir, a.force, &protected)?;
     let t0 = Instant::now();
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let cells = robustness::run_grid(&base, &src, threads)?;
     let out = OutputDir::create(&out_dir, a.force, &protected)?;
     let mut cmd = vec!["tandem".to_string()];
@@ -869,6 +876,48 @@ fn cmd_robustness(a: RobustnessArgs) -> Result<ExitCode> {
         count("degraded"),
         count("outside"),
         count("fault"),
+        dir.join("robustness.md").display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `tandem robustness` on a spatial scenario: its compliant-grasp sweep
+/// (`robustness::grasps`).
+fn cmd_robustness_spatial(
+    a: &RobustnessArgs,
+    src: Source,
+    sc: SpatialScenario,
+    threads: usize,
+) -> Result<ExitCode> {
+    use robustness::grasps;
+    let out_dir = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(format!("{}-robustness", src.name)));
+    let protected = scenario::inputs(&src, &sc);
+    check_out(&out_dir, a.force, &protected)?;
+    let grid = grasps::Grid::default();
+    let t0 = Instant::now();
+    let s = grasps::run(
+        &src,
+        &grid,
+        a.duration.unwrap_or(grasps::DEFAULT_DURATION),
+        threads,
+    )?;
+    let out = OutputDir::create(&out_dir, a.force, &protected)?;
+    let mut cmd = vec!["tandem".to_string()];
+    cmd.extend(std::env::args().skip(1).map(|a| shell_quote(&a)));
+    grasps::write(out.tmp_dir(), &s, &grid, &cmd.join(" "))?;
+    let dir = out.commit()?;
+    let clean = s.cells.iter().filter(|c| c.clean()).count();
+    let held = s.cells.iter().filter(|c| c.held()).count();
+    println!(
+        "{} runs in {} s: {clean} clean, {} held but chattering or missing S5, {} violated or \
+         faulted; report {}",
+        s.cells.len(),
+        table::num(t0.elapsed().as_secs_f64(), 3),
+        held - clean,
+        s.cells.len() - held,
         dir.join("robustness.md").display()
     );
     Ok(ExitCode::SUCCESS)

@@ -206,8 +206,28 @@ fn a_compliant_grasp_needs_a_step_that_resolves_it() {
     let e = stderr(&o);
     assert!(e.contains("run.plant_step = 0.001 s is too long"), "{e}");
     assert!(e.contains("`wrist_3_link`"), "{e}");
-    assert!(e.contains("use plant_step ≤ 0.000291 s"), "{e}");
+    // Overdamped on the rotational axes (1 N m s/rad on 8.5e-5 kg m²): the fast real root
+    // 10 700 1/s, not the spring's 3440 rad/s, sets the step.
+    assert!(
+        e.contains("overdamped: its fast root |λ| = 10700 1/s"),
+        "{e}"
+    );
+    assert!(e.contains("use plant_step ≤ 9.34e-5 s"), "{e}");
     assert!(e.contains("(line "), "{e}");
+
+    // The case: 2 N m s/rad on the wrist at 0.25 ms validated (the spring's ω h = 0.86)
+    // and went non-finite at 5 ms; the damped root (23 100 1/s, h |λ| = 5.8) is refused.
+    let damped = soft
+        .replacen("1.0, 1.0, 1.0] }", "2.0, 2.0, 2.0] }", 1)
+        .replacen("plant_step = 0.001 ", "plant_step = 0.00025 ", 1);
+    fs::write(d.join("damped.toml"), &damped).unwrap();
+    let o = tandem(&d, &["validate", "damped.toml"]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(e.contains("run.plant_step = 0.00025 s is too long"), "{e}");
+    assert!(e.contains("|λ| = 23100 1/s"), "{e}");
+    assert!(e.contains("plant.compliant_grasps.damping"), "{e}");
+    assert!(e.contains("use plant_step ≤ 4.33e-5 s"), "{e}");
 
     let small = soft.replacen("plant_step = 0.001 ", "plant_step = 0.00025 ", 1);
     assert_ne!(small, soft);

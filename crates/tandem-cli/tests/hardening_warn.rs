@@ -109,3 +109,80 @@ fn two_arms_on_one_spot_overlap() {
     );
     assert!(w[0].contains("(test.toml, line 32)"), "{w:?}");
 }
+
+// ---------------------------------------------------------------------------------------------
+// The planar loader's twin: grasp points off the box's outline, bases on the same spot.
+
+/// The planar `paper` scenario with each `from` replaced by `to` (which must occur), its
+/// set-up warnings (after every check a run makes).
+fn planar_warnings_of(edits: &[(&str, &str)]) -> Vec<String> {
+    use tandem_cli::scenario::{Scenario, parse};
+    let mut src: Source = embedded_source(EMBEDDED.iter().find(|e| e.name == "paper").unwrap());
+    for (from, to) in edits {
+        assert!(src.text.contains(from), "the preset has no `{from}`");
+        src.text = src.text.replacen(from, to, 1);
+    }
+    src.display = "test.toml".into();
+    let Ok(Scenario::Planar(sc)) = parse(&src) else {
+        panic!("not a planar scenario")
+    };
+    tandem_cli::run::planar::prepare(sc, &src)
+        .unwrap()
+        .ready
+        .warnings
+}
+
+#[test]
+fn the_planar_presets_validate_without_a_plausibility_warning() {
+    for e in tandem_cli::scenario::embedded(Kind::Planar) {
+        let src = embedded_source(e);
+        let Ok(tandem_cli::scenario::Scenario::Planar(sc)) = tandem_cli::scenario::parse(&src)
+        else {
+            panic!("{}: not planar", e.name)
+        };
+        let w = tandem_cli::run::planar::prepare(sc, &src)
+            .unwrap()
+            .ready
+            .warnings;
+        assert!(
+            !w.iter()
+                .any(|w| w.contains("off its outline") || w.contains("overlap")),
+            "{}: {w:?}",
+            e.name
+        );
+    }
+}
+
+#[test]
+fn a_planar_grasp_a_tenth_of_a_metre_off_the_box_end_is_named_with_its_distance_and_line() {
+    let w = planar_warnings_of(&[("grasp = [0.05, 0.0]", "grasp = [0.15, 0.0]")]);
+    let off: Vec<_> = w.iter().filter(|w| w.contains("off its outline")).collect();
+    assert_eq!(off.len(), 1, "{w:?}");
+    assert!(
+        off[0].starts_with(
+            "arms[1].grasp = (0.15, 0): the grasp point sits 0.1 m outside the box (0.1 × 0.05 m, object.size)"
+        ),
+        "{off:?}"
+    );
+    assert!(off[0].contains("(test.toml, line 46)"), "{off:?}");
+    // Inside the box, by its distance to the nearest edge.
+    let w = planar_warnings_of(&[("size = [0.1, 0.05]", "size = [0.3, 0.05]")]);
+    let off: Vec<_> = w.iter().filter(|w| w.contains("off its outline")).collect();
+    assert_eq!(off.len(), 2, "{w:?}");
+    assert!(off[0].contains("sits 0.025 m inside the box"), "{off:?}");
+}
+
+#[test]
+fn planar_bases_a_few_centimetres_apart_overlap() {
+    let w = planar_warnings_of(&[
+        ("base = [-0.38, 0.0]", "base = [-0.03, 0.0]"),
+        ("base = [0.38, 0.0]", "base = [0.03, 0.0]"),
+    ]);
+    let o: Vec<_> = w.iter().filter(|w| w.contains("overlap")).collect();
+    assert_eq!(o.len(), 1, "{w:?}");
+    assert!(
+        o[0].starts_with("arms[1].base: the base stands 0.06 m from arms[0]'s"),
+        "{o:?}"
+    );
+    assert!(o[0].contains("(test.toml, line 43)"), "{o:?}");
+}

@@ -14,6 +14,7 @@ use crate::files;
 use crate::run::planar::{Finished, label};
 use crate::scenario::ControllerKind;
 use crate::scenario::PlanarScenario;
+use crate::scenario::planar::GainPreset;
 use crate::view::planar::anim::{self, AnimOptions};
 
 /// The content of `summary.json`: the library's summary, the scenario's name and seed, the
@@ -199,10 +200,31 @@ pub fn scenario_toml(sc: &PlanarScenario, name: &str, replay: Option<&Path>) -> 
     Ok(format!(
         "# Resolved scenario `{name}` as run by tandem {} ({}).\n\
          # Every default is written out (NN gains: the preset plus your overrides); run it\n\
-         # again with:  tandem run <this file>\n\n{body}",
+         # again with:  tandem run <this file>\n\n{body}{}",
         env!("CARGO_PKG_VERSION"),
         label(sc),
+        nn_gains_comment(sc)?,
     ))
+}
+
+/// For an NN run, the gains the preset resolves to (with the file's overrides) as a comment at
+/// the end of `scenario.toml`: the file keeps the preset's name, so that `--gains` and
+/// `compare`'s paper/tuned columns still switch it, and the reader still sees every number.
+fn nn_gains_comment(sc: &PlanarScenario) -> Result<String> {
+    if sc.controller.kind != ControllerKind::Nn {
+        return Ok(String::new());
+    }
+    let preset = sc.controller.gains.unwrap_or(GainPreset::Tuned).name();
+    let mut out = format!(
+        "\n# The NN gains `gains = \"{preset}\"` resolves to, with this file's [controller.nn]\n\
+         # overrides: for reading (copy a line into [controller.nn] to pin it).\n"
+    );
+    for line in toml::to_string(&sc.nn_gains())?.lines() {
+        out.push_str(if line.is_empty() { "#" } else { "#   " });
+        out.push_str(line);
+        out.push('\n');
+    }
+    Ok(out)
 }
 
 /// Write the time series of a run.

@@ -15,6 +15,13 @@ pub use source::*;
 
 use std::path::PathBuf;
 
+/// Farthest a grasp frame may sit from the box's surface before a warning, m (a gripper's pads
+/// are millimetres thick; a flange frame a gripper's length away is worth saying).
+pub const GRASP_SURFACE_TOL: f64 = 0.01;
+/// Smallest distance between two arms' bases before a warning, m (two bases closer than a base
+/// plate's radius are the same robot twice).
+pub const BASE_SEPARATION_MIN: f64 = 0.1;
+
 pub use planar::PlanarScenario;
 pub use spatial::SpatialScenario;
 pub use tables::{ControllerChoice, ControllerKind};

@@ -44,12 +44,12 @@ use tandem::reference::planar::path::Path;
 use tandem::sim::sensors::SensorParams;
 use tandem::sim::{Driver, Replay, SimParams, Simulation};
 
-use super::Overrides;
 use super::source::*;
 use super::tables::{
     ActuatorConfig, AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig,
     NnConfig, PathKind, PdConfig, PlantConfig, RunConfig, SensorsConfig,
 };
+use super::{BASE_SEPARATION_MIN, GRASP_SURFACE_TOL, Overrides};
 
 // ---------------------------------------------------------------------------------------------
 // The file's structs.
@@ -1147,6 +1147,7 @@ pub fn simulation_of<D: Drive<Plant>>(
     let sim = sim
         .with_faults(&sc.faults.injection(sc.run.seed))
         .map_err(|e| src.model_error(e, |p| p.to_string()))?;
+    warnings.extend(plausibility(src, &b.plant));
     // A start far from the path's first pose means a large initial error: every law answers it
     // with a large transient wrench (SPEC §4 starts 1 cm off).
     let x0 = b.path.sample(0.0).p;
@@ -1161,6 +1162,56 @@ pub fn simulation_of<D: Drive<Plant>>(
         ));
     }
     Ok(sim)
+}
+
+/// What validation warns about in a planar set-up (issue 22, "warn about the implausible"; the
+/// spatial loader's twin): a grasp point more than [`GRASP_SURFACE_TOL`] off the outline of the
+/// box (`object.size`, length × height), with the distance in or out, and two arms whose bases
+/// are less than [`BASE_SEPARATION_MIN`] apart (planar arms share one plane: they would overlap).
+fn plausibility(src: &Source, p: &PlantParams) -> Vec<String> {
+    let mut out = Vec::new();
+    let [l, h] = p.object.size;
+    let half = [0.5 * l, 0.5 * h];
+    for (i, r) in p.grasps.iter().enumerate() {
+        let ex = [r[0].abs() - half[0], r[1].abs() - half[1]];
+        let outside = ex[0].max(0.0).hypot(ex[1].max(0.0));
+        let (dist, side) = if outside > 0.0 {
+            (outside, "outside")
+        } else {
+            (-ex[0].max(ex[1]), "inside")
+        };
+        if dist > GRASP_SURFACE_TOL {
+            let at = format!("arms[{i}].grasp");
+            out.push(src.warning_at(
+                &at,
+                &format!(
+                    "{at} = ({}, {}): the grasp point sits {} m {side} the box ({} × {} m, object.size), off its outline: the arm would hold the object where it has no surface; check {at} and object.size",
+                    num(r[0]),
+                    num(r[1]),
+                    num_short(dist),
+                    num_short(l),
+                    num_short(h)
+                ),
+            ));
+        }
+    }
+    for i in 0..p.arms.len() {
+        for j in i + 1..p.arms.len() {
+            let (a, b) = (p.arms[i].base, p.arms[j].base);
+            let d = (a[0] - b[0]).hypot(a[1] - b[1]);
+            if d < BASE_SEPARATION_MIN {
+                let at = format!("arms[{j}].base");
+                out.push(src.warning_at(
+                    &at,
+                    &format!(
+                        "{at}: the base stands {} m from arms[{i}]'s: the two arms overlap (planar arms move in one plane)",
+                        num_short(d)
+                    ),
+                ));
+            }
+        }
+    }
+    out
 }
 
 #[cfg(test)]

@@ -471,6 +471,18 @@ pub fn num(v: f64) -> String {
     }
 }
 
+/// To the thousandth (a millimetre, a thousandth of a degree), trailing zeros dropped, for
+/// messages.
+pub fn num_short(v: f64) -> String {
+    let s = format!("{v:.3}");
+    let t = s.trim_end_matches('0').trim_end_matches('.');
+    if t.is_empty() || t == "-" {
+        "0".into()
+    } else {
+        t.into()
+    }
+}
+
 /// 1-based (line, column) of a byte offset (column in characters).
 pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(text.len());

@@ -49,7 +49,7 @@ use tandem::sim::sensors::SensorParams;
 use tandem::sim::{External, Formulation, Outcome, Replay, SimParams, Simulation, SpatialStart};
 
 use super::planar::{control_warning, load_replay};
-use super::source::{MAX_ARMS, MAX_LINKS, ScenarioError, Source, num, read_limited};
+use super::source::{MAX_ARMS, MAX_LINKS, ScenarioError, Source, num, num_short, read_limited};
 use super::tables::{
     ActuatorConfig, AdmittanceConfig, AxisFrameConfig, ControllerKind, CtcConfig,
     DisturbanceConfig, MetricsConfig, NnConfig, Orientation, PathKind, PdConfig, PlantConfig,
@@ -655,14 +655,28 @@ fn guess_outside(j: &tandem::model::spatial::ChainJoint, v: f64) -> Option<Strin
     ))
 }
 
-/// The fastest mode of compliant grasps `(ω rad/s, arm, tool link)`: the tool link (the
-/// lightest body on the grasp spring) oscillating on it at `ω = max(√(k/m), √(k_rot/I_min))`.
-fn grasp_fastest_mode(
+/// The fastest mode of compliant grasps `(|λ| rad/s, arm, tool link)`: the tool link (the
+/// lightest body on the grasp spring, mass `m`, smallest principal inertia `I_min`) on each
+/// axis's spring `(k, d)`: `|λ| = √(k/m)` while underdamped, and the fast root
+/// `(d + √(d² − 4 m k)) / 2m` once overdamped (a heavily damped spring on a light wrist is a fast
+/// real mode that an explicit step must resolve too). `damping = None`: the springs alone (the
+/// oscillation the control loop sees).
+pub fn grasp_fastest_mode(
     arms: &[SpatialArm],
-    c: &super::tables::ComplianceConfig,
+    stiffness: &[f64; 6],
+    damping: Option<&[f64; 6]>,
 ) -> Option<(f64, usize, String)> {
-    let k = c.stiffness[..3].iter().copied().fold(0.0f64, f64::max);
-    let k_rot = c.stiffness[3..].iter().copied().fold(0.0f64, f64::max);
+    let fastest = |k: f64, d: f64, m: f64| -> f64 {
+        if !(m > 0.0) {
+            return 0.0;
+        }
+        let disc = d * d - 4.0 * m * k;
+        if disc > 0.0 {
+            (d + disc.sqrt()) / (2.0 * m)
+        } else {
+            (k / m).sqrt()
+        }
+    };
     let mut worst: Option<(f64, usize, String)> = None;
     for (i, a) in arms.iter().enumerate() {
         let Some(b) = a.chain.bodies.last() else {
@@ -670,17 +684,32 @@ fn grasp_fastest_mode(
         };
         let i_min = b.inertia.symmetric_eigenvalues().min();
         let mut w = 0.0f64;
-        if b.mass > 0.0 {
-            w = w.max((k / b.mass).sqrt());
-        }
-        if i_min > 0.0 {
-            w = w.max((k_rot / i_min).sqrt());
+        for j in 0..6 {
+            let d = damping.map_or(0.0, |d| d[j]);
+            let m = if j < 3 { b.mass } else { i_min };
+            w = w.max(fastest(stiffness[j], d, m));
         }
         if w.is_finite() && worst.as_ref().is_none_or(|x| w > x.0) {
             worst = Some((w, i, b.name.clone()));
         }
     }
     worst
+}
+
+/// The lightest body on a grasp spring over the arms: the smallest tool-link mass and the
+/// smallest principal inertia of a tool link, (kg, kg m²); `None` without arms or with a
+/// massless tool link. The critical damping of a grasp spring `(k, k_rot)` against it is
+/// `(2√(k m), 2√(k_rot I))`.
+pub fn grasp_tip(arms: &[SpatialArm]) -> Option<(f64, f64)> {
+    let mut tip: Option<(f64, f64)> = None;
+    for b in arms.iter().filter_map(|a| a.chain.bodies.last()) {
+        let i_min = b.inertia.symmetric_eigenvalues().min();
+        if !(b.mass > 0.0 && i_min > 0.0) {
+            return None;
+        }
+        tip = Some(tip.map_or((b.mass, i_min), |(m, i)| (m.min(b.mass), i.min(i_min))));
+    }
+    tip
 }
 
 /// Compliant grasps whose fastest mode the control loop cannot resolve (`ω T_c > 1`) and no
@@ -703,7 +732,7 @@ fn grasp_filter_check(
     {
         return None;
     }
-    let (w, i, link) = grasp_fastest_mode(arms, c)?;
+    let (w, i, link) = grasp_fastest_mode(arms, &c.stiffness, None)?;
     let wt = w * control_period;
     (wt > 1.0).then(|| {
         format!(
@@ -720,12 +749,86 @@ fn grasp_filter_check(
     })
 }
 
+/// Largest `K2_j T_c / I_j` of the NN law's rotational damping before the `validate` warning
+/// ([`nn_damping_check`]): measured on `dual-franka` (compliant grasps, no filter), `K2_ry` at
+/// 0.75 of `I_ry / T_c` (with `K2_rx` capped alike) held every grasp of the sweep with at most 21
+/// chattering ticks, all in the first 40 ms; at 1.0 it chattered on 3 895 of 4 000 ticks
+/// (`docs/robot-ready.md`).
+pub const NN_ROT_DAMPING_RATIO: f64 = 0.75;
+
+/// The NN law's damping on the box's rotations against compliant grasps (issue 24): `K2` is
+/// designed on the box-plus-arms inertia (`K2 = 2ζ M ω_n`), but through a grasp spring the
+/// sampled damping acts tick by tick on what sits on the springs' arm side: about chart axis
+/// `e_j`, the tool links' `I_j = Σ_i (I_tip,i + m_tip,i |e_j × r_i|²)` (`r_i` the grasp in the
+/// object frame, `I_tip` the tool link's smallest principal inertia). Where `K2_j T_c / I_j`
+/// exceeds [`NN_ROT_DAMPING_RATIO`] (measured: `dual-franka`, `ry`, 1.57), the law chattered on
+/// nearly every tick (3 800–3 980 of 4 000 at 1e4–1e6 N/m, damping below critical), and the
+/// `K2_j` at that ratio removed it at no cost on welds (`z1` within 0.03 %). Warned for an NN
+/// run on compliant grasps without an output filter, without the file's own `k2`, and with the
+/// tool link's spring mode resolved by the loop (else [`grasp_filter_check`]'s warning names
+/// the filter, which cures this too).
+fn nn_damping_check(sc: &SpatialScenario, b: &SpatialBuilt, g: &NnGains<6>) -> Option<String> {
+    let c = sc.plant.compliant_grasps.as_ref()?;
+    let t_c = sc.run.control_period();
+    if sc.controller.actuator.filter_time_constant.is_some()
+        || sc.controller.nn.k2.is_some()
+        || !(t_c.is_finite() && t_c > 0.0)
+    {
+        return None;
+    }
+    let arms = &b.plant.arms;
+    if grasp_fastest_mode(arms, &c.stiffness, None).is_none_or(|m| m.0 * t_c > 1.0) {
+        return None;
+    }
+    let mut inertia = [0.0f64; 3];
+    for (a, x) in arms.iter().zip(&b.plant.grasps) {
+        let body = a.chain.bodies.last()?;
+        let i_tip = body.inertia.symmetric_eigenvalues().min();
+        let r = x.translation.vector;
+        for (j, ij) in inertia.iter_mut().enumerate() {
+            let e = Vector3::ith(j, 1.0);
+            *ij += i_tip + body.mass * e.cross(&r).norm_squared();
+        }
+    }
+    let mut k2 = g.k2;
+    let mut worst: Option<(usize, f64)> = None;
+    for j in 0..3 {
+        let ratio = g.k2[3 + j] * t_c / inertia[j];
+        if ratio.is_finite() && ratio > NN_ROT_DAMPING_RATIO {
+            k2[3 + j] = NN_ROT_DAMPING_RATIO * inertia[j] / t_c;
+            if worst.is_none_or(|w| ratio > w.1) {
+                worst = Some((j, ratio));
+            }
+        }
+    }
+    let (j, ratio) = worst?;
+    let axis = ["rx", "ry", "rz"][j];
+    let list = k2.iter().map(|v| sig3(*v)).collect::<Vec<_>>().join(", ");
+    Some(format!(
+        "controller.nn: on compliant grasps the NN law's damping on the box's rotation {axis} \
+         (K2 = {} N m s/rad, designed on the box and arms) acts tick by tick on the tool links on \
+         the grasp springs ({} kg m² about {axis}): K2 × run.control_period / I = {} > {}, where \
+         the law chattered on nearly every tick (dual-franka, 1e4 to 1e6 N/m: 3800 to 3980 of \
+         4000 ticks); set [controller.nn] k2 = [{list}] (the design's, its rotational entries \
+         capped at {} I / control_period; measured on dual-franka over 1e4 to 1e6 N/m and 0.3 to 3 \
+         times critical damping: every grasp held with S5 met, at most 21 chattering ticks, all \
+         in the first 40 ms; no change on welds), or an output filter",
+        sig3(g.k2[3 + j]),
+        sig3(inertia[j]),
+        sig3(ratio),
+        NN_ROT_DAMPING_RATIO,
+        NN_ROT_DAMPING_RATIO
+    ))
+}
+
 /// The plant step against the fastest mode of a compliant grasp: the tool link (the lightest
-/// body on the grasp spring) oscillating on it at `ω = max(√(k/m), √(k_rot/I_min))` (`m` its
-/// mass, `I_min` its smallest principal inertia, `k` the largest stiffness). RK4 is unstable on an
-/// undamped oscillator beyond `h ω = 2√2 ≈ 2.83`: a longer step is refused by `run.plant_step`
-/// (the run would only fault); above `h ω = 1` the mode is resolved poorly, a warning (`tandem
-/// robustness` steps its grasp-slip runs at `h ω ≤ 1`).
+/// body on the grasp spring) on each axis's spring and damper ([`grasp_fastest_mode`]: `ω =
+/// √(k/m)` while underdamped, the fast real root `(d + √(d² − 4mk))/2m` once overdamped; `m` the
+/// tool link's mass or smallest principal inertia). RK4 is unstable beyond `h ω = 2√2 ≈ 2.83`
+/// on an undamped oscillator and beyond `h |λ| ≈ 2.78` on a real root: a longer step is refused
+/// by `run.plant_step` (the run would only fault: 2 N m s/rad on a UR5 wrist at 0.25 ms went
+/// non-finite at 5 ms); above `h |λ| = 1` the mode is resolved poorly, a warning (`tandem
+/// robustness` steps its grasp runs at `h |λ| ≤ 1`).
 fn grasp_step_check(
     src: &Source,
     arms: &[SpatialArm],
@@ -736,22 +839,40 @@ fn grasp_step_check(
     if !(c.stiffness.iter().all(|k| k.is_finite() && *k > 0.0) && h.is_finite() && h > 0.0) {
         return Ok(Vec::new());
     }
-    let Some((w, i, link)) = grasp_fastest_mode(arms, c) else {
+    let Some((w, i, link)) = grasp_fastest_mode(arms, &c.stiffness, Some(&c.damping)) else {
         return Ok(Vec::new());
     };
     let hw = h * w;
-    let what = format!(
-        "the compliant grasps' fastest mode, arms[{i}]'s tool link `{link}` on the grasp spring, is \
-         ω = {} rad/s (plant.compliant_grasps.stiffness)",
-        sig3(w)
-    );
-    if hw > 2.0 * std::f64::consts::SQRT_2 {
+    // Overdamped on some axis: the fastest root is real, set by the damping.
+    let undamped = grasp_fastest_mode(arms, &c.stiffness, None).map_or(0.0, |m| m.0);
+    let what = if w > undamped * (1.0 + 1e-9) {
+        format!(
+            "the compliant grasps' fastest mode (arms[{i}]'s tool link `{link}` on the grasp \
+             spring, overdamped: its fast root |λ| = {} 1/s, from plant.compliant_grasps.damping \
+             and stiffness)",
+            sig3(w)
+        )
+    } else {
+        format!(
+            "the compliant grasps' fastest mode (arms[{i}]'s tool link `{link}` on the grasp \
+             spring, ω = {} rad/s, from plant.compliant_grasps.stiffness)",
+            sig3(w)
+        )
+    };
+    // RK4's stability region reaches 2.83 along the imaginary axis, 2.78 along the real one.
+    let limit = if w > undamped * (1.0 + 1e-9) {
+        2.78
+    } else {
+        2.0 * std::f64::consts::SQRT_2
+    };
+    if hw > limit {
         return Err(src.error_at(
             "run.plant_step",
             format!(
-                "run.plant_step = {} s is too long: {what}, and RK4 is unstable beyond h ω = 2.83 \
-                 (here {}); use plant_step ≤ {} s (h ω ≤ 1), or softer grasps",
+                "run.plant_step = {} s is too long for {what}: RK4 is unstable beyond h |λ| = {} \
+                 (here {}); use plant_step ≤ {} s (h |λ| ≤ 1), or softer or less damped grasps",
                 sig3(h),
+                sig3(limit),
                 sig3(hw),
                 sig3(1.0 / w)
             ),
@@ -759,8 +880,8 @@ fn grasp_step_check(
     }
     Ok(if hw > 1.0 {
         vec![format!(
-            "run.plant_step = {} s resolves {what} poorly (h ω = {}); plant_step ≤ {} s (h ω ≤ 1) \
-             resolves it",
+            "run.plant_step = {} s resolves {what} poorly (h |λ| = {}); plant_step ≤ {} s \
+             (h |λ| ≤ 1) resolves it",
             sig3(h),
             sig3(hw),
             sig3(1.0 / w)
@@ -1401,12 +1522,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
     })
 }
 
-/// Farthest a grasp frame may sit from the box's surface before a warning, m (a gripper's pads
-/// are millimetres thick; a flange frame a gripper's length away is worth saying).
-pub const GRASP_SURFACE_TOL: f64 = 0.01;
-/// Smallest distance between two arms' bases before a warning, m (two bases closer than a base
-/// plate's radius are the same robot twice).
-pub const BASE_SEPARATION_MIN: f64 = 0.1;
+pub use super::{BASE_SEPARATION_MIN, GRASP_SURFACE_TOL};
 
 /// What validation warns about (issue 22, "refuse the impossible, warn about the
 /// implausible"): a grasp frame more than [`GRASP_SURFACE_TOL`] off the box's surface (with the
@@ -1492,18 +1608,6 @@ fn plausibility(
         }
     }
     out
-}
-
-/// To the thousandth (a millimetre, a thousandth of a degree), trailing zeros dropped, for
-/// messages.
-fn num_short(v: f64) -> String {
-    let s = format!("{v:.3}");
-    let t = s.trim_end_matches('0').trim_end_matches('.');
-    if t.is_empty() || t == "-" {
-        "0".into()
-    } else {
-        t.into()
-    }
 }
 
 /// The name a scenario file gives an embedded model (`ur5`, `franka`).
@@ -1878,6 +1982,11 @@ fn make(
                 w.iter()
                     .map(|w| control_warning(src, w, |p| file_path(sc, &dofs, p))),
             );
+            if let Law::Nn(g) = &cp.law {
+                warnings.extend(
+                    nn_damping_check(sc, b, g).map(|w| src.warning_at("controller.nn", &w)),
+                );
+            }
             let effort = c.actuator().effort().to_vec();
             let sim = simulation(plant, b, c).map_err(start_error)?;
             start_hold_check(sc, b, src, sim.plant(), sim.state(), &effort)?;

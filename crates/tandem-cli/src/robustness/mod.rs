@@ -1,7 +1,9 @@
-//! `tandem robustness`: every fault family of `[faults]` at increasing severity, for PD and the
-//! NN law (tuned), from one scenario; then the grasp-slip family on the spatial S6 dual-UR5
-//! set-up (compliant true grasps of decreasing stiffness under a controller that assumes
-//! welds); a report (`robustness.md`), figures and `results.json`.
+//! `tandem robustness`: on a planar scenario, every fault family of `[faults]` at increasing
+//! severity, for PD and the NN law (tuned); then the grasp-slip family on the spatial S6
+//! dual-UR5 set-up (compliant true grasps of decreasing stiffness under a controller that
+//! assumes welds); a report (`robustness.md`), figures and `results.json`. On a spatial
+//! scenario, the compliant-grasp sweep of that scenario ([`grasps`]: stiffness × damping × law,
+//! without and with the output filter).
 //!
 //! Each run is classified:
 //! - **inside**: completed, the true pose never left the bounds (`violations = 0`), and the
@@ -11,6 +13,8 @@
 //! - **outside**: completed, but the true pose violated a bound;
 //! - **fault**: stopped early with a named fault (drift or a grasp's slip, singular arm,
 //!   non-finite value, ...).
+
+pub mod grasps;
 
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
