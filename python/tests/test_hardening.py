@@ -294,3 +294,42 @@ def test_a_bad_tandem_kernel_is_refused_for_a_spatial_run(monkeypatch, kind):
         sc.run(duration=0.05)
     with pytest.raises(ValueError, match="TANDEM_KERNEL"):
         tandem.rollout([sc], duration=0.05)
+
+
+def test_get_reads_the_gains_a_preset_resolves_to():
+    """``get`` of a gain the file leaves to its preset (``gains = "tuned"``) or to the spatial
+    design is the value the controller runs with (it was a KeyError)."""
+    paper = tandem.Scenario.preset("paper")
+    # The tuned preset (SPEC §3.4's starting point): K1 = 8, K2 = (233, 700, 50).
+    assert paper.get("controller.nn.k1") == [8.0, 8.0, 8.0]
+    assert paper.get("controller.nn.k2") == [233.0, 700.0, 50.0]
+    # The paper's own gains (Section V): K1 = diag(15, 20, 15), K2 = diag(11, 15, 10).
+    own = paper.with_({"controller.gains": "paper"})
+    assert own.get("controller.nn.k1") == [15.0, 20.0, 15.0]
+    assert own.get("controller.nn.k2") == [11.0, 15.0, 10.0]
+    # An override is read back as set, the rest from the preset.
+    mixed = own.with_({"controller.nn.k1": [9, 9, 9]})
+    assert mixed.get("controller.nn.k1") == [9.0, 9.0, 9.0]
+    assert mixed.get("controller.nn.k2") == [11.0, 15.0, 10.0]
+    assert isinstance(paper.get("controller.nn"), dict)
+    # Spatial: the per-axis design K2 = 2 ζ M ω_n (ζ = 0.8, ω_n = 20 on the file's inertia).
+    franka = tandem.Scenario.preset("dual-franka")
+    k2 = franka.get("controller.nn.k2")
+    assert k2 == pytest.approx([32 * m for m in [26.0, 12.0, 12.0, 0.7, 2.2, 0.2]], rel=1e-12)
+    with pytest.raises(KeyError):
+        paper.get("controller.nn.no_such_gain")
+
+
+def test_scenario_toml_lists_the_gains_of_the_preset(tmp_path):
+    """``scenario.toml`` keeps the preset's name (so ``--gains`` still switches it) and lists
+    what it resolves to as a comment."""
+    run = tandem.Scenario.preset("paper").run(duration=0.2)
+    run.write(tmp_path / "o")
+    text = (tmp_path / "o" / "scenario.toml").read_text()
+    assert 'gains = "tuned"' in text
+    assert '# The NN gains `gains = "tuned"` resolves to' in text
+    assert "#   k1 = [8.0, 8.0, 8.0]" in text
+    assert "#   k2 = [233.0, 700.0, 50.0]" in text
+    # The comment is a comment: the file runs as the scenario it came from.
+    back = tandem.Scenario.from_toml(text)
+    assert back.get("controller.nn.k2") == [233.0, 700.0, 50.0]
