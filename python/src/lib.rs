@@ -910,7 +910,9 @@ impl PyScenario {
             .resolved_gains()
             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         match gains.as_ref().and_then(|(key, t)| {
-            let rest = path.strip_prefix("controller.")?.strip_prefix(key.as_str())?;
+            let rest = path
+                .strip_prefix("controller.")?
+                .strip_prefix(key.as_str())?;
             match rest.strip_prefix('.') {
                 Some(field) => t.as_table().and_then(|t| get_path(t, field)).cloned(),
                 None if rest.is_empty() => Some(t.clone()),
