@@ -280,3 +280,59 @@ fn a_firm_compliant_grasp_holds_under_the_smooth_default() {
         s["torque_rate"]
     );
 }
+
+/// Rule 2 per scenario (`scenario::spatial::switching_radii`): a heavier box needs a larger
+/// Ω1 for the start's gravity catch. The presets keep `d1 = 2`, `d2 = 3`; a 15 kg box on
+/// dual-UR5 gets the rule's `d1 = 6.5`, `d2 = 9.75` (estimate 8 (0.08 + 147.15/240) = 5.55, × 1.15,
+/// rounded up to a half), which keeps `Q ≡ 1` and the start's peak torque rate at the gravity
+/// catch's; with the presets' radii `Q` drops and the peak rate more than triples.
+#[test]
+fn the_switching_radii_follow_the_scenario_s_load() {
+    use tandem_cli::scenario::spatial as sp;
+    use tandem_cli::scenario::{EMBEDDED, embedded_source};
+    let radii = |name: &str, mass: Option<&str>| {
+        let mut src = embedded_source(EMBEDDED.iter().find(|e| e.name == name).unwrap());
+        if let Some(m) = mass {
+            src.text = src.text.replacen("mass = 3.0", m, 1);
+        }
+        let sc = sp::parse(&src).unwrap();
+        let g = sp::nn_gains(&sc, None);
+        (g.d1, g.d2)
+    };
+    assert_eq!(radii("dual-ur5", None), (2.0, 3.0));
+    assert_eq!(radii("dual-franka", None), (2.0, 3.0));
+    assert_eq!(radii("dual-ur5", Some("mass = 15.0")), (6.5, 9.75));
+
+    let d = scratch("smooth_nn_radii");
+    let text = stdout(&tandem(&d, &["scenario", "show", "dual-ur5"]));
+    let heavy = text.replacen("mass = 3.0", "mass = 15.0", 1);
+    assert_ne!(heavy, text);
+    std::fs::write(d.join("heavy.toml"), &heavy).unwrap();
+    let fixed = heavy.replacen(
+        "[controller.nn]\n",
+        "[controller.nn]\nd1 = 2.0\nd2 = 3.0\n",
+        1,
+    );
+    std::fs::write(d.join("fixed.toml"), &fixed).unwrap();
+    let rule = run3(&d, "heavy.toml", "nn", "rule");
+    let old = run3(&d, "fixed.toml", "nn", "fixed");
+    for s in [&rule, &old] {
+        assert_eq!(s["status"], "completed");
+        assert_eq!(s["violation_ticks"], 0);
+        assert_eq!(s["s5_claims"]["pass"], true);
+    }
+    assert_eq!(rule["q_switch_min"], 1.0, "{}", rule["q_switch_min"]);
+    assert!(
+        old["q_switch_min"].as_f64().unwrap() < 0.95,
+        "{}",
+        old["q_switch_min"]
+    );
+    let peak = |s: &serde_json::Value| s["torque_rate"]["peak_Nm_per_s"].as_f64().unwrap();
+    assert!(peak(&rule) < 1500.0, "{}", peak(&rule));
+    assert!(
+        peak(&old) > 3.0 * peak(&rule),
+        "{} vs {}",
+        peak(&old),
+        peak(&rule)
+    );
+}

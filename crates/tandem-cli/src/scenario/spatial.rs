@@ -34,6 +34,7 @@ use tandem::control::law::pd::PdGains;
 use tandem::control::spatial::SpatialController;
 use tandem::control::spatial::chart::Chart;
 use tandem::control::spatial::distribute::friction::FrictionStats;
+use tandem::control::spatial::params::{SPATIAL_D1, SPATIAL_D2};
 use tandem::control::spatial::{PostureParams, SpatialControllerParams};
 use tandem::control::{ControlWarning, Scheme};
 use tandem::drive::Drive;
@@ -1372,7 +1373,7 @@ pub fn build(sc: &SpatialScenario, src: &Source) -> Result<SpatialBuilt, Scenari
     }
     let controller = {
         let law = match c.kind {
-            ControllerKind::Nn => Law::Nn(nn_gains(&c.nn, None)),
+            ControllerKind::Nn => Law::Nn(nn_gains(sc, None)),
             ControllerKind::Pd | ControllerKind::Replay => {
                 let mut g = PdGains::<6>::paper();
                 if let Some(v) = c.pd.k_p {
@@ -1619,14 +1620,40 @@ pub fn serde_name(m: &RobotModel) -> &'static str {
 }
 
 /// NN gains from the design (with `inertia` when the file gives none) and the overrides.
-pub fn nn_gains(n: &NnConfig<6>, path_inertia: Option<[f64; 6]>) -> NnGains<6> {
+pub fn nn_gains(sc: &SpatialScenario, path_inertia: Option<[f64; 6]>) -> NnGains<6> {
+    let n = &sc.controller.nn;
     let d = n.design();
     let m = d
         .inertia
         .or(path_inertia.map(|m| m.map(round_up_2)))
         // Placeholder until the path inertia is known (the controller is then rebuilt).
         .unwrap_or([1.0; 6]);
-    n.apply(NnGains::from_design(m, d.k1, d.omega_n, d.zeta))
+    let mut g = NnGains::from_design(m, d.k1, d.omega_n, d.zeta);
+    (g.d1, g.d2) = switching_radii(sc, m[2], d.k1, d.omega_n);
+    n.apply(g)
+}
+
+/// The NN design's switching radii for this scenario (`docs/smooth-nn.md`, rule 2): the
+/// nominal loop should stay inside `Ω1 = {|Z_k| ≤ d1}` through the start, whose largest input
+/// is `α̇` along gravity while the network has not learned the box's weight,
+/// `|α̇_z| ≈ K1 (K1 |z1(0)| + m_o g / (M_z ω_n))` (`z1(0)` the start offset's translation,
+/// `M_z` the design inertia along z). `d1` is that with a 15 % margin (the measured peak is
+/// 0.85–0.92 of the estimate on the presets), rounded up to a half, and never below
+/// [`SPATIAL_D1`]; `d2 = 1.5 d1` (SPEC §3.4's ratio). Both presets get `SPATIAL_D1`,
+/// `SPATIAL_D2` (estimate 1.62 on both: 3 kg, `M_z` 12 kg, 1 cm); a 15 kg box on dual-UR5 gets 6.5 and 9.75, which keeps
+/// `Q ≡ 1` (with 2 and 3 it fell to 0.88 and the start's peak torque rate rose from 1 264 to
+/// 4 729 N m/s). A file's own `d1`, `d2` win.
+pub fn switching_radii(sc: &SpatialScenario, m_z: f64, k1: f64, omega_n: f64) -> (f64, f64) {
+    let o = sc.run.start_offset();
+    let z1 = Vector3::new(o[0], o[1], o[2]).norm();
+    let g = Vector3::from(sc.plant.gravity).norm();
+    let est = k1 * (k1 * z1 + sc.object.mass * g / (m_z * omega_n));
+    let d1 = (1.15 * est * 2.0).ceil() / 2.0;
+    if d1.is_finite() && d1 > SPATIAL_D1 {
+        (d1, 1.5 * d1)
+    } else {
+        (SPATIAL_D1, SPATIAL_D2)
+    }
 }
 
 fn need<T: Copy>(src: &Source, v: Option<T>, field: &str, kind: &str) -> Result<T, ScenarioError> {
@@ -1858,7 +1885,7 @@ pub fn make_controller(
         .map_err(lib)?;
         let m: [f64; 6] = c.path_inertia().into();
         probed_inertia = Some(m);
-        cp.law = Law::Nn(nn_gains(&sc.controller.nn, Some(m)));
+        cp.law = Law::Nn(nn_gains(sc, Some(m)));
     }
     let (c, w) = SpatialController::new(
         &cp,
