@@ -260,3 +260,60 @@ fn a_compliant_grasp_needs_a_step_that_resolves_it() {
     assert_eq!(read_json(&d.join("o/summary.json"))["status"], "completed");
     let _ = fs::remove_dir_all(&d);
 }
+
+/// The planar twin (issue 22: "an object mass of 1e308 validates and faults at t = 0"): an
+/// object a million times heavier than the arms is refused by its field, in the matrix form
+/// (`object.inertia[k]`) and in the mass form (`object.mass`).
+#[test]
+fn an_absurd_planar_object_is_refused_by_its_field() {
+    let d = scratch("refuse_planar_object");
+    let p = paper_with(
+        &d,
+        "m.toml",
+        &[("inertia = [1.0, 1.0, 1.0]", "inertia = [1e308, 1e308, 1.0]")],
+    );
+    let o = tandem(&d, &["validate", &p.display().to_string()]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(
+        e.contains(
+            "object.inertia[0] = 1e308: must be at most 1e6 times the arms' total mass (5.700 kg)"
+        ),
+        "{e}"
+    );
+    assert!(e.contains("(line 64, column 12)"), "{e}");
+    let p = paper_with(
+        &d,
+        "r.toml",
+        &[("inertia = [1.0, 1.0, 1.0]", "inertia = [1.0, 1.0, 1e308]")],
+    );
+    let e = stderr(&tandem(&d, &["validate", &p.display().to_string()]));
+    assert!(
+        e.contains("object.inertia[2] = 1e308: must be at most 1e6 times the arms' total mass (5.700 kg × 1 m²)"),
+        "{e}"
+    );
+    // The mass form names object.mass (its line).
+    let p = paper_with(
+        &d,
+        "mass.toml",
+        &[
+            ("inertia = [1.0, 1.0, 1.0]", "mass = 1e308\ninertia = 1.0"),
+            ("gravity = [0.0, 9.8, 0.0]", ""),
+        ],
+    );
+    let o = tandem(&d, &["validate", &p.display().to_string()]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(
+        e.contains("object.mass = 1e308: must be at most 1e6"),
+        "{e}"
+    );
+    // A heavy box the arms carry is not refused by this rule.
+    let p = paper_with(
+        &d,
+        "ok.toml",
+        &[("inertia = [1.0, 1.0, 1.0]", "inertia = [20.0, 20.0, 1.0]")],
+    );
+    let e = stderr(&tandem(&d, &["validate", &p.display().to_string()]));
+    assert!(!e.contains("must be at most 1e6"), "{e}");
+}

@@ -603,20 +603,27 @@ fn object(
         .params(sc.plant.gravity, payload)
         .map_err(|(f, m)| src.error_at(&f, m))?;
     if sc.object.mass.is_some() {
-        tandem::model::planar::object::Object::new(&p).map_err(|e| {
-            src.model_error(e, |q| {
-                if q.starts_with("object.gravity")
-                    || q == "object.inertia[0]"
-                    || q == "object.inertia[1]"
-                {
-                    "object.mass".to_string()
-                } else if q == "object.inertia[2]" {
-                    "object.inertia".to_string()
-                } else {
-                    q.to_string()
-                }
-            })
-        })?;
+        let arms_mass: f64 = sc
+            .arms
+            .iter()
+            .flat_map(|a| a.links.iter().map(|l| l.mass))
+            .sum();
+        tandem::plant::planar::object_within_arms(&p, arms_mass)
+            .and_then(|_| tandem::model::planar::object::Object::new(&p).map(|_| ()))
+            .map_err(|e| {
+                src.model_error(e, |q| {
+                    if q.starts_with("object.gravity")
+                        || q == "object.inertia[0]"
+                        || q == "object.inertia[1]"
+                    {
+                        "object.mass".to_string()
+                    } else if q == "object.inertia[2]" {
+                        "object.inertia".to_string()
+                    } else {
+                        q.to_string()
+                    }
+                })
+            })?;
     }
     Ok(p)
 }

@@ -205,6 +205,30 @@ pub struct PlantWorkspace {
     kept_valid: bool,
 }
 
+/// As the spatial plant ([`crate::plant::spatial::MAX_OBJECT_TO_ARMS_MASS`]): an object a
+/// million times heavier than the arms that carry it (`arms_mass`, kg) is no set-up, and far
+/// beyond it the constrained solve has no digits left (an inertia of 1e308 validated and
+/// faulted at t = 0). The rotational entry is held to the same ratio against the arms' mass
+/// times a square metre. Errors name `object.inertia[k]`.
+pub fn object_within_arms(o: &ObjectParams, arms_mass: f64) -> Result<(), ModelError> {
+    let max = crate::plant::spatial::MAX_OBJECT_TO_ARMS_MASS;
+    for k in 0..3 {
+        let v = o.inertia[k];
+        if arms_mass > 0.0 && !(v <= max * arms_mass) {
+            return Err(ModelError::invalid(
+                format!("object.inertia[{k}]"),
+                v,
+                format!(
+                    "must be at most {max:e} times the arms' total mass ({} kg{}): no arm carries it, and the constrained solve loses its digits",
+                    crate::error::fmt_fixed(arms_mass, 3),
+                    if k == 2 { " × 1 m²" } else { "" }
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 impl Plant {
     /// Validate the parameters (each arm, the object, one grasp per arm, `g ≥ 0`, `ω_b ≥ 0`).
     pub fn new(p: &PlantParams) -> Result<Self, ModelError> {
@@ -245,6 +269,12 @@ impl Plant {
                 r: Vector2::new(r[0], r[1]),
             });
         }
+        let arms_mass: f64 = p
+            .arms
+            .iter()
+            .flat_map(|a| a.links.iter().map(|l| l.mass))
+            .sum();
+        object_within_arms(&p.object, arms_mass)?;
         let object = Object::new(&p.object)?;
         let g = non_negative("gravity", p.gravity)?;
         let baumgarte = non_negative("baumgarte", p.baumgarte)?;
