@@ -695,9 +695,17 @@ pub fn place_text(r: &PlaceReport) -> String {
                 .iter()
                 .enumerate()
                 .filter(|(_, a)| a.searched)
-                .map(|(i, _)| format!("arm {i}"))
+                .map(|(i, a)| match (&a.start, &a.continued_failure) {
+                    (None, _) => format!("arm {i} on another branch (its own has no start here)"),
+                    (Some(_), Some(f)) => format!(
+                        "arm {i} on another branch (its own at t = {} s: {})",
+                        short(f.t),
+                        f.reason
+                    ),
+                    (Some(_), None) => format!("arm {i} on another branch"),
+                })
                 .collect();
-            note = format!("{} on another branch", who.join(", "));
+            note = who.join("; ");
         }
         let sig: Vec<String> = row
             .arms
@@ -774,6 +782,11 @@ fn suggestion(r: &PlaceReport) -> String {
     let inside = ranges
         .iter()
         .any(|(a, b)| r.current >= a - 1e-9 && r.current <= b + 1e-9);
+    let (lo, hi) = (
+        r.rows.first().map_or(f64::NAN, |x| x.d),
+        r.rows.last().map_or(f64::NAN, |x| x.d),
+    );
+    let scanned = r.current >= lo - 1e-9 && r.current <= hi + 1e-9;
     let mut s = format!(
         "reachable (the whole path inside the limits on some branch, for every arm): {}\n",
         list.join(", ")
@@ -785,12 +798,19 @@ fn suggestion(r: &PlaceReport) -> String {
             row_sigma(b)
         ));
     }
-    s.push_str(&format!(
-        "the scenario's current {:.3} m is {} the reachable range{}\n",
-        r.current,
-        if inside { "inside" } else { "outside" },
-        if ranges.len() > 1 { "s" } else { "" }
-    ));
+    if scanned {
+        s.push_str(&format!(
+            "the scenario's current {:.3} m is {} the reachable range{}\n",
+            r.current,
+            if inside { "inside" } else { "outside" },
+            if ranges.len() > 1 { "s" } else { "" }
+        ));
+    } else {
+        s.push_str(&format!(
+            "the scenario's current {:.3} m is outside the scanned {lo:.3}–{hi:.3} m\n",
+            r.current
+        ));
+    }
     s
 }
 
@@ -807,6 +827,7 @@ pub fn place_json(r: &PlaceReport) -> Value {
                 "arms": row.arms.iter().enumerate().map(|(i, a)| json!({
                     "start": a.start,
                     "searched_another_branch": a.searched,
+                    "continued_failure": a.continued_failure.as_ref().map(|f| json!({"t": f.t, "reason": f.reason})),
                     "sigma_min_start": if a.sigma_start.is_finite() { json!(a.sigma_start) } else { Value::Null },
                     "path": a.path.as_ref().map(|c| path_json(c, &r.names[i])),
                 })).collect::<Vec<_>>(),

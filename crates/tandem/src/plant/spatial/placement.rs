@@ -89,6 +89,8 @@ pub struct ArmAtSpread {
     pub path: Option<PathCheck>,
     /// The continued branch could not follow the path and the solutions were searched anew.
     pub searched: bool,
+    /// Why the continued branch could not follow the path (when its start solved).
+    pub continued_failure: Option<branches::PathFailure>,
     /// `σ_min` at the start of the solution used.
     pub sigma_start: f64,
 }
@@ -154,6 +156,7 @@ pub fn scan(
                         branches::follow_path(&plant, i, pose, q, &opts.times, opts.sigma_floor);
                     (c, sigma_at(arm, q, &mut data))
                 });
+                let continued_failure = used.as_ref().and_then(|(c, _)| c.failure.clone());
                 let mut searched = false;
                 if !used.as_ref().is_some_and(|(c, _)| c.feasible()) {
                     searched = true;
@@ -188,6 +191,7 @@ pub fn scan(
                     start: continued,
                     path: path_check,
                     searched,
+                    continued_failure,
                     sigma_start,
                 });
             }
