@@ -373,3 +373,26 @@ fn json_out_follows_the_force_conventions() {
     exit(&o, 2);
     assert_eq!(fs::read_to_string(d.join("s.toml")).expect("read"), text);
 }
+
+#[test]
+fn place_refuses_a_single_arm() {
+    let d = scratch("one");
+    let text = stdout(&tandem(&d, &["scenario", "show", "dual-ur5"]));
+    let (a, b) = (
+        text.find("# Arm 2").expect("arm 2"),
+        text.find("# --- Object").expect("object"),
+    );
+    let one = format!("{}{}", &text[..a], &text[b..]);
+    fs::write(d.join("one.toml"), one).expect("write");
+    let o = tandem(&d, &["place", "one.toml"]);
+    exit(&o, 2);
+    assert!(stderr(&o).contains("has 1 arm"), "{}", stderr(&o));
+    // `tandem ik` lists its branches all the same.
+    let o = tandem(&d, &["ik", "one.toml", "--starts", "50"]);
+    exit(&o, 0);
+    assert!(
+        stdout(&o).contains("arm 0 (ur5, 6 joints)"),
+        "{}",
+        stdout(&o)
+    );
+}

@@ -276,3 +276,48 @@ fn the_library_branch_search_finds_the_studys_eight_ur5_branches() {
         );
     }
 }
+
+#[test]
+fn the_placement_scan_moves_two_bases_along_their_line_and_more_radially() {
+    use tandem::plant::spatial::placement::{base_spread, spread_to};
+    // Two arms: the separation, about the midpoint, orientations kept (the study's set-up).
+    let p = tandem::presets::dual_ur5().params;
+    assert!((base_spread(&p).expect("two arms") - 1.40).abs() < 1e-12);
+    let q = spread_to(&p, 1.0).expect("spread");
+    let study = study::dual_ur5_at(1.0);
+    for i in 0..2 {
+        let (a, b) = (&q.arms[i].base, &study.arms[i].base);
+        assert!((a.translation.vector - b.translation.vector).norm() < 1e-12);
+        assert!(a.rotation.angle_to(&b.rotation) < 1e-12);
+    }
+    // Three arms: radially about the centroid, the mean distance from it is the spread.
+    let mut three = p.clone();
+    let mut arm3 = tandem::presets::ur5_arm(0.0, -0.9, std::f64::consts::FRAC_PI_2);
+    arm3.base.translation.vector.z = 0.3;
+    three.arms.push(arm3);
+    three.grasps.push(three.grasps[0]);
+    let d0 = base_spread(&three).expect("three arms");
+    let c = |p: &tandem::plant::spatial::SpatialPlantParams| {
+        p.arms
+            .iter()
+            .map(|a| a.base.translation.vector)
+            .sum::<Vector3<f64>>()
+            / 3.0
+    };
+    let s = spread_to(&three, 2.0 * d0).expect("spread");
+    assert!((base_spread(&s).expect("three") - 2.0 * d0).abs() < 1e-12);
+    assert!((c(&s) - c(&three)).norm() < 1e-12);
+    for (a, b) in s.arms.iter().zip(&three.arms) {
+        let (x, y) = (
+            a.base.translation.vector - c(&s),
+            b.base.translation.vector - c(&three),
+        );
+        assert!((x - 2.0 * y).norm() < 1e-12);
+    }
+    // One arm: no separation.
+    let mut one = p.clone();
+    one.arms.truncate(1);
+    one.grasps.truncate(1);
+    assert!(base_spread(&one).is_none());
+    assert!(spread_to(&one, 1.0).is_err());
+}
