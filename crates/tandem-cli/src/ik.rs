@@ -432,7 +432,7 @@ pub fn ik_json(r: &IkReport) -> Value {
                 "kind": if a.redundant { "samples of a self-motion manifold (clustered), not discrete branches" } else { "branches" },
                 "starts": a.starts,
                 "converged": a.converged,
-                "own": a.own.map(|k| k + 1),
+                "own_rank": a.own.map(|k| k + 1),
                 "own_error": a.own_error,
                 "solutions": sols,
             })
@@ -484,9 +484,9 @@ pub struct PlaceReport {
     pub duration: f64,
     /// Path sampling step, s.
     pub every: f64,
-    /// The start branch of each arm at the current separation: its rank in `tandem ik` and
-    /// angles.
-    pub start: Vec<(usize, Vec<f64>)>,
+    /// The start branch of each arm at the current separation (its first-ranked `tandem ik`
+    /// solution).
+    pub start: Vec<Vec<f64>>,
     /// The rows.
     pub rows: Vec<SpreadRow>,
     /// The joint names per arm.
@@ -516,7 +516,15 @@ pub fn separations(current: f64, o: &PlaceOptions) -> Result<Vec<f64>> {
     let from = from.unwrap_or(0.6 * current);
     let to = to.unwrap_or(1.4 * current);
     if to < from {
-        return Err(BadInput::msg(format!("--to {to}: smaller than --from {from}")).into());
+        return Err(BadInput::msg(format!(
+            "--to {to}: smaller than --from {from}{}",
+            if o.from.is_none() {
+                " (the default: 0.6 × the scenario's separation)"
+            } else {
+                ""
+            }
+        ))
+        .into());
     }
     let step = step.unwrap_or(0.05 * current);
     let n = ((to - from) / step + 1e-9).floor();
@@ -579,15 +587,14 @@ pub fn place(src: &Source, sc: &SpatialScenario, o: &PlaceOptions) -> Result<Pla
             ))
             .into());
         };
-        start.push((1, best.q.clone()));
+        start.push(best.q.clone());
         names.push(arm.chain.joints.iter().map(|j| j.name.clone()).collect());
     }
-    let qs: Vec<Vec<f64>> = start.iter().map(|(_, q)| q.clone()).collect();
     let rows = placement::scan(
         &b.plant,
         &b.start.x_wo,
         &path_pose(&b),
-        &qs,
+        &start,
         &ds,
         &ScanOptions {
             times,
@@ -842,7 +849,7 @@ pub fn place_json(r: &PlaceReport) -> Value {
         "current": r.current,
         "duration": r.duration,
         "every": r.every,
-        "start_branches": r.start.iter().map(|(_, q)| json!(q)).collect::<Vec<_>>(),
+        "start_branches": r.start,
         "reachable": reachable_ranges(&r.rows).iter().map(|(a, b)| json!([a, b])).collect::<Vec<_>>(),
         "best": best,
         "rows": rows,

@@ -84,7 +84,7 @@ fn ik_lists_the_eight_ur5_branches_and_marks_the_presets_own() {
         );
         // The preset's own branch: marked, on S6's start angles (the start is 1 cm inside the
         // circle, so within a few hundredths of a radian), and feasible along the whole lap.
-        let own = a["own"].as_u64().expect("own marked") as usize;
+        let own = a["own_rank"].as_u64().expect("own marked") as usize;
         let own_sol = &s[own - 1];
         assert_eq!(own_sol["own"], true);
         assert!(gap(&q_of(own_sol), &s6[i]) < 0.05, "{own_sol}");
@@ -120,7 +120,7 @@ fn a_listed_q_guess_line_picks_its_branch_in_validate_and_run() {
     );
     let a = arm(&js, 0);
     let s = sols(a);
-    let own = a["own"].as_u64().expect("own") as usize - 1;
+    let own = a["own_rank"].as_u64().expect("own") as usize - 1;
     // A branch other than the preset's that follows the whole path.
     let (k, pick) = s
         .iter()
@@ -202,7 +202,7 @@ fn a_seven_joint_arm_lists_samples_and_says_so() {
     let s = sols(a);
     assert!(!s.is_empty());
     // The preset's own solution is one of them and carries the box the whole lap.
-    let own = a["own"].as_u64().expect("own") as usize - 1;
+    let own = a["own_rank"].as_u64().expect("own") as usize - 1;
     assert_eq!(s[own]["path"]["whole_path"], true, "{}", s[own]);
     for x in s {
         assert_eq!(q_of(x).len(), 7);
