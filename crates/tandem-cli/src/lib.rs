@@ -20,6 +20,7 @@
 //! | view | [`view`] | [`view::planar`] (the animation) | [`view::spatial`] (the 3-D viewer) |
 //! | output | [`output`]: what a run writes ([`output::table`]: terminal and Markdown tables) | [`output::planar`] | [`output::spatial`] |
 //! | studies | [`sweep`] (sweeps, shards, merges), [`robustness`] | both | both |
+//! | set-up studies | [`ik`] (`tandem ik`, `validate --branches`, `tandem place`: IK branches at the start, base placement) | — | spatial |
 //!
 //! `main.rs` matches on [`scenario::Scenario`] once per command; the Python package keeps the
 //! variant it parsed.
@@ -27,6 +28,7 @@
 pub mod export;
 pub mod figures;
 pub mod files;
+pub mod ik;
 pub mod output;
 pub mod robustness;
 pub mod run;

@@ -81,7 +81,33 @@ enum Command {
     Validate {
         /// Scenario file or embedded scenario name.
         scenario: String,
+        /// Also list every arm's inverse-kinematics branches at the start pose, as `tandem ik`
+        /// does with its defaults (spatial scenarios).
+        #[arg(long)]
+        branches: bool,
     },
+    /// List every inverse-kinematics branch of each arm at a spatial scenario's start pose.
+    ///
+    /// Solves each arm onto its grasp frame from many starts (the scenario's own q_guess, then
+    /// seeded draws inside the joint limits), keeps the solutions inside the limits (revolute
+    /// angles wrapped by whole turns), and follows each along the path by IK continuation. For
+    /// each: σ_min and cond of the tool Jacobian at the start; whether it stays inside the
+    /// limits the whole path (else when and why it fails), the path's smallest σ_min and joint
+    /// limit margin, and its largest holding torque over the effort limit; the `q_guess = [...]`
+    /// line that picks it. The scenario's own branch is marked *. An arm with more than 6 joints
+    /// has a continuum of solutions: its list is clustered samples of that continuum, not
+    /// discrete branches.
+    Ik(IkArgs),
+    /// Scan the base separation of a spatial scenario for where the path stays reachable.
+    ///
+    /// Two arms: both bases move along the line joining them, about their midpoint; more arms:
+    /// every base moves radially about the bases' centroid (the scanned value is then their mean
+    /// distance from it). Bases keep their orientation. At each separation every arm follows the
+    /// path by IK continuation (from its best `tandem ik` branch at the scenario's placement,
+    /// continued in the separation; another branch is searched where that one fails). Prints a
+    /// table (σ_min per arm, holding torque over effort, joint-limit margin, closest approach of
+    /// the arms' centre lines) and the reachable range with its best-conditioned separation.
+    Place(PlaceArgs),
     /// Run every fault family of `[faults]` at five severities for PD and the NN law; write
     /// robustness.md, figures/robustness.png/.svg and results.json (the report in
     /// docs/robustness.md is `tandem robustness --out docs --force`... see the README).
@@ -252,6 +278,62 @@ struct ExportArgs {
 }
 
 #[derive(Args)]
+struct IkArgs {
+    /// Scenario file or embedded scenario name (spatial: e.g. `dual-ur5`, `dual-franka`).
+    scenario: String,
+    /// Only this arm (0-based, as in `arms[I]`).
+    #[arg(long, value_name = "I")]
+    arm: Option<usize>,
+    /// Starts per arm, the scenario's own q_guess included (1 to 10000).
+    #[arg(long, value_name = "N", default_value_t = tandem_cli::ik::DEFAULT_STARTS)]
+    starts: usize,
+    /// Seed of the starts drawn inside the joint limits.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    seed: u64,
+    /// Path sampling step for the continuation, s.
+    #[arg(long, value_name = "S", default_value_t = tandem_cli::ik::DEFAULT_EVERY, allow_negative_numbers = true)]
+    every: f64,
+    /// Also write the results as JSON to FILE (whole or not at all).
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Replace --json FILE if it exists and tandem ik or place wrote it (never another file,
+    /// nor an input of the scenario).
+    #[arg(long)]
+    force: bool,
+}
+
+#[derive(Args)]
+struct PlaceArgs {
+    /// Scenario file or embedded scenario name (spatial, two or more arms).
+    scenario: String,
+    /// Smallest separation, m [default: 0.6 × the scenario's].
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    from: Option<f64>,
+    /// Largest separation, m [default: 1.4 × the scenario's].
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    to: Option<f64>,
+    /// Separation step, m [default: 0.05 × the scenario's; at most 201 separations].
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    step: Option<f64>,
+    /// Path sampling step for the continuation, s [default: 0.5].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    every: Option<f64>,
+    /// Starts per arm of the branch search at the scenario's placement (1 to 10000) [default: 200].
+    #[arg(long, value_name = "N")]
+    starts: Option<usize>,
+    /// Seed of the searches.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    seed: u64,
+    /// Also write the results as JSON to FILE (whole or not at all).
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Replace --json FILE if it exists and tandem ik or place wrote it (never another file,
+    /// nor an input of the scenario).
+    #[arg(long)]
+    force: bool,
+}
+
+#[derive(Args)]
 struct CompareArgs {
     /// Scenario file or embedded scenario name [default: paper].
     scenario: Option<String>,
@@ -306,7 +388,9 @@ fn main() -> ExitCode {
         Command::Run(a) => cmd_run(a),
         Command::Compare(a) => cmd_compare(a),
         Command::Robustness(a) => cmd_robustness(a),
-        Command::Validate { scenario } => cmd_validate(&scenario),
+        Command::Validate { scenario, branches } => cmd_validate(&scenario, branches),
+        Command::Ik(a) => cmd_ik(a),
+        Command::Place(a) => cmd_place(a),
         Command::Sweep(a) => cmd_sweep(a),
         Command::Merge(a) => cmd_merge(a),
         Command::Scenario { command } => cmd_scenario(command),
@@ -1019,10 +1103,17 @@ fn cmd_merge(a: MergeArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn cmd_validate(arg: &str) -> Result<ExitCode> {
+fn cmd_validate(arg: &str, branches: bool) -> Result<ExitCode> {
     let (src, sc) = match scenario::load(Some(arg), &Overrides::default())? {
-        (src, Scenario::Planar(sc)) => (src, sc),
+        (src, Scenario::Planar(sc)) => {
+            if branches {
+                // The same refusal as `tandem ik`'s.
+                tandem_cli::ik::load(arg, "tandem validate --branches")?;
+            }
+            (src, sc)
+        }
         (src, Scenario::Spatial(sc)) => {
+            let ik_sc = sc.clone();
             let label = spatial::label(&sc);
             let p = spatial::prepare(sc, &src)?;
             let b = &p.built;
@@ -1079,6 +1170,11 @@ fn cmd_validate(arg: &str) -> Result<ExitCode> {
                 ticks.div_ceil(per_log)
             );
             print_warnings(&label, &p.ready.warnings);
+            if branches {
+                let r = tandem_cli::ik::ik(&src, &ik_sc, &tandem_cli::ik::IkOptions::default())?;
+                println!();
+                print!("{}", tandem_cli::ik::ik_text(&r));
+            }
             return Ok(ExitCode::SUCCESS);
         }
     };
@@ -1115,6 +1211,53 @@ fn cmd_validate(arg: &str) -> Result<ExitCode> {
         rows
     );
     print_warnings(&label, &p.ready.warnings);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_ik(a: IkArgs) -> Result<ExitCode> {
+    use tandem_cli::ik;
+    let (src, sc) = ik::load(&a.scenario, "tandem ik")?;
+    let protected = ik::protected(&src, &sc);
+    if let Some(p) = &a.json {
+        ik::check_json_out(p, a.force, &protected, "tandem ik")?;
+    }
+    let opts = ik::IkOptions {
+        arm: a.arm,
+        starts: a.starts,
+        seed: a.seed,
+        every: a.every,
+    };
+    let r = ik::ik(&src, &sc, &opts)?;
+    print_warnings(&r.name, &r.warnings);
+    print!("{}", ik::ik_text(&r));
+    if let Some(p) = &a.json {
+        ik::write_json(p, &ik::ik_json(&r), a.force, &protected, "tandem ik")?;
+        eprintln!("{}: branches written to {}", r.name, p.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_place(a: PlaceArgs) -> Result<ExitCode> {
+    use tandem_cli::ik;
+    let (src, sc) = ik::load(&a.scenario, "tandem place")?;
+    let protected = ik::protected(&src, &sc);
+    if let Some(p) = &a.json {
+        ik::check_json_out(p, a.force, &protected, "tandem place")?;
+    }
+    let opts = ik::PlaceOptions {
+        from: a.from,
+        to: a.to,
+        step: a.step,
+        every: a.every,
+        seed: a.seed,
+        starts: a.starts,
+    };
+    let r = ik::place(&src, &sc, &opts)?;
+    print!("{}", ik::place_text(&r));
+    if let Some(p) = &a.json {
+        ik::write_json(p, &ik::place_json(&r), a.force, &protected, "tandem place")?;
+        eprintln!("{}: placement scan written to {}", r.name, p.display());
+    }
     Ok(ExitCode::SUCCESS)
 }
 

@@ -223,3 +223,101 @@ fn the_branch_test_tells_the_eight_ur5_solutions_apart() {
         assert!(da.min(std::f64::consts::TAU - da) < 1e-6, "{:?}", s6[0].0);
     }
 }
+
+#[test]
+fn the_library_branch_search_finds_the_studys_eight_ur5_branches() {
+    // `tandem ik`'s search (`plant::spatial::branches`) at the S6 start: the 8 solutions, one on
+    // each of the study's geometric branches, the preset's own (from its q_guess, as the run
+    // starts) on the S6 branch; all 8 carry the box the whole lap inside the UR5's limits.
+    use tandem::plant::spatial::branches::{self, SearchOptions};
+    let setup = tandem::presets::dual_ur5();
+    let plant = SpatialPlant::new(&setup.params).expect("valid");
+    let path = Se3Path::spec_s6();
+    let x0 = study::s6_pose(&path, 0.0);
+    let pose = |t: f64| study::s6_pose(&path, t);
+    let opts = SearchOptions {
+        starts: 200,
+        seed: 0,
+        times: (0..=120).map(|k| 0.5 * k as f64).collect(),
+        sigma_floor: 1e-3,
+    };
+    for i in 0..2 {
+        let s = plant.offset(i);
+        let arm = &plant.arms()[i];
+        let sol = branches::arm_solutions(&plant, i, &x0, &pose, &setup.q_guess[s..s + 6], &opts);
+        assert_eq!(sol.solutions.len(), 8, "arm {i}");
+        assert!(!sol.redundant);
+        let mut d = tandem::dynamics::spatial::ChainData::new(arm);
+        let kinds: Vec<study::Branch> = sol
+            .solutions
+            .iter()
+            .map(|x| study::ur5_branch(arm, &x.q, &mut d))
+            .collect();
+        for (k, a) in kinds.iter().enumerate() {
+            for b in &kinds[..k] {
+                assert_ne!(a, b, "arm {i}: two solutions on one branch");
+            }
+        }
+        let own = sol.own.expect("the preset's q_guess solves");
+        assert_eq!(kinds[own], study::Branch::S6, "arm {i}");
+        // The preset's start angles, to the 6 decimals S6 prints.
+        for (a, b) in sol.solutions[own].q.iter().zip(&setup.q_guess[s..s + 6]) {
+            assert!((a - b).abs() < 1e-6, "arm {i}: {a} vs {b}");
+        }
+        // Its lap: the study's figures (σ_min 0.1961, τ/effort 23.6 %).
+        let p = &sol.solutions[own].path;
+        assert!(p.feasible(), "{:?}", p.failure);
+        assert_eq!(p.samples, 121);
+        assert!((p.sigma_min - 0.1961).abs() < 1e-3, "σ_min {}", p.sigma_min);
+        assert!(
+            (0.23..=0.25).contains(&p.torque_ratio),
+            "{}",
+            p.torque_ratio
+        );
+    }
+}
+
+#[test]
+fn the_placement_scan_moves_two_bases_along_their_line_and_more_radially() {
+    use tandem::plant::spatial::placement::{base_spread, spread_to};
+    // Two arms: the separation, about the midpoint, orientations kept (the study's set-up).
+    let p = tandem::presets::dual_ur5().params;
+    assert!((base_spread(&p).expect("two arms") - 1.40).abs() < 1e-12);
+    let q = spread_to(&p, 1.0).expect("spread");
+    let study = study::dual_ur5_at(1.0);
+    for i in 0..2 {
+        let (a, b) = (&q.arms[i].base, &study.arms[i].base);
+        assert!((a.translation.vector - b.translation.vector).norm() < 1e-12);
+        assert!(a.rotation.angle_to(&b.rotation) < 1e-12);
+    }
+    // Three arms: radially about the centroid, the mean distance from it is the spread.
+    let mut three = p.clone();
+    let mut arm3 = tandem::presets::ur5_arm(0.0, -0.9, std::f64::consts::FRAC_PI_2);
+    arm3.base.translation.vector.z = 0.3;
+    three.arms.push(arm3);
+    three.grasps.push(three.grasps[0]);
+    let d0 = base_spread(&three).expect("three arms");
+    let c = |p: &tandem::plant::spatial::SpatialPlantParams| {
+        p.arms
+            .iter()
+            .map(|a| a.base.translation.vector)
+            .sum::<Vector3<f64>>()
+            / 3.0
+    };
+    let s = spread_to(&three, 2.0 * d0).expect("spread");
+    assert!((base_spread(&s).expect("three") - 2.0 * d0).abs() < 1e-12);
+    assert!((c(&s) - c(&three)).norm() < 1e-12);
+    for (a, b) in s.arms.iter().zip(&three.arms) {
+        let (x, y) = (
+            a.base.translation.vector - c(&s),
+            b.base.translation.vector - c(&three),
+        );
+        assert!((x - 2.0 * y).norm() < 1e-12);
+    }
+    // One arm: no separation.
+    let mut one = p.clone();
+    one.arms.truncate(1);
+    one.grasps.truncate(1);
+    assert!(base_spread(&one).is_none());
+    assert!(spread_to(&one, 1.0).is_err());
+}

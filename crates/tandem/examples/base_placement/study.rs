@@ -118,88 +118,10 @@ pub fn singular_values(d: &ChainData) -> Vec<f64> {
     s
 }
 
-/// The link centre-line polyline of an arm at the kinematics in `d`: base origin, every body
-/// origin, the tool origin, with coincident points merged, then without its last segment (the
-/// flange or hand, which the grasp fixes; see the module doc). For the UR5 model the last body
-/// origin is the tool itself (DH frame 6), so the line ends at the wrist centre (body 5, 0.0823 m
-/// behind the flange, where the wrist 2 and 3 axes cross); for the Franka at the wrist (body 7,
-/// 0.21 m above the hand's TCP).
-pub fn polyline(arm: &SpatialArm, d: &ChainData) -> Vec<Vector3<f64>> {
-    let mut p = vec![arm.base.translation.vector];
-    for x in d
-        .X_WL
-        .iter()
-        .map(|x| x.translation.vector)
-        .chain([d.X_WT.translation.vector])
-    {
-        if (x - p[p.len() - 1]).norm() > 1e-9 {
-            p.push(x);
-        }
-    }
-    p.pop();
-    p
-}
-
-/// Distance between segments `[p1, q1]` and `[p2, q2]` (Ericson, *Real-Time Collision
-/// Detection*, 2005, §5.1.9).
-pub fn segment_distance(
-    p1: &Vector3<f64>,
-    q1: &Vector3<f64>,
-    p2: &Vector3<f64>,
-    q2: &Vector3<f64>,
-) -> f64 {
-    let d1 = q1 - p1;
-    let d2 = q2 - p2;
-    let r = p1 - p2;
-    let a = d1.dot(&d1);
-    let e = d2.dot(&d2);
-    let f = d2.dot(&r);
-    let eps = 1e-15;
-    let (s, t);
-    if a <= eps && e <= eps {
-        return r.norm();
-    }
-    if a <= eps {
-        s = 0.0;
-        t = (f / e).clamp(0.0, 1.0);
-    } else {
-        let c = d1.dot(&r);
-        if e <= eps {
-            t = 0.0;
-            s = (-c / a).clamp(0.0, 1.0);
-        } else {
-            let b = d1.dot(&d2);
-            let denom = a * e - b * b;
-            let mut s0 = if denom > eps {
-                ((b * f - c * e) / denom).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let mut t0 = (b * s0 + f) / e;
-            if t0 < 0.0 {
-                t0 = 0.0;
-                s0 = (-c / a).clamp(0.0, 1.0);
-            } else if t0 > 1.0 {
-                t0 = 1.0;
-                s0 = ((b - c) / a).clamp(0.0, 1.0);
-            }
-            s = s0;
-            t = t0;
-        }
-    }
-    ((p1 + d1 * s) - (p2 + d2 * t)).norm()
-}
-
-/// Closest approach between two polylines.
-fn polyline_distance(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
-    let mut m = f64::INFINITY;
-    for sa in a.windows(2) {
-        for sb in b.windows(2) {
-            m = m.min(segment_distance(&sa[0], &sa[1], &sb[0], &sb[1]));
-        }
-    }
-    m
-}
+// The link centre lines and their closest approach are the library's placement scan's
+// (`tandem place`): the polyline base origin → joint-frame origins → tool origin without its
+// last segment, and their closest approach by Ericson's segment distance.
+pub use tandem::plant::spatial::placement::{polyline, polyline_distance};
 
 /// The desired object pose of the S6 path at `t`.
 pub fn s6_pose(path: &Se3Path, t: f64) -> Isometry3<f64> {

@@ -59,9 +59,11 @@
 
 #![allow(non_snake_case)]
 
+pub mod branches;
 pub mod contact;
 #[allow(non_snake_case)]
 mod kkt;
+pub mod placement;
 
 pub use contact::{
     ContactEvent, ContactLog, ContactModel, ContactParams, Pad, PadGauge, PadReading, PadStatus,
@@ -1075,11 +1077,24 @@ pub(crate) fn sigma_min(d: &ChainData) -> f64 {
 
 /// Inverse kinematics of one arm onto `x_wg` by Newton–Raphson with damped least squares,
 /// from `q` in place. `Err((lin, ang))` with the closest residual when it does not converge.
-fn solve_ik(
+pub(crate) fn solve_ik(
     arm: &SpatialArm,
     x_wg: &Isometry3<f64>,
     q: &mut [f64],
     d: &mut ChainData,
+) -> Result<(), (f64, f64)> {
+    solve_ik_clamped(arm, x_wg, q, d, None)
+}
+
+/// [`solve_ik`], with each step's result clamped into `clamp[k] = (lower, upper)` when given
+/// (a search that should only find solutions inside the joint limits; without it the same
+/// arithmetic as [`solve_ik`]). Converged means 1e-12 m and rad, as the run's start.
+pub(crate) fn solve_ik_clamped(
+    arm: &SpatialArm,
+    x_wg: &Isometry3<f64>,
+    q: &mut [f64],
+    d: &mut ChainData,
+    clamp: Option<&[(f64, f64)]>,
 ) -> Result<(), (f64, f64)> {
     let n = q.len();
     let mut best = (f64::INFINITY, f64::INFINITY);
@@ -1117,8 +1132,17 @@ fn solve_ik(
         if sn > 0.5 {
             step *= 0.5 / sn;
         }
-        for k in 0..n {
-            q[k] += step[k];
+        match clamp {
+            None => {
+                for k in 0..n {
+                    q[k] += step[k];
+                }
+            }
+            Some(c) => {
+                for k in 0..n {
+                    q[k] = (q[k] + step[k]).clamp(c[k].0, c[k].1);
+                }
+            }
         }
     }
     Err(best)
