@@ -419,6 +419,18 @@ pub fn run(src: &Source, grid: &Grid, duration: f64, threads: usize) -> Result<G
     })
 }
 
+/// `no filter` or `filter 5 ms`.
+fn filter_label(filter: bool, control_period: f64) -> String {
+    if filter {
+        format!(
+            "filter {} ms",
+            crate::scenario::num(FILTER_PERIODS * control_period * 1e3)
+        )
+    } else {
+        "no filter".into()
+    }
+}
+
 fn law_name(l: &str) -> &str {
     match l {
         "nn" => "NN",
@@ -473,14 +485,7 @@ pub fn markdown(s: &GraspSweep, grid: &Grid, command: &str) -> String {
         );
     }
     for &filter in &grid.filters {
-        let what = if filter {
-            format!(
-                "filter {} ms",
-                crate::scenario::num(FILTER_PERIODS * s.control_period * 1e3)
-            )
-        } else {
-            "no filter".into()
-        };
+        let what = filter_label(filter, s.control_period);
         let _ = writeln!(
             md,
             "\n## {what}\n\nViolating ticks / chattering ticks, and the S5 claims after 2 s.\n"
@@ -595,14 +600,7 @@ pub fn svg(s: &GraspSweep, grid: &Grid) -> String {
     for (fi, &filter) in grid.filters.iter().enumerate() {
         let x0 = fi as f64 * (pw + gap);
         let y0 = 30.0;
-        let what = if filter {
-            format!(
-                "filter {} ms",
-                crate::scenario::num(FILTER_PERIODS * s.control_period * 1e3)
-            )
-        } else {
-            "no filter".into()
-        };
+        let what = filter_label(filter, s.control_period);
         let _ = writeln!(
             o,
             r#"<text x="{}" y="{}" font-size="12">{what}</text>"#,

@@ -22,6 +22,32 @@ pub const GRASP_SURFACE_TOL: f64 = 0.01;
 /// plate's radius are the same robot twice).
 pub const BASE_SEPARATION_MIN: f64 = 0.1;
 
+/// The implausible-set-up warning both loaders give for arms whose bases stand less than
+/// [`BASE_SEPARATION_MIN`] apart (base positions in m, planar ones with z = 0), naming the
+/// later arm's `base` with its line; `why` ends the message.
+pub fn base_overlaps(src: &Source, bases: &[[f64; 3]], why: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for i in 0..bases.len() {
+        for j in i + 1..bases.len() {
+            let d = (0..3)
+                .map(|k| (bases[i][k] - bases[j][k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            if d < BASE_SEPARATION_MIN {
+                let at = format!("arms[{j}].base");
+                out.push(src.warning_at(
+                    &at,
+                    &format!(
+                        "{at}: the base stands {} m from arms[{i}]'s: the two arms overlap{why}",
+                        num_short(d)
+                    ),
+                ));
+            }
+        }
+    }
+    out
+}
+
 pub use planar::PlanarScenario;
 pub use spatial::SpatialScenario;
 pub use tables::{ControllerChoice, ControllerKind};

@@ -49,7 +49,7 @@ use super::tables::{
     ActuatorConfig, AdmittanceConfig, ControllerKind, CtcConfig, DisturbanceConfig, MetricsConfig,
     NnConfig, PathKind, PdConfig, PlantConfig, RunConfig, SensorsConfig,
 };
-use super::{BASE_SEPARATION_MIN, GRASP_SURFACE_TOL, Overrides};
+use super::{GRASP_SURFACE_TOL, Overrides};
 
 // ---------------------------------------------------------------------------------------------
 // The file's structs.
@@ -1202,22 +1202,12 @@ fn plausibility(src: &Source, p: &PlantParams) -> Vec<String> {
             ));
         }
     }
-    for i in 0..p.arms.len() {
-        for j in i + 1..p.arms.len() {
-            let (a, b) = (p.arms[i].base, p.arms[j].base);
-            let d = (a[0] - b[0]).hypot(a[1] - b[1]);
-            if d < BASE_SEPARATION_MIN {
-                let at = format!("arms[{j}].base");
-                out.push(src.warning_at(
-                    &at,
-                    &format!(
-                        "{at}: the base stands {} m from arms[{i}]'s: the two arms overlap (planar arms move in one plane)",
-                        num_short(d)
-                    ),
-                ));
-            }
-        }
-    }
+    let bases: Vec<[f64; 3]> = p.arms.iter().map(|a| [a.base[0], a.base[1], 0.0]).collect();
+    out.extend(super::base_overlaps(
+        src,
+        &bases,
+        " (planar arms move in one plane)",
+    ));
     out
 }
 

@@ -1593,21 +1593,11 @@ fn plausibility(
             ));
         }
     }
-    for i in 0..arms.len() {
-        for j in i + 1..arms.len() {
-            let d = (arms[i].base.translation.vector - arms[j].base.translation.vector).norm();
-            if d < BASE_SEPARATION_MIN {
-                let at = format!("arms[{j}].base");
-                out.push(src.warning_at(
-                    &at,
-                    &format!(
-                        "{at}: the base stands {} m from arms[{i}]'s: the two arms overlap",
-                        num_short(d)
-                    ),
-                ));
-            }
-        }
-    }
+    let bases: Vec<[f64; 3]> = arms
+        .iter()
+        .map(|a| a.base.translation.vector.into())
+        .collect();
+    out.extend(super::base_overlaps(src, &bases, ""));
     out
 }
 
