@@ -108,11 +108,14 @@ enum Command {
     /// table (σ_min per arm, holding torque over effort, joint-limit margin, closest approach of
     /// the arms' centre lines) and the reachable range with its best-conditioned separation.
     Place(PlaceArgs),
-    /// Robustness studies. A planar scenario: every fault family of `[faults]` at five
-    /// severities for PD and the NN law, then the spatial grasp-slip family (robustness.md,
-    /// figures, results.json; docs/robustness.md). A spatial scenario: its compliant-grasp sweep,
-    /// stiffness × damping × law (NN, PD + gravity, CTC), without and with the output filter
-    /// (robustness.md, robustness.json, figures/robustness_grasps.svg; docs/robot-ready.md).
+    /// Robustness studies: a planar scenario's fault families, a spatial scenario's
+    /// compliant-grasp sweep.
+    ///
+    /// A planar scenario: every fault family of `[faults]` at five severities for PD and the NN
+    /// law, then the spatial grasp-slip family (robustness.md, figures, results.json;
+    /// docs/robustness.md). A spatial scenario: its compliant-grasp sweep, stiffness × damping ×
+    /// law (NN, PD + gravity, CTC), without and with the output filter (robustness.md,
+    /// robustness.json, figures/robustness_grasps.svg; docs/robot-ready.md).
     ///
     /// The spatial sweep makes the true grasps springs while every law assumes welds: 1e4, 1e5
     /// and 1e6 N/m (1e2, 1e3, 1e4 N m/rad), 0.3, 1 and 3 times critical damping against the
