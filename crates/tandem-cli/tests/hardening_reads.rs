@@ -266,3 +266,47 @@ fn only_regular_files_are_read_and_the_refusal_names_the_field() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Issue 22, "a DTD at line 37 is reported at line 1": a URDF whose `<!DOCTYPE` stands on line
+/// 37 (after its XML declaration and a comment header) is refused by `tandem validate` with the
+/// field, the URDF file, line 37 and column 1, and why (URDF takes no DTD); nothing is
+/// expanded and nothing hangs.
+#[test]
+fn a_dtd_in_a_urdf_is_reported_by_validate_at_its_line() {
+    let d = scratch("reads-dtd");
+    let ur5 = tandem::model::spatial::urdf::UR5_URDF;
+    let body = ur5
+        .strip_prefix("<?xml version=\"1.0\"?>\n")
+        .expect("UR5 starts with the XML declaration");
+    let mut urdf = String::from("<?xml version=\"1.0\"?>\n");
+    for k in 2..=36 {
+        urdf.push_str(&format!("<!-- header line {k} -->\n"));
+    }
+    urdf.push_str("<!DOCTYPE robot [ <!ENTITY lol \"lol\"> ]>\n");
+    urdf.push_str(body);
+    assert_eq!(
+        urdf.lines().nth(36),
+        Some("<!DOCTYPE robot [ <!ENTITY lol \"lol\"> ]>")
+    );
+    fs::write(d.join("dtd.urdf"), &urdf).expect("write");
+    let text = include_str!("../scenarios/dual-ur5.toml").replacen(
+        "\nmodel = \"ur5\"",
+        "\nurdf = \"dtd.urdf\"\nbase_link = \"base_link\"\ntool_link = \"tool0\"",
+        1,
+    );
+    assert!(text.contains("urdf = \"dtd.urdf\""));
+    fs::write(d.join("my.toml"), text).expect("write");
+    let o = within(&d, &args(&["validate", "my.toml"]), LIMIT).expect("validate returns");
+    let err = stderr(&o);
+    assert_eq!(code(&o), 2, "{err}");
+    for want in [
+        "arms[0].urdf",
+        "dtd.urdf",
+        "URDF line 37, column 1",
+        "a DTD is not accepted in a URDF file",
+    ] {
+        assert!(err.contains(want), "lacks `{want}`:\n{err}");
+    }
+    assert!(!err.contains("line 1,"), "{err}");
+    let _ = fs::remove_dir_all(&d);
+}

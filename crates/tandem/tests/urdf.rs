@@ -1332,3 +1332,34 @@ fn absurd_masses_and_inertias_are_refused_on_their_line() {
         msg.len()
     );
 }
+
+/// Issue 22: "a DTD at line 37 is reported at line 1". roxmltree stops on a `<!DOCTYPE` without
+/// a position; the loader finds it (past the declaration, comments and processing
+/// instructions, not a `<!DOCTYPE` inside a comment) and says DTDs are not accepted.
+#[test]
+fn a_dtd_is_reported_at_its_own_line_and_column() {
+    let mut text = String::from("<?xml version=\"1.0\"?>\n");
+    for k in 2..=35 {
+        text.push_str(&format!("<!-- line {k}: <!DOCTYPE not-this-one> -->\n"));
+    }
+    text.push_str("<?xml-stylesheet href=\"x\"?>\n");
+    text.push_str("  <!DOCTYPE robot [ <!ENTITY a \"aaaaaaaaaa\"> ]>\n");
+    text.push_str(&two_link("").replacen("<?xml version=\"1.0\"?>\n", "", 1));
+    let e = Urdf::parse(&text).unwrap_err();
+    assert_eq!(e, UrdfError::Dtd { line: 37, col: 3 }, "{e}");
+    assert_eq!(e.line(), Some(37));
+    let msg = e.to_string();
+    assert!(
+        msg.starts_with("URDF line 37, column 3:")
+            && msg.contains("a DTD is not accepted in a URDF file"),
+        "{msg}"
+    );
+    // On the first line, with a byte order mark and CRLF line ends.
+    let e = Urdf::parse("\u{feff}<!DOCTYPE robot>\r\n<robot name=\"r\"/>").unwrap_err();
+    assert_eq!(e, UrdfError::Dtd { line: 1, col: 1 }, "{e}");
+    let e = Urdf::parse("\r\n\r\n<!DOCTYPE robot>\r\n<robot name=\"r\"/>").unwrap_err();
+    assert_eq!(e, UrdfError::Dtd { line: 3, col: 1 }, "{e}");
+    // Through load_chain too (as a scenario loads a URDF file).
+    let e = load_chain(&text, "base", "tool0").unwrap_err();
+    assert_eq!(e.line(), Some(37));
+}

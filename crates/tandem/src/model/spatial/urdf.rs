@@ -24,7 +24,9 @@
 //!   centre of mass is `p_LC`. Missing inertia entries are 0; a link without `<inertial>` is
 //!   massless.
 //! - Numbers are `f64`; an unparsable or non-finite number is an error naming the element, the
-//!   attribute and the line.
+//!   attribute and the line, and so are magnitudes no robot has (they would overflow the
+//!   dynamics): an `<origin xyz>` entry or a prismatic limit beyond [`MAX_LENGTH`] (1 km), a
+//!   mass or inertia entry beyond [`MAX_LINK_MASS`]. A `<!DOCTYPE>` is refused on its line.
 //!
 //! # From the tree to the chain
 //!
@@ -137,6 +139,17 @@ pub enum UrdfError {
         /// The XML parser's message.
         msg: String,
     },
+    /// The text has a document type declaration (`<!DOCTYPE ...>`): URDF has no DTD, and one is
+    /// not read (its entities could expand a small file into gigabytes).
+    #[error(
+        "URDF line {line}, column {col}: <!DOCTYPE ...>: a DTD is not accepted in a URDF file; delete the DOCTYPE declaration"
+    )]
+    Dtd {
+        /// 1-based line of the `<!DOCTYPE`.
+        line: u32,
+        /// 1-based column (in characters) of the `<!DOCTYPE`.
+        col: u32,
+    },
     /// The root element is not `<robot>`.
     #[error("URDF line {line}: the root element is <{found}>, a URDF needs <robot>")]
     NotARobot {
@@ -185,7 +198,7 @@ pub enum UrdfError {
         reason: String,
     },
     /// Two links or two joints share a name.
-    #[error("URDF line {line}: a second {kind} named `{name}` (the first is at line {first_line})")]
+    #[error("URDF line {line}: a second {kind} named `{}` (the first is at line {first_line})", name_excerpt(.name))]
     Duplicate {
         /// `link` or `joint`.
         kind: String,
@@ -197,7 +210,7 @@ pub enum UrdfError {
         first_line: u32,
     },
     /// A joint names a parent or child link that does not exist.
-    #[error("URDF line {line}: joint {joint}: its {role} link `{link}` does not exist{}", did_you_mean(.suggestion))]
+    #[error("URDF line {line}: joint {}: its {role} link `{}` does not exist{}", name_excerpt(.joint), name_excerpt(.link), did_you_mean(.suggestion))]
     UnknownLink {
         /// The joint.
         joint: String,
@@ -211,7 +224,7 @@ pub enum UrdfError {
         suggestion: Option<String>,
     },
     /// The requested base or tool link does not exist.
-    #[error("no link named `{name}` in the URDF{}", did_you_mean(.suggestion))]
+    #[error("no link named `{}` in the URDF{}", name_excerpt(.name), did_you_mean(.suggestion))]
     MissingLink {
         /// The name asked for.
         name: String,
@@ -323,6 +336,7 @@ impl UrdfError {
         use UrdfError::*;
         match self {
             Xml { line, .. }
+            | Dtd { line, .. }
             | NotARobot { line, .. }
             | MissingElement { line, .. }
             | MissingAttribute { line, .. }
@@ -557,6 +571,18 @@ impl Ctx {
             return Ok(Isometry3::identity());
         };
         let xyz = self.numbers::<3>(node, "xyz", owner, Some([0.0; 3]))?;
+        if xyz.iter().any(|v| v.abs() > MAX_LENGTH) {
+            return Err(self.bad(
+                node,
+                "xyz",
+                owner,
+                node.attribute("xyz").unwrap_or(""),
+                &format!(
+                    "an offset beyond {MAX_LENGTH:e} m: no robot's frames are that far apart; \
+                     check the exponent and the unit"
+                ),
+            ));
+        }
         let rpy = self.numbers::<3>(node, "rpy", owner, Some([0.0; 3]))?;
         Ok(Isometry3::from_parts(
             Translation3::new(xyz[0], xyz[1], xyz[2]),
@@ -570,6 +596,29 @@ pub fn rpy_to_rotation(rpy: [f64; 3]) -> UnitQuaternion<f64> {
     UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rpy[2])
         * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), rpy[1])
         * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), rpy[0])
+}
+
+/// Byte offset of the `<!DOCTYPE` where an XML parser meets it: in the prolog, after a byte
+/// order mark, the XML declaration, comments, processing instructions and white space (a
+/// `<!DOCTYPE` inside a comment before it is not the one). `None` if the prolog holds none.
+fn doctype_offset(text: &str) -> Option<usize> {
+    let mut i = if text.starts_with('\u{feff}') { 3 } else { 0 };
+    loop {
+        let rest = &text[i..];
+        let trimmed = rest.trim_start_matches([' ', '\t', '\r', '\n']);
+        i += rest.len() - trimmed.len();
+        if trimmed.starts_with("<!DOCTYPE") {
+            return Some(i);
+        }
+        let skip = if let Some(pi) = trimmed.strip_prefix("<?") {
+            pi.find("?>")? + 4
+        } else if let Some(comment) = trimmed.strip_prefix("<!--") {
+            comment.find("-->")? + 7
+        } else {
+            return None;
+        };
+        i += skip;
+    }
 }
 
 /// The first element child of `node` with tag `tag`.
@@ -595,19 +644,60 @@ fn edit_distance(a: &str, b: &str) -> usize {
     prev[b.len()]
 }
 
-/// The nearest of `names` to `name` (first of the nearest on ties).
+/// The nearest of `names` to `name` (first of the nearest on ties). Bounded work: names longer
+/// than 64 characters are not compared (a megabyte name would cost its length squared), and
+/// the search stops after about 10⁶ table cells (a file with 10⁵ links is not scanned whole
+/// for a suggestion).
 fn nearest<'a>(name: &str, names: impl Iterator<Item = &'a str>) -> Option<String> {
-    names
-        .map(|n| (edit_distance(name, n), n))
-        .min_by_key(|(d, _)| *d)
-        .map(|(_, n)| n.to_string())
+    const LONGEST: usize = 64;
+    const BUDGET: usize = 1 << 20;
+    let a = name.chars().count();
+    if a > LONGEST {
+        return None;
+    }
+    let mut spent = 0;
+    let mut best: Option<(usize, &str)> = None;
+    for n in names {
+        let b = n.chars().count();
+        if b > LONGEST {
+            continue;
+        }
+        spent += (a + 1) * (b + 1);
+        if spent > BUDGET {
+            break;
+        }
+        let d = edit_distance(name, n);
+        if best.is_none_or(|(bd, _)| d < bd) {
+            best = Some((d, n));
+        }
+    }
+    best.map(|(_, n)| n.to_string())
 }
 
 impl Urdf {
     /// Parse URDF text into its tree of links and joints. Errors name the element, the attribute
     /// and the line (see [`UrdfError`]); no input panics.
     pub fn parse(text: &str) -> Result<Urdf, UrdfError> {
+        let cx = Ctx::new(text);
         let doc = Document::parse(text).map_err(|e| {
+            if e == roxmltree::Error::DtdDetected {
+                // roxmltree reports no position for a DTD (it says line 1): find it.
+                let at = doctype_offset(text).unwrap_or(0);
+                let line = cx.line_at(at);
+                let start = cx.line_starts[line as usize - 1];
+                return UrdfError::Dtd {
+                    line,
+                    // Columns as an editor shows them: a byte order mark is not one.
+                    col: u32::try_from(
+                        text[start..at]
+                            .trim_start_matches('\u{feff}')
+                            .chars()
+                            .count()
+                            + 1,
+                    )
+                    .unwrap_or(u32::MAX),
+                };
+            }
             let pos = e.pos();
             UrdfError::Xml {
                 line: pos.row,
@@ -615,7 +705,6 @@ impl Urdf {
                 msg: e.to_string(),
             }
         })?;
-        let cx = Ctx::new(text);
         let robot = doc.root_element();
         if robot.tag_name().name() != "robot" {
             return Err(UrdfError::NotARobot {
@@ -643,7 +732,7 @@ impl Urdf {
                     first_line,
                 });
             }
-            let owner = format!("link {lname}");
+            let owner = format!("link {}", name_excerpt(&lname));
             let inertial = match child(node, "inertial") {
                 None => None,
                 Some(inn) => Some(read_inertial(&cx, inn, &owner, &lname)?),
@@ -674,7 +763,7 @@ impl Urdf {
                 });
             }
             joint_lines.insert(jname.clone(), line);
-            let owner = format!("joint {jname}");
+            let owner = format!("joint {}", name_excerpt(&jname));
             let kind_s = cx.required_attr(node, "type", &owner)?;
             let kind = match kind_s {
                 "revolute" => UrdfKind::Revolute,
@@ -724,7 +813,14 @@ impl Urdf {
                 }
                 None => Vector3::x(),
             };
-            let axis = match Unit::try_new(axis_v, 1e-12) {
+            // Scaled by its largest entry first, so that `1e308 0 1e308` is an axis, not an
+            // overflow to a non-finite "unit" vector; zero below a norm of 1e-12, as written.
+            let big = axis_v.amax();
+            let unit = (big > 0.0)
+                .then(|| Unit::try_new(axis_v / big, 0.0))
+                .flatten()
+                .filter(|_| big * (axis_v / big).norm() > 1e-12);
+            let axis = match unit {
                 Some(a) => a,
                 None if kind == UrdfKind::Fixed => Vector3::x_axis(),
                 None => {
@@ -745,6 +841,22 @@ impl Urdf {
                 if matches!(kind, UrdfKind::Revolute | UrdfKind::Prismatic) {
                     limits.lower = cx.number(l, "lower", &owner, Some(0.0))?;
                     limits.upper = cx.number(l, "upper", &owner, Some(0.0))?;
+                }
+                if kind == UrdfKind::Prismatic {
+                    for (attr, v) in [("lower", limits.lower), ("upper", limits.upper)] {
+                        if v.abs() > MAX_LENGTH {
+                            return Err(cx.bad(
+                                l,
+                                attr,
+                                &owner,
+                                l.attribute(attr).unwrap_or(""),
+                                &format!(
+                                    "a prismatic travel beyond {MAX_LENGTH:e} m: no robot's \
+                                     slide is that long; check the exponent and the unit"
+                                ),
+                            ));
+                        }
+                    }
                 }
             } else if matches!(kind, UrdfKind::Revolute | UrdfKind::Prismatic) {
                 return Err(UrdfError::MissingElement {
@@ -838,6 +950,26 @@ impl Urdf {
         self.joints.iter().map(|j| j.name.as_str())
     }
 
+    /// Links without a parent joint (the roots of the tree; a URDF has one), in file order:
+    /// the candidates for a chain's base link.
+    pub fn root_links(&self) -> impl Iterator<Item = &str> {
+        self.links
+            .iter()
+            .zip(&self.parent_joint)
+            .filter(|(_, p)| p.is_none())
+            .map(|(l, _)| l.name.as_str())
+    }
+
+    /// Links without a child joint (the leaves of the tree), in file order: the candidates for
+    /// a chain's tool link.
+    pub fn leaf_links(&self) -> impl Iterator<Item = &str> {
+        self.links
+            .iter()
+            .zip(&self.child_joints)
+            .filter(|(_, c)| c.is_empty())
+            .map(|(l, _)| l.name.as_str())
+    }
+
     fn find_link(&self, name: &str) -> Result<usize, UrdfError> {
         self.link_index
             .get(name)
@@ -908,6 +1040,8 @@ impl Urdf {
         let mut joints_out: Vec<ChainJoint> = Vec::new();
         let mut bodies: Vec<BodyBuild> = Vec::new();
         let mut x_acc = Isometry3::identity();
+        // Subtree sizes and masses for the warnings, computed once when the first is needed.
+        let mut subtree: Option<Vec<(usize, f64)>> = None;
         for (k, &j) in path.iter().enumerate() {
             let jt = &self.joints[j];
             let next = path.get(k + 1).copied();
@@ -926,7 +1060,7 @@ impl Urdf {
             }
             // The child link and what hangs off it belong to the current body, if any.
             if let Some(body) = bodies.last_mut() {
-                self.attach(jt.child, &x_acc, next, body, &mut warnings);
+                self.attach(jt.child, &x_acc, next, body, &mut warnings, &mut subtree);
             }
         }
         let tool_pose = x_acc;
@@ -996,7 +1130,7 @@ impl Urdf {
 
     /// Attach link `link` at pose `x_bl` (in the body frame) to `body`, with every subtree hanging
     /// off it except through the path joint `next`. Off-path movable joints are welded at q = 0
-    /// with a warning.
+    /// with a warning (`subtree`: the links' subtree sizes and masses, filled on first use).
     fn attach(
         &self,
         link: usize,
@@ -1004,6 +1138,7 @@ impl Urdf {
         next: Option<usize>,
         body: &mut BodyBuild,
         warnings: &mut Vec<String>,
+        subtree: &mut Option<Vec<(usize, f64)>>,
     ) {
         // Depth-first with an explicit stack (no recursion: a long branch cannot overflow it).
         let mut stack = vec![(link, *x_bl)];
@@ -1018,7 +1153,7 @@ impl Urdf {
                 }
                 let jt = &self.joints[j];
                 if jt.kind != UrdfKind::Fixed {
-                    let (n, m) = self.subtree_mass(jt.child);
+                    let (n, m) = subtree.get_or_insert_with(|| self.subtree_masses())[jt.child];
                     warnings.push(format!(
                         "joint {} ({}) branches off the chain at link {}: its subtree ({n} link{}, {m} kg) is welded to the body of link {} at q = 0",
                         jt.name,
@@ -1033,16 +1168,32 @@ impl Urdf {
         }
     }
 
-    /// Number of links and total mass of the subtree rooted at `link`.
-    fn subtree_mass(&self, link: usize) -> (usize, f64) {
-        let (mut n, mut m) = (0, 0.0);
-        let mut stack = vec![link];
-        while let Some(l) = stack.pop() {
-            n += 1;
-            m += self.links[l].inertial.as_ref().map_or(0.0, |i| i.mass);
-            stack.extend(self.child_joints[l].iter().map(|&j| self.joints[j].child));
+    /// Number of links and total mass of the subtree rooted at each link, in O(n) for the whole
+    /// tree (a per-joint walk would be quadratic in a long branch of welded joints).
+    fn subtree_masses(&self) -> Vec<(usize, f64)> {
+        let mut out: Vec<(usize, f64)> = self
+            .links
+            .iter()
+            .map(|l| (1, l.inertial.as_ref().map_or(0.0, |i| i.mass)))
+            .collect();
+        // Parents before children (the tree has no cycle, checked at parse), then sum upward.
+        let mut order: Vec<usize> = (0..self.links.len())
+            .filter(|&l| self.parent_joint[l].is_none())
+            .collect();
+        let mut k = 0;
+        while k < order.len() {
+            let l = order[k];
+            order.extend(self.child_joints[l].iter().map(|&j| self.joints[j].child));
+            k += 1;
         }
-        (n, m)
+        for &l in order.iter().rev() {
+            if let Some(j) = self.parent_joint[l] {
+                let p = self.joints[j].parent;
+                out[p].0 += out[l].0;
+                out[p].1 += out[l].1;
+            }
+        }
+        out
     }
 
     /// Combine the parts of a body and check its mass and inertia.
@@ -1104,11 +1255,20 @@ impl Urdf {
     }
 }
 
+/// A link or joint name for a message: whole up to 120 characters (every real one), else
+/// its first 120 and how long it was (a megabyte name is not echoed).
+fn name_excerpt(v: &str) -> String {
+    excerpt_n(v, 120)
+}
+
 /// A value as written, for a message: whole up to 40 characters, else its first 40 and how
 /// long it was (a 300-digit literal or a megabyte attribute is not echoed).
 fn excerpt(v: &str) -> String {
-    const KEEP: usize = 40;
-    match v.char_indices().nth(KEEP) {
+    excerpt_n(v, 40)
+}
+
+fn excerpt_n(v: &str, keep: usize) -> String {
+    match v.char_indices().nth(keep) {
         None => v.to_string(),
         Some((end, _)) => format!("{}… ({} characters)", &v[..end], v.chars().count()),
     }
@@ -1127,6 +1287,13 @@ fn short(v: f64) -> String {
 /// Largest link mass the loader takes, kg: checked when the file is read, so that a typo
 /// (1e308) is blamed on its line rather than on whatever the arm then cannot do.
 pub const MAX_LINK_MASS: f64 = 1e6;
+
+/// Largest offset the loader takes in an `<origin xyz>` (joint or inertial) and largest
+/// prismatic limit, m: checked when the file is read, so that a typo (1e308) is refused on its
+/// line rather than overflowing the kinematics (a body 1e200 m out has an infinite moment of
+/// inertia about the base). A kilometre is beyond any robot, and far inside what the dynamics
+/// computes finitely (16 joints × 1e6 kg × (16 km)² ≈ 4e15).
+pub const MAX_LENGTH: f64 = 1e3;
 
 /// Read `<inertial>` into the link frame: `com = p_LC`, `I_L = R_LC I_C R_LCᵀ`.
 fn read_inertial(cx: &Ctx, node: Node, owner: &str, link: &str) -> Result<Inertial, UrdfError> {
