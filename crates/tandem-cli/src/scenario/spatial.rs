@@ -751,7 +751,7 @@ fn grasp_filter_check(
 }
 
 /// Largest `K2_j T_c / I_j` of the NN law's rotational damping before the `validate` warning
-/// ([`nn_damping_check`]): measured on `dual-franka` (compliant grasps, no filter), `K2_ry` at
+/// (`nn_damping_check`): measured on `dual-franka` (compliant grasps, no filter), `K2_ry` at
 /// 0.75 of `I_ry / T_c` (with `K2_rx` capped alike) held every grasp of the sweep with at most 21
 /// chattering ticks, all in the first 40 ms; at 1.0 it chattered on 3 895 of 4 000 ticks
 /// (`docs/robot-ready.md`).
