@@ -1004,13 +1004,22 @@ fn cmd_robustness_spatial(
     let dir = out.commit()?;
     let clean = s.cells.iter().filter(|c| c.clean()).count();
     let held = s.cells.iter().filter(|c| c.held()).count();
+    let invalid: Vec<_> = s.cells.iter().filter(|c| c.status == "invalid").collect();
+    if let Some(c) = invalid.first() {
+        eprintln!(
+            "warning: {} of {} runs could not be set up (marked invalid in the report); the first: {}",
+            invalid.len(),
+            s.cells.len(),
+            c.message
+        );
+    }
     println!(
         "{} runs in {} s: {clean} clean, {} held but chattering or missing S5, {} violated or \
          faulted; report {}",
         s.cells.len(),
         table::num(t0.elapsed().as_secs_f64(), 3),
         held - clean,
-        s.cells.len() - held,
+        s.cells.len() - held - invalid.len(),
         dir.join("robustness.md").display()
     );
     Ok(ExitCode::SUCCESS)

@@ -209,3 +209,42 @@ fn the_nn_damping_warning_names_a_k2_that_stops_the_chatter() {
         }
     }
 }
+
+/// A scenario held by friction (`dual-ur5-grip`) is swept too: its pads, the friction-aware
+/// distribution and its margin are set aside (said in the report), and the laws run on the
+/// springs. A scenario that is itself invalid is refused by its own field and line, before any
+/// run.
+#[test]
+fn pads_are_set_aside_and_an_invalid_scenario_is_refused_by_its_line() {
+    let src = embedded_source(EMBEDDED.iter().find(|e| e.name == "dual-ur5-grip").unwrap());
+    let grid = Grid {
+        stiffness: vec![FIRM],
+        ratios: vec![1.0],
+        laws: vec!["ctc".into()],
+        filters: vec![false],
+    };
+    let s = grasps::run(&src, &grid, 2.5, 1).unwrap();
+    assert_eq!(s.cells.len(), 1);
+    assert!(s.cells[0].clean(), "{:?}", s.cells[0]);
+    let aside = s.set_aside.join("; ");
+    assert!(aside.contains("[plant.contact_grasps]"), "{aside}");
+    assert!(
+        aside.contains("controller.distribution = \"friction\""),
+        "{aside}"
+    );
+
+    let d = scratch("robustness_grasps_invalid");
+    let text = stdout(&tandem(&d, &["scenario", "show", "dual-ur5"]));
+    let low = text.replacen("[controller]\n", "[controller]\ntorque_limit = 1.0\n", 1);
+    assert_ne!(low, text);
+    std::fs::write(d.join("low.toml"), &low).unwrap();
+    let o = tandem(&d, &["robustness", "low.toml", "--out", "r"]);
+    exit(&o, 2);
+    let e = stderr(&o);
+    assert!(
+        e.contains("controller.torque_limit = 1: arms[0] joint"),
+        "{e}"
+    );
+    assert!(e.contains("(line "), "{e}");
+    assert!(!d.join("r").exists());
+}

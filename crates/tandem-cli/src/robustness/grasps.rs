@@ -241,6 +241,8 @@ pub fn run(src: &Source, grid: &Grid, duration: f64, threads: usize) -> Result<G
         Scenario::Spatial(sc) => sc,
         Scenario::Planar(_) => bail!("the grasp sweep takes a spatial scenario"),
     };
+    // The scenario itself must be valid as it stands (errors with its own fields and lines).
+    crate::run::spatial::prepare(sc.clone(), src)?;
     let b = sp::build(&sc, src)?;
     let Some(tip) = sp::grasp_tip(&b.plant.arms) else {
         bail!(crate::BadInput::msg(format!(
@@ -278,6 +280,20 @@ pub fn run(src: &Source, grid: &Grid, duration: f64, threads: usize) -> Result<G
         if remove(&mut doc, path) {
             set_aside.push(what.to_string());
         }
+    }
+    // The friction-aware distribution needs the pads just set aside.
+    let friction = doc
+        .get("controller")
+        .and_then(|c| c.get("distribution"))
+        .and_then(Value::as_str)
+        == Some("friction");
+    if friction && remove(&mut doc, "controller.distribution") {
+        remove(&mut doc, "controller.friction_margin");
+        set_aside.push(
+            "controller.distribution = \"friction\" and its friction_margin (they need the pads; \
+             the default distribution applies)"
+                .to_string(),
+        );
     }
     set(&mut doc, "run.duration", Value::Float(duration))?;
     set(
@@ -408,6 +424,16 @@ pub fn run(src: &Source, grid: &Grid, duration: f64, threads: usize) -> Result<G
             .collect()
     });
     bar.finish_and_clear();
+    // A cell the loader refused is a set-up this sweep could not make of the scenario, not a
+    // result: all of them refused is an error with the loader's message.
+    if let Some(first) = cells.iter().find(|c| c.status == "invalid")
+        && cells.iter().all(|c| c.status == "invalid")
+    {
+        bail!(crate::BadInput::msg(format!(
+            "{}: the grasp sweep could not set up a run of this scenario: {}",
+            src.display, first.message
+        )));
+    }
     Ok(GraspSweep {
         name: src.name.clone(),
         cells,
