@@ -44,8 +44,8 @@ pub const FIRM: (f64, f64) = (1e5, 1e3);
 pub const DAMPING_RATIOS: [f64; 3] = [0.3, 1.0, 3.0];
 /// The default laws (`controller.kind`; `pd` runs with the model's gravity).
 pub const LAWS: [&str; 3] = ["nn", "pd", "ctc"];
-/// The output filter's time constant, in control periods.
-pub const FILTER_PERIODS: f64 = 5.0;
+/// The output filter's time constant, in control periods: the one `validate` names.
+pub const FILTER_PERIODS: f64 = sp::GRASP_FILTER_PERIODS;
 /// Simulated time of a run when `--duration` is not given, s (the S5 claims are measured
 /// after 2 s).
 pub const DEFAULT_DURATION: f64 = 4.0;

@@ -713,13 +713,19 @@ pub fn grasp_tip(arms: &[SpatialArm]) -> Option<(f64, f64)> {
     tip
 }
 
+/// The output filter's time constant the compliant-grasp warning names, in control periods
+/// ([`grasp_filter_check`]).
+pub const GRASP_FILTER_PERIODS: f64 = 20.0;
+
 /// Compliant grasps whose fastest mode the control loop cannot resolve (`ω T_c > 1`) and no
 /// output filter: a law that assumes welds feeds the tool link's spring mode back tick to tick,
 /// a period-2 oscillation through the light wrist (measured: dual-UR5, PD + gravity, 1e5 N/m and
 /// 1e3 N m/rad, `ω T_c` = 3.2: 3800 chattering ticks, effort-clipped wrists from 12 ms, the box
-/// rolled 2 rad by 3.81 s). The actuator stage's first-order filter at 5 control periods
-/// attenuates that mode ~16× at the loop's Nyquist frequency and removes it (0 chattering
-/// ticks, S5 met, `docs/robot-ready.md`).
+/// rolled 2 rad by 3.81 s). The actuator stage's first-order filter at [`GRASP_FILTER_PERIODS`]
+/// control periods attenuates that mode ~63× at the loop's Nyquist frequency: on dual-UR5 every
+/// default law then held every grasp of the robustness sweep (1e4–1e6 N/m, 0.3–3 times
+/// critical damping) with S5 met; at 5 periods (~16×) PD + gravity still lost the lightly
+/// damped grasps (`docs/robot-ready.md`).
 fn grasp_filter_check(
     arms: &[SpatialArm],
     c: &super::tables::ComplianceConfig,
@@ -741,11 +747,13 @@ fn grasp_filter_check(
              the grasp spring (ω = {} rad/s), is faster than the control loop resolves (ω × \
              run.control_period = {} > 1); the law assumes welds and can chatter through it (dual-UR5, \
              PD + gravity at 1e5 N/m and 1e3 N m/rad: 3800 chattering ticks and the box rolled \
-             off by 3.81 s); set [controller.actuator] filter_time_constant = {} (5 control \
-             periods: 0 chattering ticks, S5 met)",
+             off by 3.81 s); set [controller.actuator] filter_time_constant = {} ({} control \
+             periods: on dual-UR5 every default law then held every grasp from 1e4 to 1e6 N/m \
+             and 0.3 to 3 times critical damping, S5 met)",
             sig3(w),
             sig3(wt),
-            sig3(5.0 * control_period)
+            sig3(GRASP_FILTER_PERIODS * control_period),
+            GRASP_FILTER_PERIODS
         )
     })
 }
