@@ -714,7 +714,7 @@ pub fn grasp_tip(arms: &[SpatialArm]) -> Option<(f64, f64)> {
 }
 
 /// The output filter's time constant the compliant-grasp warning names, in control periods
-/// ([`grasp_filter_check`]).
+/// (`grasp_filter_check`).
 pub const GRASP_FILTER_PERIODS: f64 = 20.0;
 
 /// Compliant grasps whose fastest mode the control loop cannot resolve (`ω T_c > 1`) and no
