@@ -417,19 +417,6 @@ fn main() -> ExitCode {
     }
 }
 
-/// Resolve, parse and apply the command line's overrides, for a command that takes a planar
-/// scenario only (`what` names the command in the error a spatial one gets).
-fn load_planar(arg: Option<&str>, o: &Overrides, what: &str) -> Result<(Source, PlanarScenario)> {
-    match scenario::load(arg, o)? {
-        (src, Scenario::Planar(sc)) => Ok((src, sc)),
-        (src, Scenario::Spatial(_)) => Err(BadInput::msg(format!(
-            "{what} takes a planar scenario; {} is spatial (its arms name a robot model)",
-            src.display
-        ))
-        .into()),
-    }
-}
-
 /// Refuse an existing output folder without --force, with the command that would overwrite it;
 /// with --force, refuse anything tandem did not write (see [`output::check_replaceable`]).
 fn check_out(dir: &Path, force: bool, protected: &[output::Input]) -> Result<()> {
@@ -946,7 +933,12 @@ fn cmd_robustness(a: RobustnessArgs) -> Result<ExitCode> {
         duration: Some(a.duration.unwrap_or(20.0)),
         ..Overrides::default()
     };
-    let (src, base) = load_planar(a.scenario.as_deref(), &o, "tandem robustness")?;
+    let (src, base) = match scenario::load_source(src, &o)? {
+        (src, Scenario::Planar(sc)) => (src, sc),
+        (src, Scenario::Spatial(_)) => {
+            return Err(BadInput::msg(format!("{} is spatial", src.display)).into());
+        }
+    };
     let out_dir = a
         .out
         .clone()

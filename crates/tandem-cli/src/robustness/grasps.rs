@@ -30,10 +30,9 @@ use toml::{Table, Value};
 use crate::files;
 use crate::scenario::spatial as sp;
 use crate::scenario::{Kind, Scenario, Source};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
-use crate::sweep::run::{header, one};
+use crate::sweep::run::{header, one, progress};
 use crate::sweep::{Sweep, fields};
 
 /// Grasp stiffness levels, (N/m, N m/rad): a soft pad, a firm parallel gripper, a stiff one.
@@ -343,7 +342,8 @@ pub fn run(src: &Source, grid: &Grid, duration: f64, threads: usize) -> Result<G
     };
 
     // Every cell a one-run sweep of its own document (filter slowest, then law, stiffness and
-    // damping), each with the sweep's run seed 0: the same sensor noise in every cell.
+    // damping), each run 0 of a sweep seeded with the scenario's `run.seed`: the same sensor
+    // noise in every cell.
     let mut jobs = Vec::new();
     for &filter in &grid.filters {
         let filter_s = filter.then_some(FILTER_PERIODS * t_c);
@@ -382,15 +382,7 @@ pub fn run(src: &Source, grid: &Grid, duration: f64, threads: usize) -> Result<G
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    let bar = ProgressBar::with_draw_target(Some(jobs.len() as u64), ProgressDrawTarget::stderr());
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{prefix:>10} [{bar:36}] {pos}/{len} runs {elapsed:>4} (ETA {eta})",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar())
-        .progress_chars("=> "),
-    );
-    bar.set_prefix("grasps");
+    let bar = progress(jobs.len() as u64, "grasps");
     let cells: Vec<GraspCell> = pool.install(|| {
         jobs.par_iter()
             .map(|(sw, law, k, z, filter_s, h)| {

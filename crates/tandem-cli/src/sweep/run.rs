@@ -381,6 +381,20 @@ pub fn indices(sw: &Sweep, shard: Option<Shard>) -> Vec<u64> {
         .collect()
 }
 
+/// The progress bar of a batch of `len` runs on standard error, labelled `prefix`.
+pub fn progress(len: u64, prefix: &'static str) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{prefix:>10} [{bar:36}] {pos}/{len} runs {elapsed:>4} (ETA {eta})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    bar.set_prefix(prefix);
+    bar
+}
+
 /// Run the given indices on `threads` threads (0: every core), with a progress bar; rows come
 /// back in index order.
 pub fn run_all(
@@ -392,15 +406,7 @@ pub fn run_all(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    let bar = ProgressBar::with_draw_target(Some(idx.len() as u64), ProgressDrawTarget::stderr());
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{prefix:>10} [{bar:36}] {pos}/{len} runs {elapsed:>4} (ETA {eta})",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar())
-        .progress_chars("=> "),
-    );
-    bar.set_prefix("sweep");
+    let bar = progress(idx.len() as u64, "sweep");
     let mut out: Vec<RunResult> = pool.install(|| {
         idx.par_iter()
             .map(|&i| {
